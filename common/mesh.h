@@ -1,0 +1,74 @@
+/* An indexed triangle mesh read from OFF, OBJ, PLY (ASCII and binary) or STL
+ * (ASCII and binary), cleaned so that the builder can trust it:
+ *   - polygons are fan-triangulated;
+ *   - faces with a repeated index or zero area are dropped (counted);
+ *   - duplicate faces (the same triangle up to rotation) are dropped (counted);
+ *   - faces OpenMesh refuses (non-manifold edges/vertices) are dropped (counted);
+ *   - vertices no kept face references are dropped and the rest renumbered
+ *     in their original order;
+ *   - normals come from the file when it has per-vertex normals, else they are
+ *     area-weighted face normals.
+ * STL has no shared vertices, so identical positions are welded first. */
+#ifndef MTS_MESH_H
+#define MTS_MESH_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "error.h"
+
+typedef struct mts_mesh {
+    uint32_t vertex_count;
+    uint32_t triangle_count;
+    float *positions;    /* 3 per vertex */
+    float *normals;      /* 3 per vertex, unit length (or zero for a vertex of zero-area faces only) */
+    uint32_t *triangles; /* 3 per triangle, counter-clockwise seen from outside */
+} mts_mesh;
+
+typedef enum mts_mesh_format {
+    MTS_MESH_AUTO = 0, /* from the file name's extension, else from the content */
+    MTS_MESH_OFF,
+    MTS_MESH_OBJ,
+    MTS_MESH_PLY,
+    MTS_MESH_STL
+} mts_mesh_format;
+
+/* What loading found and fixed, for the user's report. */
+typedef struct mts_mesh_stats {
+    mts_mesh_format format;
+    uint32_t file_vertices;          /* vertices as declared/read in the file */
+    uint32_t file_faces;             /* faces (polygons) read from the file */
+    uint32_t polygons_triangulated;  /* faces with more than 3 corners */
+    uint32_t degenerate_faces;       /* repeated index or zero area: dropped */
+    uint32_t duplicate_faces;        /* same triangle again: dropped */
+    uint32_t nonmanifold_faces;      /* refused by OpenMesh: dropped */
+    uint32_t unreferenced_vertices;  /* dropped */
+    uint32_t welded_vertices;        /* STL corners merged into shared vertices */
+    int normals_from_file;           /* 1 when the file's normals were used */
+} mts_mesh_stats;
+
+/* Options; a zero-initialised struct means the defaults. */
+typedef struct mts_mesh_options {
+    mts_mesh_format format; /* MTS_MESH_AUTO by default */
+} mts_mesh_options;
+
+/* Reads and cleans a mesh file. On failure the message names the file and the
+ * problem (missing, empty, truncated at line/byte N, bad index ...). stats may
+ * be NULL; opts may be NULL for the defaults. */
+mts_result mts_mesh_load(const char *path, const mts_mesh_options *opts, mts_mesh *mesh,
+                         mts_mesh_stats *stats, mts_error *err);
+
+/* The same from memory (a downloaded file); name is used in messages and, with
+ * MTS_MESH_AUTO, its extension picks the format. */
+mts_result mts_mesh_load_memory(const char *name, const void *data, size_t size,
+                                const mts_mesh_options *opts, mts_mesh *mesh,
+                                mts_mesh_stats *stats, mts_error *err);
+
+void mts_mesh_free(mts_mesh *mesh);
+
+/* Area-weighted vertex normals from the triangles (overwrites mesh->normals). */
+void mts_mesh_compute_normals(mts_mesh *mesh);
+
+const char *mts_mesh_format_name(mts_mesh_format format);
+
+#endif

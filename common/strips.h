@@ -1,0 +1,75 @@
+/* A set of triangle strips in flat arrays: strip s is
+ * indices[offsets[s] .. offsets[s+1]). Strip winding (DESIGN.md invariant 1):
+ * window k of a strip is (s[k], s[k+1], s[k+2]) for even k and
+ * (s[k+1], s[k], s[k+2]) for odd k; a window with a repeated index is a
+ * degenerate triangle and draws nothing. Strips are generalized: a swap is a
+ * repeated index, and every strip starts at even parity (as it does after a
+ * primitive restart). */
+#ifndef MTS_STRIPS_H
+#define MTS_STRIPS_H
+
+#include <stdint.h>
+
+#include "error.h"
+
+typedef struct mts_strips {
+    uint32_t strip_count;
+    uint32_t index_count; /* == offsets[strip_count] */
+    uint32_t *offsets;    /* strip_count + 1 entries */
+    uint32_t *indices;
+} mts_strips;
+
+/* Figures a stripifier or a level is judged by. */
+typedef struct mts_strip_stats {
+    uint32_t strips;        /* non-empty strips */
+    uint64_t indices;       /* sum of strip lengths (no restart markers) */
+    uint64_t triangles;     /* non-degenerate windows */
+    uint64_t degenerate;    /* degenerate windows (swaps and collapse leftovers) */
+} mts_strip_stats;
+
+void mts_strips_free(mts_strips *strips);
+
+/* Allocates offsets for strip_count strips and room for index_count indices. */
+mts_result mts_strips_alloc(mts_strips *strips, uint32_t strip_count, uint32_t index_count,
+                            mts_error *err);
+
+/* The oriented triangle of window k of strip s (length n >= k + 3); returns 0
+ * when the window is degenerate. */
+static inline int mts_strip_window(const uint32_t *s, uint32_t k, uint32_t tri[3])
+{
+    uint32_t a = s[k], b = s[k + 1], c = s[k + 2];
+    if (a == b || b == c || a == c)
+        return 0;
+    if (k & 1u) {
+        tri[0] = b; tri[1] = a; tri[2] = c;
+    } else {
+        tri[0] = a; tri[1] = b; tri[2] = c;
+    }
+    return 1;
+}
+
+/* Rotates an oriented triangle so that its smallest index comes first: two
+ * triangles are the same oriented triangle iff their canonical forms are equal. */
+static inline void mts_tri_canonical(uint32_t t[3])
+{
+    uint32_t a = t[0], b = t[1], c = t[2];
+    if (b < a && b < c) {
+        t[0] = b; t[1] = c; t[2] = a;
+    } else if (c < a && c < b) {
+        t[0] = c; t[1] = a; t[2] = b;
+    }
+}
+
+/* qsort comparator over canonical triangles (3 x uint32_t). */
+int mts_tri_compare(const void *a, const void *b);
+
+/* Adds one strip's figures to stats. */
+void mts_strip_stats_add(mts_strip_stats *stats, const uint32_t *s, uint32_t n);
+
+void mts_strips_stats(const mts_strips *strips, mts_strip_stats *stats);
+
+/* Indices a renderer sends for these strips joined by primitive restart:
+ * every index plus one restart marker between consecutive non-empty strips. */
+uint64_t mts_strip_stats_draw_indices(const mts_strip_stats *stats);
+
+#endif

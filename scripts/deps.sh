@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs the Debian packages mtstream builds, tests and benchmarks with.
+# Idempotent: installs only what is missing and says what that is; a no-op
+# when everything is there. Uses sudo when not run as root.
+set -euo pipefail
+
+packages=(
+  build-essential pkg-config
+  libopenmesh-dev        # mesh topology and the quadric decimater
+  libopenmesh-apps       # OpenMesh-commandlineSubdivider for the 1M-triangle bench mesh
+  libdraco-dev           # base-mesh compression
+  libcurl4-openssl-dev   # models from http(s) URLs
+  libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri  # headless EGL rendering
+  libpng-dev
+  libmeshoptimizer-dev   # benchmark anchor (meshopt_stripify)
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+
+echo "deps: installing ${missing[*]}"
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "deps: not root and no sudo; install: ${missing[*]}" >&2; exit 1; }
+  sudo="sudo"
+fi
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "deps: done"
