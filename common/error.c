@@ -43,6 +43,7 @@ const char *mts_result_name(mts_result code)
     case MTS_ERR_RANGE: return "range";
     case MTS_ERR_NOMEM: return "nomem";
     case MTS_ERR_LIMIT: return "limit";
+    case MTS_ERR_INVARIANT: return "invariant";
     case MTS_ERR_INTERNAL: return "internal";
     }
     return "unknown";

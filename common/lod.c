@@ -1,0 +1,224 @@
+#include "lod.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static void lod_mark(mts_lod *lod, uint32_t s)
+{
+    if (!lod->changed[s]) {
+        lod->changed[s] = 1;
+        lod->changed_list[lod->changed_count++] = s;
+    }
+}
+
+mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start start, mts_error *err)
+{
+    memset(lod, 0, sizeof *lod);
+    const mts_strips *from = start == MTS_LOD_AT_FULL ? &model->full : &model->base;
+    uint32_t n = model->strip_count;
+    if (model->full.strip_count != n || model->base.strip_count != n)
+        return mts_error_set(err, MTS_ERR_INTERNAL, "lod: strip sets disagree on the strip count");
+    lod->model = model;
+    lod->strip_count = n;
+    lod->available = model->level_count;
+    lod->level = start == MTS_LOD_AT_FULL ? model->level_count : 0;
+    lod->slot = malloc(((size_t)n + 1) * sizeof *lod->slot);
+    lod->length = malloc(((size_t)n + 1) * sizeof *lod->length);
+    lod->data = malloc(((size_t)model->full.index_count + 1) * sizeof *lod->data);
+    lod->changed = calloc((size_t)n + 1, 1);
+    lod->changed_list = malloc(((size_t)n + 1) * sizeof *lod->changed_list);
+    if (!lod->slot || !lod->length || !lod->data || !lod->changed || !lod->changed_list) {
+        mts_lod_free(lod);
+        return mts_error_set(err, MTS_ERR_NOMEM, "lod: out of memory for %u strips", n);
+    }
+    memcpy(lod->slot, model->full.offsets, ((size_t)n + 1) * sizeof *lod->slot);
+    for (uint32_t s = 0; s < n; s++) {
+        uint32_t len = from->offsets[s + 1] - from->offsets[s];
+        if (len > lod->slot[s + 1] - lod->slot[s]) {
+            mts_lod_free(lod);
+            return mts_error_set(err, MTS_ERR_RANGE,
+                                 "lod: base strip %u is longer (%u) than at the full level (%u)", s,
+                                 len, lod->slot[s + 1] - lod->slot[s]);
+        }
+        lod->length[s] = len;
+        memcpy(lod->data + lod->slot[s], from->indices + from->offsets[s], (size_t)len * 4);
+        lod_mark(lod, s);
+    }
+    return MTS_OK;
+}
+
+void mts_lod_free(mts_lod *lod)
+{
+    if (!lod)
+        return;
+    free(lod->slot);
+    free(lod->length);
+    free(lod->data);
+    free(lod->changed);
+    free(lod->changed_list);
+    free(lod->scratch);
+    memset(lod, 0, sizeof *lod);
+}
+
+void mts_lod_clear_changed(mts_lod *lod)
+{
+    for (uint32_t i = 0; i < lod->changed_count; i++)
+        lod->changed[lod->changed_list[i]] = 0;
+    lod->changed_count = 0;
+}
+
+uint64_t mts_lod_memory_bytes(const mts_lod *lod)
+{
+    uint64_t n = lod->strip_count + 1;
+    return n * (4 + 4 + 1 + 4) + (uint64_t)lod->model->full.index_count * 4 +
+           (uint64_t)lod->scratch_size * sizeof *lod->scratch;
+}
+
+#define SPLIT_FAIL(...)                                                                    \
+    do {                                                                                   \
+        lod->broken = 1;                                                                   \
+        return mts_error_set(err, MTS_ERR_RANGE, __VA_ARGS__);                             \
+    } while (0)
+
+mts_result mts_lod_split(mts_lod *lod, mts_error *err)
+{
+    const mts_model *m = lod->model;
+    if (lod->broken)
+        return mts_error_set(err, MTS_ERR_ARG, "lod: an earlier record failed; reload the model");
+    uint32_t j = lod->level;
+    if (j >= lod->available)
+        return mts_error_set(err, MTS_ERR_ARG, "lod: split %u is not available", j);
+    const uint32_t *p = m->record_data + m->record_offsets[j];
+    const uint32_t *end = m->record_data + m->record_offsets[j + 1];
+    const uint32_t v = m->base_vertex_count + j;
+    const uint32_t u = m->parents[j];
+    if (u >= v)
+        SPLIT_FAIL("split %u: parent %u is not older than vertex %u", j, u, v);
+
+    if (p >= end)
+        SPLIT_FAIL("split %u: empty record", j);
+    uint32_t edits = *p++;
+    for (uint32_t e = 0; e < edits; e++) {
+        if (end - p < 3)
+            SPLIT_FAIL("split %u: record ends inside edit %u", j, e);
+        uint32_t s = p[0], inserts = p[1], substs = p[2];
+        p += 3;
+        if (s >= lod->strip_count)
+            SPLIT_FAIL("split %u: strip %u out of range (%u strips)", j, s, lod->strip_count);
+        uint32_t *str = lod->data + lod->slot[s];
+        uint32_t cap = lod->slot[s + 1] - lod->slot[s];
+        uint32_t len = lod->length[s];
+        for (uint32_t k = 0; k < inserts; k++) {
+            if (end - p < 2)
+                SPLIT_FAIL("split %u: record ends inside an insert into strip %u", j, s);
+            uint32_t pos = p[0], run = p[1];
+            p += 2;
+            if (pos > len || run > cap - len || (uint32_t)(end - p) < run)
+                SPLIT_FAIL("split %u: insert of %u at %u does not fit strip %u (length %u of %u)",
+                           j, run, pos, s, len, cap);
+            for (uint32_t r = 0; r < run; r++) {
+                if (p[r] >= v)
+                    SPLIT_FAIL("split %u: strip %u gets vertex %u, not yet split (%u exist)", j, s,
+                               p[r], v);
+            }
+            memmove(str + pos + run, str + pos, (size_t)(len - pos) * 4);
+            memcpy(str + pos, p, (size_t)run * 4);
+            len += run;
+            p += run;
+        }
+        if ((uint32_t)(end - p) < substs)
+            SPLIT_FAIL("split %u: record ends inside the positions of strip %u", j, s);
+        for (uint32_t k = 0; k < substs; k++) {
+            uint32_t pos = p[k];
+            if (pos >= len || str[pos] != u)
+                SPLIT_FAIL("split %u: strip %u position %u does not hold the parent %u", j, s, pos,
+                           u);
+            str[pos] = v;
+        }
+        p += substs;
+        lod->length[s] = len;
+        lod_mark(lod, s);
+    }
+    if (p != end)
+        SPLIT_FAIL("split %u: %td words left over after %u edits", j, end - p, edits);
+    lod->level = j + 1;
+    return MTS_OK;
+}
+
+/* Records are laid out for the split; a collapse walks them backwards, so it
+ * first notes where each edit and insert starts. */
+static int lod_reserve_scratch(mts_lod *lod, uint32_t need)
+{
+    if (need <= lod->scratch_size)
+        return 1;
+    uint32_t size = lod->scratch_size ? lod->scratch_size : 64;
+    while (size < need)
+        size *= 2;
+    const uint32_t **s = realloc(lod->scratch, (size_t)size * sizeof *s);
+    if (!s)
+        return 0;
+    lod->scratch = s;
+    lod->scratch_size = size;
+    return 1;
+}
+
+void mts_lod_collapse(mts_lod *lod)
+{
+    const mts_model *m = lod->model;
+    if (lod->level == 0 || lod->broken)
+        return;
+    uint32_t j = lod->level - 1;
+    const uint32_t *p = m->record_data + m->record_offsets[j];
+    const uint32_t u = m->parents[j];
+    uint32_t edits = *p++;
+    for (uint32_t e = 0; e < edits; e++) {
+        uint32_t s = p[0], inserts = p[1], substs = p[2];
+        p += 3;
+        /* a record was checked when it was split, so the walk cannot fail;
+         * without scratch memory fall back to re-walking (quadratic, rare) */
+        int have = lod_reserve_scratch(lod, inserts);
+        const uint32_t *q = p;
+        for (uint32_t k = 0; k < inserts; k++) {
+            if (have)
+                lod->scratch[k] = q;
+            q += 2 + q[1];
+        }
+        uint32_t *str = lod->data + lod->slot[s];
+        uint32_t len = lod->length[s];
+        for (uint32_t k = 0; k < substs; k++)
+            str[q[k]] = u;
+        for (uint32_t k = inserts; k-- > 0;) {
+            const uint32_t *ins = NULL;
+            if (have) {
+                ins = lod->scratch[k];
+            } else {
+                ins = p;
+                for (uint32_t x = 0; x < k; x++)
+                    ins += 2 + ins[1];
+            }
+            uint32_t pos = ins[0], run = ins[1];
+            memmove(str + pos, str + pos + run, (size_t)(len - pos - run) * 4);
+            len -= run;
+        }
+        lod->length[s] = len;
+        lod_mark(lod, s);
+        p = q + substs;
+    }
+    lod->level = j;
+}
+
+mts_result mts_lod_set_level(mts_lod *lod, uint32_t target, mts_error *err)
+{
+    if (lod->broken)
+        return mts_error_set(err, MTS_ERR_ARG, "lod: an earlier record failed; reload the model");
+    if (target > lod->available)
+        target = lod->available;
+    while (lod->level > target)
+        mts_lod_collapse(lod);
+    while (lod->level < target) {
+        mts_result r = mts_lod_split(lod, err);
+        if (r != MTS_OK)
+            return r;
+    }
+    return MTS_OK;
+}

@@ -1,0 +1,73 @@
+/* LOD runtime: the strips of a model at a current level, moved to any other
+ * level by applying records (splits up, collapses down), touching only the
+ * strips a record names and remembering which changed so a renderer can
+ * re-upload just those (paper 001, algorithms 1 and 3).
+ *
+ * Each strip owns a fixed slot as long as its full-level length, so no move
+ * ever allocates. Splits are checked as they are applied, so a runtime can
+ * follow records arriving from a socket: a record that does not fit the
+ * current strips is an error naming the record and strip, and leaves the
+ * runtime broken (every later move fails) since the record may have been
+ * half applied; the caller drops it. Collapses only undo checked splits. */
+#ifndef MTS_LOD_H
+#define MTS_LOD_H
+
+#include <stdint.h>
+
+#include "error.h"
+#include "model.h"
+
+typedef struct mts_lod {
+    const mts_model *model;
+    uint32_t level;
+    /* levels up to here may be used: records of splits < available are present */
+    uint32_t available;
+    uint32_t strip_count;
+    uint32_t *slot;   /* strip s lives at data + slot[s], capacity slot[s+1]-slot[s] */
+    uint32_t *length; /* current length of each strip */
+    uint32_t *data;
+    uint8_t *changed; /* per strip: changed since mts_lod_clear_changed */
+    uint32_t *changed_list;
+    uint32_t changed_count;
+    /* scratch to walk a record backwards */
+    const uint32_t **scratch;
+    uint32_t scratch_size;
+    int broken; /* a split record failed its checks */
+} mts_lod;
+
+typedef enum mts_lod_start {
+    MTS_LOD_AT_BASE = 0,
+    MTS_LOD_AT_FULL = 1 /* needs all records (model->level_count available) */
+} mts_lod_start;
+
+/* model->base (or ->full) is copied into the slots; model must outlive lod.
+ * All strips start marked changed (a renderer uploads everything once). */
+mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start start, mts_error *err);
+void mts_lod_free(mts_lod *lod);
+
+/* Moves to the target level (clamped to [0, available]). Returns an error only
+ * when a split record is inconsistent; lod->level then says where it stopped. */
+mts_result mts_lod_set_level(mts_lod *lod, uint32_t target, mts_error *err);
+
+/* One split (level -> level + 1), checked; one collapse (level -> level - 1). */
+mts_result mts_lod_split(mts_lod *lod, mts_error *err);
+void mts_lod_collapse(mts_lod *lod);
+
+static inline const uint32_t *mts_lod_strip(const mts_lod *lod, uint32_t s, uint32_t *length)
+{
+    *length = lod->length[s];
+    return lod->data + lod->slot[s];
+}
+
+/* Strips changed since the last clear, each once, in the order first touched. */
+static inline const uint32_t *mts_lod_changed(const mts_lod *lod, uint32_t *count)
+{
+    *count = lod->changed_count;
+    return lod->changed_list;
+}
+void mts_lod_clear_changed(mts_lod *lod);
+
+/* Bytes the runtime holds beyond the model. */
+uint64_t mts_lod_memory_bytes(const mts_lod *lod);
+
+#endif

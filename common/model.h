@@ -1,0 +1,77 @@
+/* The multiresolution strip model, in memory: what a .mtsm file holds and
+ * what the server streams. Vertex ids are in stream order (DESIGN.md, "Levels
+ * and vertex order"): base vertices 0..nb-1, then vertex nb+j is the one split
+ * j brings back next to its parent parents[j] (< nb+j).
+ *
+ * Strip slots are stable: strip s exists at every level, possibly empty. Its
+ * content at the full level (full) is its longest, so full's lengths are the
+ * capacity a runtime reserves per strip.
+ *
+ * Records, one per split j, live in record_data[record_offsets[j] ..
+ * record_offsets[j+1]) as 32-bit words, in the order a split applies them:
+ *
+ *   edit_count
+ *   edit_count times:
+ *     strip, insert_count, subst_count,
+ *     insert_count times: position, length, length indices  -- runs to insert
+ *     subst_count  times: position                          -- u becomes v here
+ *
+ * A split inserts each run (positions are in the strip as it is at that
+ * moment), then sets the listed positions (which hold the parent u) to the new
+ * vertex v = nb + j. The collapse back reverses it: positions become u, then
+ * the runs are erased last to first. These are the hStrips records of paper 001
+ * (hRecordsLOD + hInterLeavedData) inverted, with parity-keeping run removal. */
+#ifndef MTS_MODEL_H
+#define MTS_MODEL_H
+
+#include <stdint.h>
+
+#include "error.h"
+#include "strips.h"
+
+typedef struct mts_model {
+    uint32_t vertex_count;      /* full level */
+    uint32_t base_vertex_count; /* nb */
+    uint32_t level_count;       /* n = vertex_count - nb; levels are 0..n */
+    uint32_t strip_count;       /* slots, same at every level */
+
+    float *positions; /* 3 per vertex, stream order */
+    float *normals;   /* 3 per vertex, stream order */
+    float bbox_min[3], bbox_max[3];
+
+    uint32_t *parents; /* n */
+
+    mts_strips full; /* strips at level n */
+    mts_strips base; /* strips at level 0 */
+
+    uint32_t *record_offsets; /* n + 1 */
+    uint32_t *record_data;
+    uint32_t record_word_count; /* == record_offsets[n] */
+
+    /* Per level l in 0..n (vertices at l are nb + l). */
+    uint32_t *level_triangles;
+    uint32_t *level_strips;  /* non-empty strips */
+    uint32_t *level_indices; /* sum of strip lengths, restarts not counted */
+
+    char source[256]; /* where the model came from (file name), informational */
+} mts_model;
+
+void mts_model_free(mts_model *model);
+
+/* Checks every count, index and record of a model against the others: record
+ * offsets in order, each record parses exactly, every strip id, position and
+ * vertex id in range at the level it is used, every substituted position
+ * holds the parent, replaying all splits from the base strips gives exactly
+ * the full strips, and the per-level counts match the replay. After this, a
+ * runtime may apply the records without checks. */
+mts_result mts_model_validate(const mts_model *model, mts_error *err);
+
+/* Level holding the number of triangles closest to (not above) the given
+ * count, and the level for a fraction in [0,1] of the full vertex count. */
+uint32_t mts_model_level_for_triangles(const mts_model *model, uint64_t triangles);
+uint32_t mts_model_level_for_fraction(const mts_model *model, double fraction);
+
+/* Bytes of the in-memory model (arrays only), for reports. */
+uint64_t mts_model_memory_bytes(const mts_model *model);
+
+#endif

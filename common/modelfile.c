@@ -1,0 +1,428 @@
+#include "modelfile.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "crc32c.h"
+
+enum {
+    SEC_INFO = 1,
+    SEC_POSITIONS,
+    SEC_NORMALS,
+    SEC_PARENTS,
+    SEC_STRIPS_FULL,
+    SEC_STRIPS_BASE,
+    SEC_RECORDS,
+    SEC_LEVELS,
+    SEC_SOURCE,
+    SEC_LAST = SEC_SOURCE
+};
+
+static const char *const section_names[] = {"?",       "info",        "positions",
+                                            "normals", "parents",     "full strips",
+                                            "base strips", "records", "levels",
+                                            "source"};
+
+#define HEADER_SIZE 16u
+#define ENTRY_SIZE 24u
+#define MAX_SECTIONS 64u
+#define INFO_SIZE 56u
+
+static void put_u16(uint8_t *p, uint16_t x)
+{
+    p[0] = (uint8_t)x;
+    p[1] = (uint8_t)(x >> 8);
+}
+
+static void put_u32(uint8_t *p, uint32_t x)
+{
+    for (int i = 0; i < 4; i++)
+        p[i] = (uint8_t)(x >> (8 * i));
+}
+
+static void put_u64(uint8_t *p, uint64_t x)
+{
+    for (int i = 0; i < 8; i++)
+        p[i] = (uint8_t)(x >> (8 * i));
+}
+
+static uint16_t get_u16(const uint8_t *p)
+{
+    return (uint16_t)(p[0] | p[1] << 8);
+}
+
+static uint32_t get_u32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static uint64_t get_u64(const uint8_t *p)
+{
+    return (uint64_t)get_u32(p) | (uint64_t)get_u32(p + 4) << 32;
+}
+
+static void put_u32s(uint8_t *p, const uint32_t *x, size_t n)
+{
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    memcpy(p, x, n * 4);
+#else
+    for (size_t i = 0; i < n; i++)
+        put_u32(p + 4 * i, x[i]);
+#endif
+}
+
+static void get_u32s(uint32_t *x, const uint8_t *p, size_t n)
+{
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    memcpy(x, p, n * 4);
+#else
+    for (size_t i = 0; i < n; i++)
+        x[i] = get_u32(p + 4 * i);
+#endif
+}
+
+/* floats travel as their IEEE-754 bit patterns */
+static void put_f32s(uint8_t *p, const float *x, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        uint32_t b;
+        memcpy(&b, &x[i], 4);
+        put_u32(p + 4 * i, b);
+    }
+}
+
+static void get_f32s(float *x, const uint8_t *p, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        uint32_t b = get_u32(p + 4 * i);
+        memcpy(&x[i], &b, 4);
+    }
+}
+
+static uint64_t align8(uint64_t x)
+{
+    return (x + 7) & ~(uint64_t)7;
+}
+
+/* Expected section sizes from the INFO counts (64-bit: no overflow). */
+typedef struct layout {
+    uint32_t vertices, base_vertices, levels, strips, full_indices, base_indices, record_words;
+    uint64_t size[SEC_LAST + 1];
+} layout;
+
+static void layout_sizes(layout *l, size_t source_len)
+{
+    uint64_t n1 = (uint64_t)l->levels + 1;
+    l->size[SEC_INFO] = INFO_SIZE;
+    l->size[SEC_POSITIONS] = 12ull * l->vertices;
+    l->size[SEC_NORMALS] = 12ull * l->vertices;
+    l->size[SEC_PARENTS] = 4ull * l->levels;
+    l->size[SEC_STRIPS_FULL] = 4ull * l->strips + 4ull * l->full_indices;
+    l->size[SEC_STRIPS_BASE] = 4ull * l->strips + 4ull * l->base_indices;
+    l->size[SEC_RECORDS] = 4ull * n1 + 4ull * l->record_words;
+    l->size[SEC_LEVELS] = 12ull * n1;
+    l->size[SEC_SOURCE] = source_len;
+}
+
+static void put_strips(uint8_t *p, const mts_strips *st)
+{
+    for (uint32_t s = 0; s < st->strip_count; s++)
+        put_u32(p + 4 * (size_t)s, st->offsets[s + 1] - st->offsets[s]);
+    put_u32s(p + 4 * (size_t)st->strip_count, st->indices, st->index_count);
+}
+
+mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_size,
+                                mts_error *err)
+{
+    layout l = {m->vertex_count, m->base_vertex_count, m->level_count, m->strip_count,
+                m->full.index_count, m->base.index_count, m->record_word_count, {0}};
+    size_t source_len = strnlen(m->source, sizeof m->source);
+    layout_sizes(&l, source_len);
+    const uint32_t count = SEC_LAST;
+    uint64_t offset[SEC_LAST + 1];
+    uint64_t at = align8(HEADER_SIZE + (uint64_t)ENTRY_SIZE * count);
+    for (uint32_t id = 1; id <= SEC_LAST; id++) {
+        offset[id] = at;
+        at = align8(at + l.size[id]);
+    }
+    if (at > SIZE_MAX)
+        return mts_error_set(err, MTS_ERR_LIMIT, "model too large to encode (%llu bytes)",
+                             (unsigned long long)at);
+    uint8_t *buf = calloc(1, (size_t)at);
+    if (!buf)
+        return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for a %llu-byte model file",
+                             (unsigned long long)at);
+
+    uint8_t *p = buf + offset[SEC_INFO];
+    const uint32_t info[8] = {l.vertices, l.base_vertices, l.levels, l.strips,
+                              l.full_indices, l.base_indices, l.record_words, 0};
+    put_u32s(p, info, 8);
+    put_f32s(p + 32, m->bbox_min, 3);
+    put_f32s(p + 44, m->bbox_max, 3);
+    put_f32s(buf + offset[SEC_POSITIONS], m->positions, 3 * (size_t)l.vertices);
+    put_f32s(buf + offset[SEC_NORMALS], m->normals, 3 * (size_t)l.vertices);
+    put_u32s(buf + offset[SEC_PARENTS], m->parents, l.levels);
+    put_strips(buf + offset[SEC_STRIPS_FULL], &m->full);
+    put_strips(buf + offset[SEC_STRIPS_BASE], &m->base);
+    p = buf + offset[SEC_RECORDS];
+    put_u32s(p, m->record_offsets, (size_t)l.levels + 1);
+    put_u32s(p + 4 * ((size_t)l.levels + 1), m->record_data, l.record_words);
+    p = buf + offset[SEC_LEVELS];
+    size_t n1 = (size_t)l.levels + 1;
+    put_u32s(p, m->level_triangles, n1);
+    put_u32s(p + 4 * n1, m->level_strips, n1);
+    put_u32s(p + 8 * n1, m->level_indices, n1);
+    memcpy(buf + offset[SEC_SOURCE], m->source, source_len);
+
+    memcpy(buf, "MTSM", 4);
+    put_u16(buf + 4, MTS_MODELFILE_MAJOR);
+    put_u16(buf + 6, MTS_MODELFILE_MINOR);
+    put_u32(buf + 8, count);
+    for (uint32_t id = 1; id <= SEC_LAST; id++) {
+        uint8_t *e = buf + HEADER_SIZE + ENTRY_SIZE * (id - 1);
+        put_u32(e, id);
+        put_u32(e + 4, mts_crc32c(0, buf + offset[id], (size_t)l.size[id]));
+        put_u64(e + 8, offset[id]);
+        put_u64(e + 16, l.size[id]);
+    }
+    uint32_t hcrc = mts_crc32c(0, buf, 12);
+    hcrc = mts_crc32c(hcrc, buf + HEADER_SIZE, (size_t)ENTRY_SIZE * count);
+    put_u32(buf + 12, hcrc);
+    *out = buf;
+    *out_size = (size_t)at;
+    return MTS_OK;
+}
+
+static mts_result get_strips(const uint8_t *p, uint32_t strip_count, uint32_t index_count,
+                             const char *name, const char *what, mts_strips *st, mts_error *err)
+{
+    mts_result rc = mts_strips_alloc(st, strip_count, index_count, err);
+    if (rc != MTS_OK)
+        return rc;
+    uint64_t o = 0;
+    for (uint32_t s = 0; s < strip_count; s++) {
+        st->offsets[s] = (uint32_t)o;
+        o += get_u32(p + 4 * (size_t)s);
+        if (o > index_count)
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "%s: %s: strip %u runs past the %u indices the file declares",
+                                 name, what, s, index_count);
+    }
+    if (o != index_count)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: %s: strip lengths add up to %llu, the file declares %u", name,
+                             what, (unsigned long long)o, index_count);
+    st->offsets[strip_count] = index_count;
+    get_u32s(st->indices, p + 4 * (size_t)strip_count, index_count);
+    return MTS_OK;
+}
+
+mts_result mts_modelfile_decode(const void *data, size_t size, const char *name, mts_model *m,
+                                mts_error *err)
+{
+    const uint8_t *buf = data;
+    mts_result rc;
+    memset(m, 0, sizeof *m);
+    if (size < HEADER_SIZE)
+        return mts_error_set(err, size == 0 ? MTS_ERR_FORMAT : MTS_ERR_FORMAT,
+                             size == 0 ? "%s: empty file" : "%s: truncated: %zu bytes, the header alone is 16",
+                             name, size);
+    if (memcmp(buf, "MTSM", 4) != 0)
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: not an mtstream model (bad magic)", name);
+    uint16_t major = get_u16(buf + 4), minor = get_u16(buf + 6);
+    if (major != MTS_MODELFILE_MAJOR)
+        return mts_error_set(err, MTS_ERR_VERSION,
+                             "%s: model file version %u.%u; this build reads version %u.x", name,
+                             major, minor, MTS_MODELFILE_MAJOR);
+    uint32_t count = get_u32(buf + 8);
+    if (count == 0 || count > MAX_SECTIONS)
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: %u sections (1..%u allowed)", name, count,
+                             MAX_SECTIONS);
+    uint64_t table_end = HEADER_SIZE + (uint64_t)ENTRY_SIZE * count;
+    if (table_end > size)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: truncated: the section table needs %llu bytes, the file has %zu",
+                             name, (unsigned long long)table_end, size);
+    uint32_t hcrc = mts_crc32c(0, buf, 12);
+    hcrc = mts_crc32c(hcrc, buf + HEADER_SIZE, (size_t)ENTRY_SIZE * count);
+    if (hcrc != get_u32(buf + 12))
+        return mts_error_set(err, MTS_ERR_CHECKSUM, "%s: header checksum mismatch", name);
+
+    const uint8_t *sec[SEC_LAST + 1] = {0};
+    uint64_t sec_size[SEC_LAST + 1] = {0};
+    for (uint32_t i = 0; i < count; i++) {
+        const uint8_t *e = buf + HEADER_SIZE + ENTRY_SIZE * i;
+        uint32_t id = get_u32(e);
+        uint64_t off = get_u64(e + 8), len = get_u64(e + 16);
+        const char *sname = id >= 1 && id <= SEC_LAST ? section_names[id] : "unknown";
+        if (off > size || len > size - off)
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "%s: truncated: section '%s' needs bytes %llu..%llu, the file "
+                                 "has %zu",
+                                 name, sname, (unsigned long long)off,
+                                 (unsigned long long)(off + len), size);
+        if (off < table_end)
+            return mts_error_set(err, MTS_ERR_FORMAT, "%s: section '%s' overlaps the header",
+                                 name, sname);
+        if (mts_crc32c(0, buf + off, (size_t)len) != get_u32(e + 4))
+            return mts_error_set(err, MTS_ERR_CHECKSUM, "%s: checksum mismatch in section '%s'",
+                                 name, sname);
+        if (id < 1 || id > SEC_LAST)
+            continue; /* a newer minor version's section */
+        if (sec[id])
+            return mts_error_set(err, MTS_ERR_FORMAT, "%s: section '%s' appears twice", name,
+                                 sname);
+        sec[id] = buf + off;
+        sec_size[id] = len;
+    }
+    for (uint32_t id = 1; id < SEC_SOURCE; id++) {
+        if (!sec[id])
+            return mts_error_set(err, MTS_ERR_FORMAT, "%s: section '%s' is missing", name,
+                                 section_names[id]);
+    }
+    if (sec_size[SEC_INFO] != INFO_SIZE)
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: info section is %llu bytes, expected %u",
+                             name, (unsigned long long)sec_size[SEC_INFO], INFO_SIZE);
+    layout l;
+    const uint8_t *info = sec[SEC_INFO];
+    l.vertices = get_u32(info);
+    l.base_vertices = get_u32(info + 4);
+    l.levels = get_u32(info + 8);
+    l.strips = get_u32(info + 12);
+    l.full_indices = get_u32(info + 16);
+    l.base_indices = get_u32(info + 20);
+    l.record_words = get_u32(info + 24);
+    size_t source_len = sec[SEC_SOURCE] ? (size_t)sec_size[SEC_SOURCE] : 0;
+    layout_sizes(&l, source_len);
+    for (uint32_t id = 2; id <= SEC_LAST; id++) {
+        if (sec[id] && sec_size[id] != l.size[id])
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "%s: section '%s' is %llu bytes; the counts in 'info' need %llu",
+                                 name, section_names[id], (unsigned long long)sec_size[id],
+                                 (unsigned long long)l.size[id]);
+    }
+    if (l.vertices == 0 || l.levels >= l.vertices || l.base_vertices != l.vertices - l.levels)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: %u vertices, %u base vertices and %u levels do not add up", name,
+                             l.vertices, l.base_vertices, l.levels);
+
+    /* Every size is now bounded by the file's own size: allocations are too. */
+    size_t nv3 = 3 * (size_t)l.vertices, n1 = (size_t)l.levels + 1;
+    m->vertex_count = l.vertices;
+    m->base_vertex_count = l.base_vertices;
+    m->level_count = l.levels;
+    m->strip_count = l.strips;
+    m->record_word_count = l.record_words;
+    m->positions = malloc(nv3 * 4);
+    m->normals = malloc(nv3 * 4);
+    m->parents = malloc(n1 * 4);
+    m->record_offsets = malloc(n1 * 4);
+    m->record_data = malloc(((size_t)l.record_words + 1) * 4);
+    m->level_triangles = malloc(n1 * 4);
+    m->level_strips = malloc(n1 * 4);
+    m->level_indices = malloc(n1 * 4);
+    if (!m->positions || !m->normals || !m->parents || !m->record_offsets || !m->record_data ||
+        !m->level_triangles || !m->level_strips || !m->level_indices) {
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory", name);
+        goto fail;
+    }
+    get_f32s(m->bbox_min, info + 32, 3);
+    get_f32s(m->bbox_max, info + 44, 3);
+    get_f32s(m->positions, sec[SEC_POSITIONS], nv3);
+    get_f32s(m->normals, sec[SEC_NORMALS], nv3);
+    get_u32s(m->parents, sec[SEC_PARENTS], l.levels);
+    if ((rc = get_strips(sec[SEC_STRIPS_FULL], l.strips, l.full_indices, name, "full strips",
+                         &m->full, err)) != MTS_OK)
+        goto fail;
+    if ((rc = get_strips(sec[SEC_STRIPS_BASE], l.strips, l.base_indices, name, "base strips",
+                         &m->base, err)) != MTS_OK)
+        goto fail;
+    get_u32s(m->record_offsets, sec[SEC_RECORDS], n1);
+    get_u32s(m->record_data, sec[SEC_RECORDS] + 4 * n1, l.record_words);
+    get_u32s(m->level_triangles, sec[SEC_LEVELS], n1);
+    get_u32s(m->level_strips, sec[SEC_LEVELS] + 4 * n1, n1);
+    get_u32s(m->level_indices, sec[SEC_LEVELS] + 8 * n1, n1);
+    for (size_t i = 0; i < source_len && i + 1 < sizeof m->source; i++)
+        m->source[i] = sec[SEC_SOURCE][i] ? (char)sec[SEC_SOURCE][i] : '?';
+    for (uint32_t j = 0; j < l.levels; j++) {
+        if (m->record_offsets[j + 1] < m->record_offsets[j] ||
+            m->record_offsets[j + 1] > l.record_words) {
+            rc = mts_error_set(err, MTS_ERR_RANGE, "%s: record %u's offset %u is out of range",
+                               name, j + 1, m->record_offsets[j + 1]);
+            goto fail;
+        }
+    }
+    if ((rc = mts_model_validate(m, err)) != MTS_OK) {
+        mts_error_prefix(err, "%s", name);
+        goto fail;
+    }
+    return MTS_OK;
+fail:
+    mts_model_free(m);
+    return rc;
+}
+
+mts_result mts_modelfile_save(const mts_model *m, const char *path, uint64_t *bytes,
+                              mts_error *err)
+{
+    uint8_t *buf = NULL;
+    size_t size = 0;
+    mts_result rc = mts_modelfile_encode(m, &buf, &size, err);
+    if (rc != MTS_OK)
+        return rc;
+    char tmp[4096];
+    if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp) {
+        free(buf);
+        return mts_error_set(err, MTS_ERR_ARG, "%s: path too long", path);
+    }
+    FILE *f = fopen(tmp, "wb");
+    if (!f) {
+        rc = mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
+        free(buf);
+        return rc;
+    }
+    int ok = fwrite(buf, 1, size, f) == size;
+    ok = (fclose(f) == 0) && ok;
+    free(buf);
+    if (!ok || rename(tmp, path) != 0) {
+        rc = mts_error_set(err, MTS_ERR_IO, "%s: write failed: %s", path, strerror(errno));
+        unlink(tmp);
+        return rc;
+    }
+    if (bytes)
+        *bytes = size;
+    return MTS_OK;
+}
+
+mts_result mts_modelfile_load(const char *path, mts_model *m, mts_error *err)
+{
+    memset(m, 0, sizeof *m);
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
+        fclose(f);
+        return mts_error_set(err, MTS_ERR_IO, "%s: not a regular file", path);
+    }
+    size_t size = (size_t)st.st_size;
+    uint8_t *buf = malloc(size ? size : 1);
+    if (!buf) {
+        fclose(f);
+        return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for %zu bytes", path, size);
+    }
+    size_t got = fread(buf, 1, size, f);
+    int read_err = ferror(f);
+    fclose(f);
+    if (read_err || got != size) {
+        free(buf);
+        return mts_error_set(err, MTS_ERR_IO, "%s: read failed", path);
+    }
+    mts_result rc = mts_modelfile_decode(buf, size, path, m, err);
+    free(buf);
+    return rc;
+}

@@ -1,0 +1,53 @@
+/* The .mtsm model file: a versioned, little-endian container with a section
+ * table and a CRC-32C per section.
+ *
+ *   0   "MTSM"                     magic
+ *   4   u16 major = 1, u16 minor   a reader accepts its own major version only
+ *   8   u32 section_count          at most 64
+ *   12  u32 header_crc             CRC-32C of bytes 0..11 and the table
+ *   16  section_count x { u32 id, u32 crc32c, u64 offset, u64 size }
+ *       sections, each 8-byte aligned
+ *
+ * Sections (all required but SOURCE; unknown ids are skipped):
+ *   1 INFO        u32 vertices, base_vertices, levels, strips, full_indices,
+ *                 base_indices, record_words, 0; f32 bbox_min[3], bbox_max[3]
+ *   2 POSITIONS   f32 x 3 per vertex, stream order
+ *   3 NORMALS     f32 x 3 per vertex
+ *   4 PARENTS     u32 per split
+ *   5 STRIPS_FULL u32 length per strip, then the indices
+ *   6 STRIPS_BASE the same at level 0
+ *   7 RECORDS     u32 offsets[levels + 1], then the record words (model.h)
+ *   8 LEVELS      u32 triangles[levels + 1], strips[...], indices[...]
+ *   9 SOURCE      UTF-8 text: what the model was built from
+ *
+ * Loading checks the header, the table, every section's bounds, size and
+ * checksum, then the whole model (mts_model_validate), so each kind of damage
+ * gets its own error: truncated, not a model, unsupported version, checksum,
+ * inconsistent sizes, out-of-range index. */
+#ifndef MTS_MODELFILE_H
+#define MTS_MODELFILE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "error.h"
+#include "model.h"
+
+#define MTS_MODELFILE_MAJOR 1
+#define MTS_MODELFILE_MINOR 0
+
+/* Serialises a model into a new buffer (free with free()). */
+mts_result mts_modelfile_encode(const mts_model *model, uint8_t **data, size_t *size,
+                                mts_error *err);
+
+/* Parses and validates; name is used in messages. */
+mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
+                                mts_model *model, mts_error *err);
+
+/* Writes atomically (a temporary file renamed into place). */
+mts_result mts_modelfile_save(const mts_model *model, const char *path, uint64_t *bytes,
+                              mts_error *err);
+
+mts_result mts_modelfile_load(const char *path, mts_model *model, mts_error *err);
+
+#endif

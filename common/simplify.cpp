@@ -1,0 +1,137 @@
+// Thin shim over OpenMesh's decimater; see simplify.h.
+#include "simplify.h"
+
+#include <cstdlib>
+#include <new>
+#include <vector>
+
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Tools/Decimater/DecimaterT.hh>
+#include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
+#include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
+
+#include "om_quiet.h"
+
+namespace {
+
+typedef OpenMesh::TriMesh_ArrayKernelT<> Mesh;
+
+// A binary module that vetoes nothing: it is here to see every collapse the
+// decimater performs, in order, right before it happens.
+template <class MeshT> class ModRecordT : public OpenMesh::Decimater::ModBaseT<MeshT> {
+public:
+    DECIMATING_MODULE(ModRecordT, MeshT, Record);
+
+    explicit ModRecordT(MeshT &mesh) : Base(mesh, true) {}
+
+    void preprocess_collapse(const CollapseInfo &ci) override
+    {
+        mts_collapse c;
+        c.removed = (uint32_t)ci.v0.idx();
+        c.kept = (uint32_t)ci.v1.idx();
+        c.faces_removed = (ci.fl.is_valid() ? 1u : 0u) + (ci.fr.is_valid() ? 1u : 0u);
+        collapses.push_back(c);
+        if (progress && progress->fn && target > 0 && (collapses.size() & 1023) == 0)
+            progress->fn(progress->user, "simplify", (double)collapses.size() / (double)target);
+    }
+
+    std::vector<mts_collapse> collapses;
+    const mts_progress *progress = nullptr;
+    size_t target = 0;
+};
+
+} // namespace
+
+extern "C" mts_result mts_simplify(const float *positions, uint32_t vertex_count,
+                                   const uint32_t *triangles, uint32_t triangle_count,
+                                   const mts_simplify_options *opts,
+                                   mts_simplify_result *result, mts_error *err)
+{
+    static const mts_simplify_options defaults = {};
+    if (!opts)
+        opts = &defaults;
+    *result = mts_simplify_result{};
+    if (vertex_count == 0 || triangle_count == 0)
+        return mts_error_set(err, MTS_ERR_ARG, "simplify: empty mesh");
+
+    try {
+        mts::OmQuiet quiet;
+        Mesh mesh;
+        mesh.reserve(vertex_count, (size_t)triangle_count * 3 / 2 + 3, triangle_count);
+        for (uint32_t v = 0; v < vertex_count; v++) {
+            const float *p = positions + 3 * (size_t)v;
+            mesh.add_vertex(Mesh::Point(p[0], p[1], p[2]));
+        }
+        for (uint32_t f = 0; f < triangle_count; f++) {
+            const uint32_t *t = triangles + 3 * (size_t)f;
+            if (t[0] >= vertex_count || t[1] >= vertex_count || t[2] >= vertex_count)
+                return mts_error_set(err, MTS_ERR_RANGE,
+                                     "simplify: triangle %u has a vertex out of range", f);
+            Mesh::FaceHandle fh = mesh.add_face(Mesh::VertexHandle((int)t[0]),
+                                                Mesh::VertexHandle((int)t[1]),
+                                                Mesh::VertexHandle((int)t[2]));
+            if (!fh.is_valid())
+                return mts_error_set(err, MTS_ERR_ARG,
+                                     "simplify: triangle %u is not manifold (filter the mesh first)",
+                                     f);
+        }
+        mesh.request_face_normals();
+        mesh.update_face_normals();
+
+        uint32_t target = opts->base_vertices;
+        if (target == 0) {
+            target = vertex_count / 100;
+            if (target < 4)
+                target = 4;
+        }
+        if (target > vertex_count)
+            target = vertex_count;
+
+        OpenMesh::Decimater::DecimaterT<Mesh> decimater(mesh);
+        OpenMesh::Decimater::ModQuadricT<Mesh>::Handle quadric;
+        OpenMesh::Decimater::ModNormalFlippingT<Mesh>::Handle flip;
+        ModRecordT<Mesh>::Handle record;
+        decimater.add(quadric);
+        decimater.add(flip);
+        decimater.add(record);
+        decimater.module(quadric).unset_max_err(); // priority only, no error cap
+        decimater.module(flip).set_max_normal_deviation(
+            opts->max_normal_deviation_deg > 0 ? opts->max_normal_deviation_deg : 90.0);
+        ModRecordT<Mesh> &rec = decimater.module(record);
+        rec.progress = &opts->progress;
+        rec.target = vertex_count - target;
+        rec.collapses.reserve(vertex_count - target);
+        if (!decimater.initialize())
+            return mts_error_set(err, MTS_ERR_INTERNAL, "simplify: OpenMesh decimater did not initialise");
+        decimater.decimate_to(target);
+
+        size_t n = rec.collapses.size();
+        result->collapses = (mts_collapse *)malloc((n ? n : 1) * sizeof(mts_collapse));
+        if (!result->collapses)
+            return mts_error_set(err, MTS_ERR_NOMEM, "simplify: out of memory for %zu collapses", n);
+        uint32_t faces = triangle_count;
+        for (size_t i = 0; i < n; i++) {
+            result->collapses[i] = rec.collapses[i];
+            faces -= rec.collapses[i].faces_removed;
+        }
+        result->collapse_count = (uint32_t)n;
+        result->base_vertices = vertex_count - (uint32_t)n;
+        result->base_triangles = faces;
+        mts_progress_report(&opts->progress, "simplify", 1.0);
+        return MTS_OK;
+    } catch (const std::bad_alloc &) {
+        mts_simplify_result_free(result);
+        return mts_error_set(err, MTS_ERR_NOMEM, "simplify: out of memory");
+    } catch (const std::exception &e) {
+        mts_simplify_result_free(result);
+        return mts_error_set(err, MTS_ERR_INTERNAL, "simplify: OpenMesh: %s", e.what());
+    }
+}
+
+extern "C" void mts_simplify_result_free(mts_simplify_result *result)
+{
+    if (!result)
+        return;
+    free(result->collapses);
+    *result = mts_simplify_result{};
+}
