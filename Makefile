@@ -17,7 +17,7 @@ OPT      := -O2 -g
 endif
 
 WARN     := -Wall -Wextra -Werror
-CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(WARN) -Icommon -Iprotocol
+CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(WARN) -Icommon -Iprotocol -Itools
 # OpenMesh's headers are not -Wextra clean and trip -Wmaybe-uninitialized when
 # inlined; the shims stay -Wall -Werror otherwise.
 CXXFLAGS += -std=c++17 $(OPT) -Wall -Werror -Wno-maybe-uninitialized -Icommon -Iprotocol

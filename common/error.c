@@ -27,7 +27,20 @@ mts_result mts_error_prefix(mts_error *err, const char *fmt, ...)
     vsnprintf(prefix, sizeof prefix, fmt, ap);
     va_end(ap);
     memcpy(old, err->msg, sizeof old);
-    snprintf(err->msg, sizeof err->msg, "%s: %s", prefix, old);
+    /* truncation is fine: the message stays a valid, if shortened, string */
+    size_t n = strnlen(prefix, sizeof prefix - 1);
+    size_t room = sizeof err->msg - 1;
+    if (n > room)
+        n = room;
+    memcpy(err->msg, prefix, n);
+    size_t at = n;
+    for (const char *s = ": "; *s && at < room; s++)
+        err->msg[at++] = *s;
+    size_t m = strnlen(old, sizeof old - 1);
+    if (m > room - at)
+        m = room - at;
+    memcpy(err->msg + at, old, m);
+    err->msg[at + m] = 0;
     return err->code;
 }
 

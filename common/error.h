@@ -7,6 +7,10 @@
 
 #include <stddef.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef enum mts_result {
     MTS_OK = 0,
     MTS_ERR_ARG,      /* the caller passed an invalid argument or option */
@@ -45,5 +49,9 @@ mts_result mts_error_prefix(mts_error *err, const char *fmt, ...)
 
 /* A short stable name for a result code ("format", "checksum", ...). */
 const char *mts_result_name(mts_result code);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

@@ -1,0 +1,65 @@
+#include "build.h"
+
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+
+#include "simplify.h"
+
+static double seconds_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+mts_result mts_build_model(const mts_mesh *mesh, const char *source,
+                           const mts_build_options *opts, mts_model *model,
+                           mts_build_report *report, mts_error *err)
+{
+    static const mts_build_options defaults = {0};
+    mts_build_report dummy;
+    if (!opts)
+        opts = &defaults;
+    if (!report)
+        report = &dummy;
+    memset(report, 0, sizeof *report);
+    memset(model, 0, sizeof *model);
+
+    mts_strips strips = {0};
+    mts_simplify_result simp = {0};
+    mts_result rc;
+
+    double t0 = seconds_now();
+    mts_progress_report(&opts->progress, "stripify", 0);
+    rc = mts_stripify(mesh->triangles, mesh->triangle_count, mesh->vertex_count, &strips,
+                      &report->stripify, err);
+    if (rc != MTS_OK)
+        goto done;
+    mts_progress_report(&opts->progress, "stripify", 1);
+    double t1 = seconds_now();
+
+    mts_simplify_options so = {0};
+    so.base_vertices = opts->base_vertices;
+    so.progress = opts->progress;
+    rc = mts_simplify(mesh->positions, mesh->vertex_count, mesh->triangles, mesh->triangle_count,
+                      &so, &simp, err);
+    if (rc != MTS_OK)
+        goto done;
+    double t2 = seconds_now();
+
+    rc = mts_lodbuild(mesh, &strips, &simp, &opts->progress, model, &report->records, err);
+    if (rc != MTS_OK)
+        goto done;
+    double t3 = seconds_now();
+    if (source)
+        snprintf(model->source, sizeof model->source, "%s", source);
+
+    report->seconds_stripify = t1 - t0;
+    report->seconds_simplify = t2 - t1;
+    report->seconds_records = t3 - t2;
+done:
+    mts_strips_free(&strips);
+    mts_simplify_result_free(&simp);
+    return rc;
+}

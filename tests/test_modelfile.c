@@ -1,0 +1,303 @@
+/* The .mtsm file: round trip, and every kind of damage gets its own clear
+ * error and never a crash (truncation at every byte offset, random byte
+ * flips, wrong magic and version, bad checksums, out-of-range indices). */
+#include <math.h>
+#include <stdint.h>
+
+#include "build.h"
+#include "crc32c.h"
+#include "mesh.h"
+#include "model.h"
+#include "modelfile.h"
+#include "test.h"
+
+/* A closed UV sphere, small enough to truncate at every byte. */
+static void make_sphere(mts_mesh *m, uint32_t rings, uint32_t segments)
+{
+    uint32_t nv = 2 + (rings - 1) * segments;
+    uint32_t nt = 2 * segments * (rings - 1);
+    m->vertex_count = nv;
+    m->triangle_count = nt;
+    m->positions = malloc((size_t)nv * 12);
+    m->normals = malloc((size_t)nv * 12);
+    m->triangles = malloc((size_t)nt * 12);
+    float *p = m->positions;
+    *p++ = 0, *p++ = 0, *p++ = 1;
+    for (uint32_t r = 1; r < rings; r++) {
+        double th = M_PI * r / rings;
+        for (uint32_t s = 0; s < segments; s++) {
+            double ph = 2 * M_PI * s / segments;
+            *p++ = (float)(sin(th) * cos(ph));
+            *p++ = (float)(sin(th) * sin(ph));
+            *p++ = (float)cos(th);
+        }
+    }
+    *p++ = 0, *p++ = 0, *p++ = -1;
+    uint32_t *t = m->triangles;
+    uint32_t south = nv - 1;
+    for (uint32_t s = 0; s < segments; s++) {
+        uint32_t s1 = (s + 1) % segments;
+        *t++ = 0, *t++ = 1 + s, *t++ = 1 + s1;
+        for (uint32_t r = 1; r + 1 < rings; r++) {
+            uint32_t a = 1 + (r - 1) * segments + s, b = 1 + (r - 1) * segments + s1;
+            uint32_t c = 1 + r * segments + s, d = 1 + r * segments + s1;
+            *t++ = a, *t++ = c, *t++ = d;
+            *t++ = a, *t++ = d, *t++ = b;
+        }
+        uint32_t a = 1 + (rings - 2) * segments + s, b = 1 + (rings - 2) * segments + s1;
+        *t++ = a, *t++ = south, *t++ = b;
+    }
+    mts_mesh_compute_normals(m);
+}
+
+static int small_model(mts_test *t, mts_model *model, uint8_t **file, size_t *size)
+{
+    mts_mesh mesh = {0};
+    mts_error err = {0};
+    make_sphere(&mesh, 8, 10);
+    mts_result rc = mts_build_model(&mesh, "sphere", NULL, model, NULL, &err);
+    mts_mesh_free(&mesh);
+    CHECKF(t, rc == MTS_OK, "build: %s", err.msg);
+    if (rc != MTS_OK)
+        return 0;
+    rc = mts_modelfile_encode(model, file, size, &err);
+    CHECKF(t, rc == MTS_OK, "encode: %s", err.msg);
+    return rc == MTS_OK;
+}
+
+static void test_crc32c_vector(mts_test *t)
+{
+    CHECK(t, mts_crc32c(0, "123456789", 9) == 0xE3069283u);
+    CHECK(t, mts_crc32c(0, "", 0) == 0);
+    /* continuing a CRC equals computing it in one go */
+    uint32_t c = mts_crc32c(0, "1234", 4);
+    CHECK(t, mts_crc32c(c, "56789", 5) == 0xE3069283u);
+}
+
+static void test_round_trip(mts_test *t)
+{
+    mts_model m, back;
+    uint8_t *file;
+    size_t size;
+    if (!small_model(t, &m, &file, &size))
+        return;
+    mts_error err = {0};
+    CHECKF(t, mts_modelfile_decode(file, size, "sphere.mtsm", &back, &err) == MTS_OK, "%s", err.msg);
+    CHECK(t, back.vertex_count == m.vertex_count && back.level_count == m.level_count);
+    CHECK(t, back.strip_count == m.strip_count);
+    CHECK(t, memcmp(back.positions, m.positions, (size_t)m.vertex_count * 12) == 0);
+    CHECK(t, memcmp(back.normals, m.normals, (size_t)m.vertex_count * 12) == 0);
+    CHECK(t, memcmp(back.full.indices, m.full.indices, (size_t)m.full.index_count * 4) == 0);
+    CHECK(t, memcmp(back.base.indices, m.base.indices, (size_t)m.base.index_count * 4) == 0);
+    CHECK(t, memcmp(back.record_data, m.record_data, (size_t)m.record_word_count * 4) == 0);
+    CHECK(t, memcmp(back.level_triangles, m.level_triangles, ((size_t)m.level_count + 1) * 4) == 0);
+    CHECK(t, strcmp(back.source, "sphere") == 0);
+    /* encoding is deterministic */
+    uint8_t *again;
+    size_t again_size;
+    CHECK(t, mts_modelfile_encode(&back, &again, &again_size, &err) == MTS_OK);
+    CHECK(t, again_size == size && memcmp(again, file, size) == 0);
+    /* and through a real file */
+    char path[512];
+    snprintf(path, sizeof path, "%s/mts_test_round_trip.mtsm", mts_test_tmpdir());
+    uint64_t bytes = 0;
+    CHECKF(t, mts_modelfile_save(&m, path, &bytes, &err) == MTS_OK, "%s", err.msg);
+    CHECK(t, bytes == size);
+    mts_model loaded;
+    CHECKF(t, mts_modelfile_load(path, &loaded, &err) == MTS_OK, "%s", err.msg);
+    mts_model_free(&loaded);
+    remove(path);
+    free(again);
+    free(file);
+    mts_model_free(&back);
+    mts_model_free(&m);
+}
+
+static void test_truncated_everywhere(mts_test *t)
+{
+    mts_model m;
+    uint8_t *file;
+    size_t size;
+    if (!small_model(t, &m, &file, &size))
+        return;
+    for (size_t cut = 0; cut < size; cut++) {
+        mts_model back;
+        mts_error err = {0};
+        uint8_t *copy = malloc(cut ? cut : 1); /* exact size, so ASan sees any overread */
+        memcpy(copy, file, cut);
+        mts_result rc = mts_modelfile_decode(copy, cut, "cut.mtsm", &back, &err);
+        free(copy);
+        CHECKF(t, rc != MTS_OK, "truncated at %zu of %zu was accepted", cut, size);
+        if (rc == MTS_OK) {
+            mts_model_free(&back);
+            break;
+        }
+        /* cut inside the padding after the last section still truncates a section or the table */
+        CHECKF(t, strstr(err.msg, "truncated") || strstr(err.msg, "empty"),
+               "cut at %zu: message does not say truncated: %s", cut, err.msg);
+        CHECK(t, strstr(err.msg, "cut.mtsm") != NULL);
+        if (t->case_failed)
+            break;
+    }
+    free(file);
+    mts_model_free(&m);
+}
+
+static void test_random_flips(mts_test *t)
+{
+    mts_model m;
+    uint8_t *file;
+    size_t size;
+    if (!small_model(t, &m, &file, &size))
+        return;
+    uint64_t seed = 99;
+    uint8_t *copy = malloc(size);
+    for (int i = 0; i < 3000 && !t->case_failed; i++) {
+        memcpy(copy, file, size);
+        seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+        size_t at = (size_t)(seed >> 33) % size;
+        uint8_t flip = (uint8_t)(1u << ((seed >> 20) & 7));
+        copy[at] ^= flip;
+        mts_model back;
+        mts_error err = {0};
+        mts_result rc = mts_modelfile_decode(copy, size, "flip.mtsm", &back, &err);
+        if (rc == MTS_OK) {
+            /* only a flip in alignment padding (not covered by any CRC) may pass */
+            mts_model_free(&back);
+            continue;
+        }
+        CHECKF(t, err.msg[0] != 0, "flip at %zu gave an empty message", at);
+    }
+    free(copy);
+    free(file);
+    mts_model_free(&m);
+}
+
+/* Recomputes every section CRC and the header CRC, so a deliberate edit
+ * reaches the structural checks behind them. */
+static void reseal(uint8_t *f)
+{
+    uint32_t count = f[8] | f[9] << 8 | f[10] << 16 | (uint32_t)f[11] << 24;
+    for (uint32_t i = 0; i < count; i++) {
+        uint8_t *e = f + 16 + 24 * i;
+        uint64_t off = 0, len = 0;
+        for (int b = 7; b >= 0; b--) {
+            off = off << 8 | e[8 + b];
+            len = len << 8 | e[16 + b];
+        }
+        uint32_t c = mts_crc32c(0, f + off, (size_t)len);
+        for (int b = 0; b < 4; b++)
+            e[4 + b] = (uint8_t)(c >> (8 * b));
+    }
+    uint32_t h = mts_crc32c(0, f, 12);
+    h = mts_crc32c(h, f + 16, (size_t)24 * count);
+    for (int b = 0; b < 4; b++)
+        f[12 + b] = (uint8_t)(h >> (8 * b));
+}
+
+static uint64_t section_offset(const uint8_t *f, uint32_t id)
+{
+    uint32_t count = f[8] | f[9] << 8 | f[10] << 16 | (uint32_t)f[11] << 24;
+    for (uint32_t i = 0; i < count; i++) {
+        const uint8_t *e = f + 16 + 24 * i;
+        if ((uint32_t)(e[0] | e[1] << 8 | e[2] << 16 | (uint32_t)e[3] << 24) == id) {
+            uint64_t off = 0;
+            for (int b = 7; b >= 0; b--)
+                off = off << 8 | e[8 + b];
+            return off;
+        }
+    }
+    return 0;
+}
+
+static void put32(uint8_t *p, uint32_t x)
+{
+    for (int b = 0; b < 4; b++)
+        p[b] = (uint8_t)(x >> (8 * b));
+}
+
+static void expect_error(mts_test *t, uint8_t *f, size_t size, mts_result code, const char *needle)
+{
+    mts_model back;
+    mts_error err = {0};
+    mts_result rc = mts_modelfile_decode(f, size, "bad.mtsm", &back, &err);
+    CHECKF(t, rc == code, "got %s (%s), expected %s", mts_result_name(rc), err.msg,
+           mts_result_name(code));
+    CHECKF(t, strstr(err.msg, needle) != NULL, "message '%s' lacks '%s'", err.msg, needle);
+    if (rc == MTS_OK)
+        mts_model_free(&back);
+}
+
+static void test_specific_errors(mts_test *t)
+{
+    mts_model m;
+    uint8_t *file;
+    size_t size;
+    if (!small_model(t, &m, &file, &size))
+        return;
+    uint8_t *f = malloc(size);
+
+    memcpy(f, file, size);
+    f[0] = 'X';
+    expect_error(t, f, size, MTS_ERR_FORMAT, "magic");
+
+    memcpy(f, file, size);
+    f[4] = 2;
+    expect_error(t, f, size, MTS_ERR_VERSION, "version 2.0");
+
+    memcpy(f, file, size);
+    f[size - 9] ^= 0x40; /* inside the last section */
+    expect_error(t, f, size, MTS_ERR_CHECKSUM, "checksum");
+
+    memcpy(f, file, size);
+    f[13] ^= 1;
+    expect_error(t, f, size, MTS_ERR_CHECKSUM, "header checksum");
+
+    /* a base strip index past the base vertices, with valid checksums */
+    memcpy(f, file, size);
+    uint64_t base = section_offset(f, 6);
+    put32(f + base + 4 * (uint64_t)m.strip_count, m.vertex_count + 7);
+    reseal(f);
+    expect_error(t, f, size, MTS_ERR_RANGE, "out of range");
+
+    /* a parent that is not older than its vertex */
+    memcpy(f, file, size);
+    put32(f + section_offset(f, 4), m.vertex_count);
+    reseal(f);
+    expect_error(t, f, size, MTS_ERR_RANGE, "parent");
+
+    /* a record naming a strip that does not exist */
+    memcpy(f, file, size);
+    uint64_t rec = section_offset(f, 7) + 4 * ((uint64_t)m.level_count + 1);
+    put32(f + rec + 4, 1u << 30);
+    reseal(f);
+    expect_error(t, f, size, MTS_ERR_RANGE, "strip");
+
+    /* counts that promise more than the file holds */
+    memcpy(f, file, size);
+    put32(f + section_offset(f, 1), 0x7FFFFFFF);
+    reseal(f);
+    expect_error(t, f, size, MTS_ERR_FORMAT, "bytes");
+
+    expect_error(t, f, 0, MTS_ERR_FORMAT, "empty");
+
+    mts_error err = {0};
+    mts_model back;
+    CHECK(t, mts_modelfile_load("/nonexistent/x.mtsm", &back, &err) == MTS_ERR_IO);
+    CHECK(t, strstr(err.msg, "/nonexistent/x.mtsm") != NULL);
+
+    free(f);
+    free(file);
+    mts_model_free(&m);
+}
+
+int main(void)
+{
+    mts_test t = {0};
+    RUN(&t, test_crc32c_vector);
+    RUN(&t, test_round_trip);
+    RUN(&t, test_truncated_everywhere);
+    RUN(&t, test_random_flips);
+    RUN(&t, test_specific_errors);
+    return mts_test_end(&t);
+}

@@ -1,0 +1,179 @@
+#include "cli.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+double cli_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+void cli_bar_init(cli_bar *bar, int quiet)
+{
+    memset(bar, 0, sizeof *bar);
+    bar->enabled = !quiet && isatty(STDERR_FILENO);
+}
+
+void cli_bar_update(void *p, const char *stage, double done)
+{
+    cli_bar *bar = p;
+    if (!bar->enabled)
+        return;
+    double now = cli_now();
+    int new_stage = strncmp(bar->stage, stage, sizeof bar->stage - 1) != 0;
+    if (!new_stage && done < 1.0 && now - bar->last_draw < 0.05)
+        return;
+    bar->last_draw = now;
+    snprintf(bar->stage, sizeof bar->stage, "%s", stage);
+    if (done < 0)
+        done = 0;
+    if (done > 1)
+        done = 1;
+    const int width = 30;
+    int filled = (int)(done * width + 0.5);
+    char cells[64];
+    for (int i = 0; i < width; i++)
+        cells[i] = i < filled ? '#' : '.';
+    cells[width] = 0;
+    fprintf(stderr, "\r%-10s [%s] %3d%%", stage, cells, (int)(done * 100 + 0.5));
+    fflush(stderr);
+}
+
+void cli_bar_done(cli_bar *bar)
+{
+    if (bar->enabled && bar->stage[0]) {
+        fprintf(stderr, "\r\033[K");
+        fflush(stderr);
+    }
+    bar->stage[0] = 0;
+}
+
+int cli_parse_u32(const char *s, uint32_t *out)
+{
+    if (!s || !*s || *s == '-' || *s == '+')
+        return 0;
+    char *end;
+    errno = 0;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno || *end || v > UINT32_MAX)
+        return 0;
+    *out = (uint32_t)v;
+    return 1;
+}
+
+int cli_parse_double(const char *s, double *out)
+{
+    if (!s || !*s)
+        return 0;
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (errno || *end || !isfinite(v))
+        return 0;
+    *out = v;
+    return 1;
+}
+
+static void json_sep(cli_json *j)
+{
+    if (!j->first[j->depth])
+        fputc(',', j->f);
+    j->first[j->depth] = 0;
+}
+
+void cli_json_begin(cli_json *j, FILE *f)
+{
+    memset(j, 0, sizeof *j);
+    j->f = f;
+    j->first[0] = 1;
+    fputc('{', f);
+}
+
+static void json_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\')
+            fprintf(f, "\\%c", c);
+        else if (c < 0x20)
+            fprintf(f, "\\u%04x", c);
+        else
+            fputc(c, f);
+    }
+    fputc('"', f);
+}
+
+void cli_json_key(cli_json *j, const char *key)
+{
+    json_sep(j);
+    json_string(j->f, key);
+    fputc(':', j->f);
+}
+
+void cli_json_object_begin(cli_json *j, const char *key)
+{
+    cli_json_key(j, key);
+    fputc('{', j->f);
+    if (j->depth < 7)
+        j->depth++;
+    j->first[j->depth] = 1;
+}
+
+void cli_json_object_end(cli_json *j)
+{
+    fputc('}', j->f);
+    if (j->depth > 0)
+        j->depth--;
+}
+
+void cli_json_str(cli_json *j, const char *key, const char *value)
+{
+    cli_json_key(j, key);
+    json_string(j->f, value);
+}
+
+void cli_json_u64(cli_json *j, const char *key, uint64_t value)
+{
+    cli_json_key(j, key);
+    fprintf(j->f, "%llu", (unsigned long long)value);
+}
+
+void cli_json_num(cli_json *j, const char *key, double value, int decimals)
+{
+    cli_json_key(j, key);
+    if (isfinite(value))
+        fprintf(j->f, "%.*f", decimals, value);
+    else
+        fputs("null", j->f);
+}
+
+void cli_json_bool(cli_json *j, const char *key, int value)
+{
+    cli_json_key(j, key);
+    fputs(value ? "true" : "false", j->f);
+}
+
+void cli_json_end(cli_json *j)
+{
+    fputs("}\n", j->f);
+    fflush(j->f);
+}
+
+void cli_stem(const char *path, char *out, size_t size)
+{
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    const char *dot = strrchr(base, '.');
+    size_t n = dot && dot != base ? (size_t)(dot - base) : strlen(base);
+    if (n >= size)
+        n = size - 1;
+    memcpy(out, base, n);
+    out[n] = 0;
+}

@@ -1,0 +1,58 @@
+/* What the command-line programs share: a progress bar on a terminal, a
+ * monotonic clock, strict number parsing for options, and a tiny one-line
+ * JSON writer. Programs only; the library never prints. */
+#ifndef MTS_CLI_H
+#define MTS_CLI_H
+
+#include <stdint.h>
+#include <stdio.h>
+
+#include "progress.h"
+
+/* Exit statuses, as usual for command-line tools. */
+enum { CLI_EXIT_OK = 0, CLI_EXIT_FAIL = 1, CLI_EXIT_USAGE = 2 };
+
+double cli_now(void); /* seconds, monotonic */
+
+/* A progress bar on stderr, drawn only when stderr is a terminal and the
+ * program is not quiet; redrawn at most every 50 ms. */
+typedef struct cli_bar {
+    int enabled;
+    double last_draw;
+    char stage[32];
+} cli_bar;
+
+void cli_bar_init(cli_bar *bar, int quiet);
+void cli_bar_update(void *bar, const char *stage, double done); /* an mts_progress fn */
+void cli_bar_done(cli_bar *bar);
+static inline mts_progress cli_bar_progress(cli_bar *bar)
+{
+    mts_progress p = {cli_bar_update, bar};
+    return p;
+}
+
+/* Strict parsers: the whole string must be a number in range. */
+int cli_parse_u32(const char *s, uint32_t *out);
+int cli_parse_double(const char *s, double *out);
+
+/* One-line JSON: cli_json_begin, then keys, then cli_json_end (adds '\n'). */
+typedef struct cli_json {
+    FILE *f;
+    int depth;
+    int first[8];
+} cli_json;
+
+void cli_json_begin(cli_json *j, FILE *f);
+void cli_json_key(cli_json *j, const char *key); /* before a value or object */
+void cli_json_object_begin(cli_json *j, const char *key);
+void cli_json_object_end(cli_json *j);
+void cli_json_str(cli_json *j, const char *key, const char *value);
+void cli_json_u64(cli_json *j, const char *key, uint64_t value);
+void cli_json_num(cli_json *j, const char *key, double value, int decimals);
+void cli_json_bool(cli_json *j, const char *key, int value);
+void cli_json_end(cli_json *j);
+
+/* "name" from "dir/name.ext". */
+void cli_stem(const char *path, char *out, size_t size);
+
+#endif

@@ -1,0 +1,167 @@
+/* mts-build: mesh file in, multiresolution strip model (.mtsm) out. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "build.h"
+#include "cli.h"
+#include "mesh.h"
+#include "model.h"
+#include "modelfile.h"
+
+static void usage(FILE *f)
+{
+    fputs("usage: mts-build MESH [-o MODEL.mtsm] [--base-vertices N] [--json] [--quiet]\n"
+          "\n"
+          "Builds a multiresolution triangle-strip model from a mesh (OFF, OBJ, PLY, STL):\n"
+          "strips at full resolution, a quadric edge-collapse sequence down to a base mesh,\n"
+          "and per-collapse strip records, written to a .mtsm model file.\n"
+          "\n"
+          "  -o, --output FILE     model file to write (default: MESH's name with .mtsm,\n"
+          "                        in the current directory)\n"
+          "  --base-vertices N     stop simplifying at N vertices (default: max(4, 1%))\n"
+          "  --json                print one line of JSON with the figures\n"
+          "  -q, --quiet           no progress bar, no summary\n"
+          "  -h, --help            this help\n"
+          "\n"
+          "Exit status: 0 built, 1 the mesh or the output failed, 2 bad usage.\n",
+          f);
+}
+
+int main(int argc, char **argv)
+{
+    const char *input = NULL, *output = NULL;
+    uint32_t base_vertices = 0;
+    int json = 0, quiet = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+            usage(stdout);
+            return CLI_EXIT_OK;
+        } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
+            if (++i >= argc) {
+                fprintf(stderr, "mts-build: %s needs a file name\n", a);
+                return CLI_EXIT_USAGE;
+            }
+            output = argv[i];
+        } else if (!strcmp(a, "--base-vertices")) {
+            if (++i >= argc || !cli_parse_u32(argv[i], &base_vertices) || base_vertices == 0) {
+                fprintf(stderr, "mts-build: --base-vertices needs a positive whole number\n");
+                return CLI_EXIT_USAGE;
+            }
+        } else if (!strcmp(a, "--json")) {
+            json = 1;
+        } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
+            quiet = 1;
+        } else if (a[0] == '-' && a[1]) {
+            fprintf(stderr, "mts-build: unknown option %s (see --help)\n", a);
+            return CLI_EXIT_USAGE;
+        } else if (!input) {
+            input = a;
+        } else {
+            fprintf(stderr, "mts-build: one mesh at a time (got %s and %s)\n", input, a);
+            return CLI_EXIT_USAGE;
+        }
+    }
+    if (!input) {
+        usage(stderr);
+        return CLI_EXIT_USAGE;
+    }
+    char out_buf[4096];
+    if (!output) {
+        char stem[1024];
+        cli_stem(input, stem, sizeof stem);
+        snprintf(out_buf, sizeof out_buf, "%s.mtsm", stem);
+        output = out_buf;
+    }
+
+    cli_bar bar;
+    cli_bar_init(&bar, quiet || json);
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_mesh_stats ms = {0};
+    mts_model model = {0};
+    mts_build_report rep;
+    uint64_t file_bytes = 0;
+    int status = CLI_EXIT_FAIL;
+
+    double t0 = cli_now();
+    cli_bar_update(&bar, "load", 0);
+    if (mts_mesh_load(input, NULL, &mesh, &ms, &err) != MTS_OK)
+        goto fail;
+    double t1 = cli_now();
+    mts_build_options bo = {0};
+    bo.base_vertices = base_vertices;
+    bo.progress = cli_bar_progress(&bar);
+    if (mts_build_model(&mesh, input, &bo, &model, &rep, &err) != MTS_OK)
+        goto fail;
+    double t2 = cli_now();
+    cli_bar_update(&bar, "write", 0);
+    if (mts_modelfile_save(&model, output, &file_bytes, &err) != MTS_OK)
+        goto fail;
+    double t3 = cli_now();
+    cli_bar_done(&bar);
+
+    uint32_t n = model.level_count;
+    double ipt_full = (double)(model.level_indices[n] + model.level_strips[n] - 1) /
+                      model.level_triangles[n];
+    if (json) {
+        cli_json j;
+        cli_json_begin(&j, stdout);
+        cli_json_str(&j, "input", input);
+        cli_json_str(&j, "output", output);
+        cli_json_str(&j, "format", mts_mesh_format_name(ms.format));
+        cli_json_u64(&j, "vertices", model.vertex_count);
+        cli_json_u64(&j, "triangles", model.level_triangles[n]);
+        cli_json_u64(&j, "levels", n);
+        cli_json_u64(&j, "base_vertices", model.base_vertex_count);
+        cli_json_u64(&j, "base_triangles", model.level_triangles[0]);
+        cli_json_u64(&j, "strips_full", model.level_strips[n]);
+        cli_json_u64(&j, "indices_full", model.level_indices[n]);
+        cli_json_num(&j, "indices_per_triangle_full", ipt_full, 4);
+        cli_json_u64(&j, "swaps", rep.stripify.swaps);
+        cli_json_u64(&j, "file_bytes", file_bytes);
+        cli_json_object_begin(&j, "dropped");
+        cli_json_u64(&j, "degenerate_faces", ms.degenerate_faces);
+        cli_json_u64(&j, "duplicate_faces", ms.duplicate_faces);
+        cli_json_u64(&j, "nonmanifold_faces", ms.nonmanifold_faces);
+        cli_json_u64(&j, "unreferenced_vertices", ms.unreferenced_vertices);
+        cli_json_object_end(&j);
+        cli_json_object_begin(&j, "seconds");
+        cli_json_num(&j, "load", t1 - t0, 4);
+        cli_json_num(&j, "stripify", rep.seconds_stripify, 4);
+        cli_json_num(&j, "simplify", rep.seconds_simplify, 4);
+        cli_json_num(&j, "records", rep.seconds_records, 4);
+        cli_json_num(&j, "write", t3 - t2, 4);
+        cli_json_num(&j, "total", t3 - t0, 4);
+        cli_json_object_end(&j);
+        cli_json_end(&j);
+    } else if (!quiet) {
+        printf("%s: %u vertices, %u triangles (%s)\n", input, model.vertex_count,
+               model.level_triangles[n], mts_mesh_format_name(ms.format));
+        if (ms.degenerate_faces || ms.duplicate_faces || ms.nonmanifold_faces ||
+            ms.unreferenced_vertices || ms.polygons_triangulated)
+            printf("  cleaned: %u polygons triangulated, dropped %u degenerate, %u duplicate, "
+                   "%u non-manifold faces, %u unreferenced vertices\n",
+                   ms.polygons_triangulated, ms.degenerate_faces, ms.duplicate_faces,
+                   ms.nonmanifold_faces, ms.unreferenced_vertices);
+        printf("  strips: %u at full resolution, %u indices, %.3f indices/triangle with "
+               "restarts (%u swaps)\n",
+               model.level_strips[n], model.level_indices[n], ipt_full, rep.stripify.swaps);
+        printf("  levels: %u splits from a base of %u vertices / %u triangles\n", n,
+               model.base_vertex_count, model.level_triangles[0]);
+        printf("  wrote %s: %llu bytes in %.2f s (load %.2f, stripify %.2f, simplify %.2f, "
+               "records %.2f, write %.2f)\n",
+               output, (unsigned long long)file_bytes, t3 - t0, t1 - t0, rep.seconds_stripify,
+               rep.seconds_simplify, rep.seconds_records, t3 - t2);
+    }
+    status = CLI_EXIT_OK;
+    goto done;
+fail:
+    cli_bar_done(&bar);
+    fprintf(stderr, "mts-build: %s\n", err.msg);
+done:
+    mts_model_free(&model);
+    mts_mesh_free(&mesh);
+    return status;
+}
