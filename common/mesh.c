@@ -1,0 +1,455 @@
+/* Mesh loading: reads the file whole, picks the parser (mesh_read.c), then
+ * runs the one cleaning pipeline every format shares, in the order the
+ * builder relies on: triangulate (done while parsing) -> drop degenerate ->
+ * drop duplicates -> drop what OpenMesh refuses -> drop unreferenced vertices
+ * -> normals. */
+#include "mesh.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "manifold.h"
+#include "mesh_read.h"
+
+const char *mts_mesh_format_name(mts_mesh_format format)
+{
+    switch (format) {
+    case MTS_MESH_AUTO: return "auto";
+    case MTS_MESH_OFF: return "OFF";
+    case MTS_MESH_OBJ: return "OBJ";
+    case MTS_MESH_PLY: return "PLY";
+    case MTS_MESH_STL: return "STL";
+    }
+    return "unknown";
+}
+
+void mts_mesh_free(mts_mesh *mesh)
+{
+    if (!mesh)
+        return;
+    free(mesh->positions);
+    free(mesh->normals);
+    free(mesh->triangles);
+    *mesh = (mts_mesh){0};
+}
+
+/* ------------------------------------------------------------------------ */
+/* Normals                                                                  */
+
+static inline void face_cross(const float *pos, const uint32_t *t, double n[3])
+{
+    const float *a = pos + (size_t)t[0] * 3, *b = pos + (size_t)t[1] * 3,
+                *c = pos + (size_t)t[2] * 3;
+    double u[3] = {(double)b[0] - a[0], (double)b[1] - a[1], (double)b[2] - a[2]};
+    double v[3] = {(double)c[0] - a[0], (double)c[1] - a[1], (double)c[2] - a[2]};
+    n[0] = u[1] * v[2] - u[2] * v[1];
+    n[1] = u[2] * v[0] - u[0] * v[2];
+    n[2] = u[0] * v[1] - u[1] * v[0];
+}
+
+/* Writes the unit vector of (x, y, z) to out, or zero when it has no length. */
+static inline void put_unit(float *out, double x, double y, double z)
+{
+    double len = sqrt(x * x + y * y + z * z);
+    if (len > 0 && isfinite(len)) {
+        out[0] = (float)(x / len);
+        out[1] = (float)(y / len);
+        out[2] = (float)(z / len);
+    } else {
+        out[0] = out[1] = out[2] = 0.0f;
+    }
+}
+
+void mts_mesh_compute_normals(mts_mesh *mesh)
+{
+    size_t nv = mesh->vertex_count;
+    if (!mesh->normals) {
+        mesh->normals = malloc((nv + 1) * 3 * sizeof *mesh->normals);
+        if (!mesh->normals)
+            return;
+    }
+    /* Sum in double: the cross products of float positions do not overflow
+     * or lose small faces there; if even that buffer cannot be had, sum in
+     * the output floats, which is only less exact. */
+    double *acc = calloc(nv * 3 + 1, sizeof *acc);
+    float *out = mesh->normals;
+    memset(out, 0, nv * 3 * sizeof *out);
+    for (uint32_t f = 0; f < mesh->triangle_count; f++) {
+        const uint32_t *t = mesh->triangles + (size_t)f * 3;
+        if (t[0] >= nv || t[1] >= nv || t[2] >= nv)
+            continue;
+        double n[3];
+        face_cross(mesh->positions, t, n);
+        for (int k = 0; k < 3; k++)
+            for (int c = 0; c < 3; c++) {
+                if (acc)
+                    acc[(size_t)t[k] * 3 + c] += n[c];
+                else
+                    out[(size_t)t[k] * 3 + c] += (float)n[c];
+            }
+    }
+    for (size_t v = 0; v < nv; v++) {
+        if (acc)
+            put_unit(out + v * 3, acc[v * 3], acc[v * 3 + 1], acc[v * 3 + 2]);
+        else
+            put_unit(out + v * 3, out[v * 3], out[v * 3 + 1], out[v * 3 + 2]);
+    }
+    free(acc);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Cleaning                                                                 */
+
+static inline uint32_t tri_hash(uint32_t a, uint32_t b, uint32_t c)
+{
+    uint64_t h = (uint64_t)a * UINT64_C(0x9E3779B97F4A7C15);
+    h ^= (uint64_t)b * UINT64_C(0xC2B2AE3D27D4EB4F) + (h >> 29);
+    h ^= (uint64_t)c * UINT64_C(0x165667B19E3779F9) + (h >> 31);
+    return (uint32_t)(h ^ (h >> 32));
+}
+
+/* The rotation of t that starts at its smallest index: two triangles are
+ * the same oriented face exactly when these agree. */
+static inline void tri_canonical(const uint32_t *t, uint32_t k[3])
+{
+    int r = t[0] < t[1] ? (t[0] < t[2] ? 0 : 2) : (t[1] < t[2] ? 1 : 2);
+    k[0] = t[r];
+    k[1] = t[(r + 1) % 3];
+    k[2] = t[(r + 2) % 3];
+}
+
+/* Drops repeated-index and zero-area triangles in place; returns the count kept. */
+static uint32_t drop_degenerate(const float *pos, uint32_t *tri, uint32_t n, uint32_t *dropped)
+{
+    uint32_t kept = 0;
+    for (uint32_t f = 0; f < n; f++) {
+        const uint32_t *t = tri + (size_t)f * 3;
+        double c[3];
+        if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
+            (*dropped)++;
+            continue;
+        }
+        face_cross(pos, t, c);
+        if (c[0] == 0 && c[1] == 0 && c[2] == 0) {
+            (*dropped)++;
+            continue;
+        }
+        memmove(tri + (size_t)kept * 3, t, 3 * sizeof *t);
+        kept++;
+    }
+    return kept;
+}
+
+/* Drops later copies of a triangle (up to rotation) in place, keeping the
+ * first, with an open-addressing table of kept triangles. */
+static mts_result drop_duplicates(uint32_t *tri, uint32_t *count, uint32_t *dropped,
+                                  const char *name, mts_error *err)
+{
+    uint32_t n = *count;
+    uint64_t cap = 16;
+    while (cap < (uint64_t)n * 2)
+        cap *= 2;
+    uint32_t *table = malloc((size_t)cap * sizeof *table);
+    if (!table)
+        return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory checking %u triangles for "
+                             "duplicates", name, n);
+    memset(table, 0xff, (size_t)cap * sizeof *table);
+    uint32_t kept = 0;
+    for (uint32_t f = 0; f < n; f++) {
+        uint32_t k[3], o[3];
+        tri_canonical(tri + (size_t)f * 3, k);
+        uint32_t h = tri_hash(k[0], k[1], k[2]) & (uint32_t)(cap - 1);
+        int dup = 0;
+        while (table[h] != UINT32_MAX) {
+            tri_canonical(tri + (size_t)table[h] * 3, o);
+            if (o[0] == k[0] && o[1] == k[1] && o[2] == k[2]) {
+                dup = 1;
+                break;
+            }
+            h = (h + 1) & (uint32_t)(cap - 1);
+        }
+        if (dup) {
+            (*dropped)++;
+            continue;
+        }
+        memmove(tri + (size_t)kept * 3, tri + (size_t)f * 3, 3 * sizeof *tri);
+        table[h] = kept++;
+    }
+    free(table);
+    *count = kept;
+    return MTS_OK;
+}
+
+/* Turns a parsed raw mesh into the cleaned mesh; takes over raw's arrays. */
+static mts_result clean(mts__mesh_raw *raw, mts_mesh *mesh, mts_mesh_stats *st, mts_error *err)
+{
+    const char *name = raw->name;
+    mts_result r = MTS_OK;
+    uint8_t *accepted = NULL;
+    uint32_t *remap = NULL;
+    uint32_t nv = raw->vertex_count;
+    uint32_t *tri = raw->triangles;
+    uint32_t n = drop_degenerate(raw->positions, tri, raw->triangle_count, &st->degenerate_faces);
+
+    if (n > 0 && (r = drop_duplicates(tri, &n, &st->duplicate_faces, name, err)) != MTS_OK)
+        goto done;
+
+    if (n > 0) {
+        accepted = malloc(n);
+        if (!accepted) {
+            r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory", name);
+            goto done;
+        }
+        uint32_t refused = 0;
+        if ((r = mts_manifold_filter(nv, tri, n, accepted, &refused, err)) != MTS_OK) {
+            mts_error_prefix(err, "%s", name);
+            goto done;
+        }
+        uint32_t kept = 0;
+        for (uint32_t f = 0; f < n; f++)
+            if (accepted[f])
+                memmove(tri + (size_t)kept++ * 3, tri + (size_t)f * 3, 3 * sizeof *tri);
+        st->nonmanifold_faces = refused;
+        n = kept;
+    }
+    if (n == 0) {
+        r = mts_error_set(err, MTS_ERR_FORMAT,
+                          "%s: no triangles left after cleaning (%u faces read: %u degenerate, "
+                          "%u duplicate, %u non-manifold)",
+                          name, st->file_faces, st->degenerate_faces, st->duplicate_faces,
+                          st->nonmanifold_faces);
+        goto done;
+    }
+
+    /* Unreferenced vertices go; the rest keep their order, so vertex i of
+     * the result is still the i-th surviving vertex of the file. */
+    remap = malloc(((size_t)nv + 1) * sizeof *remap);
+    if (!remap) {
+        r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory", name);
+        goto done;
+    }
+    memset(remap, 0xff, (size_t)nv * sizeof *remap);
+    for (size_t i = 0; i < (size_t)n * 3; i++)
+        remap[tri[i]] = 0;
+    uint32_t used = 0;
+    float *pos = raw->positions, *nor = raw->normals;
+    for (uint32_t v = 0; v < nv; v++) {
+        if (remap[v] == UINT32_MAX)
+            continue;
+        remap[v] = used;
+        memmove(pos + (size_t)used * 3, pos + (size_t)v * 3, 3 * sizeof *pos);
+        if (nor)
+            memmove(nor + (size_t)used * 3, nor + (size_t)v * 3, 3 * sizeof *nor);
+        used++;
+    }
+    for (size_t i = 0; i < (size_t)n * 3; i++)
+        tri[i] = remap[tri[i]];
+    st->unreferenced_vertices = nv - used;
+
+    /* Hand the arrays over, shrunk to size (a failed shrink keeps the old block). */
+    float *p = realloc(pos, (size_t)used * 3 * sizeof *p);
+    mesh->positions = p ? p : pos;
+    uint32_t *t = realloc(tri, (size_t)n * 3 * sizeof *t);
+    mesh->triangles = t ? t : tri;
+    mesh->vertex_count = used;
+    mesh->triangle_count = n;
+    raw->positions = NULL;
+    raw->triangles = NULL;
+    if (nor) {
+        float *q = realloc(nor, (size_t)used * 3 * sizeof *q);
+        mesh->normals = q ? q : nor;
+        raw->normals = NULL;
+    }
+
+    if (mesh->normals) {
+        /* the file's normals, made unit length; a zero or unusable one gets
+         * the computed normal instead of staying zero */
+        int missing = 0;
+        float *nn = mesh->normals;
+        for (size_t v = 0; v < used; v++) {
+            put_unit(nn + v * 3, nn[v * 3], nn[v * 3 + 1], nn[v * 3 + 2]);
+            missing |= nn[v * 3] == 0 && nn[v * 3 + 1] == 0 && nn[v * 3 + 2] == 0;
+        }
+        st->normals_from_file = 1;
+        if (missing) {
+            mts_mesh computed = *mesh;
+            computed.normals = NULL;
+            mts_mesh_compute_normals(&computed);
+            if (!computed.normals) {
+                r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory", name);
+                goto done;
+            }
+            for (size_t v = 0; v < used; v++)
+                if (nn[v * 3] == 0 && nn[v * 3 + 1] == 0 && nn[v * 3 + 2] == 0)
+                    memcpy(nn + v * 3, computed.normals + v * 3, 3 * sizeof *nn);
+            free(computed.normals);
+        }
+    } else {
+        mts_mesh_compute_normals(mesh);
+        if (!mesh->normals)
+            r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for normals", name);
+    }
+done:
+    free(accepted);
+    free(remap);
+    return r;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Loading                                                                  */
+
+static mts_mesh_format format_from_name(const char *name)
+{
+    const char *slash = strrchr(name, '/');
+    const char *dot = strrchr(slash ? slash + 1 : name, '.');
+    if (!dot)
+        return MTS_MESH_AUTO;
+    static const struct {
+        const char *ext;
+        mts_mesh_format format;
+    } exts[] = {{"off", MTS_MESH_OFF}, {"obj", MTS_MESH_OBJ}, {"ply", MTS_MESH_PLY},
+                {"stl", MTS_MESH_STL}};
+    for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++) {
+        const char *a = dot + 1, *b = exts[i].ext;
+        while (*a && *b && (*a | 0x20) == *b) /* ASCII case folding; the exts are lower case */
+            a++, b++;
+        if (!*a && !*b)
+            return exts[i].format;
+    }
+    return MTS_MESH_AUTO;
+}
+
+mts_result mts_mesh_load_memory(const char *name, const void *data, size_t size,
+                                const mts_mesh_options *opts, mts_mesh *mesh,
+                                mts_mesh_stats *stats, mts_error *err)
+{
+    mts_mesh_stats local;
+    mts_mesh_stats *st = stats ? stats : &local;
+    *st = (mts_mesh_stats){0};
+    if (!mesh)
+        return mts_error_set(err, MTS_ERR_ARG, "mts_mesh_load: no mesh to fill");
+    *mesh = (mts_mesh){0};
+    if (!name)
+        name = "(memory)";
+    if (!data && size > 0)
+        return mts_error_set(err, MTS_ERR_ARG, "%s: no data", name);
+    mts_mesh_format format = opts ? opts->format : MTS_MESH_AUTO;
+    if ((unsigned)format > MTS_MESH_STL)
+        return mts_error_set(err, MTS_ERR_ARG, "%s: unknown mesh format option %d", name,
+                             (int)format);
+    if (size == 0)
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: empty file", name);
+    if (format == MTS_MESH_AUTO)
+        format = format_from_name(name);
+    if (format == MTS_MESH_AUTO)
+        format = mts__mesh_sniff(data, size);
+    if (format == MTS_MESH_AUTO)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: unknown mesh format (not OFF, OBJ, PLY or STL by name or content)",
+                             name);
+
+    mts__mesh_raw raw = {0};
+    raw.name = name;
+    raw.stats = st;
+    mts_result r;
+    switch (format) {
+    case MTS_MESH_OFF: r = mts__mesh_read_off(&raw, data, size, err); break;
+    case MTS_MESH_OBJ: r = mts__mesh_read_obj(&raw, data, size, err); break;
+    case MTS_MESH_PLY: r = mts__mesh_read_ply(&raw, data, size, err); break;
+    default: r = mts__mesh_read_stl(&raw, data, size, err); break;
+    }
+    st->format = format;
+    if (r == MTS_OK)
+        r = clean(&raw, mesh, st, err);
+    if (r != MTS_OK)
+        mts_mesh_free(mesh);
+    mts__mesh_raw_free(&raw);
+    return r;
+}
+
+/* Reads the whole file: one read of the size fstat reports, growing only
+ * for files that are not regular (pipes report no size). */
+static mts_result read_all(const char *path, char **out, size_t *out_size, mts_error *err)
+{
+    mts_result r = MTS_OK;
+    char *buf = NULL;
+    int fd = open(path, O_RDONLY);
+    if (fd < 0)
+        return mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
+    struct stat sb;
+    if (fstat(fd, &sb) != 0) {
+        r = mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
+        goto done;
+    }
+    if (S_ISDIR(sb.st_mode)) {
+        r = mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(EISDIR));
+        goto done;
+    }
+    size_t cap = S_ISREG(sb.st_mode) && sb.st_size > 0 ? (size_t)sb.st_size + 1 : 65536;
+    if (S_ISREG(sb.st_mode) && (uint64_t)sb.st_size >= SIZE_MAX / 2) {
+        r = mts_error_set(err, MTS_ERR_LIMIT, "%s: too large to read", path);
+        goto done;
+    }
+    size_t size = 0;
+    buf = malloc(cap);
+    if (!buf) {
+        r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for %zu bytes", path, cap);
+        goto done;
+    }
+    for (;;) {
+        if (size == cap) {
+            if (cap >= SIZE_MAX / 2) {
+                r = mts_error_set(err, MTS_ERR_LIMIT, "%s: too large to read", path);
+                goto done;
+            }
+            char *grown = realloc(buf, cap * 2);
+            if (!grown) {
+                r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for %zu bytes", path,
+                                  cap * 2);
+                goto done;
+            }
+            buf = grown;
+            cap *= 2;
+        }
+        ssize_t got = read(fd, buf + size, cap - size);
+        if (got < 0 && errno == EINTR)
+            continue;
+        if (got < 0) {
+            r = mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
+            goto done;
+        }
+        if (got == 0)
+            break;
+        size += (size_t)got;
+    }
+    *out = buf;
+    *out_size = size;
+    buf = NULL;
+done:
+    free(buf);
+    close(fd);
+    return r;
+}
+
+mts_result mts_mesh_load(const char *path, const mts_mesh_options *opts, mts_mesh *mesh,
+                         mts_mesh_stats *stats, mts_error *err)
+{
+    if (stats)
+        *stats = (mts_mesh_stats){0};
+    if (mesh)
+        *mesh = (mts_mesh){0};
+    if (!path || !mesh)
+        return mts_error_set(err, MTS_ERR_ARG, "mts_mesh_load: no %s", path ? "mesh" : "path");
+    char *data = NULL;
+    size_t size = 0;
+    mts_result r = read_all(path, &data, &size, err);
+    if (r == MTS_OK)
+        r = mts_mesh_load_memory(path, data, size, opts, mesh, stats, err);
+    free(data);
+    return r;
+}

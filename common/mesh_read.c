@@ -1,0 +1,1472 @@
+/* The mesh file parsers: OFF, OBJ, PLY (ASCII, binary LE/BE) and STL (ASCII,
+ * binary). Each works on the whole file in memory, bounded by an end pointer
+ * (no NUL terminator needed, so a downloaded buffer is parsed in place), and
+ * trusts no count it reads: allocations grow with what was actually parsed or
+ * are capped by what the remaining bytes could hold, every index is checked
+ * against the vertex count before it is stored, and every binary read is
+ * bounds-checked. */
+#include "mesh_read.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------------------------------ */
+/* Storage                                                                  */
+
+void mts__mesh_raw_free(mts__mesh_raw *raw)
+{
+    free(raw->positions);
+    free(raw->normals);
+    free(raw->triangles);
+    raw->positions = NULL;
+    raw->normals = NULL;
+    raw->triangles = NULL;
+    raw->vertex_count = raw->vertex_capacity = 0;
+    raw->triangle_count = raw->triangle_capacity = 0;
+}
+
+/* Makes room for `need` vertices (positions, and normals when with_normals;
+ * new normals start at zero because OBJ sums into them). Doubling keeps the
+ * cost linear; callers only ask for what they have parsed or what the bytes
+ * left could hold, so a lying header cannot make this allocate. */
+static mts_result raw_reserve_vertices(mts__mesh_raw *raw, uint64_t need, int with_normals,
+                                       mts_error *err)
+{
+    if (need <= raw->vertex_capacity)
+        return MTS_OK;
+    if (need > MTS__MESH_MAX_COUNT)
+        return mts_error_set(err, MTS_ERR_LIMIT, "%s: more than %u vertices", raw->name,
+                             MTS__MESH_MAX_COUNT);
+    uint64_t cap = raw->vertex_capacity ? (uint64_t)raw->vertex_capacity * 2 : 256;
+    while (cap < need)
+        cap *= 2;
+    if (cap > MTS__MESH_MAX_COUNT)
+        cap = MTS__MESH_MAX_COUNT;
+    float *p = realloc(raw->positions, (size_t)cap * 3 * sizeof *p);
+    if (!p)
+        goto nomem;
+    raw->positions = p;
+    if (with_normals) {
+        float *n = realloc(raw->normals, (size_t)cap * 3 * sizeof *n);
+        if (!n)
+            goto nomem;
+        memset(n + (size_t)raw->vertex_capacity * 3, 0,
+               (size_t)(cap - raw->vertex_capacity) * 3 * sizeof *n);
+        raw->normals = n;
+    }
+    raw->vertex_capacity = (uint32_t)cap;
+    return MTS_OK;
+nomem:
+    return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for %llu vertices", raw->name,
+                         (unsigned long long)cap);
+}
+
+static mts_result raw_reserve_triangles(mts__mesh_raw *raw, uint64_t need, mts_error *err)
+{
+    if (need <= raw->triangle_capacity)
+        return MTS_OK;
+    if (need > MTS__MESH_MAX_COUNT)
+        return mts_error_set(err, MTS_ERR_LIMIT, "%s: more than %u triangles", raw->name,
+                             MTS__MESH_MAX_COUNT);
+    uint64_t cap = raw->triangle_capacity ? (uint64_t)raw->triangle_capacity * 2 : 256;
+    while (cap < need)
+        cap *= 2;
+    if (cap > MTS__MESH_MAX_COUNT)
+        cap = MTS__MESH_MAX_COUNT;
+    uint32_t *t = realloc(raw->triangles, (size_t)cap * 3 * sizeof *t);
+    if (!t)
+        return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for %llu triangles",
+                             raw->name, (unsigned long long)cap);
+    raw->triangles = t;
+    raw->triangle_capacity = (uint32_t)cap;
+    return MTS_OK;
+}
+
+/* A polygon being read, fan-triangulated corner by corner as (c0, c[k-1], c[k])
+ * so that no corner list is ever stored and the winding is kept. */
+typedef struct fan {
+    uint32_t first, prev;
+    uint32_t corners;
+} fan;
+
+static inline mts_result fan_add(mts__mesh_raw *raw, fan *f, uint32_t v, mts_error *err)
+{
+    if (f->corners >= 2) {
+        if (raw->triangle_count == raw->triangle_capacity) {
+            mts_result r = raw_reserve_triangles(raw, (uint64_t)raw->triangle_count + 1, err);
+            if (r != MTS_OK)
+                return r;
+        }
+        uint32_t *t = raw->triangles + (size_t)raw->triangle_count * 3;
+        t[0] = f->first;
+        t[1] = f->prev;
+        t[2] = v;
+        raw->triangle_count++;
+    } else if (f->corners == 0) {
+        f->first = v;
+    }
+    f->prev = v;
+    f->corners++;
+    return MTS_OK;
+}
+
+static inline mts_result fan_end(mts__mesh_raw *raw, fan *f, mts_error *err)
+{
+    mts_mesh_stats *st = raw->stats;
+    if (st->file_faces >= MTS__MESH_MAX_COUNT)
+        return mts_error_set(err, MTS_ERR_LIMIT, "%s: more than %u faces", raw->name,
+                             MTS__MESH_MAX_COUNT);
+    st->file_faces++;
+    /* a face of 0..2 corners has no area: it is dropped like any degenerate
+     * triangle, and counted with them so the report adds up */
+    if (f->corners < 3)
+        st->degenerate_faces++;
+    else if (f->corners > 3)
+        st->polygons_triangulated++;
+    f->corners = 0;
+    return MTS_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Numbers                                                                  */
+
+static const double pow10_exact[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                       1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                                       1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+
+/* Fast path: for up to 19 significant digits and a small exponent, m * 10^e
+ * in double is one correctly rounded operation on exact operands. Rounding
+ * that double to float again gives the correctly rounded float unless the
+ * double landed exactly on a midpoint between two floats (the only case where
+ * double rounding can differ), so those, and everything else, go to strtof
+ * on a NUL-terminated copy of the token. */
+int mts__mesh_scan_float(const char **ps, const char *end, float *out)
+{
+    const char *s = *ps;
+    const char *start = s;
+    int neg = 0;
+    if (s < end && (*s == '+' || *s == '-')) {
+        neg = *s == '-';
+        s++;
+    }
+    uint64_t m = 0;
+    int sig = 0, digits = 0, inexact = 0;
+    int64_t e10 = 0;
+    while (s < end && (unsigned)(*s - '0') < 10) {
+        unsigned d = (unsigned)(*s - '0');
+        if (sig < 19) {
+            m = m * 10 + d;
+            sig += m != 0;
+        } else {
+            e10++;
+            inexact |= d != 0;
+        }
+        digits++;
+        s++;
+    }
+    if (s < end && *s == '.') {
+        s++;
+        while (s < end && (unsigned)(*s - '0') < 10) {
+            unsigned d = (unsigned)(*s - '0');
+            if (sig < 19) {
+                m = m * 10 + d;
+                sig += m != 0;
+                e10--;
+            } else {
+                inexact |= d != 0;
+            }
+            digits++;
+            s++;
+        }
+    }
+    if (digits == 0)
+        return -1;
+    if (s < end && (*s == 'e' || *s == 'E')) {
+        const char *q = s + 1;
+        int eneg = 0;
+        if (q < end && (*q == '+' || *q == '-')) {
+            eneg = *q == '-';
+            q++;
+        }
+        if (q >= end || (unsigned)(*q - '0') >= 10)
+            return -1; /* "1e" or "1e+": not a number strtof would take whole */
+        int64_t ev = 0;
+        while (q < end && (unsigned)(*q - '0') < 10) {
+            if (ev < 1000000) /* saturate: far beyond float's range either way */
+                ev = ev * 10 + (*q - '0');
+            q++;
+        }
+        e10 += eneg ? -ev : ev;
+        s = q;
+    }
+    if (m == 0) {
+        *out = neg ? -0.0f : 0.0f;
+        *ps = s;
+        return 0;
+    }
+    if (!inexact && m <= (UINT64_C(1) << 53) && e10 >= -22 && e10 <= 22) {
+        double d = (double)m;
+        d = e10 < 0 ? d / pow10_exact[-e10] : d * pow10_exact[e10];
+        if (d >= FLT_MIN && d <= FLT_MAX) {
+            uint64_t bits;
+            memcpy(&bits, &d, sizeof bits);
+            if ((bits & UINT64_C(0x1fffffff)) != UINT64_C(0x10000000)) {
+                float f = (float)d;
+                *out = neg ? -f : f;
+                *ps = s;
+                return 0;
+            }
+        }
+    }
+    size_t len = (size_t)(s - start);
+    char small[64];
+    char *buf = len < sizeof small ? small : malloc(len + 1);
+    if (!buf)
+        return -1;
+    memcpy(buf, start, len);
+    buf[len] = '\0';
+    char *stop;
+    float f = strtof(buf, &stop);
+    int ok = stop == buf + len;
+    if (buf != small)
+        free(buf);
+    if (!ok)
+        return -1; /* a locale with another decimal point; never in the C locale */
+    if (isinf(f))
+        return -2;
+    *out = f;
+    *ps = s;
+    return 0;
+}
+
+/* An integer with an optional sign; saturates far outside any valid index so
+ * that range checks, not overflow, reject absurd values. */
+static int scan_int(const char **ps, const char *end, int64_t *out)
+{
+    const char *s = *ps;
+    int neg = 0;
+    if (s < end && (*s == '+' || *s == '-')) {
+        neg = *s == '-';
+        s++;
+    }
+    if (s >= end || (unsigned)(*s - '0') >= 10)
+        return -1;
+    int64_t v = 0;
+    while (s < end && (unsigned)(*s - '0') < 10) {
+        if (v < INT64_C(1) << 40)
+            v = v * 10 + (*s - '0');
+        s++;
+    }
+    *out = neg ? -v : v;
+    *ps = s;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Text                                                                     */
+
+typedef struct text {
+    const char *p, *end;
+    uint64_t line; /* 1-based line of p */
+    int comments;  /* '#' starts a comment running to the end of the line */
+    const char *name;
+} text;
+
+static inline int is_blank(char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
+
+static inline int is_space(char c) { return is_blank(c) || c == '\n'; }
+
+/* Skips blanks (and a comment) but stays on this line. */
+static inline void text_blank(text *t)
+{
+    while (t->p < t->end && is_blank(*t->p))
+        t->p++;
+    if (t->comments && t->p < t->end && *t->p == '#')
+        while (t->p < t->end && *t->p != '\n')
+            t->p++;
+}
+
+/* Skips blanks, comments and line ends: to the next token or the end. */
+static inline void text_space(text *t)
+{
+    for (;;) {
+        text_blank(t);
+        if (t->p < t->end && *t->p == '\n') {
+            t->p++;
+            t->line++;
+            continue;
+        }
+        return;
+    }
+}
+
+static inline void text_next_line(text *t)
+{
+    const char *nl = t->p < t->end ? memchr(t->p, '\n', (size_t)(t->end - t->p)) : NULL;
+    if (nl) {
+        t->p = nl + 1;
+        t->line++;
+    } else {
+        t->p = t->end;
+    }
+}
+
+/* The length of a UTF-8 byte order mark at the start, which some Windows
+ * tools write: left in, it would hide an OBJ's first keyword and shift
+ * every index after it. */
+static size_t bom_length(const char *data, size_t size)
+{
+    return size >= 3 && memcmp(data, "\xEF\xBB\xBF", 3) == 0 ? 3 : 0;
+}
+
+static inline int text_eof(const text *t) { return t->p >= t->end; }
+static inline int text_eol(const text *t) { return t->p >= t->end || *t->p == '\n'; }
+
+static inline int token_ends(const text *t, const char *s)
+{
+    return s >= t->end || is_space(*s) || (t->comments && *s == '#');
+}
+
+static int token_len(const text *t)
+{
+    const char *s = t->p;
+    while (s < t->end && !is_space(*s) && s - t->p < 40)
+        s++;
+    return (int)(s - t->p);
+}
+
+static mts_result text_bad_number(const text *t, mts_error *err)
+{
+    if (t->p + token_len(t) >= t->end) /* cut inside the number: the file ends early */
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: truncated at line %llu: the file ends "
+                             "inside a number ('%.*s')", t->name, (unsigned long long)t->line,
+                             token_len(t), t->p);
+    return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: bad number '%.*s'", t->name,
+                         (unsigned long long)t->line, token_len(t), t->p);
+}
+
+/* A float token at t->p (the caller has skipped blanks and checked there is
+ * one). */
+static mts_result text_float(text *t, float *out, mts_error *err)
+{
+    const char *s = t->p;
+    int r = mts__mesh_scan_float(&s, t->end, out);
+    if (r == -2)
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: number '%.*s' is out of range",
+                             t->name, (unsigned long long)t->line, token_len(t), t->p);
+    if (r != 0 || !token_ends(t, s))
+        return text_bad_number(t, err);
+    t->p = s;
+    return MTS_OK;
+}
+
+static mts_result text_int(text *t, int64_t *out, mts_error *err)
+{
+    const char *s = t->p;
+    if (scan_int(&s, t->end, out) != 0 || !token_ends(t, s))
+        return text_bad_number(t, err);
+    t->p = s;
+    return MTS_OK;
+}
+
+/* The next word (a run of non-space characters) on this line; length 0 at the
+ * end of a line. */
+static size_t text_word(text *t, const char **word)
+{
+    text_blank(t);
+    const char *s = t->p;
+    while (t->p < t->end && !is_space(*t->p))
+        t->p++;
+    *word = s;
+    return (size_t)(t->p - s);
+}
+
+static inline int word_is(const char *w, size_t n, const char *lit)
+{
+    return strlen(lit) == n && memcmp(w, lit, n) == 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* OFF                                                                      */
+
+/* The Geomview header keyword is [ST][C][N][4][n]OFF. Sets *normals, *four
+ * and *ndim from the prefix and returns the length consumed through "OFF", or
+ * 0 when the word is not an OFF keyword. */
+static size_t off_keyword(const char *w, size_t n, int *normals, int *four, int *ndim)
+{
+    size_t i = 0;
+    *normals = *four = *ndim = 0;
+    if (n - i >= 2 && w[i] == 'S' && w[i + 1] == 'T')
+        i += 2;
+    if (i < n && w[i] == 'C')
+        i++;
+    if (i < n && w[i] == 'N') {
+        *normals = 1;
+        i++;
+    }
+    if (i < n && w[i] == '4') {
+        *four = 1;
+        i++;
+    }
+    if (i < n && w[i] == 'n') {
+        *ndim = 1;
+        i++;
+    }
+    if (n - i < 3 || memcmp(w + i, "OFF", 3) != 0)
+        return 0;
+    return i + 3;
+}
+
+static mts_result off_truncated(const text *t, const char *what, uint32_t expected,
+                                uint32_t got, mts_error *err)
+{
+    return mts_error_set(err, MTS_ERR_FORMAT, "%s: truncated: expected %u %s, file ends after %u",
+                         t->name, expected, what, got);
+}
+
+/* A header count: a non-negative integer below the 2^31 limit. */
+static mts_result off_count(text *t, const char *what, uint32_t *out, mts_error *err)
+{
+    text_space(t);
+    if (text_eof(t))
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: truncated: the OFF header has no %s count",
+                             t->name, what);
+    int64_t v;
+    mts_result r = text_int(t, &v, err);
+    if (r != MTS_OK)
+        return r;
+    if (v < 0)
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: negative %s count %lld",
+                             t->name, (unsigned long long)t->line, what, (long long)v);
+    if (v > (int64_t)MTS__MESH_MAX_COUNT)
+        return mts_error_set(err, MTS_ERR_LIMIT, "%s: line %llu: %lld %s is over the limit of %u",
+                             t->name, (unsigned long long)t->line, (long long)v, what,
+                             MTS__MESH_MAX_COUNT);
+    *out = (uint32_t)v;
+    return MTS_OK;
+}
+
+mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
+{
+    text t = {data + bom_length(data, size), data + size, 1, 1, raw->name};
+    mts_mesh_stats *st = raw->stats;
+    st->format = MTS_MESH_OFF;
+
+    text_space(&t);
+    const char *w;
+    size_t wn = text_word(&t, &w);
+    int normals, four, ndim;
+    size_t k = off_keyword(w, wn, &normals, &four, &ndim);
+    if (k == 0)
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: not an OFF file (first word '%.*s')",
+                             t.name, (int)(wn < 40 ? wn : 40), w);
+    if (k < wn) {
+        /* "OFF1234 5678 0": some collections (ModelNet) glue the vertex
+         * count to the keyword; anything else after OFF is not OFF */
+        if ((unsigned)(w[k] - '0') >= 10)
+            return mts_error_set(err, MTS_ERR_FORMAT, "%s: not an OFF file (first word '%.*s')",
+                                 t.name, (int)(wn < 40 ? wn : 40), w);
+        t.p = w + k;
+    }
+    if (four)
+        return mts_error_set(err, MTS_ERR_VERSION, "%s: 4D OFF is not supported", t.name);
+    if (ndim) {
+        uint32_t dim;
+        mts_result r = off_count(&t, "dimension", &dim, err);
+        if (r != MTS_OK)
+            return r;
+        if (dim != 3)
+            return mts_error_set(err, MTS_ERR_VERSION, "%s: %u-dimensional OFF is not supported",
+                                 t.name, dim);
+    }
+    text_blank(&t);
+    if (t.end - t.p >= 6 && memcmp(t.p, "BINARY", 6) == 0)
+        return mts_error_set(err, MTS_ERR_VERSION, "%s: binary OFF is not supported", t.name);
+
+    uint32_t nv, nf;
+    mts_result r = off_count(&t, "vertex", &nv, err);
+    if (r == MTS_OK)
+        r = off_count(&t, "face", &nf, err);
+    if (r != MTS_OK)
+        return r;
+    text_next_line(&t); /* the edge count, which nobody uses */
+
+    /* Reserve only what the remaining bytes can hold ("x y z" is at least 5
+     * bytes, a face at least 2): the counts are claims, not facts. */
+    size_t left = (size_t)(t.end - t.p);
+    uint64_t want_v = nv < left / 5 + 1 ? nv : left / 5 + 1;
+    uint64_t want_f = nf < left / 2 + 1 ? nf : left / 2 + 1;
+    if ((r = raw_reserve_vertices(raw, want_v, normals, err)) != MTS_OK ||
+        (r = raw_reserve_triangles(raw, want_f, err)) != MTS_OK)
+        return r;
+
+    const unsigned values = normals ? 6 : 3;
+    for (uint32_t i = 0; i < nv; i++) {
+        text_space(&t);
+        if (text_eof(&t))
+            return off_truncated(&t, "vertices", nv, i, err);
+        if ((r = raw_reserve_vertices(raw, (uint64_t)i + 1, normals, err)) != MTS_OK)
+            return r;
+        float v[6];
+        for (unsigned c = 0; c < values; c++) {
+            text_blank(&t);
+            if (text_eof(&t))
+                return off_truncated(&t, "vertices", nv, i, err);
+            if (text_eol(&t))
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "%s: line %llu: vertex %u has %u values, expected %u",
+                                     t.name, (unsigned long long)t.line, i, c, values);
+            if ((r = text_float(&t, &v[c], err)) != MTS_OK)
+                return r;
+        }
+        memcpy(raw->positions + (size_t)i * 3, v, 3 * sizeof *v);
+        if (normals)
+            memcpy(raw->normals + (size_t)i * 3, v + 3, 3 * sizeof *v);
+        raw->vertex_count = i + 1;
+        text_next_line(&t); /* colours, texture coordinates */
+    }
+    st->file_vertices = nv;
+
+    for (uint32_t f = 0; f < nf; f++) {
+        text_space(&t);
+        if (text_eof(&t))
+            return off_truncated(&t, "faces", nf, f, err);
+        int64_t n;
+        if ((r = text_int(&t, &n, err)) != MTS_OK)
+            return r;
+        if (n < 0 || n > (int64_t)MTS__MESH_MAX_COUNT)
+            return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: face %u has %lld corners",
+                                 t.name, (unsigned long long)t.line, f, (long long)n);
+        fan poly = {0, 0, 0};
+        for (int64_t c = 0; c < n; c++) {
+            text_blank(&t);
+            if (text_eof(&t))
+                return off_truncated(&t, "faces", nf, f, err);
+            if (text_eol(&t))
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "%s: line %llu: face %u has %lld indices, expected %lld",
+                                     t.name, (unsigned long long)t.line, f, (long long)c,
+                                     (long long)n);
+            int64_t idx;
+            if ((r = text_int(&t, &idx, err)) != MTS_OK)
+                return r;
+            if (idx < 0 || idx >= nv)
+                return mts_error_set(err, MTS_ERR_RANGE,
+                                     "%s: line %llu: face %u: vertex index %lld out of range "
+                                     "(%u vertices)",
+                                     t.name, (unsigned long long)t.line, f, (long long)idx, nv);
+            if ((r = fan_add(raw, &poly, (uint32_t)idx, err)) != MTS_OK)
+                return r;
+        }
+        if ((r = fan_end(raw, &poly, err)) != MTS_OK)
+            return r;
+        text_next_line(&t); /* a face colour */
+    }
+    return MTS_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* OBJ                                                                      */
+
+/* Resolves a 1-based (or negative, counted back from the latest) OBJ index
+ * against the count defined so far; returns -1 when out of range. */
+static int64_t obj_resolve(int64_t idx, uint32_t count)
+{
+    if (idx > 0)
+        return idx <= count ? idx - 1 : -1;
+    if (idx < 0)
+        return -idx <= count ? count + idx : -1;
+    return -1;
+}
+
+static mts_result obj_floats(text *t, float *v, unsigned n, const char *what, mts_error *err)
+{
+    for (unsigned c = 0; c < n; c++) {
+        text_blank(t);
+        if (text_eol(t))
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "%s: %sline %llu: '%s' has %u values, expected %u", t->name,
+                                 text_eof(t) ? "truncated at " : "", (unsigned long long)t->line,
+                                 what, c, n);
+        mts_result r = text_float(t, &v[c], err);
+        if (r != MTS_OK)
+            return r;
+    }
+    return MTS_OK;
+}
+
+static mts_result obj_index(text *t, int64_t *out, mts_error *err)
+{
+    const char *s = t->p;
+    if (scan_int(&s, t->end, out) != 0 || !(token_ends(t, s) || *s == '/'))
+        return text_bad_number(t, err);
+    t->p = s;
+    return MTS_OK;
+}
+
+static mts_result obj_range(const text *t, const char *what, int64_t idx, uint32_t count,
+                            mts_error *err)
+{
+    return mts_error_set(err, MTS_ERR_RANGE, "%s: line %llu: %s index %lld out of range (%u defined)",
+                         t->name, (unsigned long long)t->line, what, (long long)idx, count);
+}
+
+mts_result mts__mesh_read_obj(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
+{
+    text t = {data + bom_length(data, size), data + size, 1, 1, raw->name};
+    mts_mesh_stats *st = raw->stats;
+    st->format = MTS_MESH_OBJ;
+    mts_result r = MTS_OK;
+    float *vn = NULL; /* unit normals of the vn lines, 3 each */
+    uint32_t vn_count = 0, vn_capacity = 0, vt_count = 0;
+    int every_corner_has_vn = 1;
+
+    while (!text_eof(&t)) {
+        text_blank(&t);
+        const char *w;
+        size_t wn = text_word(&t, &w);
+        if (word_is(w, wn, "v")) {
+            uint32_t i = raw->vertex_count;
+            if ((r = raw_reserve_vertices(raw, (uint64_t)i + 1, 1, err)) != MTS_OK ||
+                (r = obj_floats(&t, raw->positions + (size_t)i * 3, 3, "v", err)) != MTS_OK)
+                goto done;
+            raw->vertex_count = i + 1;
+        } else if (word_is(w, wn, "vn")) {
+            if (vn_count == vn_capacity) {
+                if (vn_count >= MTS__MESH_MAX_COUNT) {
+                    r = mts_error_set(err, MTS_ERR_LIMIT, "%s: more than %u normals", t.name,
+                                      MTS__MESH_MAX_COUNT);
+                    goto done;
+                }
+                uint64_t cap = vn_capacity ? (uint64_t)vn_capacity * 2 : 256;
+                if (cap > MTS__MESH_MAX_COUNT)
+                    cap = MTS__MESH_MAX_COUNT;
+                float *grown = realloc(vn, (size_t)cap * 3 * sizeof *grown);
+                if (!grown) {
+                    r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for normals", t.name);
+                    goto done;
+                }
+                vn = grown;
+                vn_capacity = (uint32_t)cap;
+            }
+            float *n = vn + (size_t)vn_count * 3;
+            if ((r = obj_floats(&t, n, 3, "vn", err)) != MTS_OK)
+                goto done;
+            /* stored unit length so that a vertex named with several normals
+             * gets their plain average direction */
+            double len = sqrt((double)n[0] * n[0] + (double)n[1] * n[1] + (double)n[2] * n[2]);
+            for (int c = 0; c < 3; c++)
+                n[c] = len > 0 ? (float)(n[c] / len) : 0.0f;
+            vn_count++;
+        } else if (word_is(w, wn, "vt")) {
+            if (vt_count < MTS__MESH_MAX_COUNT)
+                vt_count++;
+        } else if (word_is(w, wn, "f")) {
+            fan poly = {0, 0, 0};
+            for (;;) {
+                text_blank(&t);
+                if (text_eol(&t))
+                    break;
+                int64_t iv, it = 0, in = 0, rv;
+                if ((r = obj_index(&t, &iv, err)) != MTS_OK)
+                    goto done;
+                if ((rv = obj_resolve(iv, raw->vertex_count)) < 0) {
+                    r = obj_range(&t, "vertex", iv, raw->vertex_count, err);
+                    goto done;
+                }
+                if (t.p < t.end && *t.p == '/') {
+                    t.p++;
+                    if (t.p < t.end && *t.p != '/') {
+                        if ((r = obj_index(&t, &it, err)) != MTS_OK)
+                            goto done;
+                        if (obj_resolve(it, vt_count) < 0) {
+                            r = obj_range(&t, "texture", it, vt_count, err);
+                            goto done;
+                        }
+                    }
+                    if (t.p < t.end && *t.p == '/') {
+                        t.p++;
+                        if ((r = obj_index(&t, &in, err)) != MTS_OK)
+                            goto done;
+                        int64_t rn = obj_resolve(in, vn_count);
+                        if (rn < 0) {
+                            r = obj_range(&t, "normal", in, vn_count, err);
+                            goto done;
+                        }
+                        float *dst = raw->normals + (size_t)rv * 3;
+                        const float *src = vn + (size_t)rn * 3;
+                        dst[0] += src[0];
+                        dst[1] += src[1];
+                        dst[2] += src[2];
+                    }
+                }
+                if (!token_ends(&t, t.p)) {
+                    r = text_bad_number(&t, err);
+                    goto done;
+                }
+                every_corner_has_vn &= in != 0;
+                if ((r = fan_add(raw, &poly, (uint32_t)rv, err)) != MTS_OK)
+                    goto done;
+            }
+            if ((r = fan_end(raw, &poly, err)) != MTS_OK)
+                goto done;
+        }
+        /* anything else (vt values, g, o, s, usemtl, mtllib, l, p, comments)
+         * does not shape the surface */
+        text_next_line(&t);
+    }
+    st->file_vertices = raw->vertex_count;
+    if (vn_count == 0 || !every_corner_has_vn || st->file_faces == 0) {
+        free(raw->normals);
+        raw->normals = NULL;
+    }
+done:
+    free(vn);
+    return r;
+}
+
+/* ------------------------------------------------------------------------ */
+/* PLY                                                                      */
+
+enum ply_type { PLY_NONE, PLY_I8, PLY_U8, PLY_I16, PLY_U16, PLY_I32, PLY_U32, PLY_F32, PLY_F64 };
+static const unsigned ply_size[] = {0, 1, 1, 2, 2, 4, 4, 4, 8};
+
+enum ply_role { ROLE_SKIP, ROLE_X, ROLE_Y, ROLE_Z, ROLE_NX, ROLE_NY, ROLE_NZ, ROLE_INDICES };
+enum ply_kind { ELEM_OTHER, ELEM_VERTEX, ELEM_FACE };
+enum ply_format { PLY_ASCII, PLY_LE, PLY_BE };
+
+#define PLY_MAX_ELEMENTS 64
+#define PLY_MAX_PROPERTIES 1024
+
+typedef struct ply_prop {
+    uint8_t type;       /* the scalar, or the list's item type */
+    uint8_t count_type; /* the list's count type; PLY_NONE for a scalar */
+    uint8_t role;
+} ply_prop;
+
+typedef struct ply_elem {
+    char name[32];
+    uint32_t count;
+    uint32_t first, props; /* its properties in the flat property array */
+    int kind;
+    uint64_t min_bytes; /* the least one instance can take in the file */
+} ply_elem;
+
+typedef struct ply {
+    int format;
+    ply_elem elems[PLY_MAX_ELEMENTS];
+    ply_prop props[PLY_MAX_PROPERTIES];
+    uint32_t elem_count, prop_count;
+    /* the data cursor: text for ASCII, bytes otherwise */
+    text t;
+    const unsigned char *p, *end;
+} ply;
+
+static int ply_type_of(const char *w, size_t n)
+{
+    static const struct {
+        const char *name;
+        int type;
+    } names[] = {{"char", PLY_I8},     {"int8", PLY_I8},     {"uchar", PLY_U8},
+                 {"uint8", PLY_U8},    {"short", PLY_I16},   {"int16", PLY_I16},
+                 {"ushort", PLY_U16},  {"uint16", PLY_U16},  {"int", PLY_I32},
+                 {"int32", PLY_I32},   {"uint", PLY_U32},    {"uint32", PLY_U32},
+                 {"float", PLY_F32},   {"float32", PLY_F32}, {"double", PLY_F64},
+                 {"float64", PLY_F64}};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
+        if (word_is(w, n, names[i].name))
+            return names[i].type;
+    return PLY_NONE;
+}
+
+static const char *ply_noun(const ply_elem *e)
+{
+    return e->kind == ELEM_VERTEX ? "vertices" : e->kind == ELEM_FACE ? "faces" : e->name;
+}
+
+/* Reads the header up to and including the end_header line. */
+static mts_result ply_header(ply *P, mts__mesh_raw *raw, mts_error *err)
+{
+    text *t = &P->t;
+    const char *name = raw->name;
+    const char *w;
+    size_t wn = text_word(t, &w);
+    if (!word_is(w, wn, "ply"))
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: not a PLY file (no 'ply' magic)", name);
+    text_next_line(t);
+    int have_format = 0;
+    ply_elem *cur = NULL;
+    for (;;) {
+        if (text_eof(t))
+            return mts_error_set(err, MTS_ERR_FORMAT, "%s: truncated: the PLY header has no end_header",
+                                 name);
+        wn = text_word(t, &w);
+        if (word_is(w, wn, "end_header")) {
+            text_next_line(t);
+            break;
+        } else if (wn == 0 || word_is(w, wn, "comment") || word_is(w, wn, "obj_info")) {
+            /* nothing */
+        } else if (word_is(w, wn, "format")) {
+            const char *f, *v;
+            size_t fn = text_word(t, &f), vn = text_word(t, &v);
+            if (word_is(f, fn, "ascii"))
+                P->format = PLY_ASCII;
+            else if (word_is(f, fn, "binary_little_endian"))
+                P->format = PLY_LE;
+            else if (word_is(f, fn, "binary_big_endian"))
+                P->format = PLY_BE;
+            else
+                return mts_error_set(err, MTS_ERR_VERSION, "%s: line %llu: unknown PLY format '%.*s'",
+                                     name, (unsigned long long)t->line, (int)(fn < 40 ? fn : 40), f);
+            if (vn == 0 || v[0] != '1')
+                return mts_error_set(err, MTS_ERR_VERSION, "%s: line %llu: PLY version '%.*s' is not 1.x",
+                                     name, (unsigned long long)t->line, (int)(vn < 40 ? vn : 40), v);
+            have_format = 1;
+        } else if (word_is(w, wn, "element")) {
+            if (P->elem_count == PLY_MAX_ELEMENTS)
+                return mts_error_set(err, MTS_ERR_LIMIT, "%s: more than %d PLY elements", name,
+                                     PLY_MAX_ELEMENTS);
+            const char *en;
+            size_t enn = text_word(t, &en);
+            text_blank(t);
+            int64_t count;
+            if (enn == 0 || text_eol(t) || scan_int(&t->p, t->end, &count) != 0 ||
+                !token_ends(t, t->p) || count < 0)
+                return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: bad element line", name,
+                                     (unsigned long long)t->line);
+            if (count > (int64_t)MTS__MESH_MAX_COUNT)
+                return mts_error_set(err, MTS_ERR_LIMIT,
+                                     "%s: line %llu: %lld '%.*s' elements is over the limit of %u",
+                                     name, (unsigned long long)t->line, (long long)count,
+                                     (int)(enn < 40 ? enn : 40), en, MTS__MESH_MAX_COUNT);
+            cur = &P->elems[P->elem_count++];
+            memset(cur, 0, sizeof *cur);
+            size_t keep = enn < sizeof cur->name - 1 ? enn : sizeof cur->name - 1;
+            memcpy(cur->name, en, keep);
+            cur->count = (uint32_t)count;
+            cur->first = P->prop_count;
+            if (word_is(en, enn, "vertex") || word_is(en, enn, "face")) {
+                int kind = word_is(en, enn, "vertex") ? ELEM_VERTEX : ELEM_FACE;
+                for (uint32_t e = 0; e + 1 < P->elem_count; e++)
+                    if (P->elems[e].kind == kind)
+                        return mts_error_set(err, MTS_ERR_FORMAT, "%s: two '%s' elements", name,
+                                             cur->name);
+                cur->kind = kind;
+            }
+        } else if (word_is(w, wn, "property")) {
+            if (!cur)
+                return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: property before any element",
+                                     name, (unsigned long long)t->line);
+            if (P->prop_count == PLY_MAX_PROPERTIES)
+                return mts_error_set(err, MTS_ERR_LIMIT, "%s: more than %d PLY properties", name,
+                                     PLY_MAX_PROPERTIES);
+            ply_prop prop = {PLY_NONE, PLY_NONE, ROLE_SKIP};
+            const char *tw, *pn;
+            size_t twn = text_word(t, &tw);
+            if (word_is(tw, twn, "list")) {
+                const char *cw;
+                size_t cwn = text_word(t, &cw);
+                twn = text_word(t, &tw);
+                prop.count_type = (uint8_t)ply_type_of(cw, cwn);
+                if (prop.count_type == PLY_NONE || prop.count_type == PLY_F32 ||
+                    prop.count_type == PLY_F64)
+                    return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: bad list count type",
+                                         name, (unsigned long long)t->line);
+            }
+            prop.type = (uint8_t)ply_type_of(tw, twn);
+            size_t pnn = text_word(t, &pn);
+            if (prop.type == PLY_NONE || pnn == 0)
+                return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: bad property type '%.*s'",
+                                     name, (unsigned long long)t->line, (int)(twn < 40 ? twn : 40), tw);
+            int is_list = prop.count_type != PLY_NONE;
+            if (cur->kind == ELEM_VERTEX && !is_list) {
+                static const char *const coords[] = {"x", "y", "z", "nx", "ny", "nz"};
+                for (int c = 0; c < 6; c++)
+                    if (word_is(pn, pnn, coords[c]))
+                        prop.role = (uint8_t)(ROLE_X + c);
+            } else if (cur->kind == ELEM_FACE &&
+                       (word_is(pn, pnn, "vertex_indices") || word_is(pn, pnn, "vertex_index"))) {
+                if (!is_list)
+                    return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: %.*s is not a list",
+                                         name, (unsigned long long)t->line, (int)pnn, pn);
+                prop.role = ROLE_INDICES;
+            }
+            P->props[P->prop_count++] = prop;
+            cur->props++;
+        } else {
+            return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: unknown PLY header line '%.*s'",
+                                 name, (unsigned long long)t->line, (int)(wn < 40 ? wn : 40), w);
+        }
+        text_next_line(t);
+    }
+    if (!have_format)
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: the PLY header has no format line", name);
+    return MTS_OK;
+}
+
+/* Reading one value, ASCII or binary. Returns 0, 1 at the end of the data, 2
+ * for a bad token / non-finite or non-integral value. */
+static int ply_binary(ply *P, int type, double *out)
+{
+    unsigned n = ply_size[type];
+    if ((size_t)(P->end - P->p) < n)
+        return 1;
+    uint64_t u = 0;
+    if (P->format == PLY_LE)
+        for (unsigned i = n; i-- > 0;)
+            u = u << 8 | P->p[i];
+    else
+        for (unsigned i = 0; i < n; i++)
+            u = u << 8 | P->p[i];
+    P->p += n;
+    switch (type) {
+    case PLY_I8: *out = (int8_t)(uint8_t)u; break;
+    case PLY_U8: *out = (uint8_t)u; break;
+    case PLY_I16: *out = (int16_t)(uint16_t)u; break;
+    case PLY_U16: *out = (uint16_t)u; break;
+    case PLY_I32: *out = (int32_t)(uint32_t)u; break;
+    case PLY_U32: *out = (uint32_t)u; break;
+    case PLY_F32: {
+        uint32_t w = (uint32_t)u;
+        float f;
+        memcpy(&f, &w, sizeof f);
+        *out = f;
+        break;
+    }
+    default: {
+        double d;
+        memcpy(&d, &u, sizeof d);
+        *out = d;
+        break;
+    }
+    }
+    return isfinite(*out) ? 0 : 2;
+}
+
+static int ply_get_float(ply *P, int type, float *out)
+{
+    if (P->format != PLY_ASCII) {
+        double d;
+        int r = ply_binary(P, type, &d);
+        if (r == 0) {
+            if (fabs(d) > FLT_MAX)
+                return 2;
+            *out = (float)d;
+        }
+        return r;
+    }
+    text_space(&P->t);
+    if (text_eof(&P->t))
+        return 1;
+    const char *s = P->t.p;
+    if (mts__mesh_scan_float(&s, P->t.end, out) != 0 || !token_ends(&P->t, s))
+        return P->t.p + token_len(&P->t) >= P->t.end ? 1 : 2; /* cut inside: truncated */
+    P->t.p = s;
+    return 0;
+}
+
+static int ply_get_int(ply *P, int type, int64_t *out)
+{
+    if (P->format != PLY_ASCII) {
+        double d;
+        int r = ply_binary(P, type, &d);
+        if (r == 0) {
+            if (d != floor(d) || fabs(d) > 1e15)
+                return 2;
+            *out = (int64_t)d;
+        }
+        return r;
+    }
+    text_space(&P->t);
+    if (text_eof(&P->t))
+        return 1;
+    const char *s = P->t.p;
+    if (scan_int(&s, P->t.end, out) != 0 || !token_ends(&P->t, s)) {
+        /* an integral value written as a float ("3.0") in a float-typed list */
+        float f;
+        s = P->t.p;
+        int cut = P->t.p + token_len(&P->t) >= P->t.end;
+        if (type != PLY_F32 && type != PLY_F64)
+            return cut ? 1 : 2;
+        if (mts__mesh_scan_float(&s, P->t.end, &f) != 0 || !token_ends(&P->t, s))
+            return cut ? 1 : 2;
+        if (f != floorf(f) || fabsf(f) > 1e15f)
+            return 2;
+        *out = (int64_t)f;
+    }
+    P->t.p = s;
+    return 0;
+}
+
+/* Skips n values of one type. */
+static int ply_skip(ply *P, int type, uint64_t n)
+{
+    if (P->format != PLY_ASCII) {
+        uint64_t bytes = n * ply_size[type]; /* n < 2^31, size <= 8: no overflow */
+        if ((uint64_t)(P->end - P->p) < bytes)
+            return 1;
+        P->p += bytes;
+        return 0;
+    }
+    for (uint64_t i = 0; i < n; i++) {
+        text_space(&P->t);
+        if (text_eof(&P->t))
+            return 1;
+        while (P->t.p < P->t.end && !is_space(*P->t.p))
+            P->t.p++;
+    }
+    return 0;
+}
+
+static mts_result ply_value_error(const ply *P, const ply_elem *e, uint32_t i, int status,
+                                  const char *name, mts_error *err)
+{
+    if (status == 1)
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: truncated: expected %u %s, file ends after %u",
+                             name, e->count, ply_noun(e), i);
+    if (P->format == PLY_ASCII)
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: bad value '%.*s' in %s %u", name,
+                             (unsigned long long)P->t.line, token_len(&P->t), P->t.p, e->name, i);
+    return mts_error_set(err, MTS_ERR_FORMAT, "%s: %s %u: a value is not finite or not an integer",
+                         name, e->name, i);
+}
+
+mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
+{
+    const char *name = raw->name;
+    mts_mesh_stats *st = raw->stats;
+    st->format = MTS_MESH_PLY;
+    ply *P = calloc(1, sizeof *P); /* the property table is too big for some stacks */
+    if (!P)
+        return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory", name);
+    P->t = (text){data, data + size, 1, 0, name};
+    mts_result r = ply_header(P, raw, err);
+    if (r != MTS_OK)
+        goto done;
+
+    ply_elem *vert = NULL, *face = NULL;
+    int has_xyz[3] = {0, 0, 0}, has_n[3] = {0, 0, 0}, has_indices = 0;
+    for (uint32_t e = 0; e < P->elem_count; e++) {
+        ply_elem *el = &P->elems[e];
+        uint64_t min = 0;
+        for (uint32_t k = 0; k < el->props; k++) {
+            const ply_prop *pr = &P->props[el->first + k];
+            /* the least an instance takes: a scalar's bytes or a list's count
+             * in binary, a character and a separator per value in ASCII */
+            min += P->format == PLY_ASCII
+                       ? 1
+                       : ply_size[pr->count_type != PLY_NONE ? pr->count_type : pr->type];
+            if (pr->role >= ROLE_X && pr->role <= ROLE_Z)
+                has_xyz[pr->role - ROLE_X] = 1;
+            else if (pr->role >= ROLE_NX && pr->role <= ROLE_NZ)
+                has_n[pr->role - ROLE_NX] = 1;
+            else if (pr->role == ROLE_INDICES)
+                has_indices = 1;
+        }
+        el->min_bytes = min;
+        if (el->kind == ELEM_VERTEX)
+            vert = el;
+        else if (el->kind == ELEM_FACE)
+            face = el;
+    }
+    if (!vert || !has_xyz[0] || !has_xyz[1] || !has_xyz[2]) {
+        r = mts_error_set(err, MTS_ERR_FORMAT, "%s: the PLY file has no vertex element with x, y, z",
+                          name);
+        goto done;
+    }
+    if (!face || !has_indices) {
+        r = mts_error_set(err, MTS_ERR_FORMAT, "%s: no triangles: the PLY file has no face element "
+                          "with vertex_indices", name);
+        goto done;
+    }
+    int with_normals = has_n[0] && has_n[1] && has_n[2];
+    const uint32_t nv = vert->count;
+
+    if (P->format != PLY_ASCII) {
+        P->p = (const unsigned char *)P->t.p;
+        P->end = (const unsigned char *)P->t.end;
+    }
+    size_t left = (size_t)(P->t.end - P->t.p);
+    {
+        /* reserve what the bytes left can hold, not what the header claims */
+        uint64_t cap_v = vert->min_bytes ? left / vert->min_bytes + 1 : nv;
+        uint64_t cap_f = face->min_bytes ? left / face->min_bytes + 1 : face->count;
+        if ((r = raw_reserve_vertices(raw, nv < cap_v ? nv : cap_v, with_normals, err)) != MTS_OK ||
+            (r = raw_reserve_triangles(raw, face->count < cap_f ? face->count : cap_f, err)) != MTS_OK)
+            goto done;
+    }
+
+    for (uint32_t e = 0; e < P->elem_count; e++) {
+        const ply_elem *el = &P->elems[e];
+        const ply_prop *props = P->props + el->first;
+        if (el->props == 0)
+            continue; /* nothing in the file to read, however many it claims */
+        for (uint32_t i = 0; i < el->count; i++) {
+            float v[7] = {0, 0, 0, 0, 0, 0, 0};
+            fan poly = {0, 0, 0};
+            int status = 0;
+            if (el->kind == ELEM_VERTEX &&
+                (r = raw_reserve_vertices(raw, (uint64_t)i + 1, with_normals, err)) != MTS_OK)
+                goto done;
+            for (uint32_t k = 0; k < el->props && status == 0; k++) {
+                const ply_prop *pr = &props[k];
+                if (pr->count_type == PLY_NONE) {
+                    if (pr->role != ROLE_SKIP)
+                        status = ply_get_float(P, pr->type, &v[pr->role]);
+                    else
+                        status = ply_skip(P, pr->type, 1);
+                    continue;
+                }
+                int64_t n;
+                if ((status = ply_get_int(P, pr->count_type, &n)) != 0)
+                    break;
+                if (n < 0 || n > (int64_t)MTS__MESH_MAX_COUNT) {
+                    r = mts_error_set(err, MTS_ERR_FORMAT, "%s: %s %u: list of %lld items", name,
+                                      el->name, i, (long long)n);
+                    goto done;
+                }
+                if (pr->role != ROLE_INDICES) {
+                    status = ply_skip(P, pr->type, (uint64_t)n);
+                    continue;
+                }
+                for (int64_t c = 0; c < n && status == 0; c++) {
+                    int64_t idx;
+                    if ((status = ply_get_int(P, pr->type, &idx)) != 0)
+                        break;
+                    if (idx < 0 || idx >= nv) {
+                        if (P->format == PLY_ASCII)
+                            r = mts_error_set(err, MTS_ERR_RANGE,
+                                              "%s: line %llu: face %u: vertex index %lld out of "
+                                              "range (%u vertices)",
+                                              name, (unsigned long long)P->t.line, i,
+                                              (long long)idx, nv);
+                        else
+                            r = mts_error_set(err, MTS_ERR_RANGE,
+                                              "%s: face %u: vertex index %lld out of range "
+                                              "(%u vertices)",
+                                              name, i, (long long)idx, nv);
+                        goto done;
+                    }
+                    if ((r = fan_add(raw, &poly, (uint32_t)idx, err)) != MTS_OK)
+                        goto done;
+                }
+            }
+            if (status != 0) {
+                r = ply_value_error(P, el, i, status, name, err);
+                goto done;
+            }
+            if (el->kind == ELEM_VERTEX) {
+                memcpy(raw->positions + (size_t)i * 3, v + ROLE_X, 3 * sizeof *v);
+                if (with_normals)
+                    memcpy(raw->normals + (size_t)i * 3, v + ROLE_NX, 3 * sizeof *v);
+            } else if (el->kind == ELEM_FACE) {
+                if ((r = fan_end(raw, &poly, err)) != MTS_OK)
+                    goto done;
+            }
+        }
+        if (el->kind == ELEM_VERTEX)
+            raw->vertex_count = nv;
+    }
+    st->file_vertices = nv;
+done:
+    free(P);
+    return r;
+}
+
+/* ------------------------------------------------------------------------ */
+/* STL                                                                      */
+
+static inline uint32_t hash3(uint32_t a, uint32_t b, uint32_t c)
+{
+    uint64_t h = (uint64_t)a * UINT64_C(0x9E3779B97F4A7C15);
+    h ^= (uint64_t)b * UINT64_C(0xC2B2AE3D27D4EB4F) + (h >> 29);
+    h ^= (uint64_t)c * UINT64_C(0x165667B19E3779F9) + (h >> 31);
+    return (uint32_t)(h ^ (h >> 32));
+}
+
+static inline uint32_t float_key(float f)
+{
+    if (f == 0.0f)
+        f = 0.0f; /* -0 and +0 are the same position */
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+/* STL stores every facet's corners separately: merge corners at identical
+ * positions into one vertex (first appearance order) through a hash table so
+ * that the mesh has connectivity. */
+static mts_result stl_weld(mts__mesh_raw *raw, mts_error *err)
+{
+    uint32_t n = raw->vertex_count;
+    raw->stats->file_vertices = n;
+    if (n == 0)
+        return MTS_OK;
+    uint64_t cap = 16;
+    while (cap < (uint64_t)n * 2)
+        cap *= 2;
+    uint32_t *table = malloc((size_t)cap * sizeof *table);
+    uint32_t *remap = malloc((size_t)n * sizeof *remap);
+    if (!table || !remap) {
+        free(table);
+        free(remap);
+        return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory welding %u corners", raw->name,
+                             n);
+    }
+    memset(table, 0xff, (size_t)cap * sizeof *table);
+    float *pos = raw->positions;
+    uint32_t unique = 0;
+    for (uint32_t c = 0; c < n; c++) {
+        const float *p = pos + (size_t)c * 3;
+        uint32_t h = hash3(float_key(p[0]), float_key(p[1]), float_key(p[2])) & (uint32_t)(cap - 1);
+        for (;;) {
+            uint32_t u = table[h];
+            if (u == UINT32_MAX) {
+                /* unique <= c, so this never overwrites a corner not yet seen */
+                memmove(pos + (size_t)unique * 3, p, 3 * sizeof *p);
+                table[h] = unique;
+                remap[c] = unique++;
+                break;
+            }
+            const float *q = pos + (size_t)u * 3;
+            if (q[0] == p[0] && q[1] == p[1] && q[2] == p[2]) {
+                remap[c] = u;
+                break;
+            }
+            h = (h + 1) & (uint32_t)(cap - 1);
+        }
+    }
+    uint32_t *t = raw->triangles;
+    for (size_t i = 0; i < (size_t)raw->triangle_count * 3; i++)
+        t[i] = remap[t[i]];
+    raw->vertex_count = unique;
+    raw->stats->welded_vertices = n - unique;
+    free(table);
+    free(remap);
+    return MTS_OK;
+}
+
+static inline uint32_t le32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static mts_result stl_binary(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
+{
+    if (size < 84)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: truncated: a binary STL needs 84 header bytes, the file has %zu",
+                             raw->name, size);
+    const unsigned char *b = (const unsigned char *)data;
+    uint32_t count = le32(b + 80);
+    if (count > MTS__MESH_MAX_COUNT / 3)
+        return mts_error_set(err, MTS_ERR_LIMIT, "%s: %u facets is over the limit of %u", raw->name,
+                             count, MTS__MESH_MAX_COUNT / 3);
+    uint64_t need = 84 + (uint64_t)count * 50;
+    if (need > size)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: truncated: expected %u facets (%llu bytes), the file has %zu bytes",
+                             raw->name, count, (unsigned long long)need, size);
+    mts_result r;
+    if ((r = raw_reserve_vertices(raw, (uint64_t)count * 3, 0, err)) != MTS_OK ||
+        (r = raw_reserve_triangles(raw, count, err)) != MTS_OK)
+        return r;
+    for (uint32_t f = 0; f < count; f++) {
+        const unsigned char *rec = b + 84 + (size_t)f * 50 + 12; /* past the facet normal */
+        float *p = raw->positions + (size_t)f * 9;
+        for (int k = 0; k < 9; k++) {
+            uint32_t u = le32(rec + 4 * k);
+            memcpy(&p[k], &u, sizeof u);
+            if (!isfinite(p[k]))
+                return mts_error_set(err, MTS_ERR_FORMAT, "%s: facet %u has a non-finite coordinate",
+                                     raw->name, f);
+        }
+        uint32_t *t = raw->triangles + (size_t)f * 3;
+        t[0] = 3 * f;
+        t[1] = 3 * f + 1;
+        t[2] = 3 * f + 2;
+        raw->stats->file_faces++;
+    }
+    raw->vertex_count = count * 3;
+    raw->triangle_count = count;
+    return MTS_OK;
+}
+
+/* A word that is not the keyword expected; when it is the keyword's start
+ * cut off by the end of the file, the file was truncated, not corrupt. */
+static mts_result stl_unexpected(const text *t, const char *kw, const char *w, size_t n,
+                                 uint32_t facet, mts_error *err)
+{
+    if (t->p >= t->end && n < strlen(kw) && memcmp(w, kw, n) == 0)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: truncated: the file ends inside facet %u (expected '%s')", t->name,
+                             facet, kw);
+    return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: expected '%s', found '%.*s'",
+                         t->name, (unsigned long long)t->line, kw, (int)(n < 40 ? n : 40), w);
+}
+
+/* Expects keyword `kw` as the next word (across lines). */
+static mts_result stl_expect(text *t, const char *kw, uint32_t facet, mts_error *err)
+{
+    text_space(t);
+    if (text_eof(t))
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: truncated: the file ends inside facet %u (expected '%s')", t->name,
+                             facet, kw);
+    const char *w;
+    size_t n = text_word(t, &w);
+    if (!word_is(w, n, kw))
+        return stl_unexpected(t, kw, w, n, facet, err);
+    return MTS_OK;
+}
+
+static mts_result stl_floats(text *t, float *v, uint32_t facet, mts_error *err)
+{
+    for (int c = 0; c < 3; c++) {
+        text_space(t);
+        if (text_eof(t))
+            return mts_error_set(err, MTS_ERR_FORMAT, "%s: truncated: the file ends inside facet %u",
+                                 t->name, facet);
+        mts_result r = text_float(t, &v[c], err);
+        if (r != MTS_OK)
+            return r;
+    }
+    return MTS_OK;
+}
+
+static mts_result stl_ascii(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
+{
+    text t = {data, data + size, 1, 0, raw->name};
+    mts_result r;
+    uint32_t facet = 0;
+    if ((r = stl_expect(&t, "solid", 0, err)) != MTS_OK)
+        return r;
+    text_next_line(&t); /* the solid's name */
+    for (;;) {
+        text_space(&t);
+        if (text_eof(&t))
+            return mts_error_set(err, MTS_ERR_FORMAT, "%s: truncated: no 'endsolid' after %u facets",
+                                 t.name, facet);
+        const char *w;
+        size_t n = text_word(&t, &w);
+        if (word_is(w, n, "endsolid")) {
+            text_next_line(&t);
+            text_space(&t);
+            if (text_eof(&t))
+                break;
+            /* several solids in one file */
+            if ((r = stl_expect(&t, "solid", facet, err)) != MTS_OK)
+                return r;
+            text_next_line(&t);
+            continue;
+        }
+        if (!word_is(w, n, "facet"))
+            return stl_unexpected(&t, n > 0 && w[0] == 'e' ? "endsolid" : "facet", w, n, facet,
+                                  err);
+        float normal[3];
+        if ((r = stl_expect(&t, "normal", facet, err)) != MTS_OK ||
+            (r = stl_floats(&t, normal, facet, err)) != MTS_OK ||
+            (r = stl_expect(&t, "outer", facet, err)) != MTS_OK ||
+            (r = stl_expect(&t, "loop", facet, err)) != MTS_OK)
+            return r;
+        fan poly = {0, 0, 0};
+        for (;;) {
+            text_space(&t);
+            if (text_eof(&t))
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "%s: truncated: the file ends inside facet %u", t.name, facet);
+            n = text_word(&t, &w);
+            if (word_is(w, n, "endloop"))
+                break;
+            if (!word_is(w, n, "vertex"))
+                return stl_unexpected(&t, n > 0 && w[0] == 'e' ? "endloop" : "vertex", w, n,
+                                      facet, err);
+            uint32_t v = raw->vertex_count;
+            if ((r = raw_reserve_vertices(raw, (uint64_t)v + 1, 0, err)) != MTS_OK ||
+                (r = stl_floats(&t, raw->positions + (size_t)v * 3, facet, err)) != MTS_OK)
+                return r;
+            raw->vertex_count = v + 1;
+            if ((r = fan_add(raw, &poly, v, err)) != MTS_OK)
+                return r;
+        }
+        if ((r = stl_expect(&t, "endfacet", facet, err)) != MTS_OK ||
+            (r = fan_end(raw, &poly, err)) != MTS_OK)
+            return r;
+        facet++;
+    }
+    return MTS_OK;
+}
+
+/* A buffer that starts with "solid" is ASCII unless its size is exactly
+ * what a binary STL with the count at byte 80 would take: some binary
+ * exporters put "solid" in the 80-byte header. */
+static int stl_is_binary(const char *data, size_t size)
+{
+    if (size >= 84 && 84 + (uint64_t)le32((const unsigned char *)data + 80) * 50 == size)
+        return 1;
+    size_t i = 0;
+    while (i < size && is_space(data[i]))
+        i++;
+    return !(size - i >= 5 && memcmp(data + i, "solid", 5) == 0);
+}
+
+mts_result mts__mesh_read_stl(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
+{
+    raw->stats->format = MTS_MESH_STL;
+    mts_result r = stl_is_binary(data, size) ? stl_binary(raw, data, size, err)
+                                             : stl_ascii(raw, data, size, err);
+    if (r == MTS_OK)
+        r = stl_weld(raw, err);
+    return r;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Sniffing                                                                 */
+
+static const char *find_bytes(const char *hay, size_t n, const char *needle)
+{
+    size_t k = strlen(needle);
+    for (size_t i = 0; i + k <= n; i++)
+        if (hay[i] == needle[0] && memcmp(hay + i, needle, k) == 0)
+            return hay + i;
+    return NULL;
+}
+
+mts_mesh_format mts__mesh_sniff(const char *data, size_t size)
+{
+    /* binary STL first: its 80-byte header may say anything, even "solid" */
+    if (size >= 84 && 84 + (uint64_t)le32((const unsigned char *)data + 80) * 50 == size)
+        return MTS_MESH_STL;
+    if (size >= 4 && memcmp(data, "ply", 3) == 0 && (data[3] == '\n' || data[3] == '\r'))
+        return MTS_MESH_PLY;
+    text t = {data + bom_length(data, size), data + size, 1, 1, ""};
+    text_space(&t);
+    const char *w;
+    size_t wn = text_word(&t, &w);
+    int normals, four, ndim;
+    size_t k = off_keyword(w, wn, &normals, &four, &ndim);
+    if (k > 0 && (k == wn || (unsigned)(w[k] - '0') < 10))
+        return MTS_MESH_OFF;
+    size_t head = size < 65536 ? size : 65536;
+    if (word_is(w, wn, "solid") && find_bytes(data, head, "facet"))
+        return MTS_MESH_STL;
+    /* OBJ has no magic: the first keyword of the first few lines that carry one */
+    t = (text){data + bom_length(data, size), data + head, 1, 1, ""};
+    for (int lines = 0; lines < 64 && !text_eof(&t); lines++) {
+        text_space(&t);
+        wn = text_word(&t, &w);
+        static const char *const obj_words[] = {"v", "vn", "vt", "vp", "f", "o", "g", "s",
+                                                 "l", "mtllib", "usemtl"};
+        for (size_t i = 0; i < sizeof obj_words / sizeof obj_words[0]; i++)
+            if (word_is(w, wn, obj_words[i]))
+                return MTS_MESH_OBJ;
+        if (wn > 0)
+            break;
+    }
+    return MTS_MESH_AUTO;
+}

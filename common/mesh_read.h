@@ -1,0 +1,53 @@
+/* Internal to the mesh loader (mesh.c + mesh_read.c): the per-format parsers
+ * and what they hand to the cleaning pipeline. Not part of the public API.
+ *
+ * A parser reads the bytes of one file and fills an mts__mesh_raw: positions
+ * (and normals when the file has per-vertex normals) plus the polygons already
+ * fan-triangulated, winding kept, with every index checked against the vertex
+ * count. Everything after that (degenerate, duplicate and non-manifold faces,
+ * unreferenced vertices, normals) is mesh.c's job, the same for every format. */
+#ifndef MTS_MESH_READ_H
+#define MTS_MESH_READ_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "error.h"
+#include "mesh.h"
+
+/* Every count (vertices, polygons, triangles, corners) stays below 2^31 so
+ * that it fits an int anywhere downstream (OpenMesh handles are int). */
+#define MTS__MESH_MAX_COUNT 0x7fffffffu
+
+typedef struct mts__mesh_raw {
+    const char *name;        /* for messages */
+    uint32_t vertex_count;
+    uint32_t vertex_capacity;
+    float *positions;        /* 3 per vertex */
+    float *normals;          /* 3 per vertex when the file has per-vertex normals, else NULL */
+    uint32_t triangle_count;
+    uint32_t triangle_capacity;
+    uint32_t *triangles;     /* 3 per triangle, indices < vertex_count */
+    mts_mesh_stats *stats;   /* the parser fills format, file_*, polygons_triangulated,
+                              * welded_vertices, and counts polygons of < 3 corners in
+                              * degenerate_faces */
+} mts__mesh_raw;
+
+void mts__mesh_raw_free(mts__mesh_raw *raw);
+
+/* The parsers. data need not be NUL-terminated; size > 0. */
+mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
+mts_result mts__mesh_read_obj(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
+mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
+mts_result mts__mesh_read_stl(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
+
+/* The format the content looks like, or MTS_MESH_AUTO when none fits. */
+mts_mesh_format mts__mesh_sniff(const char *data, size_t size);
+
+/* Parses a decimal floating-point number at *s (no leading blanks) into the
+ * nearest float, exactly as strtof would in the C locale, without needing a
+ * NUL terminator. On success advances *s and returns 0; returns -1 when there
+ * is no number there and -2 when it does not fit a float. Exposed for tests. */
+int mts__mesh_scan_float(const char **s, const char *end, float *out);
+
+#endif

@@ -1,0 +1,1165 @@
+/* Mesh loading: every format and variant on small meshes whose answer is
+ * known, the cleaning pipeline's counts, every kind of bad input (which must
+ * give the right code and a message naming the file, never a crash), and the
+ * real models for counts and load time. */
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <time.h>
+
+#include "mesh.h"
+#include "mesh_read.h"
+#include "test.h"
+
+/* ------------------------------------------------------------------------ */
+/* Helpers                                                                  */
+
+typedef struct buf {
+    unsigned char *d;
+    size_t n, cap;
+} buf;
+
+static void buf_put(buf *b, const void *p, size_t n)
+{
+    if (b->n + n > b->cap) {
+        size_t cap = b->cap ? b->cap : 256;
+        while (cap < b->n + n)
+            cap *= 2;
+        unsigned char *d = realloc(b->d, cap);
+        if (!d)
+            abort();
+        b->d = d;
+        b->cap = cap;
+    }
+    memcpy(b->d + b->n, p, n);
+    b->n += n;
+}
+
+static void buf_printf(buf *b, const char *fmt, ...)
+{
+    char tmp[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(tmp, sizeof tmp, fmt, ap);
+    va_end(ap);
+    buf_put(b, tmp, (size_t)n);
+}
+
+static void buf_free(buf *b)
+{
+    free(b->d);
+    *b = (buf){0};
+}
+
+/* Writes data to NAME in the scratch directory; returns the path in out. */
+static const char *write_file(const char *name, const void *data, size_t size, char *out,
+                              size_t out_size)
+{
+    snprintf(out, out_size, "%s/mts_test_mesh_%s", mts_test_tmpdir(), name);
+    FILE *f = fopen(out, "wb");
+    if (!f)
+        return NULL;
+    if (size && fwrite(data, 1, size, f) != size) {
+        fclose(f);
+        return NULL;
+    }
+    fclose(f);
+    return out;
+}
+
+/* Loads text as a file named NAME (through the file path, like a user would). */
+static mts_result load_text(const char *name, const char *text, mts_mesh *mesh,
+                            mts_mesh_stats *stats, mts_error *err)
+{
+    char path[512];
+    if (!write_file(name, text, strlen(text), path, sizeof path))
+        return mts_error_set(err, MTS_ERR_IO, "test could not write %s", name);
+    mts_result r = mts_mesh_load(path, NULL, mesh, stats, err);
+    remove(path);
+    return r;
+}
+
+/* Loads bytes from an exactly sized heap copy, so that ASan sees any read
+ * past the end (the parsers must not need a terminator). */
+static mts_result load_bytes(const char *name, const void *data, size_t size, mts_mesh *mesh,
+                             mts_mesh_stats *stats, mts_error *err)
+{
+    void *copy = malloc(size ? size : 1);
+    if (!copy)
+        abort();
+    if (size)
+        memcpy(copy, data, size);
+    mts_result r = mts_mesh_load_memory(name, copy, size, NULL, mesh, stats, err);
+    free(copy);
+    return r;
+}
+
+static int tri_equal(const uint32_t *t, uint32_t a, uint32_t b, uint32_t c)
+{
+    return t[0] == a && t[1] == b && t[2] == c;
+}
+
+/* Every normal is unit length and points away from the centroid (the test
+ * meshes are convex and closed), and every triangle faces outward. */
+static int outward(const mts_mesh *m)
+{
+    double c[3] = {0, 0, 0};
+    for (uint32_t v = 0; v < m->vertex_count; v++)
+        for (int k = 0; k < 3; k++)
+            c[k] += m->positions[v * 3 + k] / m->vertex_count;
+    for (uint32_t v = 0; v < m->vertex_count; v++) {
+        const float *n = m->normals + v * 3, *p = m->positions + v * 3;
+        double len = sqrt((double)n[0] * n[0] + (double)n[1] * n[1] + (double)n[2] * n[2]);
+        double dot = n[0] * (p[0] - c[0]) + n[1] * (p[1] - c[1]) + n[2] * (p[2] - c[2]);
+        if (fabs(len - 1) > 1e-5 || dot <= 0)
+            return 0;
+    }
+    for (uint32_t f = 0; f < m->triangle_count; f++) {
+        const uint32_t *t = m->triangles + f * 3;
+        const float *a = m->positions + t[0] * 3, *b = m->positions + t[1] * 3,
+                    *d = m->positions + t[2] * 3;
+        double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        double w[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+        double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                       u[0] * w[1] - u[1] * w[0]};
+        double dot = 0;
+        for (int k = 0; k < 3; k++)
+            dot += n[k] * ((a[k] + b[k] + d[k]) / 3 - c[k]);
+        if (dot <= 0)
+            return 0;
+    }
+    return 1;
+}
+
+static int all_unit(const mts_mesh *m)
+{
+    for (uint32_t v = 0; v < m->vertex_count; v++) {
+        const float *n = m->normals + v * 3;
+        double len = sqrt((double)n[0] * n[0] + (double)n[1] * n[1] + (double)n[2] * n[2]);
+        if (fabs(len - 1) > 1e-5)
+            return 0;
+    }
+    return 1;
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+/* The unit tetrahedron, faces counter-clockwise seen from outside. */
+static const float tet_pos[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+static const uint32_t tet_tri[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+
+/* The unit cube: vertex x + 2y + 4z; quads counter-clockwise from outside. */
+static const uint32_t cube_quad[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                                         {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+
+static void check_cube(mts_test *t, const mts_mesh *m, const mts_mesh_stats *st)
+{
+    CHECK(t, m->vertex_count == 8);
+    CHECK(t, m->triangle_count == 12);
+    CHECK(t, st->file_vertices == 8);
+    CHECK(t, st->file_faces == 6);
+    CHECK(t, st->polygons_triangulated == 6);
+    CHECK(t, st->degenerate_faces == 0 && st->duplicate_faces == 0);
+    CHECK(t, st->nonmanifold_faces == 0 && st->unreferenced_vertices == 0);
+    if (m->vertex_count != 8 || m->triangle_count != 12)
+        return;
+    for (int v = 0; v < 8; v++) {
+        CHECK(t, m->positions[v * 3] == (float)(v & 1));
+        CHECK(t, m->positions[v * 3 + 1] == (float)(v >> 1 & 1));
+        CHECK(t, m->positions[v * 3 + 2] == (float)(v >> 2 & 1));
+    }
+    /* fan triangulation keeps the winding: (a b c d) -> (a b c) (a c d) */
+    for (int f = 0; f < 6; f++) {
+        const uint32_t *q = cube_quad[f];
+        CHECK(t, tri_equal(m->triangles + f * 6, q[0], q[1], q[2]));
+        CHECK(t, tri_equal(m->triangles + f * 6 + 3, q[0], q[2], q[3]));
+    }
+    CHECK(t, outward(m));
+}
+
+static void cube_off(buf *b)
+{
+    buf_printf(b, "OFF\n8 6 12\n");
+    for (int v = 0; v < 8; v++)
+        buf_printf(b, "%d %d %d\n", v & 1, v >> 1 & 1, v >> 2 & 1);
+    for (int f = 0; f < 6; f++)
+        buf_printf(b, "4 %u %u %u %u\n", cube_quad[f][0], cube_quad[f][1], cube_quad[f][2],
+                   cube_quad[f][3]);
+}
+
+/* ------------------------------------------------------------------------ */
+/* OFF                                                                      */
+
+static void test_off_tetrahedron(mts_test *t)
+{
+    const char *text = "# a comment before the header\n"
+                       "OFF\n"
+                       "# counts follow\n"
+                       "4 4 6\n"
+                       "0 0 0\n"
+                       "1.0 0 0 # trailing comment\n"
+                       "\n"
+                       "0 1e0 0\n"
+                       "0 0 +1\n"
+                       "3 0 2 1\n"
+                       "3 0 1 3\n"
+                       "3 0 3 2\n"
+                       "3\t1 2 3\r\n";
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result r = load_text("tet.off", text, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r != MTS_OK)
+        return;
+    CHECK(t, st.format == MTS_MESH_OFF);
+    CHECK(t, m.vertex_count == 4 && m.triangle_count == 4);
+    CHECK(t, st.file_vertices == 4 && st.file_faces == 4);
+    CHECK(t, st.polygons_triangulated == 0 && st.degenerate_faces == 0);
+    CHECK(t, st.normals_from_file == 0);
+    CHECK(t, memcmp(m.positions, tet_pos, sizeof tet_pos) == 0);
+    CHECK(t, memcmp(m.triangles, tet_tri, sizeof tet_tri) == 0);
+    CHECK(t, outward(&m));
+    /* vertex 0 touches three right-triangle faces of equal area */
+    const float k = (float)(1 / sqrt(3.0));
+    CHECK(t, fabsf(m.normals[0] + k) < 1e-6f && fabsf(m.normals[1] + k) < 1e-6f);
+    mts_mesh_free(&m);
+    CHECK(t, m.positions == NULL && m.vertex_count == 0);
+}
+
+static void test_off_cube_quads(mts_test *t)
+{
+    buf b = {0};
+    cube_off(&b);
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result r = load_bytes("cube.off", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK)
+        check_cube(t, &m, &st);
+    mts_mesh_free(&m);
+    buf_free(&b);
+}
+
+static void test_off_variants(mts_test *t)
+{
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    /* NOFF: normals after the position, not unit length in the file */
+    const char *noff = "NOFF\n4 4 0\n"
+                       "0 0 0  -2 -2 -2\n"
+                       "1 0 0  3 0 0\n"
+                       "0 1 0  0 0.5 0\n"
+                       "0 0 1  0 0 7\n"
+                       "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    mts_result r = load_text("tet.noff.off", noff, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK) {
+        CHECK(t, st.normals_from_file == 1);
+        CHECK(t, all_unit(&m));
+        CHECK(t, m.normals[3] == 1 && m.normals[4] == 0 && m.normals[5] == 0);
+        CHECK(t, m.normals[7] == 1 && m.normals[11] == 1);
+    }
+    mts_mesh_free(&m);
+
+    /* COFF: colours on vertex and face lines are ignored */
+    const char *coff = "COFF\n4 4 0\n"
+                       "0 0 0 255 0 0 255\n"
+                       "1 0 0 0 255 0 255\n"
+                       "0 1 0 0 0 255 255\n"
+                       "0 0 1 1 1 1 1\n"
+                       "3 0 2 1 0.1 0.2 0.3\n3 0 1 3 1 1 1\n3 0 3 2\n3 1 2 3 9 9 9 9\n";
+    r = load_text("tet_c.off", coff, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK) {
+        CHECK(t, st.normals_from_file == 0);
+        CHECK(t, memcmp(m.positions, tet_pos, sizeof tet_pos) == 0);
+        CHECK(t, memcmp(m.triangles, tet_tri, sizeof tet_tri) == 0);
+    }
+    mts_mesh_free(&m);
+
+    /* the ModelNet header with the count glued to the keyword, no edge count,
+     * everything on few lines */
+    const char *glued = "OFF4 4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                        "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3";
+    r = load_text("glued.off", glued, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    CHECK(t, m.triangle_count == 4);
+    mts_mesh_free(&m);
+
+    r = load_text("four.off", "4OFF\n1 0 0\n0 0 0 0\n", &m, &st, &err);
+    CHECK(t, r == MTS_ERR_VERSION);
+    CHECK(t, strstr(err.msg, "four.off") != NULL);
+}
+
+/* ------------------------------------------------------------------------ */
+/* OBJ                                                                      */
+
+static void test_obj_cube(mts_test *t)
+{
+    /* v/vt/vn corners with negative indices, and lines that do not matter */
+    buf b = {0};
+    buf_printf(&b, "# cube\nmtllib cube.mtl\no cube\n");
+    for (int v = 0; v < 8; v++)
+        buf_printf(&b, "v %d %d %d\n", v & 1, v >> 1 & 1, v >> 2 & 1);
+    buf_printf(&b, "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n");
+    static const int fn[6][3] = {{0, 0, -1}, {0, 0, 1}, {0, -1, 0},
+                                 {0, 1, 0},  {-1, 0, 0}, {1, 0, 0}};
+    for (int f = 0; f < 6; f++)
+        buf_printf(&b, "vn %d %d %d\n", fn[f][0], fn[f][1], fn[f][2]);
+    buf_printf(&b, "g all\nusemtl red\ns off\n");
+    for (int f = 0; f < 6; f++) {
+        buf_printf(&b, "f");
+        for (int k = 0; k < 4; k++) {
+            int v = (int)cube_quad[f][k];
+            if (f % 2) /* negative: counted back from the 8th vertex, 6th normal */
+                buf_printf(&b, " %d/%d/%d", v - 8, k - 4, f - 6);
+            else if (f == 2)
+                buf_printf(&b, " %d//%d", v + 1, f + 1);
+            else
+                buf_printf(&b, " %d/%d/%d", v + 1, k + 1, f + 1);
+        }
+        buf_printf(&b, "\n");
+    }
+    buf_printf(&b, "l 1 2\n");
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result r = load_bytes("cube.obj", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK) {
+        CHECK(t, st.format == MTS_MESH_OBJ);
+        check_cube(t, &m, &st);
+        /* every corner names a normal: the file's, averaged per vertex */
+        CHECK(t, st.normals_from_file == 1);
+        const float k = (float)(1 / sqrt(3.0));
+        CHECK(t, fabsf(m.normals[21] - k) < 1e-6f && fabsf(m.normals[23] - k) < 1e-6f);
+    }
+    mts_mesh_free(&m);
+    buf_free(&b);
+}
+
+static void test_obj_normals_partial(mts_test *t)
+{
+    /* one corner without a normal: the file's normals are not used */
+    const char *text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 5\n"
+                       "f 1//1 3//1 2//1\nf 1//1 2//1 4//1\nf 1//1 4//1 3//1\nf 2 3 4\n";
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result r = load_text("partial.obj", text, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK) {
+        CHECK(t, st.normals_from_file == 0);
+        CHECK(t, memcmp(m.triangles, tet_tri, sizeof tet_tri) == 0);
+        CHECK(t, outward(&m));
+    }
+    mts_mesh_free(&m);
+    /* negative indices count back from the vertices defined so far */
+    text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -1 -2\nv 0 0 1\nf -4 -3 -1\nf 1 4 3\nf -3 -2 -1\n";
+    r = load_text("neg.obj", text, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK)
+        CHECK(t, memcmp(m.triangles, tet_tri, sizeof tet_tri) == 0);
+    mts_mesh_free(&m);
+}
+
+/* ------------------------------------------------------------------------ */
+/* PLY                                                                      */
+
+enum { T_I8, T_U8, T_I16, T_U16, T_I32, T_U32, T_F32, T_F64 };
+static const char *const type_name[] = {"char", "uchar", "short", "ushort",
+                                        "int",  "uint",  "float", "double"};
+
+/* One value in ASCII (fmt 0), little (1) or big (2) endian binary. */
+static void put_value(buf *b, int fmt, int type, double v)
+{
+    if (fmt == 0) {
+        buf_printf(b, "%.9g ", v);
+        return;
+    }
+    unsigned char raw[8];
+    size_t n;
+    uint64_t u;
+    switch (type) {
+    case T_I8: u = (uint8_t)(int8_t)v; n = 1; break;
+    case T_U8: u = (uint8_t)v; n = 1; break;
+    case T_I16: u = (uint16_t)(int16_t)v; n = 2; break;
+    case T_U16: u = (uint16_t)v; n = 2; break;
+    case T_I32: u = (uint32_t)(int32_t)v; n = 4; break;
+    case T_U32: u = (uint32_t)v; n = 4; break;
+    case T_F32: {
+        float f = (float)v;
+        uint32_t w;
+        memcpy(&w, &f, 4);
+        u = w;
+        n = 4;
+        break;
+    }
+    default: memcpy(&u, &v, 8); n = 8; break;
+    }
+    for (size_t i = 0; i < n; i++)
+        raw[fmt == 1 ? i : n - 1 - i] = (unsigned char)(u >> (8 * i));
+    buf_put(b, raw, n);
+}
+
+static void put_end(buf *b, int fmt)
+{
+    if (fmt == 0)
+        buf_printf(b, "\n");
+}
+
+static const char *const ply_format[] = {"ascii", "binary_little_endian", "binary_big_endian"};
+
+/* The cube with properties and elements the loader must skip, including
+ * lists in the vertex element and elements before and after the faces. */
+static void cube_ply(buf *b, int fmt)
+{
+    buf_printf(b, "ply\nformat %s 1.0\ncomment test cube\nobj_info nothing\n", ply_format[fmt]);
+    buf_printf(b, "element vertex 8\nproperty float confidence\nproperty double x\n"
+                  "property float y\nproperty int z\nproperty uchar red\n"
+                  "property list uchar int extra\n");
+    buf_printf(b, "element edge 2\nproperty int vertex1\nproperty int vertex2\n");
+    buf_printf(b, "element face 6\nproperty uchar flags\nproperty list ushort short vertex_index\n"
+                  "property list uchar float texcoord\n");
+    buf_printf(b, "element material 1\nproperty list uint uchar name\nend_header\n");
+    for (int v = 0; v < 8; v++) {
+        put_value(b, fmt, T_F32, 0.5);
+        put_value(b, fmt, T_F64, v & 1);
+        put_value(b, fmt, T_F32, v >> 1 & 1);
+        put_value(b, fmt, T_I32, v >> 2 & 1);
+        put_value(b, fmt, T_U8, 255);
+        put_value(b, fmt, T_U8, 2);
+        put_value(b, fmt, T_I32, 7);
+        put_value(b, fmt, T_I32, -8);
+        put_end(b, fmt);
+    }
+    for (int e = 0; e < 2; e++) {
+        put_value(b, fmt, T_I32, 0);
+        put_value(b, fmt, T_I32, 1);
+        put_end(b, fmt);
+    }
+    for (int f = 0; f < 6; f++) {
+        put_value(b, fmt, T_U8, 1);
+        put_value(b, fmt, T_U16, 4);
+        for (int k = 0; k < 4; k++)
+            put_value(b, fmt, T_I16, cube_quad[f][k]);
+        put_value(b, fmt, T_U8, 2);
+        put_value(b, fmt, T_F32, 0.25);
+        put_value(b, fmt, T_F32, 0.75);
+        put_end(b, fmt);
+    }
+    put_value(b, fmt, T_U32, 3);
+    for (int c = 0; c < 3; c++)
+        put_value(b, fmt, T_U8, 'A' + c);
+    put_end(b, fmt);
+}
+
+/* The tetrahedron with (unnormalised) normals and given vertex/index types. */
+static void tet_ply(buf *b, int fmt, int pos_type, int count_type, int index_type)
+{
+    buf_printf(b, "ply\r\nformat %s 1.0\r\nelement vertex 4\r\n", ply_format[fmt]);
+    const char *names[] = {"x", "y", "z", "nx", "ny", "nz"};
+    for (int c = 0; c < 6; c++)
+        buf_printf(b, "property %s %s\r\n", type_name[c < 3 ? pos_type : T_F32], names[c]);
+    buf_printf(b, "element face 4\r\nproperty list %s %s vertex_indices\r\nend_header\r\n",
+               type_name[count_type], type_name[index_type]);
+    static const float normal[4][3] = {{-1, -1, -1}, {2, 0, 0}, {0, 3, 0}, {0, 0, 0.5f}};
+    for (int v = 0; v < 4; v++) {
+        for (int c = 0; c < 3; c++)
+            put_value(b, fmt, pos_type, tet_pos[v][c]);
+        for (int c = 0; c < 3; c++)
+            put_value(b, fmt, T_F32, normal[v][c]);
+        put_end(b, fmt);
+    }
+    for (int f = 0; f < 4; f++) {
+        put_value(b, fmt, count_type, 3);
+        for (int c = 0; c < 3; c++)
+            put_value(b, fmt, index_type, tet_tri[f][c]);
+        put_end(b, fmt);
+    }
+}
+
+static void test_ply_cube(mts_test *t)
+{
+    for (int fmt = 0; fmt < 3; fmt++) {
+        buf b = {0};
+        cube_ply(&b, fmt);
+        mts_mesh m;
+        mts_mesh_stats st;
+        mts_error err = {0};
+        mts_result r = load_bytes("cube.ply", b.d, b.n, &m, &st, &err);
+        CHECKF(t, r == MTS_OK, "%s: %s", ply_format[fmt], err.msg);
+        if (r == MTS_OK) {
+            CHECK(t, st.format == MTS_MESH_PLY);
+            CHECK(t, st.normals_from_file == 0);
+            check_cube(t, &m, &st);
+        }
+        mts_mesh_free(&m);
+        buf_free(&b);
+    }
+}
+
+static void test_ply_tet_types(mts_test *t)
+{
+    static const int combos[][3] = {{T_F32, T_U8, T_I32},  {T_F64, T_U16, T_U32},
+                                    {T_I8, T_I32, T_U8},   {T_I16, T_U32, T_I16},
+                                    {T_U8, T_I8, T_U16},   {T_I32, T_U8, T_F32}};
+    for (int fmt = 0; fmt < 3; fmt++)
+        for (size_t c = 0; c < sizeof combos / sizeof combos[0]; c++) {
+            buf b = {0};
+            tet_ply(&b, fmt, combos[c][0], combos[c][1], combos[c][2]);
+            mts_mesh m;
+            mts_mesh_stats st;
+            mts_error err = {0};
+            mts_result r = load_bytes("tet.ply", b.d, b.n, &m, &st, &err);
+            CHECKF(t, r == MTS_OK, "%s combo %zu: %s", ply_format[fmt], c, err.msg);
+            if (r == MTS_OK) {
+                CHECK(t, m.vertex_count == 4 && m.triangle_count == 4);
+                CHECK(t, memcmp(m.positions, tet_pos, sizeof tet_pos) == 0);
+                CHECK(t, memcmp(m.triangles, tet_tri, sizeof tet_tri) == 0);
+                CHECK(t, st.normals_from_file == 1);
+                CHECK(t, all_unit(&m));
+                CHECK(t, m.normals[3] == 1 && m.normals[7] == 1 && m.normals[11] == 1);
+            }
+            mts_mesh_free(&m);
+            buf_free(&b);
+        }
+}
+
+/* ------------------------------------------------------------------------ */
+/* STL                                                                      */
+
+static void tet_stl_ascii(buf *b)
+{
+    buf_printf(b, "solid tet\n");
+    for (int f = 0; f < 4; f++) {
+        buf_printf(b, "  facet normal 0 0 0\n    outer loop\n");
+        for (int c = 0; c < 3; c++) {
+            const float *p = tet_pos[tet_tri[f][c]];
+            /* -0 must weld with 0 */
+            buf_printf(b, "      vertex %s %g %g\n", p[0] == 0 && f == 3 ? "-0" : p[0] ? "1" : "0",
+                       p[1], p[2]);
+        }
+        buf_printf(b, "    endloop\n  endfacet\n");
+    }
+    buf_printf(b, "endsolid tet\n");
+}
+
+static void tet_stl_binary(buf *b, const char *header)
+{
+    char head[80];
+    memset(head, ' ', sizeof head);
+    memcpy(head, header, strlen(header));
+    buf_put(b, head, 80);
+    unsigned char count[4] = {4, 0, 0, 0};
+    buf_put(b, count, 4);
+    for (int f = 0; f < 4; f++) {
+        for (int c = 0; c < 3; c++)
+            put_value(b, 1, T_F32, 0); /* the facet normal, which is ignored */
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < 3; k++)
+                put_value(b, 1, T_F32, tet_pos[tet_tri[f][c]][k]);
+        put_value(b, 1, T_U16, 0);
+    }
+}
+
+/* Welding renumbers in order of first appearance: corners of the facets
+ * (0 2 1) (0 1 3) ... meet the vertices as 0, 2, 1, 3. */
+static void check_stl_tet(mts_test *t, const mts_mesh *m, const mts_mesh_stats *st)
+{
+    CHECK(t, st->format == MTS_MESH_STL);
+    CHECK(t, m->vertex_count == 4 && m->triangle_count == 4);
+    CHECK(t, st->file_vertices == 12 && st->file_faces == 4);
+    CHECK(t, st->welded_vertices == 8);
+    CHECK(t, st->normals_from_file == 0);
+    if (m->vertex_count != 4 || m->triangle_count != 4)
+        return;
+    for (int f = 0; f < 4; f++)
+        for (int c = 0; c < 3; c++)
+            CHECK(t, memcmp(m->positions + m->triangles[f * 3 + c] * 3, tet_pos[tet_tri[f][c]],
+                            3 * sizeof(float)) == 0 ||
+                         (tet_pos[tet_tri[f][c]][0] == 0 &&
+                          m->positions[m->triangles[f * 3 + c] * 3] == 0));
+    CHECK(t, tri_equal(m->triangles, 0, 1, 2));
+    CHECK(t, outward(m));
+}
+
+static void test_stl(mts_test *t)
+{
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    buf b = {0};
+    tet_stl_ascii(&b);
+    mts_result r = load_bytes("tet.stl", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK)
+        check_stl_tet(t, &m, &st);
+    mts_mesh_free(&m);
+    buf_free(&b);
+
+    /* binary, with a header that starts like an ASCII file */
+    tet_stl_binary(&b, "solid but binary");
+    r = load_bytes("tet.STL", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK)
+        check_stl_tet(t, &m, &st);
+    mts_mesh_free(&m);
+    /* and recognised by content alone */
+    r = load_bytes("tet.bin", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    CHECK(t, st.format == MTS_MESH_STL);
+    mts_mesh_free(&m);
+    buf_free(&b);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Cleaning                                                                 */
+
+static void test_cleaning(mts_test *t)
+{
+    /* the tetrahedron on vertices 0 1 3 4 (2 is unused, 5 and 6 are only used
+     * by dropped faces), plus faces to drop: a repeated index, a zero-area
+     * sliver, a rotated copy, a 2-gon, and a third face on edge 0-1 */
+    const char *text = "OFF\n7 10 0\n"
+                       "0 0 0\n1 0 0\n5 5 5\n0 1 0\n0 0 1\n2 0 0\n0 0 -1\n"
+                       "3 0 3 1\n"
+                       "3 0 1 0\n"     /* repeated index */
+                       "3 0 1 5\n"     /* collinear: zero area */
+                       "3 0 1 4\n"
+                       "3 3 1 0\n"     /* rotation of the first: duplicate */
+                       "3 0 4 3\n"
+                       "2 0 1\n"       /* a 2-gon: degenerate */
+                       "3 1 3 4\n"
+                       "3 0 1 6\n"     /* third face on edge 0->1, refused */
+                       "3 0 3 1\n";    /* exact copy: duplicate */
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result r = load_text("clean.off", text, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r != MTS_OK)
+        return;
+    CHECK(t, st.file_vertices == 7 && st.file_faces == 10);
+    CHECKF(t, st.degenerate_faces == 3, "%u", st.degenerate_faces);
+    CHECKF(t, st.duplicate_faces == 2, "%u", st.duplicate_faces);
+    CHECKF(t, st.nonmanifold_faces == 1, "%u", st.nonmanifold_faces);
+    CHECKF(t, st.unreferenced_vertices == 3, "%u", st.unreferenced_vertices);
+    CHECK(t, m.vertex_count == 4 && m.triangle_count == 4);
+    if (m.vertex_count == 4 && m.triangle_count == 4) {
+        /* renumbered in file order: 0 1 3 4 -> 0 1 2 3 */
+        CHECK(t, memcmp(m.positions, tet_pos, sizeof tet_pos) == 0);
+        CHECK(t, tri_equal(m.triangles, 0, 2, 1) && tri_equal(m.triangles + 3, 0, 1, 3));
+        CHECK(t, tri_equal(m.triangles + 6, 0, 3, 2) && tri_equal(m.triangles + 9, 1, 2, 3));
+        CHECK(t, outward(&m));
+    }
+    mts_mesh_free(&m);
+
+    /* three triangles on one edge: OpenMesh refuses the one that reuses 0->1 */
+    text = "OFF\n5 3 0\n0 0 0\n1 0 0\n0 1 0\n0 -1 0\n0 0 1\n3 0 1 2\n3 1 0 3\n3 0 1 4\n";
+    r = load_text("fin.off", text, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    CHECK(t, st.nonmanifold_faces == 1 && m.triangle_count == 2);
+    CHECK(t, st.unreferenced_vertices == 1 && m.vertex_count == 4);
+    mts_mesh_free(&m);
+
+    /* a face and its reverse are two faces, not duplicates (a closed pillow) */
+    text = "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 2 1 0\n";
+    r = load_text("pillow.off", text, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    CHECK(t, st.duplicate_faces == 0 && st.nonmanifold_faces == 0 && m.triangle_count == 2);
+    mts_mesh_free(&m);
+}
+
+static void test_compute_normals(mts_test *t)
+{
+    /* a vertex of zero-area faces only keeps a zero normal */
+    float pos[] = {0, 0, 0, 2, 0, 0, 0, 2, 0, 1, 0, 0};
+    uint32_t tri[] = {0, 1, 2, 0, 1, 3};
+    mts_mesh m = {4, 2, pos, NULL, tri};
+    mts_mesh_compute_normals(&m);
+    CHECK(t, m.normals != NULL);
+    if (!m.normals)
+        return;
+    for (int v = 0; v < 3; v++)
+        CHECK(t, m.normals[v * 3] == 0 && m.normals[v * 3 + 1] == 0 && m.normals[v * 3 + 2] == 1);
+    CHECK(t, m.normals[9] == 0 && m.normals[10] == 0 && m.normals[11] == 0);
+    free(m.normals);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Errors                                                                   */
+
+/* Loads text as NAME and checks the code and that the message names the
+ * file and contains `want` (when not NULL). */
+static void expect_error(mts_test *t, const char *name, const void *data, size_t size,
+                         mts_result code, const char *want)
+{
+    char path[512];
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    if (!write_file(name, data, size, path, sizeof path)) {
+        CHECKF(t, 0, "could not write %s", name);
+        return;
+    }
+    mts_result r = mts_mesh_load(path, NULL, &m, &st, &err);
+    remove(path);
+    CHECKF(t, r == code, "%s: got %s, want %s: %s", name, mts_result_name(r),
+           mts_result_name(code), err.msg);
+    CHECKF(t, r == MTS_OK || strstr(err.msg, path) != NULL, "%s: '%s'", name, err.msg);
+    CHECKF(t, !want || strstr(err.msg, want) != NULL, "%s: '%s' lacks '%s'", name, err.msg, want);
+    CHECK(t, m.positions == NULL && m.triangles == NULL && m.normals == NULL);
+    mts_mesh_free(&m);
+}
+
+static void expect_text_error(mts_test *t, const char *name, const char *text, mts_result code,
+                              const char *want)
+{
+    expect_error(t, name, text, strlen(text), code, want);
+}
+
+static void test_error_files(mts_test *t)
+{
+    char path[512];
+    snprintf(path, sizeof path, "%s/mts_test_mesh_no_such_file.off", mts_test_tmpdir());
+    remove(path);
+    mts_mesh m;
+    mts_error err = {0};
+    mts_result r = mts_mesh_load(path, NULL, &m, NULL, &err);
+    CHECK(t, r == MTS_ERR_IO && err.code == MTS_ERR_IO);
+    CHECK(t, strstr(err.msg, path) != NULL && strstr(err.msg, "No such file") != NULL);
+    r = mts_mesh_load(mts_test_tmpdir(), NULL, &m, NULL, &err);
+    CHECK(t, r == MTS_ERR_IO);
+
+    expect_error(t, "empty.off", "", 0, MTS_ERR_FORMAT, "empty");
+    expect_error(t, "empty.unknown", "", 0, MTS_ERR_FORMAT, "empty");
+    expect_text_error(t, "garbage.xyz", "hello world\nthis is not a mesh\n", MTS_ERR_FORMAT,
+                      "unknown mesh format");
+    unsigned char noise[300];
+    uint32_t s = 12345;
+    for (size_t i = 0; i < sizeof noise; i++) {
+        s = s * 1103515245 + 12345;
+        noise[i] = (unsigned char)(s >> 16);
+    }
+    noise[81] = noise[82] = noise[83] = 0; /* as binary STL: a few facets, not the size */
+    expect_error(t, "noise", noise, sizeof noise, MTS_ERR_FORMAT, "unknown mesh format");
+    expect_error(t, "noise.off", noise, sizeof noise, MTS_ERR_FORMAT, "not an OFF file");
+    expect_error(t, "noise.ply", noise, sizeof noise, MTS_ERR_FORMAT, "not a PLY file");
+    expect_error(t, "noise.stl", noise, sizeof noise, MTS_ERR_FORMAT, "truncated");
+    expect_text_error(t, "text.obj", "this is\nnot an obj\n", MTS_ERR_FORMAT, "no triangles");
+
+    mts_mesh_options bad = {(mts_mesh_format)42};
+    r = mts_mesh_load_memory("x.off", "OFF", 3, &bad, &m, NULL, &err);
+    CHECK(t, r == MTS_ERR_ARG);
+    r = mts_mesh_load_memory("x.off", "OFF", 3, NULL, NULL, NULL, NULL);
+    CHECK(t, r == MTS_ERR_ARG);
+}
+
+static void test_error_truncated(mts_test *t)
+{
+    /* cow.off cut after its 17th vertex line */
+    FILE *f = fopen("tests/data/cow.off", "rb");
+    if (f) {
+        char line[256];
+        buf b = {0};
+        for (int i = 0; i < 3 + 17 && fgets(line, sizeof line, f); i++)
+            buf_printf(&b, "%s", line);
+        fclose(f);
+        expect_error(t, "cow.off", b.d, b.n, MTS_ERR_FORMAT,
+                     "cow.off: truncated: expected 2904 vertices, file ends after 17");
+        buf_free(&b);
+    } else {
+        CHECKF(t, 0, "tests/data/cow.off not found (run from the project root)");
+    }
+    expect_text_error(t, "faces.off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1",
+                      MTS_ERR_FORMAT, "truncated: expected 4 faces, file ends after 1");
+    expect_text_error(t, "header.off", "OFF\n4", MTS_ERR_FORMAT, "truncated");
+    expect_text_error(t, "short.off", "OFF\n1 1 0\n0 0\n3 0 0 0\n", MTS_ERR_FORMAT,
+                      "line 3: vertex 0 has 2 values, expected 3");
+    expect_text_error(t, "short.obj", "v 0 0 0\nv 1 0 0\nv 0 1", MTS_ERR_FORMAT,
+                      "truncated at line 3");
+
+    buf b = {0};
+    tet_stl_ascii(&b);
+    expect_error(t, "cut.stl", b.d, b.n - 20, MTS_ERR_FORMAT, "truncated");
+    expect_error(t, "noend.stl", b.d, b.n - strlen("endsolid tet\n"), MTS_ERR_FORMAT,
+                 "no 'endsolid'");
+    buf_free(&b);
+    tet_stl_binary(&b, "binary");
+    expect_error(t, "cut_bin.stl", b.d, b.n - 1, MTS_ERR_FORMAT, "truncated: expected 4 facets");
+    buf_free(&b);
+
+    for (int fmt = 0; fmt < 3; fmt++) {
+        tet_ply(&b, fmt, T_F32, T_U8, T_I32);
+        size_t cut = fmt == 0 ? b.n - 8 : b.n - 13 * 3; /* inside face 1 */
+        expect_error(t, "cut.ply", b.d, cut, MTS_ERR_FORMAT, "truncated: expected 4 faces");
+        size_t header = 0;
+        while (header + 12 <= b.n && memcmp(b.d + header, "end_header\r\n", 12) != 0)
+            header++;
+        header += 12;
+        expect_error(t, "cut_v.ply", b.d, header + 10, MTS_ERR_FORMAT,
+                     "truncated: expected 4 vertices, file ends after 0");
+        buf_free(&b);
+    }
+    expect_text_error(t, "nohead.ply", "ply\nformat ascii 1.0\nelement vertex 1\n", MTS_ERR_FORMAT,
+                      "end_header");
+}
+
+static void test_error_huge_counts(mts_test *t)
+{
+    expect_text_error(t, "huge.off", "OFF\n4000000000 1 0\n0 0 0\n", MTS_ERR_LIMIT, "4000000000");
+    expect_text_error(t, "big.off", "OFF\n2000000000 2000000000 0\n0 0 0\n", MTS_ERR_FORMAT,
+                      "truncated: expected 2000000000 vertices, file ends after 1");
+    expect_text_error(t, "bigf.off", "OFF\n3 2000000000 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+                      MTS_ERR_FORMAT, "truncated: expected 2000000000 faces, file ends after 1");
+    expect_text_error(t, "bigpoly.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2000000000 0 1 2\n",
+                      MTS_ERR_FORMAT, "face 0 has 3 indices, expected 2000000000");
+    expect_text_error(t, "neg.off", "OFF\n-3 1 0\n", MTS_ERR_FORMAT, "negative");
+    expect_text_error(t, "huge.ply",
+                      "ply\nformat binary_little_endian 1.0\nelement vertex 4294967295\n"
+                      "property float x\nproperty float y\nproperty float z\nend_header\n",
+                      MTS_ERR_LIMIT, "4294967295");
+    expect_text_error(t, "big.ply",
+                      "ply\nformat binary_big_endian 1.0\nelement vertex 2000000000\n"
+                      "property float x\nproperty float y\nproperty float z\n"
+                      "element face 2000000000\nproperty list uint uint vertex_indices\n"
+                      "end_header\n0123456789ab",
+                      MTS_ERR_FORMAT, "truncated: expected 2000000000 vertices, file ends after 1");
+    /* a list claiming 4 billion items in a short file */
+    buf b = {0};
+    buf_printf(&b, "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+                   "property float y\nproperty float z\nelement face 1\n"
+                   "property list uint int vertex_indices\nend_header\n");
+    for (int i = 0; i < 9; i++)
+        put_value(&b, 1, T_F32, i % 4 == 0);
+    put_value(&b, 1, T_U32, 4294967295.0);
+    put_value(&b, 1, T_I32, 0);
+    expect_error(t, "biglist.ply", b.d, b.n, MTS_ERR_FORMAT, "face 0");
+    buf_free(&b);
+    /* binary STL counts */
+    unsigned char stl[84 + 50];
+    memset(stl, 0, sizeof stl);
+    memset(stl + 80, 0xff, 4);
+    expect_error(t, "huge.stl", stl, sizeof stl, MTS_ERR_LIMIT, "4294967295");
+    stl[80] = 0x40, stl[81] = 0x42, stl[82] = 0x0f, stl[83] = 0; /* 1,000,000 */
+    expect_error(t, "big.stl", stl, sizeof stl, MTS_ERR_FORMAT, "truncated: expected 1000000");
+    stl[80] = 1, stl[81] = stl[82] = stl[83] = 0;
+    memset(stl + 84 + 12, 0xff, 4); /* a NaN corner */
+    expect_error(t, "nan.stl", stl, sizeof stl, MTS_ERR_FORMAT, "non-finite");
+}
+
+static void test_error_corrupt(mts_test *t)
+{
+    const char *tet = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n";
+    char text[512];
+    snprintf(text, sizeof text, "OFF\n4 2 0\n%s3 0 2 1\n3 0 1 9999\n", tet);
+    expect_text_error(t, "range.off", text, MTS_ERR_RANGE,
+                      "line 8: face 1: vertex index 9999 out of range");
+    snprintf(text, sizeof text, "OFF\n4 1 0\n%s3 0 -1 2\n", tet);
+    expect_text_error(t, "minus.off", text, MTS_ERR_RANGE, "index -1 out of range");
+    expect_text_error(t, "bad.off", "OFF\n3 1 0\n0 0 0\n1 0.5.0 0\n0 1 0\n3 0 1 2\n",
+                      MTS_ERR_FORMAT, "line 4: bad number '0.5.0'");
+    expect_text_error(t, "nan.off", "OFF\n3 1 0\nnan 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+                      MTS_ERR_FORMAT, "line 3: bad number 'nan'");
+    expect_text_error(t, "inf.off", "OFF\n3 1 0\n1e39 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+                      MTS_ERR_FORMAT, "out of range");
+    expect_text_error(t, "bad_face.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 x\n",
+                      MTS_ERR_FORMAT, "line 6: bad number 'x'");
+    expect_text_error(t, "zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", MTS_ERR_RANGE,
+                      "line 4: vertex index 0 out of range");
+    expect_text_error(t, "far.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n", MTS_ERR_RANGE,
+                      "vertex index 99 out of range");
+    expect_text_error(t, "back.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", MTS_ERR_RANGE,
+                      "vertex index -4 out of range");
+    expect_text_error(t, "vn.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2//1 3//1\n", MTS_ERR_RANGE,
+                      "normal index 1 out of range");
+    expect_text_error(t, "slash.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/x 2 3\n", MTS_ERR_FORMAT,
+                      "line 4: bad number");
+    expect_text_error(t, "range.ply",
+                      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                      "property float y\nproperty float z\nelement face 1\n"
+                      "property list uchar int vertex_indices\nend_header\n"
+                      "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+                      MTS_ERR_RANGE, "line 13: face 0: vertex index 3 out of range");
+    buf b = {0};
+    tet_ply(&b, 2, T_F32, T_U8, T_I32);
+    b.d[b.n - 1] = 9; /* the last index of the last face */
+    expect_error(t, "range_be.ply", b.d, b.n, MTS_ERR_RANGE, "face 3: vertex index 9 out of range");
+    buf_free(&b);
+    expect_text_error(t, "noxyz.ply",
+                      "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n",
+                      MTS_ERR_FORMAT, "x, y, z");
+    expect_text_error(t, "version.ply", "ply\nformat ascii 2.0\nend_header\n", MTS_ERR_VERSION,
+                      "2.0");
+    expect_text_error(t, "header.ply", "ply\nformat ascii 1.0\nelephant\nend_header\n",
+                      MTS_ERR_FORMAT, "unknown PLY header line 'elephant'");
+    expect_text_error(t, "bad.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
+                                    "vertex 1 0 0\nvertx 0 1 0\nendloop\nendfacet\nendsolid\n",
+                      MTS_ERR_FORMAT, "line 6: expected 'vertex', found 'vertx'");
+    snprintf(text, sizeof text, "OFF\n4 2 0\n%s3 0 1 1\n4 0 1 1 0\n", tet);
+    expect_text_error(t, "degenerate.off", text, MTS_ERR_FORMAT, "no triangles");
+    expect_text_error(t, "line.off", "OFF\n3 1 0\n0 0 0\n1 1 1\n2 2 2\n3 0 1 2\n", MTS_ERR_FORMAT,
+                      "no triangles");
+    expect_text_error(t, "points.ply",
+                      "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                      "property float y\nproperty float z\nend_header\n0 0 0\n",
+                      MTS_ERR_FORMAT, "no triangles");
+    expect_text_error(t, "empty.stl", "solid x\nendsolid x\n", MTS_ERR_FORMAT, "no triangles");
+}
+
+/* Every prefix and many single-byte corruptions of a valid file of each
+ * format either load or fail with a message naming the file: never a crash,
+ * an over-read or a leak (under ASan). */
+static void test_robust(mts_test *t)
+{
+    buf files[8] = {{0}};
+    const char *names[8] = {"f.off", "f.obj", "f.ply", "f.ply", "f.ply", "f.stl", "f.stl", "f.off"};
+    cube_off(&files[0]);
+    buf_printf(&files[1], "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvn 0 0 1\n"
+                          "f 1/1/1 3/1/1 2/1/1\nf -4//-1 -3//-1 -1//-1\nf 1 4 3\nf 2 3 4\n");
+    cube_ply(&files[2], 0);
+    cube_ply(&files[3], 1);
+    tet_ply(&files[4], 2, T_F64, T_U16, T_U32);
+    tet_stl_ascii(&files[5]);
+    tet_stl_binary(&files[6], "solid");
+    buf_printf(&files[7], "NOFF\n4 4 0\n0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n0 0 1 0 0 1\n"
+                          "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+    uint32_t seed = 1;
+    for (int i = 0; i < 8; i++) {
+        buf *b = &files[i];
+        mts_mesh m;
+        mts_error err;
+        mts_result r = load_bytes(names[i], b->d, b->n, &m, NULL, &err);
+        CHECKF(t, r == MTS_OK, "file %d: %s", i, err.msg);
+        mts_mesh_free(&m);
+        for (size_t cut = 0; cut < b->n; cut++) {
+            err.msg[0] = 0;
+            r = load_bytes(names[i], b->d, cut, &m, NULL, &err);
+            CHECKF(t, r == MTS_OK || strstr(err.msg, names[i]) == err.msg, "file %d cut %zu: %s",
+                   i, cut, err.msg);
+            mts_mesh_free(&m);
+        }
+        for (int k = 0; k < 3000; k++) {
+            unsigned char *copy = malloc(b->n);
+            memcpy(copy, b->d, b->n);
+            for (int flips = 0; flips < 1 + k % 3; flips++) {
+                seed = seed * 1664525 + 1013904223;
+                size_t at = (seed >> 8) % b->n;
+                seed = seed * 1664525 + 1013904223;
+                static const char pick[] = "0123456789-+.eE \n#/x\xff";
+                copy[at] = (k & 1) ? (unsigned char)(seed >> 24)
+                                   : (unsigned char)pick[(seed >> 24) % (sizeof pick - 1)];
+            }
+            err.msg[0] = 0;
+            r = load_bytes(names[i], copy, b->n, &m, NULL, &err);
+            CHECKF(t, r == MTS_OK || strstr(err.msg, names[i]) == err.msg, "file %d flip %d: %s",
+                   i, k, err.msg);
+            if (r == MTS_OK) {
+                for (uint32_t v = 0; v < m.triangle_count * 3; v++)
+                    CHECK(t, m.triangles[v] < m.vertex_count);
+                for (uint32_t v = 0; v < m.vertex_count * 3; v++)
+                    CHECK(t, isfinite(m.positions[v]) && isfinite(m.normals[v]));
+            }
+            mts_mesh_free(&m);
+            free(copy);
+        }
+        buf_free(b);
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* Detection, numbers, real models                                          */
+
+static void test_detection(mts_test *t)
+{
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    buf b = {0};
+    cube_off(&b);
+    static const char *const off_names[] = {"CUBE.OFF", "cube.Off", "cube", "dir.v2/cube.dat"};
+    for (size_t i = 0; i < 4; i++) {
+        mts_result r = load_bytes(off_names[i], b.d, b.n, &m, &st, &err);
+        CHECKF(t, r == MTS_OK && st.format == MTS_MESH_OFF, "%s: %s", off_names[i], err.msg);
+        mts_mesh_free(&m);
+    }
+    /* the option overrides the name */
+    mts_mesh_options o = {MTS_MESH_OFF};
+    mts_result r = mts_mesh_load_memory("cube.stl", b.d, b.n, &o, &m, &st, &err);
+    CHECKF(t, r == MTS_OK && st.format == MTS_MESH_OFF, "%s", err.msg);
+    mts_mesh_free(&m);
+    buf_free(&b);
+
+    cube_ply(&b, 1);
+    r = load_bytes("cube", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK && st.format == MTS_MESH_PLY, "%s", err.msg);
+    mts_mesh_free(&m);
+    buf_free(&b);
+
+    tet_stl_ascii(&b);
+    r = load_bytes("tet.txt", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK && st.format == MTS_MESH_STL, "%s", err.msg);
+    mts_mesh_free(&m);
+    buf_free(&b);
+
+    /* with a UTF-8 byte order mark, which must not hide the first vertex */
+    const char *obj = "\xEF\xBB\xBFv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    r = load_bytes("tri", obj, strlen(obj), &m, &st, &err);
+    CHECKF(t, r == MTS_OK && st.format == MTS_MESH_OBJ, "%s", err.msg);
+    CHECK(t, m.triangle_count == 1 && m.normals[2] == 1);
+    mts_mesh_free(&m);
+
+    CHECK(t, strcmp(mts_mesh_format_name(MTS_MESH_PLY), "PLY") == 0);
+    CHECK(t, strcmp(mts_mesh_format_name(MTS_MESH_AUTO), "auto") == 0);
+}
+
+static uint32_t rng(uint64_t *s)
+{
+    *s = *s * 6364136223846793005u + 1442695040888963407u;
+    return (uint32_t)(*s >> 33);
+}
+
+/* The hand-written scanner gives exactly strtof's float. */
+static void test_scan_float(mts_test *t)
+{
+    static const char *const cases[] = {
+        "0", "-0", "1", "0.5", ".5", "5.", "1e3", "1E-3", "-1.55991e-008", "0.281526",
+        "3.4028234e38", "1.17549435e-38", "1e-40", "1.4e-45", "1e-50", "123456789012345678901234",
+        "0.000000000000000000000000000000000001", "1.000000059604644775390625",
+        "1.0000000596046447753906250001", "1.00000017881393432617187499",
+        "16777217", "16777219", "9007199254740993", "0.1", "0.3", "2.5e-8", "+7"};
+    int bad = 0;
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const char *s = cases[i];
+        float got = -1;
+        int r = mts__mesh_scan_float(&s, cases[i] + strlen(cases[i]), &got);
+        float want = strtof(cases[i], NULL);
+        CHECKF(t, r == 0 && memcmp(&got, &want, 4) == 0 && *s == 0, "%s: %.9g vs %.9g", cases[i],
+               got, want);
+    }
+    const char *s = "1e39";
+    float f;
+    CHECK(t, mts__mesh_scan_float(&s, s + 4, &f) == -2);
+    static const char *const rejects[] = {"", "-", ".", "e5", "1e", "1e+", "nan", "inf", "+.e1"};
+    for (size_t i = 0; i < sizeof rejects / sizeof rejects[0]; i++) {
+        s = rejects[i];
+        CHECKF(t, mts__mesh_scan_float(&s, s + strlen(s), &f) == -1, "'%s'", rejects[i]);
+    }
+    /* random decimals, many near float midpoints */
+    uint64_t seed = 42;
+    char str[64];
+    for (int i = 0; i < 200000 && bad < 10; i++) {
+        int n = 0;
+        if (rng(&seed) & 1)
+            str[n++] = '-';
+        int digits = 1 + rng(&seed) % 24, dot = rng(&seed) % (digits + 1);
+        for (int d = 0; d < digits; d++) {
+            if (d == dot)
+                str[n++] = '.';
+            str[n++] = (char)('0' + rng(&seed) % 10);
+        }
+        if (rng(&seed) % 3 == 0)
+            n += snprintf(str + n, sizeof str - n, "e%d", (int)(rng(&seed) % 90) - 45);
+        str[n] = 0;
+        if (i % 4 == 0) /* an exact midpoint between two floats, written out */
+            n = snprintf(str, sizeof str, "%.25g",
+                         (double)ldexpf((float)(rng(&seed) | 1u << 23), (int)(rng(&seed) % 40) - 60) *
+                             (1 + ldexp(1, -24)));
+        const char *p = str;
+        float got, want = strtof(str, NULL);
+        int r = mts__mesh_scan_float(&p, str + n, &got);
+        if (isinf(want))
+            continue;
+        if (r != 0 || memcmp(&got, &want, 4) != 0 || p != str + n) {
+            bad++;
+            CHECKF(t, 0, "'%s': %.9g vs strtof %.9g", str, got, want);
+        }
+    }
+}
+
+static void test_cow(mts_test *t)
+{
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result r = mts_mesh_load("tests/data/cow.off", NULL, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r != MTS_OK)
+        return;
+    CHECKF(t, m.vertex_count == 2904 && m.triangle_count == 5804, "%u %u", m.vertex_count,
+           m.triangle_count);
+    CHECK(t, st.file_vertices == 2904 && st.file_faces == 5804);
+    CHECK(t, st.degenerate_faces == 0 && st.duplicate_faces == 0 && st.nonmanifold_faces == 0);
+    CHECK(t, st.unreferenced_vertices == 0 && st.normals_from_file == 0);
+    CHECK(t, all_unit(&m));
+    /* the first face as in the file */
+    CHECK(t, tri_equal(m.triangles, 251, 210, 250));
+    mts_mesh_free(&m);
+}
+
+static void test_bunny(mts_test *t)
+{
+    char buf_path[512];
+    const char *path = mts_test_model("bunny00.off", buf_path, sizeof buf_path);
+    if (!path)
+        SKIP(t, "%s not found (set MTS_MODELS)", buf_path);
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    double best = 1e9;
+    for (int rep = 0; rep < 3; rep++) {
+        double t0 = now_s();
+        mts_result r = mts_mesh_load(path, NULL, &m, &st, &err);
+        double dt = now_s() - t0;
+        best = dt < best ? dt : best;
+        CHECKF(t, r == MTS_OK, "%s", err.msg);
+        if (r != MTS_OK)
+            return;
+        if (rep < 2)
+            mts_mesh_free(&m);
+    }
+    CHECK(t, st.file_vertices == 37706 && st.file_faces == 75408);
+    CHECKF(t, m.vertex_count == 37706 && m.triangle_count == 75408,
+           "%u v %u t (degenerate %u duplicate %u non-manifold %u unreferenced %u)",
+           m.vertex_count, m.triangle_count, st.degenerate_faces, st.duplicate_faces,
+           st.nonmanifold_faces, st.unreferenced_vertices);
+    CHECK(t, all_unit(&m));
+    if (getenv("MTS_TEST_VERBOSE"))
+        fprintf(stderr, "  bunny00.off: %u v, %u t in %.1f ms\n", m.vertex_count,
+                m.triangle_count, best * 1e3);
+    mts_mesh_free(&m);
+}
+
+int main(void)
+{
+    mts_test t = {0};
+    RUN(&t, test_off_tetrahedron);
+    RUN(&t, test_off_cube_quads);
+    RUN(&t, test_off_variants);
+    RUN(&t, test_obj_cube);
+    RUN(&t, test_obj_normals_partial);
+    RUN(&t, test_ply_cube);
+    RUN(&t, test_ply_tet_types);
+    RUN(&t, test_stl);
+    RUN(&t, test_cleaning);
+    RUN(&t, test_compute_normals);
+    RUN(&t, test_error_files);
+    RUN(&t, test_error_truncated);
+    RUN(&t, test_error_huge_counts);
+    RUN(&t, test_error_corrupt);
+    RUN(&t, test_robust);
+    RUN(&t, test_detection);
+    RUN(&t, test_scan_float);
+    RUN(&t, test_cow);
+    RUN(&t, test_bunny);
+    return mts_test_end(&t);
+}
