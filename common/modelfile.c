@@ -147,7 +147,8 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
     uint64_t at = align8(HEADER_SIZE + (uint64_t)ENTRY_SIZE * count);
     for (uint32_t id = 1; id <= SEC_LAST; id++) {
         offset[id] = at;
-        at = align8(at + l.size[id]);
+        /* no padding after the last section: any truncation cuts into data */
+        at = id == SEC_LAST ? at + l.size[id] : align8(at + l.size[id]);
     }
     if (at > SIZE_MAX)
         return mts_error_set(err, MTS_ERR_LIMIT, "model too large to encode (%llu bytes)",
@@ -228,9 +229,10 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     mts_result rc;
     memset(m, 0, sizeof *m);
     if (size < HEADER_SIZE)
-        return mts_error_set(err, size == 0 ? MTS_ERR_FORMAT : MTS_ERR_FORMAT,
-                             size == 0 ? "%s: empty file" : "%s: truncated: %zu bytes, the header alone is 16",
-                             name, size);
+        return size == 0 ? mts_error_set(err, MTS_ERR_FORMAT, "%s: empty file", name)
+                         : mts_error_set(err, MTS_ERR_FORMAT,
+                                         "%s: truncated: %zu bytes, the header alone is 16", name,
+                                         size);
     if (memcmp(buf, "MTSM", 4) != 0)
         return mts_error_set(err, MTS_ERR_FORMAT, "%s: not an mtstream model (bad magic)", name);
     uint16_t major = get_u16(buf + 4), minor = get_u16(buf + 6);

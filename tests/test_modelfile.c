@@ -246,8 +246,8 @@ static void test_specific_errors(mts_test *t)
     expect_error(t, f, size, MTS_ERR_VERSION, "version 2.0");
 
     memcpy(f, file, size);
-    f[size - 9] ^= 0x40; /* inside the last section */
-    expect_error(t, f, size, MTS_ERR_CHECKSUM, "checksum");
+    f[section_offset(f, 2) + 5] ^= 0x40; /* inside the positions */
+    expect_error(t, f, size, MTS_ERR_CHECKSUM, "checksum mismatch in section 'positions'");
 
     memcpy(f, file, size);
     f[13] ^= 1;
