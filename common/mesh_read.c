@@ -1,10 +1,10 @@
-/* The mesh file parsers: OFF, OBJ, PLY (ASCII, binary LE/BE) and STL (ASCII,
- * binary). Each works on the whole file in memory, bounded by an end pointer
- * (no NUL terminator needed, so a downloaded buffer is parsed in place), and
- * trusts no count it reads: allocations grow with what was actually parsed or
- * are capped by what the remaining bytes could hold, every index is checked
- * against the vertex count before it is stored, and every binary read is
- * bounds-checked. */
+/* The mesh file parsers: OFF (ASCII, binary), OBJ, PLY (ASCII, binary LE/BE)
+ * and STL (ASCII, binary). Each works on the whole file in memory, bounded by
+ * an end pointer (no NUL terminator needed, so a downloaded buffer is parsed
+ * in place), and trusts no count it reads: allocations grow with what was
+ * actually parsed or are capped by what the remaining bytes could hold, every
+ * index is checked against the vertex count before it is stored, and every
+ * binary read is bounds-checked. */
 #include "mesh_read.h"
 
 #include <float.h>
@@ -131,6 +131,16 @@ static inline mts_result fan_end(mts__mesh_raw *raw, fan *f, mts_error *err)
 
 /* ------------------------------------------------------------------------ */
 /* Numbers                                                                  */
+
+static inline uint32_t le32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static inline uint32_t be32(const unsigned char *p)
+{
+    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | (uint32_t)p[3];
+}
 
 static const double pow10_exact[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
                                        1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
@@ -394,27 +404,35 @@ static inline int word_is(const char *w, size_t n, const char *lit)
 /* ------------------------------------------------------------------------ */
 /* OFF                                                                      */
 
-/* The Geomview header keyword is [ST][C][N][4][n]OFF. Sets *normals, *four
- * and *ndim from the prefix and returns the length consumed through "OFF", or
- * 0 when the word is not an OFF keyword. */
-static size_t off_keyword(const char *w, size_t n, int *normals, int *four, int *ndim)
+/* What the header keyword [ST][C][N][4][n]OFF says is in each vertex. */
+typedef struct off_flags {
+    int texcoords, colors, normals, four, ndim;
+} off_flags;
+
+/* Reads the Geomview header keyword into *fl and returns the length consumed
+ * through "OFF", or 0 when the word is not an OFF keyword. */
+static size_t off_keyword(const char *w, size_t n, off_flags *fl)
 {
     size_t i = 0;
-    *normals = *four = *ndim = 0;
-    if (n - i >= 2 && w[i] == 'S' && w[i + 1] == 'T')
+    *fl = (off_flags){0, 0, 0, 0, 0};
+    if (n - i >= 2 && w[i] == 'S' && w[i + 1] == 'T') {
+        fl->texcoords = 1;
         i += 2;
-    if (i < n && w[i] == 'C')
+    }
+    if (i < n && w[i] == 'C') {
+        fl->colors = 1;
         i++;
+    }
     if (i < n && w[i] == 'N') {
-        *normals = 1;
+        fl->normals = 1;
         i++;
     }
     if (i < n && w[i] == '4') {
-        *four = 1;
+        fl->four = 1;
         i++;
     }
     if (i < n && w[i] == 'n') {
-        *ndim = 1;
+        fl->ndim = 1;
         i++;
     }
     if (n - i < 3 || memcmp(w + i, "OFF", 3) != 0)
@@ -451,6 +469,248 @@ static mts_result off_count(text *t, const char *what, uint32_t *out, mts_error 
     return MTS_OK;
 }
 
+/* Binary OFF ("[ST][C][N]OFF BINARY" and a newline, then 32-bit words) comes
+ * in two layouts, and the header does not say which:
+ *  - Geomview's spec (also CGAL): big-endian ints and floats; every face ends
+ *    with a colour count (0..4) and that many floats; a C vertex has 4 colour
+ *    floats.
+ *  - OpenMesh's writer (OpenMesh-commandlineSubdivider and the like): the
+ *    writing machine's byte order, little endian in practice, and no colour
+ *    count after a face; with C, vertices may carry 3 or 4 colour words (ints
+ *    or floats) and faces 3 or 4 more, either possibly absent.
+ * Both are: #vertices #faces #edges, per vertex x y z [normal] [colour] [s t],
+ * per face n i[0] .. i[n-1] [colour]. Each candidate layout is first walked
+ * through (counts and indices checked, nothing stored), and the first that
+ * reads as a valid file ending exactly at the end is parsed. When none does (a
+ * truncated or corrupt file), the byte order whose counts are the more
+ * plausible is parsed in its usual layout so that the error says where the
+ * file breaks. */
+typedef struct offb_layout {
+    uint8_t big;     /* byte order */
+    uint8_t vwords;  /* 32-bit words per vertex */
+    uint8_t counted; /* each face ends with a colour count and that many words */
+    uint8_t fwords;  /* else: colour words after each face's indices */
+} offb_layout;
+
+static inline uint32_t offb_u32(const unsigned char *p, int big)
+{
+    return big ? be32(p) : le32(p);
+}
+
+/* Whether layout L reads as a valid file: every face has corners (neither
+ * Geomview nor OpenMesh reads a face without any, and without this a
+ * Geomview file cut after half its faces would read as the other layout
+ * with empty faces between), every index is in range, and the faces end
+ * exactly at the end (or only white space follows). Then *tris is the
+ * triangle count. Each face takes at least 4 bytes, so this is linear in the
+ * file size whatever the counts say. */
+static int offb_walk(const unsigned char *p, const unsigned char *end, uint32_t nv, uint32_t nf,
+                     offb_layout L, uint64_t *tris)
+{
+    uint64_t vbytes = (uint64_t)nv * L.vwords * 4;
+    if (vbytes > (uint64_t)(end - p))
+        return 0;
+    p += vbytes;
+    uint64_t t = 0;
+    for (uint32_t f = 0; f < nf; f++) {
+        if (end - p < 4)
+            return 0;
+        uint32_t n = offb_u32(p, L.big); /* a negative count reads as huge */
+        p += 4;
+        if (n == 0 || n > (size_t)(end - p) / 4)
+            return 0;
+        for (uint32_t c = 0; c < n; c++, p += 4)
+            if (offb_u32(p, L.big) >= nv) /* and negative ones */
+                return 0;
+        t += n >= 3 ? n - 2 : 0;
+        uint32_t nc = L.fwords;
+        if (L.counted) {
+            if (end - p < 4)
+                return 0;
+            nc = offb_u32(p, L.big);
+            p += 4;
+            if (nc > 4)
+                return 0;
+        }
+        if ((size_t)(end - p) < (size_t)nc * 4)
+            return 0;
+        p += (size_t)nc * 4;
+    }
+    while (p < end && is_space((char)*p))
+        p++;
+    *tris = t;
+    return p == end;
+}
+
+/* How many of the first words after the counts read, in byte order big, as
+ * zero or a float of moderate magnitude, as coordinates do; the other order
+ * makes most of them tiny, huge or not numbers. */
+static int offb_sane_floats(const unsigned char *p, const unsigned char *end, int big)
+{
+    int sane = 0;
+    for (int i = 0; i < 48 && end - p >= 4; i++, p += 4) {
+        uint32_t u = offb_u32(p, big);
+        uint32_t e = u >> 23 & 0xff;
+        sane += (u & 0x7fffffffu) == 0 || (e >= 127 - 60 && e <= 127 + 60);
+    }
+    return sane;
+}
+
+static mts_result offb_truncated(const char *name, const char *what, uint32_t expected,
+                                 uint32_t got, mts_error *err)
+{
+    return mts_error_set(err, MTS_ERR_FORMAT, "%s: truncated: expected %u %s, file ends after %u",
+                         name, expected, what, got);
+}
+
+/* The binary part of an OFF file: p is the byte after the header line. */
+static mts_result off_binary(mts__mesh_raw *raw, const off_flags *fl, const unsigned char *p,
+                             const unsigned char *end, mts_error *err)
+{
+    const char *name = raw->name;
+    mts_mesh_stats *st = raw->stats;
+    const size_t size = (size_t)(end - p);
+    if (size < 12)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: truncated: the binary OFF counts take 12 bytes, the file has "
+                             "%zu after the header",
+                             name, size);
+
+    /* The counts in both byte orders, ranked: fits the file > within the
+     * limit > over it; then by how coordinate-like the data after them
+     * reads, then by the smaller claim. */
+    const unsigned base = 3 + (fl->normals ? 3 : 0) + (fl->texcoords ? 2 : 0);
+    uint32_t nvo[2], nfo[2];
+    uint64_t need[2];
+    int rank[2], sane[2];
+    for (int b = 0; b < 2; b++) {
+        nvo[b] = offb_u32(p, b);
+        nfo[b] = offb_u32(p + 4, b);
+        /* the least any layout takes: the words every vertex has, 4 bytes a face */
+        need[b] = 12 + (uint64_t)nvo[b] * base * 4 + (uint64_t)nfo[b] * 4;
+        int over = nvo[b] > MTS__MESH_MAX_COUNT || nfo[b] > MTS__MESH_MAX_COUNT;
+        rank[b] = over ? 0 : need[b] <= size ? 2 : 1;
+        sane[b] = offb_sane_floats(p + 12, end, b);
+    }
+    const int first = rank[0] != rank[1] ? rank[1] > rank[0]
+                      : sane[0] != sane[1] ? sane[1] > sane[0]
+                                           : need[1] < need[0];
+
+    /* The candidate layouts of each byte order, most likely first. */
+    offb_layout cand[2][12];
+    int ncand[2] = {0, 0};
+    for (int b = 0; b < 2; b++) {
+        if (!fl->colors) {
+            offb_layout geomview = {(uint8_t)b, (uint8_t)base, 1, 0};
+            offb_layout openmesh = {(uint8_t)b, (uint8_t)base, 0, 0};
+            cand[b][ncand[b]++] = b ? geomview : openmesh;
+            cand[b][ncand[b]++] = b ? openmesh : geomview;
+            continue;
+        }
+        static const uint8_t vcol[2][3] = {{3, 4, 0}, {4, 3, 0}};
+        static const int8_t fcol[2][4] = {{0, 3, 4, -1}, {-1, 0, 3, 4}}; /* -1: counted */
+        for (int v = 0; v < 3; v++)
+            for (int f = 0; f < 4; f++)
+                cand[b][ncand[b]++] = (offb_layout){(uint8_t)b, (uint8_t)(base + vcol[b][v]),
+                                                    fcol[b][f] < 0,
+                                                    (uint8_t)(fcol[b][f] < 0 ? 0 : fcol[b][f])};
+    }
+    offb_layout L = cand[first][0];
+    uint64_t tris = 0;
+    int exact = 0;
+    for (int k = 0; k < 2 && !exact; k++) {
+        int b = k ? !first : first;
+        if (rank[b] != 2)
+            continue; /* cannot end at the end */
+        for (int c = 0; c < ncand[b] && !exact; c++)
+            if (offb_walk(p + 12, end, nvo[b], nfo[b], cand[b][c], &tris)) {
+                L = cand[b][c];
+                exact = 1;
+            }
+    }
+
+    const int big = L.big;
+    const uint32_t nv = nvo[big], nf = nfo[big];
+    if (nv > MTS__MESH_MAX_COUNT)
+        return mts_error_set(err, MTS_ERR_LIMIT, "%s: %u vertices is over the limit of %u", name,
+                             nv, MTS__MESH_MAX_COUNT);
+    if (nf > MTS__MESH_MAX_COUNT)
+        return mts_error_set(err, MTS_ERR_LIMIT, "%s: %u faces is over the limit of %u", name, nf,
+                             MTS__MESH_MAX_COUNT);
+    p += 12;
+
+    const size_t vstride = (size_t)L.vwords * 4;
+    if ((uint64_t)nv * vstride > (uint64_t)(end - p))
+        return offb_truncated(name, "vertices", nv, (uint32_t)((size_t)(end - p) / vstride), err);
+    mts_result r = raw_reserve_vertices(raw, nv, fl->normals, err);
+    if (r != MTS_OK)
+        return r;
+    const unsigned values = fl->normals ? 6 : 3;
+    for (uint32_t i = 0; i < nv; i++, p += vstride) {
+        uint32_t u[6];
+        for (unsigned c = 0; c < values; c++) {
+            u[c] = offb_u32(p + 4 * c, big);
+            if ((u[c] & 0x7f800000u) == 0x7f800000u)
+                return mts_error_set(err, MTS_ERR_FORMAT, "%s: vertex %u has a non-finite %s",
+                                     name, i, c < 3 ? "coordinate" : "normal");
+        }
+        memcpy(raw->positions + (size_t)i * 3, u, 3 * sizeof *u);
+        if (fl->normals)
+            memcpy(raw->normals + (size_t)i * 3, u + 3, 3 * sizeof *u);
+    }
+    raw->vertex_count = nv;
+    st->file_vertices = nv;
+
+    /* the walk counted the triangles; otherwise reserve what the bytes left
+     * could hold (16 per triangle) and grow from there */
+    size_t left = (size_t)(end - p);
+    uint64_t want = exact ? tris : (nf < left / 16 + 1 ? nf : left / 16 + 1);
+    if ((r = raw_reserve_triangles(raw, want, err)) != MTS_OK)
+        return r;
+
+    for (uint32_t f = 0; f < nf; f++) {
+        if (end - p < 4)
+            return offb_truncated(name, "faces", nf, f, err);
+        int32_t n = (int32_t)offb_u32(p, big);
+        p += 4;
+        if (n < 0)
+            return mts_error_set(err, MTS_ERR_FORMAT, "%s: face %u has %d corners", name, f, n);
+        size_t avail = (size_t)(end - p) / 4;
+        if ((uint32_t)n > avail)
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "%s: truncated: expected %u faces, file ends after %u (face %u "
+                                 "claims %d corners, the file holds %zu more)",
+                                 name, nf, f, f, n, avail);
+        fan poly = {0, 0, 0};
+        for (int32_t c = 0; c < n; c++, p += 4) {
+            int32_t idx = (int32_t)offb_u32(p, big);
+            if (idx < 0 || (uint32_t)idx >= nv)
+                return mts_error_set(err, MTS_ERR_RANGE,
+                                     "%s: face %u: vertex index %d out of range (%u vertices)",
+                                     name, f, idx, nv);
+            if ((r = fan_add(raw, &poly, (uint32_t)idx, err)) != MTS_OK)
+                return r;
+        }
+        uint32_t nc = L.fwords;
+        if (L.counted) {
+            if (end - p < 4)
+                return offb_truncated(name, "faces", nf, f, err);
+            int32_t c = (int32_t)offb_u32(p, big);
+            p += 4;
+            if (c < 0 || c > 4)
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "%s: face %u: colour count %d is not 0 to 4", name, f, c);
+            nc = (uint32_t)c;
+        }
+        if ((size_t)(end - p) < (size_t)nc * 4)
+            return offb_truncated(name, "faces", nf, f, err);
+        p += (size_t)nc * 4;
+        if ((r = fan_end(raw, &poly, err)) != MTS_OK)
+            return r;
+    }
+    return MTS_OK;
+}
+
 mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
 {
     text t = {data + bom_length(data, size), data + size, 1, 1, raw->name};
@@ -460,8 +720,9 @@ mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size,
     text_space(&t);
     const char *w;
     size_t wn = text_word(&t, &w);
-    int normals, four, ndim;
-    size_t k = off_keyword(w, wn, &normals, &four, &ndim);
+    off_flags fl;
+    size_t k = off_keyword(w, wn, &fl);
+    const int normals = fl.normals;
     if (k == 0)
         return mts_error_set(err, MTS_ERR_FORMAT, "%s: not an OFF file (first word '%.*s')",
                              t.name, (int)(wn < 40 ? wn : 40), w);
@@ -473,9 +734,29 @@ mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size,
                                  t.name, (int)(wn < 40 ? wn : 40), w);
         t.p = w + k;
     }
-    if (four)
+    if (fl.four)
         return mts_error_set(err, MTS_ERR_VERSION, "%s: 4D OFF is not supported", t.name);
-    if (ndim) {
+    text_blank(&t);
+    if (t.end - t.p >= 6 && memcmp(t.p, "BINARY", 6) == 0 && token_ends(&t, t.p + 6)) {
+        if (fl.ndim)
+            return mts_error_set(err, MTS_ERR_VERSION, "%s: binary nOFF is not supported",
+                                 t.name);
+        /* the binary data starts right after the newline that ends the
+         * header line; blanks and a comment may come before it */
+        t.p += 6;
+        text_blank(&t);
+        if (text_eof(&t))
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "%s: truncated: the file ends in the binary OFF header line",
+                                 t.name);
+        if (*t.p != '\n')
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "%s: line %llu: unexpected '%.*s' after OFF BINARY", t.name,
+                                 (unsigned long long)t.line, token_len(&t), t.p);
+        return off_binary(raw, &fl, (const unsigned char *)t.p + 1,
+                          (const unsigned char *)t.end, err);
+    }
+    if (fl.ndim) {
         uint32_t dim;
         mts_result r = off_count(&t, "dimension", &dim, err);
         if (r != MTS_OK)
@@ -484,9 +765,6 @@ mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size,
             return mts_error_set(err, MTS_ERR_VERSION, "%s: %u-dimensional OFF is not supported",
                                  t.name, dim);
     }
-    text_blank(&t);
-    if (t.end - t.p >= 6 && memcmp(t.p, "BINARY", 6) == 0)
-        return mts_error_set(err, MTS_ERR_VERSION, "%s: binary OFF is not supported", t.name);
 
     uint32_t nv, nf;
     mts_result r = off_count(&t, "vertex", &nv, err);
@@ -1251,11 +1529,6 @@ static mts_result stl_weld(mts__mesh_raw *raw, mts_error *err)
     return MTS_OK;
 }
 
-static inline uint32_t le32(const unsigned char *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
 static mts_result stl_binary(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
 {
     if (size < 84)
@@ -1448,8 +1721,8 @@ mts_mesh_format mts__mesh_sniff(const char *data, size_t size)
     text_space(&t);
     const char *w;
     size_t wn = text_word(&t, &w);
-    int normals, four, ndim;
-    size_t k = off_keyword(w, wn, &normals, &four, &ndim);
+    off_flags fl;
+    size_t k = off_keyword(w, wn, &fl);
     if (k > 0 && (k == wn || (unsigned)(w[k] - '0') < 10))
         return MTS_MESH_OFF;
     size_t head = size < 65536 ? size : 65536;

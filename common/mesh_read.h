@@ -35,7 +35,9 @@ typedef struct mts__mesh_raw {
 
 void mts__mesh_raw_free(mts__mesh_raw *raw);
 
-/* The parsers. data need not be NUL-terminated; size > 0. */
+/* The parsers. data need not be NUL-terminated; size > 0. The OFF parser
+ * reads ASCII and binary OFF ("OFF BINARY": Geomview's big-endian layout with
+ * a colour count per face, and OpenMesh's little-endian one without). */
 mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
 mts_result mts__mesh_read_obj(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
 mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);

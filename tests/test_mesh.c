@@ -6,6 +6,7 @@
 #include <stdarg.h>
 #include <stdint.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "mesh.h"
 #include "mesh_read.h"
@@ -297,6 +298,239 @@ static void test_off_variants(mts_test *t)
     r = load_text("four.off", "4OFF\n1 0 0\n0 0 0 0\n", &m, &st, &err);
     CHECK(t, r == MTS_ERR_VERSION);
     CHECK(t, strstr(err.msg, "four.off") != NULL);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Binary OFF                                                               */
+
+static void put_u32(buf *b, uint32_t u, int big)
+{
+    unsigned char c[4];
+    for (int i = 0; i < 4; i++)
+        c[i] = (unsigned char)(big ? u >> (24 - 8 * i) : u >> (8 * i));
+    buf_put(b, c, 4);
+}
+
+static void put_f32(buf *b, float f, int big)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    put_u32(b, u, big);
+}
+
+enum { OFFB_NORMALS = 1, OFFB_COLORS = 2, OFFB_ST = 4 };
+
+/* The tetrahedron as binary OFF. big = 0 is OpenMesh's layout (little
+ * endian, nothing after a face's indices unless C: then 3 int colour words
+ * per vertex and per face); big = 1 is Geomview's (big endian, a colour count
+ * after every face's indices, face 2 with an RGBA colour; C: 4 floats per
+ * vertex). Normals point away from the centroid, not unit length. */
+static void tet_off_binary(buf *b, int big, int flags)
+{
+    buf_printf(b, "%s%s%sOFF BINARY\n", flags & OFFB_ST ? "ST" : "", flags & OFFB_COLORS ? "C" : "",
+               flags & OFFB_NORMALS ? "N" : "");
+    put_u32(b, 4, big);
+    put_u32(b, 4, big);
+    put_u32(b, 6, big);
+    for (int v = 0; v < 4; v++) {
+        for (int k = 0; k < 3; k++)
+            put_f32(b, tet_pos[v][k], big);
+        if (flags & OFFB_NORMALS)
+            for (int k = 0; k < 3; k++)
+                put_f32(b, 2 * (tet_pos[v][k] - 0.25f), big);
+        if ((flags & OFFB_COLORS) && big)
+            for (int k = 0; k < 4; k++)
+                put_f32(b, 0.5f, big);
+        else if (flags & OFFB_COLORS)
+            for (int k = 0; k < 3; k++)
+                put_u32(b, 200, big);
+        if (flags & OFFB_ST)
+            for (int k = 0; k < 2; k++)
+                put_f32(b, 0.25f * k, big);
+    }
+    for (int f = 0; f < 4; f++) {
+        put_u32(b, 3, big);
+        for (int k = 0; k < 3; k++)
+            put_u32(b, tet_tri[f][k], big);
+        if (big) {
+            put_u32(b, f == 2 ? 4 : 0, big);
+            for (int k = 0; k < (f == 2 ? 4 : 0); k++)
+                put_f32(b, 0.75f, big);
+        } else if (flags & OFFB_COLORS) {
+            for (int k = 0; k < 3; k++)
+                put_u32(b, 100, big);
+        }
+    }
+}
+
+static void check_tet(mts_test *t, const mts_mesh *m, const mts_mesh_stats *st, const char *what)
+{
+    CHECKF(t, st->format == MTS_MESH_OFF, "%s", what);
+    CHECKF(t, m->vertex_count == 4 && m->triangle_count == 4, "%s: %u %u", what, m->vertex_count,
+           m->triangle_count);
+    CHECKF(t, st->file_vertices == 4 && st->file_faces == 4, "%s", what);
+    if (m->vertex_count != 4 || m->triangle_count != 4)
+        return;
+    CHECKF(t, memcmp(m->positions, tet_pos, sizeof tet_pos) == 0, "%s", what);
+    CHECKF(t, memcmp(m->triangles, tet_tri, sizeof tet_tri) == 0, "%s", what);
+    CHECKF(t, outward(m), "%s", what);
+}
+
+static void test_off_binary(mts_test *t)
+{
+    static const struct {
+        const char *name;
+        int big, flags;
+    } cases[] = {{"le.off", 0, 0},         {"be.off", 1, 0},
+                 {"le_n.off", 0, OFFB_NORMALS}, {"be_n.off", 1, OFFB_NORMALS},
+                 {"le_c.off", 0, OFFB_COLORS},  {"be_c.off", 1, OFFB_COLORS},
+                 {"le_stcn.off", 0, OFFB_ST | OFFB_COLORS | OFFB_NORMALS},
+                 {"be_stcn.off", 1, OFFB_ST | OFFB_COLORS | OFFB_NORMALS},
+                 {"tet", 0, 0} /* by content */, {"tet", 1, 0}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        buf b = {0};
+        tet_off_binary(&b, cases[i].big, cases[i].flags);
+        mts_mesh m;
+        mts_mesh_stats st;
+        mts_error err = {0};
+        char what[64];
+        snprintf(what, sizeof what, "%s %s", cases[i].name, cases[i].big ? "BE" : "LE");
+        mts_result r = load_bytes(cases[i].name, b.d, b.n, &m, &st, &err);
+        CHECKF(t, r == MTS_OK, "%s: %s", what, err.msg);
+        if (r == MTS_OK) {
+            check_tet(t, &m, &st, what);
+            int normals = (cases[i].flags & OFFB_NORMALS) != 0;
+            CHECKF(t, st.normals_from_file == normals, "%s", what);
+            /* vertex 1's file normal (1.5, -0.5, -0.5), made unit length */
+            if (normals)
+                CHECKF(t, fabsf(m.normals[3] * m.normals[3] - 9.0f / 11) < 1e-6f && m.normals[4] < 0,
+                       "%s: %g", what, m.normals[3]);
+        }
+        mts_mesh_free(&m);
+        buf_free(&b);
+    }
+
+    /* quads, and a comment after BINARY */
+    buf b = {0};
+    buf_printf(&b, "OFF BINARY # from a test\r\n");
+    put_u32(&b, 8, 0);
+    put_u32(&b, 6, 0);
+    put_u32(&b, 12, 0);
+    for (int v = 0; v < 8; v++)
+        for (int k = 0; k < 3; k++)
+            put_f32(&b, (float)(v >> k & 1), 0);
+    for (int f = 0; f < 6; f++) {
+        put_u32(&b, 4, 0);
+        for (int k = 0; k < 4; k++)
+            put_u32(&b, cube_quad[f][k], 0);
+    }
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result r = load_bytes("cube.off", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK)
+        check_cube(t, &m, &st);
+    mts_mesh_free(&m);
+    /* a trailing newline is fine */
+    buf_put(&b, "\n", 1);
+    r = load_bytes("cube.off", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK && m.triangle_count == 12, "%s", err.msg);
+    mts_mesh_free(&m);
+    buf_free(&b);
+}
+
+/* The path of an executable on $PATH, or NULL. */
+static const char *find_program(const char *prog, char *out, size_t size)
+{
+    const char *path = getenv("PATH");
+    if (!path || !*path)
+        path = "/usr/bin:/bin";
+    while (*path) {
+        const char *colon = strchr(path, ':');
+        size_t n = colon ? (size_t)(colon - path) : strlen(path);
+        snprintf(out, size, "%.*s/%s", (int)n, n ? path : ".", prog);
+        if (access(out, X_OK) == 0)
+            return out;
+        path += n + (colon != NULL);
+    }
+    return NULL;
+}
+
+/* OpenMesh's own binary OFF: the cow, Loop-subdivided once by
+ * OpenMesh-commandlineSubdivider, loads with V + E vertices and 4F
+ * triangles, the same mesh as the subdivider's ASCII OBJ output. */
+static void test_off_binary_openmesh(mts_test *t)
+{
+    char prog[1024];
+    if (!find_program("OpenMesh-commandlineSubdivider", prog, sizeof prog))
+        SKIP(t, "OpenMesh-commandlineSubdivider is not installed (Debian: libopenmesh-apps)");
+    mts_mesh cow, off, obj;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result r = mts_mesh_load("tests/data/cow.off", NULL, &cow, NULL, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r != MTS_OK)
+        return;
+    /* the edges of the closed cow: every undirected edge once */
+    uint64_t edges = 0;
+    for (uint32_t f = 0; f < cow.triangle_count; f++)
+        for (int k = 0; k < 3; k++) {
+            uint32_t a = cow.triangles[f * 3 + k], b = cow.triangles[f * 3 + (k + 1) % 3];
+            edges += a < b; /* closed and consistently oriented: each edge is a<b once */
+        }
+    const uint64_t want_v = cow.vertex_count + edges, want_t = 4 * (uint64_t)cow.triangle_count;
+    CHECK(t, cow.vertex_count - edges + cow.triangle_count == 2); /* a sphere */
+    mts_mesh_free(&cow);
+
+    char off_path[512], obj_path[512], cmd[3 * 1024];
+    snprintf(off_path, sizeof off_path, "%s/mts_test_mesh_cow_loop1.off", mts_test_tmpdir());
+    snprintf(obj_path, sizeof obj_path, "%s/mts_test_mesh_cow_loop1.obj", mts_test_tmpdir());
+    for (int i = 0; i < 2; i++) {
+        snprintf(cmd, sizeof cmd, "'%s' -l 1 tests/data/cow.off '%s' >/dev/null 2>&1", prog,
+                 i ? obj_path : off_path);
+        int rc = system(cmd);
+        CHECKF(t, rc == 0, "%s: exit %d", cmd, rc);
+        if (rc != 0)
+            return;
+    }
+    FILE *f = fopen(off_path, "rb");
+    char head[16] = {0};
+    CHECK(t, f && fread(head, 1, 11, f) == 11 && memcmp(head, "OFF BINARY\n", 11) == 0);
+    if (f)
+        fclose(f);
+
+    r = mts_mesh_load(off_path, NULL, &off, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    mts_result r2 = mts_mesh_load(obj_path, NULL, &obj, NULL, &err);
+    CHECKF(t, r2 == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK && r2 == MTS_OK) {
+        CHECKF(t, st.file_vertices == want_v && st.file_faces == want_t, "%u %u, want %llu %llu",
+               st.file_vertices, st.file_faces, (unsigned long long)want_v,
+               (unsigned long long)want_t);
+        CHECKF(t, off.vertex_count == want_v && off.triangle_count == want_t, "%u %u",
+               off.vertex_count, off.triangle_count);
+        CHECK(t, st.degenerate_faces == 0 && st.nonmanifold_faces == 0);
+        CHECK(t, all_unit(&off));
+        CHECK(t, off.vertex_count == obj.vertex_count && off.triangle_count == obj.triangle_count);
+        if (off.vertex_count == obj.vertex_count && off.triangle_count == obj.triangle_count) {
+            CHECK(t, memcmp(off.triangles, obj.triangles,
+                            (size_t)off.triangle_count * 3 * sizeof *off.triangles) == 0);
+            /* the OBJ has 6 decimals */
+            double worst = 0;
+            for (size_t i = 0; i < (size_t)off.vertex_count * 3; i++) {
+                double d = fabs((double)off.positions[i] - obj.positions[i]);
+                worst = d > worst ? d : worst;
+            }
+            CHECKF(t, worst <= 5.1e-7, "%g", worst);
+        }
+    }
+    if (r == MTS_OK)
+        mts_mesh_free(&off);
+    if (r2 == MTS_OK)
+        mts_mesh_free(&obj);
+    remove(off_path);
+    remove(obj_path);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -916,13 +1150,107 @@ static void test_error_corrupt(mts_test *t)
     expect_text_error(t, "empty.stl", "solid x\nendsolid x\n", MTS_ERR_FORMAT, "no triangles");
 }
 
+static void test_off_binary_errors(mts_test *t)
+{
+    /* every prefix of both layouts is an error that names the file and, from
+     * the keyword on, says it is truncated */
+    for (int big = 0; big < 2; big++) {
+        for (int flags = 0; flags < 8; flags += OFFB_NORMALS | OFFB_COLORS) {
+            buf b = {0};
+            tet_off_binary(&b, big, flags);
+            size_t line = (size_t)((unsigned char *)memchr(b.d, '\n', b.n) - b.d);
+            for (size_t cut = 1; cut < b.n; cut++) {
+                mts_mesh m;
+                mts_error err = {0};
+                mts_result r = load_bytes("cut.off", b.d, cut, &m, NULL, &err);
+                /* "OF" is not an OFF file yet; from "OFF" on it is a cut one */
+                CHECKF(t, r == MTS_ERR_FORMAT && strstr(err.msg, "cut.off: ") == err.msg &&
+                              (cut < line - 7 || strstr(err.msg, "truncated") != NULL),
+                       "%s flags %d cut %zu/%zu: %s: %s", big ? "BE" : "LE", flags, cut, b.n,
+                       mts_result_name(r), err.msg);
+                mts_mesh_free(&m);
+            }
+            buf_free(&b);
+        }
+    }
+    buf b = {0};
+    tet_off_binary(&b, 0, 0);
+    const size_t header = strlen("OFF BINARY\n");
+    expect_error(t, "cut_v.off", b.d, header + 12 + 20, MTS_ERR_FORMAT,
+                 "truncated: expected 4 vertices, file ends after 1");
+    expect_error(t, "cut_f.off", b.d, b.n - 1, MTS_ERR_FORMAT,
+                 "truncated: expected 4 faces, file ends after 3");
+    expect_error(t, "cut_h.off", b.d, header + 5, MTS_ERR_FORMAT,
+                 "truncated: the binary OFF counts take 12 bytes");
+    buf_free(&b);
+
+    /* huge counts: over the limit, or more than the file holds */
+    unsigned char *p;
+    static const uint32_t le_over = 0xffffffffu;
+    tet_off_binary(&b, 0, 0);
+    memcpy(b.d + header, &le_over, 4);
+    expect_error(t, "huge.off", b.d, b.n, MTS_ERR_LIMIT, "4294967295 vertices is over the limit");
+    buf_free(&b);
+    tet_off_binary(&b, 0, 0);
+    p = b.d + header;
+    p[0] = 0x00, p[1] = 0x94, p[2] = 0x35, p[3] = 0x77; /* 2,000,000,000 little endian */
+    expect_error(t, "big.off", b.d, b.n, MTS_ERR_FORMAT,
+                 "truncated: expected 2000000000 vertices, file ends after 9");
+    buf_free(&b);
+    tet_off_binary(&b, 1, 0);
+    p = b.d + header + 4;
+    p[0] = 0x77, p[1] = 0x35, p[2] = 0x94, p[3] = 0x00; /* 2,000,000,000 faces big endian */
+    expect_error(t, "bigf.off", b.d, b.n, MTS_ERR_FORMAT,
+                 "truncated: expected 2000000000 faces, file ends after 4");
+    buf_free(&b);
+    /* a face claiming 2 billion corners, and one claiming a negative count */
+    const size_t faces = header + 12 + 4 * 12;
+    tet_off_binary(&b, 0, 0);
+    p = b.d + faces + 16;
+    p[0] = 0x00, p[1] = 0x94, p[2] = 0x35, p[3] = 0x77;
+    expect_error(t, "bigpoly.off", b.d, b.n, MTS_ERR_FORMAT,
+                 "face 1 claims 2000000000 corners, the file holds 11 more");
+    memset(p, 0xff, 4);
+    expect_error(t, "negpoly.off", b.d, b.n, MTS_ERR_FORMAT, "face 1 has -1 corners");
+    buf_free(&b);
+
+    /* indices out of range, both layouts */
+    tet_off_binary(&b, 0, 0);
+    b.d[b.n - 4] = 9; /* the last index of the last face */
+    expect_error(t, "range.off", b.d, b.n, MTS_ERR_RANGE,
+                 "face 3: vertex index 9 out of range (4 vertices)");
+    memset(b.d + faces + 4, 0xff, 4); /* the first index of face 0: -1 */
+    expect_error(t, "minus.off", b.d, b.n, MTS_ERR_RANGE, "face 0: vertex index -1 out of range");
+    buf_free(&b);
+    tet_off_binary(&b, 1, 0);
+    b.d[b.n - 5] = 4; /* the last index of the last face, before its colour count */
+    expect_error(t, "range_be.off", b.d, b.n, MTS_ERR_RANGE,
+                 "face 3: vertex index 4 out of range (4 vertices)");
+    buf_free(&b);
+
+    /* a bad colour count, a NaN, a bad header line, binary nOFF */
+    tet_off_binary(&b, 1, 0);
+    b.d[faces + 19] = 5; /* face 0's colour count */
+    expect_error(t, "color.off", b.d, b.n, MTS_ERR_FORMAT, "face 0: colour count 5 is not 0 to 4");
+    buf_free(&b);
+    tet_off_binary(&b, 0, 0);
+    memset(b.d + header + 12 + 12, 0xff, 4); /* vertex 1's x */
+    expect_error(t, "nan.off", b.d, b.n, MTS_ERR_FORMAT, "vertex 1 has a non-finite coordinate");
+    buf_free(&b);
+    expect_text_error(t, "junk.off", "OFF BINARY junk\n\x04\0\0\0", MTS_ERR_FORMAT,
+                      "unexpected 'junk' after OFF BINARY");
+    expect_text_error(t, "ndim.off", "nOFF BINARY\n\x03", MTS_ERR_VERSION, "binary nOFF");
+    expect_text_error(t, "nonl.off", "OFF BINARY", MTS_ERR_FORMAT, "truncated");
+}
+
 /* Every prefix and many single-byte corruptions of a valid file of each
  * format either load or fail with a message naming the file: never a crash,
  * an over-read or a leak (under ASan). */
 static void test_robust(mts_test *t)
 {
-    buf files[8] = {{0}};
-    const char *names[8] = {"f.off", "f.obj", "f.ply", "f.ply", "f.ply", "f.stl", "f.stl", "f.off"};
+    buf files[11] = {{0}};
+    const char *names[11] = {"f.off", "f.obj", "f.ply", "f.ply", "f.ply", "f.stl",
+                             "f.stl", "f.off", "f.off", "f.off", "f.off"};
     cube_off(&files[0]);
     buf_printf(&files[1], "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvn 0 0 1\n"
                           "f 1/1/1 3/1/1 2/1/1\nf -4//-1 -3//-1 -1//-1\nf 1 4 3\nf 2 3 4\n");
@@ -933,8 +1261,11 @@ static void test_robust(mts_test *t)
     tet_stl_binary(&files[6], "solid");
     buf_printf(&files[7], "NOFF\n4 4 0\n0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n0 0 1 0 0 1\n"
                           "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+    tet_off_binary(&files[8], 0, 0);
+    tet_off_binary(&files[9], 1, OFFB_NORMALS);
+    tet_off_binary(&files[10], 0, OFFB_COLORS | OFFB_ST);
     uint32_t seed = 1;
-    for (int i = 0; i < 8; i++) {
+    for (int i = 0; i < 11; i++) {
         buf *b = &files[i];
         mts_mesh m;
         mts_error err;
@@ -1145,6 +1476,7 @@ int main(void)
     RUN(&t, test_off_tetrahedron);
     RUN(&t, test_off_cube_quads);
     RUN(&t, test_off_variants);
+    RUN(&t, test_off_binary);
     RUN(&t, test_obj_cube);
     RUN(&t, test_obj_normals_partial);
     RUN(&t, test_ply_cube);
@@ -1156,10 +1488,12 @@ int main(void)
     RUN(&t, test_error_truncated);
     RUN(&t, test_error_huge_counts);
     RUN(&t, test_error_corrupt);
+    RUN(&t, test_off_binary_errors);
     RUN(&t, test_robust);
     RUN(&t, test_detection);
     RUN(&t, test_scan_float);
     RUN(&t, test_cow);
+    RUN(&t, test_off_binary_openmesh);
     RUN(&t, test_bunny);
     return mts_test_end(&t);
 }
