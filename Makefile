@@ -35,6 +35,8 @@ TESTS    := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 BENCH    := $(BUILD)/bin/mts-bench
 
 .PHONY: all programs tests test test-release test-asan bench demo deps install clean
+# keep object files of programs and tests between builds
+.SECONDARY:
 all: programs tests
 
 programs: $(PROGRAMS)
