@@ -1,0 +1,197 @@
+#!/usr/bin/env bash
+# `make bench`: measures the shared models with build/bin/mts-bench, then a
+# 1.2M-triangle mesh (bunny00 Loop-subdivided twice by OpenMesh) with
+# build/bin/mts-build, and OpenMesh's own progressive-mesh builder for scale.
+# Prints the tables and writes bench/results.json (everything merged).
+#
+# Environment: MTS_SHARED (default ../shared) holds models/; MTS_BENCH_BIG=0
+# skips the big mesh (a minute of the run). Exit status 1 when a requested
+# figure could not be measured; absent tools and models are skipped, with a
+# reason, and do not fail the run.
+set -uo pipefail
+cd "$(dirname "$0")/.." || exit 1
+
+shared="${MTS_SHARED:-../shared}"
+out=bench/out
+mkdir -p "$out"
+status=0
+
+# --- the shared models -------------------------------------------------------
+models=()
+for m in cow bunny00 fandisk_large; do
+  models+=("$shared/models/$m.off") # mts-bench prints why a missing one is skipped
+done
+rm -f "$out/models.json" # never merge a previous run's figures
+build/bin/mts-bench "${models[@]}" --json "$out/models.json" || status=1
+[ -s "$out/models.json" ] || { echo "bench: mts-bench wrote no figures" >&2; exit 1; }
+
+# seconds since some epoch, with microseconds (bash 5)
+now() { printf '%s\n' "$EPOCHREALTIME"; }
+elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", b - a }'; }
+
+# --- the big mesh ------------------------------------------------------------
+# Facts for the merge go into $out/big.env as KEY=VALUE lines; python reads them.
+big_env="$out/big.env"
+: >"$big_env"
+note() { printf '%s=%s\n' "$1" "$2" >>"$big_env"; }
+
+bunny="$shared/models/bunny00.off"
+big="$out/bunny00_l2.off"
+big_model="$out/bunny00_l2.mtsm"
+if [ "${MTS_BENCH_BIG:-1}" = 0 ]; then
+  note big_skipped "MTS_BENCH_BIG=0"
+elif ! command -v OpenMesh-commandlineSubdivider >/dev/null; then
+  note big_skipped "OpenMesh-commandlineSubdivider not installed (Debian libopenmesh-apps)"
+elif [ ! -f "$bunny" ] && [ ! -f "$big" ]; then
+  note big_skipped "$bunny not found"
+else
+  if [ -f "$big" ]; then
+    note big_generated "cached"
+  else
+    # Usage: subdivide [type] iterations input [output]; -l is uniform Loop.
+    # Written under a temporary name first so that an interrupted run never
+    # leaves a truncated mesh behind to be taken for the cache.
+    echo "bench: generating $big (Loop subdivision x2 of bunny00) ..." >&2
+    t0=$(now)
+    if OpenMesh-commandlineSubdivider -l 2 "$bunny" "$out/tmp_l2.off" >"$out/subdivide.log" 2>&1; then
+      mv "$out/tmp_l2.off" "$big"
+      note big_generated "now"
+      note big_generate_seconds "$(elapsed "$t0" "$(now)")"
+    else
+      rm -f "$out/tmp_l2.off"
+      note big_error "OpenMesh-commandlineSubdivider failed: $(tail -n 1 "$out/subdivide.log")"
+      status=1
+    fi
+  fi
+  if [ -f "$big" ]; then
+    note big_input_bytes "$(stat -c %s "$big")"
+    note big_input_header "$(head -c 16 "$big" | head -n 1 | tr -cd '[:print:]')"
+    echo "bench: mts-build $big (about a minute) ..." >&2
+    t0=$(now)
+    if build/bin/mts-build "$big" -o "$big_model" --json >"$out/bunny00_l2.json" 2>"$out/bunny00_l2.err"; then
+      note big_wall_seconds "$(elapsed "$t0" "$(now)")"
+      rm -f "$big_model" # ~67 MB by-product of the timing; its figures are in the JSON
+    else
+      rm -f "$out/bunny00_l2.json"
+      note big_error "mts-build: $(tail -n 1 "$out/bunny00_l2.err" | sed 's/^mts-build: //')"
+      status=1
+    fi
+  fi
+fi
+
+# OpenMesh's progressive mesh of bunny00, for scale against our build: it
+# decimates down to a few vertices (we stop at 1%) and writes a .pm file.
+if ! command -v OpenMesh-mkbalancedpm >/dev/null; then
+  note pm_skipped "OpenMesh-mkbalancedpm not installed (Debian libopenmesh-apps)"
+elif [ ! -f "$bunny" ]; then
+  note pm_skipped "$bunny not found"
+else
+  echo "bench: OpenMesh-mkbalancedpm bunny00 ..." >&2
+  t0=$(now)
+  if OpenMesh-mkbalancedpm -o "$out/bunny00.pm" "$bunny" >"$out/mkbalancedpm.log" 2>&1; then
+    note pm_seconds "$(elapsed "$t0" "$(now)")"
+    note pm_bytes "$(stat -c %s "$out/bunny00.pm")"
+  else
+    note pm_error "OpenMesh-mkbalancedpm failed: $(tail -n 1 "$out/mkbalancedpm.log")"
+    status=1
+  fi
+fi
+
+# --- merge, print, write -----------------------------------------------------
+python3 - "$out" bench/results.json <<'PY' || status=1
+import json, os, platform, sys, time
+
+out, dest = sys.argv[1], sys.argv[2]
+with open(os.path.join(out, "models.json")) as f:
+    res = json.load(f)
+
+env = {}
+with open(os.path.join(out, "big.env")) as f:
+    for line in f:
+        k, _, v = line.rstrip("\n").partition("=")
+        env[k] = v
+
+def cpu():
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+res = {
+    "generated": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    "machine": {"cpu": cpu(), "cores": os.cpu_count(), "system": platform.platform()},
+    **res,
+}
+
+print("\nBig mesh: bunny00 Loop-subdivided twice (OpenMesh), one mts-build run; "
+      "write = save to file")
+big = {"mesh": "bunny00_l2.off"}
+if "big_skipped" in env:
+    big["status"] = "skipped"
+    big["reason"] = env["big_skipped"]
+    print(f"  skipped: {env['big_skipped']}")
+else:
+    big["generated"] = env.get("big_generated")
+    if "big_generate_seconds" in env:
+        big["generate_seconds"] = float(env["big_generate_seconds"])
+    if "big_input_bytes" in env:
+        big["input_bytes"] = int(env["big_input_bytes"])
+        big["input_header"] = env.get("big_input_header", "")
+    if "big_error" in env:
+        big["status"] = "failed"
+        big["error"] = env["big_error"]
+        print(f"  FAILED: {env['big_error']}")
+        if big.get("input_header", "").startswith("OFF BINARY"):
+            print("  (the subdivider writes binary OFF, which the mesh loader does not read)")
+    else:
+        with open(os.path.join(out, "bunny00_l2.json")) as f:
+            b = json.load(f)
+        big["status"] = "ok"
+        big["wall_seconds"] = float(env["big_wall_seconds"])
+        big.update(b)
+        s = b["seconds"]
+        print(f"{'model':<14} {'vertices':>9} {'triangles':>9} {'load s':>8} {'strip s':>8} "
+              f"{'simpl s':>8} {'recs s':>8} {'write s':>8} {'total s':>8} {'levels':>8}")
+        print("-" * 97)
+        print(f"{'bunny00_l2':<14} {b['vertices']:>9} {b['triangles']:>9} {s['load']:>8.3f} "
+              f"{s['stripify']:>8.3f} {s['simplify']:>8.3f} {s['records']:>8.3f} "
+              f"{s['write']:>8.3f} {s['total']:>8.3f} {b['levels']:>8}")
+        print(f"  strips {b['strips_full']}, {b['indices_per_triangle_full']:.3f} indices/triangle "
+              f"with restarts, {b['swaps']} swaps, model file {b['file_bytes']} B "
+              f"({b['file_bytes'] / 1e6:.2f} MB) from {big['input_bytes']} B of "
+              f"{'binary ' if 'BINARY' in big.get('input_header', '') else ''}OFF")
+    if "big_generate_seconds" in env:
+        print(f"  (generated in {big['generate_seconds']:.2f} s; cached in {out} for later runs)")
+res["big_mesh"] = big
+
+pm = {"tool": "OpenMesh-mkbalancedpm", "mesh": "bunny00.off"}
+if "pm_skipped" in env:
+    pm.update(status="skipped", reason=env["pm_skipped"])
+    print(f"\nOpenMesh-mkbalancedpm: skipped: {env['pm_skipped']}")
+elif "pm_error" in env:
+    pm.update(status="failed", error=env["pm_error"])
+    print(f"\nOpenMesh-mkbalancedpm: FAILED: {env['pm_error']}")
+else:
+    pm.update(status="ok", seconds=float(env["pm_seconds"]), pm_bytes=int(env["pm_bytes"]))
+    ours = res.get("models", {}).get("bunny00", {})
+    line = (f"\nFor scale, OpenMesh-mkbalancedpm on bunny00 (decimates to 4 vertices, writes a PM): "
+            f"{pm['seconds']:.2f} s wall, {pm['pm_bytes']} B ({pm['pm_bytes'] / 1e6:.3f} MB)")
+    if ours.get("status") == "ok":
+        line += (f"\n  mts on bunny00: {ours['build_seconds']['total']:.2f} s (median, in process), "
+                 f"{ours['size']['model_file_bytes']} B ({ours['size']['model_file_mb']:.3f} MB)")
+    print(line)
+res["openmesh_pm"] = pm
+
+with open(dest + ".tmp", "w") as f:
+    json.dump(res, f, indent=2)
+    f.write("\n")
+os.replace(dest + ".tmp", dest)
+print(f"\nwrote {dest}")
+PY
+
+[ "$status" -eq 0 ] || echo "bench: some figures could not be measured (see above)" >&2
+exit "$status"
