@@ -8,23 +8,24 @@
 #include <unistd.h>
 
 #include "crc32c.h"
+#include "reccodec.h"
+#include "varint.h"
 
 enum {
     SEC_INFO = 1,
     SEC_POSITIONS,
     SEC_NORMALS,
-    SEC_PARENTS,
     SEC_STRIPS_FULL,
     SEC_STRIPS_BASE,
-    SEC_RECORDS,
+    SEC_SPLITS,
     SEC_LEVELS,
     SEC_SOURCE,
     SEC_LAST = SEC_SOURCE
 };
 
-static const char *const section_names[] = {"?",       "info",        "positions",
-                                            "normals", "parents",     "full strips",
-                                            "base strips", "records", "levels",
+static const char *const section_names[] = {"?",           "info",   "positions",
+                                            "normals",     "full strips",
+                                            "base strips", "splits", "levels",
                                             "source"};
 
 #define HEADER_SIZE 16u
@@ -108,24 +109,60 @@ static uint64_t align8(uint64_t x)
     return (x + 7) & ~(uint64_t)7;
 }
 
-/* Expected section sizes from the INFO counts (64-bit: no overflow). */
+/* Section sizes: fixed-size sections from the INFO counts (64-bit: no
+ * overflow); the varint sections (splits, levels) and source are whatever
+ * they are, and their parse must end exactly at their end. */
 typedef struct layout {
     uint32_t vertices, base_vertices, levels, strips, full_indices, base_indices, record_words;
     uint64_t size[SEC_LAST + 1];
 } layout;
 
-static void layout_sizes(layout *l, size_t source_len)
+static void layout_sizes(layout *l)
 {
-    uint64_t n1 = (uint64_t)l->levels + 1;
     l->size[SEC_INFO] = INFO_SIZE;
     l->size[SEC_POSITIONS] = 12ull * l->vertices;
     l->size[SEC_NORMALS] = 12ull * l->vertices;
-    l->size[SEC_PARENTS] = 4ull * l->levels;
     l->size[SEC_STRIPS_FULL] = 4ull * l->strips + 4ull * l->full_indices;
     l->size[SEC_STRIPS_BASE] = 4ull * l->strips + 4ull * l->base_indices;
-    l->size[SEC_RECORDS] = 4ull * n1 + 4ull * l->record_words;
-    l->size[SEC_LEVELS] = 12ull * n1;
-    l->size[SEC_SOURCE] = source_len;
+}
+
+static int fixed_size(uint32_t id)
+{
+    return id != SEC_SPLITS && id != SEC_LEVELS && id != SEC_SOURCE;
+}
+
+/* Per-level counts change by a little from one level to the next. */
+static size_t levels_encode(const mts_model *m, uint8_t *out)
+{
+    uint8_t *o = out;
+    uint32_t t = 0, s = 0, i = 0;
+    for (uint32_t l = 0; l <= m->level_count; l++) {
+        o += mts_varint_put(o, mts_zigzag((int32_t)(m->level_triangles[l] - t)));
+        o += mts_varint_put(o, mts_zigzag((int32_t)(m->level_strips[l] - s)));
+        o += mts_varint_put(o, mts_zigzag((int32_t)(m->level_indices[l] - i)));
+        t = m->level_triangles[l];
+        s = m->level_strips[l];
+        i = m->level_indices[l];
+    }
+    return (size_t)(o - out);
+}
+
+static int levels_decode(const uint8_t *p, const uint8_t *end, mts_model *m)
+{
+    uint32_t t = 0, s = 0, i = 0;
+    for (uint32_t l = 0; l <= m->level_count; l++) {
+        uint32_t dt, ds, di;
+        if (!mts_varint_get(&p, end, &dt) || !mts_varint_get(&p, end, &ds) ||
+            !mts_varint_get(&p, end, &di))
+            return 0;
+        t += (uint32_t)mts_unzigzag(dt);
+        s += (uint32_t)mts_unzigzag(ds);
+        i += (uint32_t)mts_unzigzag(di);
+        m->level_triangles[l] = t;
+        m->level_strips[l] = s;
+        m->level_indices[l] = i;
+    }
+    return p == end;
 }
 
 static void put_strips(uint8_t *p, const mts_strips *st)
@@ -140,8 +177,27 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
 {
     layout l = {m->vertex_count, m->base_vertex_count, m->level_count, m->strip_count,
                 m->full.index_count, m->base.index_count, m->record_word_count, {0}};
+    layout_sizes(&l);
     size_t source_len = strnlen(m->source, sizeof m->source);
-    layout_sizes(&l, source_len);
+    size_t splits_cap = mts_reccodec_bound(m, 0, m->level_count);
+    size_t levels_cap = ((size_t)m->level_count + 1) * 3 * MTS_VARINT32_MAX_BYTES;
+    uint8_t *splits = malloc(splits_cap + 1), *levels = malloc(levels_cap);
+    if (!splits || !levels) {
+        free(splits);
+        free(levels);
+        return mts_error_set(err, MTS_ERR_NOMEM, "out of memory encoding the records");
+    }
+    size_t splits_len = 0;
+    mts_result rc = mts_reccodec_encode(m, 0, m->level_count, splits, splits_cap, &splits_len, err);
+    if (rc != MTS_OK) {
+        free(splits);
+        free(levels);
+        return rc;
+    }
+    l.size[SEC_SPLITS] = splits_len;
+    l.size[SEC_LEVELS] = levels_encode(m, levels);
+    l.size[SEC_SOURCE] = source_len;
+
     const uint32_t count = SEC_LAST;
     uint64_t offset[SEC_LAST + 1];
     uint64_t at = align8(HEADER_SIZE + (uint64_t)ENTRY_SIZE * count);
@@ -150,13 +206,13 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
         /* no padding after the last section: any truncation cuts into data */
         at = id == SEC_LAST ? at + l.size[id] : align8(at + l.size[id]);
     }
-    if (at > SIZE_MAX)
-        return mts_error_set(err, MTS_ERR_LIMIT, "model too large to encode (%llu bytes)",
-                             (unsigned long long)at);
-    uint8_t *buf = calloc(1, (size_t)at);
-    if (!buf)
+    uint8_t *buf = at > SIZE_MAX ? NULL : calloc(1, (size_t)at);
+    if (!buf) {
+        free(splits);
+        free(levels);
         return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for a %llu-byte model file",
                              (unsigned long long)at);
+    }
 
     uint8_t *p = buf + offset[SEC_INFO];
     const uint32_t info[8] = {l.vertices, l.base_vertices, l.levels, l.strips,
@@ -166,17 +222,12 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
     put_f32s(p + 44, m->bbox_max, 3);
     put_f32s(buf + offset[SEC_POSITIONS], m->positions, 3 * (size_t)l.vertices);
     put_f32s(buf + offset[SEC_NORMALS], m->normals, 3 * (size_t)l.vertices);
-    put_u32s(buf + offset[SEC_PARENTS], m->parents, l.levels);
     put_strips(buf + offset[SEC_STRIPS_FULL], &m->full);
     put_strips(buf + offset[SEC_STRIPS_BASE], &m->base);
-    p = buf + offset[SEC_RECORDS];
-    put_u32s(p, m->record_offsets, (size_t)l.levels + 1);
-    put_u32s(p + 4 * ((size_t)l.levels + 1), m->record_data, l.record_words);
-    p = buf + offset[SEC_LEVELS];
-    size_t n1 = (size_t)l.levels + 1;
-    put_u32s(p, m->level_triangles, n1);
-    put_u32s(p + 4 * n1, m->level_strips, n1);
-    put_u32s(p + 8 * n1, m->level_indices, n1);
+    memcpy(buf + offset[SEC_SPLITS], splits, splits_len);
+    memcpy(buf + offset[SEC_LEVELS], levels, (size_t)l.size[SEC_LEVELS]);
+    free(splits);
+    free(levels);
     memcpy(buf + offset[SEC_SOURCE], m->source, source_len);
 
     memcpy(buf, "MTSM", 4);
@@ -299,9 +350,9 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     l.base_indices = get_u32(info + 20);
     l.record_words = get_u32(info + 24);
     size_t source_len = sec[SEC_SOURCE] ? (size_t)sec_size[SEC_SOURCE] : 0;
-    layout_sizes(&l, source_len);
+    layout_sizes(&l);
     for (uint32_t id = 2; id <= SEC_LAST; id++) {
-        if (sec[id] && sec_size[id] != l.size[id])
+        if (sec[id] && fixed_size(id) && sec_size[id] != l.size[id])
             return mts_error_set(err, MTS_ERR_FORMAT,
                                  "%s: section '%s' is %llu bytes; the counts in 'info' need %llu",
                                  name, section_names[id], (unsigned long long)sec_size[id],
@@ -311,6 +362,17 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "%s: %u vertices, %u base vertices and %u levels do not add up", name,
                              l.vertices, l.base_vertices, l.levels);
+    /* every varint takes a byte at least: the counts behind the varint
+     * sections are bounded by their sizes before anything is allocated */
+    if (l.record_words > sec_size[SEC_SPLITS] || l.levels > sec_size[SEC_SPLITS])
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: %u splits of %u words cannot fit the %llu bytes of 'splits'",
+                             name, l.levels, l.record_words,
+                             (unsigned long long)sec_size[SEC_SPLITS]);
+    if (3 * ((uint64_t)l.levels + 1) > sec_size[SEC_LEVELS])
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: %u levels cannot fit the %llu bytes of 'levels'", name,
+                             l.levels + 1, (unsigned long long)sec_size[SEC_LEVELS]);
 
     /* Every size is now bounded by the file's own size: allocations are too. */
     size_t nv3 = 3 * (size_t)l.vertices, n1 = (size_t)l.levels + 1;
@@ -336,28 +398,36 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     get_f32s(m->bbox_max, info + 44, 3);
     get_f32s(m->positions, sec[SEC_POSITIONS], nv3);
     get_f32s(m->normals, sec[SEC_NORMALS], nv3);
-    get_u32s(m->parents, sec[SEC_PARENTS], l.levels);
     if ((rc = get_strips(sec[SEC_STRIPS_FULL], l.strips, l.full_indices, name, "full strips",
                          &m->full, err)) != MTS_OK)
         goto fail;
     if ((rc = get_strips(sec[SEC_STRIPS_BASE], l.strips, l.base_indices, name, "base strips",
                          &m->base, err)) != MTS_OK)
         goto fail;
-    get_u32s(m->record_offsets, sec[SEC_RECORDS], n1);
-    get_u32s(m->record_data, sec[SEC_RECORDS] + 4 * n1, l.record_words);
-    get_u32s(m->level_triangles, sec[SEC_LEVELS], n1);
-    get_u32s(m->level_strips, sec[SEC_LEVELS] + 4 * n1, n1);
-    get_u32s(m->level_indices, sec[SEC_LEVELS] + 8 * n1, n1);
+    mts_reccodec_out ro = {m->parents, m->record_offsets, m->record_data, l.record_words, 0};
+    size_t consumed = 0, words = 0;
+    if ((rc = mts_reccodec_decode(sec[SEC_SPLITS], (size_t)sec_size[SEC_SPLITS],
+                                  l.base_vertices, 0, l.levels, &ro, &consumed, &words, err)) !=
+        MTS_OK) {
+        mts_error_prefix(err, "%s: section 'splits'", name);
+        goto fail;
+    }
+    if (consumed != sec_size[SEC_SPLITS] || words != l.record_words) {
+        rc = mts_error_set(err, MTS_ERR_FORMAT,
+                           "%s: section 'splits' holds %zu of its %llu bytes and %zu of the %u "
+                           "words 'info' declares",
+                           name, consumed, (unsigned long long)sec_size[SEC_SPLITS], words,
+                           l.record_words);
+        goto fail;
+    }
+    if (!levels_decode(sec[SEC_LEVELS], sec[SEC_LEVELS] + sec_size[SEC_LEVELS], m)) {
+        rc = mts_error_set(err, MTS_ERR_FORMAT,
+                           "%s: section 'levels' does not hold exactly %u levels", name,
+                           l.levels + 1);
+        goto fail;
+    }
     for (size_t i = 0; i < source_len && i + 1 < sizeof m->source; i++)
         m->source[i] = sec[SEC_SOURCE][i] ? (char)sec[SEC_SOURCE][i] : '?';
-    for (uint32_t j = 0; j < l.levels; j++) {
-        if (m->record_offsets[j + 1] < m->record_offsets[j] ||
-            m->record_offsets[j + 1] > l.record_words) {
-            rc = mts_error_set(err, MTS_ERR_RANGE, "%s: record %u's offset %u is out of range",
-                               name, j + 1, m->record_offsets[j + 1]);
-            goto fail;
-        }
-    }
     if ((rc = mts_model_validate(m, err)) != MTS_OK) {
         mts_error_prefix(err, "%s", name);
         goto fail;

@@ -13,12 +13,15 @@
  *                 base_indices, record_words, 0; f32 bbox_min[3], bbox_max[3]
  *   2 POSITIONS   f32 x 3 per vertex, stream order
  *   3 NORMALS     f32 x 3 per vertex
- *   4 PARENTS     u32 per split
- *   5 STRIPS_FULL u32 length per strip, then the indices
- *   6 STRIPS_BASE the same at level 0
- *   7 RECORDS     u32 offsets[levels + 1], then the record words (model.h)
- *   8 LEVELS      u32 triangles[levels + 1], strips[...], indices[...]
- *   9 SOURCE      UTF-8 text: what the model was built from
+ *   4 STRIPS_FULL u32 length per strip, then the indices
+ *   5 STRIPS_BASE the same at level 0
+ *   6 SPLITS      every split's parent and record, varint-encoded (reccodec.h)
+ *   7 LEVELS      per level 0..levels: zigzag varint deltas of triangles,
+ *                 strips, indices
+ *   8 SOURCE      UTF-8 text: what the model was built from
+ * Fixed-size sections must have exactly the size INFO's counts give; the
+ * varint sections must parse to exactly their end, and INFO's counts must
+ * fit their sizes (a varint is a byte at least) before anything is allocated.
  *
  * Loading checks the header, the table, every section's bounds, size and
  * checksum, then the whole model (mts_model_validate), so each kind of damage

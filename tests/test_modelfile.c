@@ -255,23 +255,29 @@ static void test_specific_errors(mts_test *t)
 
     /* a base strip index past the base vertices, with valid checksums */
     memcpy(f, file, size);
-    uint64_t base = section_offset(f, 6);
+    uint64_t base = section_offset(f, 5);
     put32(f + base + 4 * (uint64_t)m.strip_count, m.vertex_count + 7);
     reseal(f);
     expect_error(t, f, size, MTS_ERR_RANGE, "out of range");
 
-    /* a parent that is not older than its vertex */
+    /* a parent before vertex 0: the first split's first varint */
     memcpy(f, file, size);
-    put32(f + section_offset(f, 4), m.vertex_count);
+    f[section_offset(f, 6)] = 0x7F;
     reseal(f);
     expect_error(t, f, size, MTS_ERR_RANGE, "parent");
 
-    /* a record naming a strip that does not exist */
-    memcpy(f, file, size);
-    uint64_t rec = section_offset(f, 7) + 4 * ((uint64_t)m.level_count + 1);
-    put32(f + rec + 4, 1u << 30);
-    reseal(f);
-    expect_error(t, f, size, MTS_ERR_RANGE, "strip");
+    /* a record naming a strip that does not exist, in an otherwise sound file */
+    {
+        uint32_t saved = m.record_data[1];
+        m.record_data[1] = 1u << 30; /* split 0's first edit's strip */
+        uint8_t *bad;
+        size_t bad_size;
+        mts_error e2 = {0};
+        CHECK(t, mts_modelfile_encode(&m, &bad, &bad_size, &e2) == MTS_OK);
+        expect_error(t, bad, bad_size, MTS_ERR_RANGE, "strip 1073741824 out of range");
+        free(bad);
+        m.record_data[1] = saved;
+    }
 
     /* counts that promise more than the file holds */
     memcpy(f, file, size);
