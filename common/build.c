@@ -51,6 +51,18 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
     rc = mts_lodbuild(mesh, &strips, &simp, &opts->progress, model, &report->records, err);
     if (rc != MTS_OK)
         goto done;
+    /* The same checks a loaded model passes (under 1% of the build): a
+     * runtime started at the full level collapses records unchecked, and a
+     * model that would not load must not be written. Failing here is a bug
+     * in the builder, not bad input. */
+    if ((rc = mts_model_validate(model, err)) != MTS_OK) {
+        mts_error_prefix(err, "the built model is inconsistent");
+        if (err)
+            err->code = MTS_ERR_INTERNAL;
+        rc = MTS_ERR_INTERNAL;
+        mts_model_free(model);
+        goto done;
+    }
     double t3 = seconds_now();
     if (source)
         snprintf(model->source, sizeof model->source, "%s", source);

@@ -11,6 +11,28 @@ static void lod_mark(mts_lod *lod, uint32_t s)
     }
 }
 
+/* Records are laid out for the split; a collapse walks them backwards, so it
+ * first notes where each edit of the record and each insert of the edit being
+ * undone starts. Edits take 3 words and inserts 2 at least, so a record of w
+ * words needs at most w / 2 + 1 entries. */
+static int lod_reserve_scratch(mts_lod *lod, uint32_t record_words)
+{
+    uint32_t need = record_words / 2 + 1;
+    if (need <= lod->scratch_size)
+        return 1;
+    uint64_t size = lod->scratch_size ? lod->scratch_size : 64;
+    while (size < need)
+        size *= 2;
+    if (size > UINT32_MAX || size > SIZE_MAX / sizeof *lod->scratch)
+        return 0;
+    const uint32_t **s = realloc(lod->scratch, (size_t)size * sizeof *s);
+    if (!s)
+        return 0;
+    lod->scratch = s;
+    lod->scratch_size = (uint32_t)size;
+    return 1;
+}
+
 mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start start, mts_error *err)
 {
     memset(lod, 0, sizeof *lod);
@@ -43,6 +65,20 @@ mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start star
         lod->length[s] = len;
         memcpy(lod->data + lod->slot[s], from->indices + from->offsets[s], (size_t)len * 4);
         lod_mark(lod, s);
+    }
+    /* Room to walk the longest record backwards, so that no later move
+     * allocates. Offsets that go backwards are left for mts_lod_split to
+     * report. */
+    uint32_t longest = 0;
+    for (uint32_t j = 0; j < lod->available; j++) {
+        uint32_t a = model->record_offsets[j], b = model->record_offsets[j + 1];
+        if (b > a && b - a > longest)
+            longest = b - a;
+    }
+    if (!lod_reserve_scratch(lod, longest)) {
+        mts_lod_free(lod);
+        return mts_error_set(err, MTS_ERR_NOMEM, "lod: out of memory for a %u-word record",
+                             longest);
     }
     return MTS_OK;
 }
@@ -94,6 +130,10 @@ mts_result mts_lod_split(mts_lod *lod, mts_error *err)
     const uint32_t u = m->parents[j];
     if (u >= v)
         SPLIT_FAIL("split %u: parent %u is not older than vertex %u", j, u, v);
+    /* the collapse that undoes this split must find its scratch; a no-op
+     * unless records came after mts_lod_init (available raised since) */
+    if (end > p && !lod_reserve_scratch(lod, (uint32_t)(end - p)))
+        return mts_error_set(err, MTS_ERR_NOMEM, "split %u: out of memory for its record", j);
 
     if (p >= end)
         SPLIT_FAIL("split %u: empty record", j);
@@ -145,23 +185,6 @@ mts_result mts_lod_split(mts_lod *lod, mts_error *err)
     return MTS_OK;
 }
 
-/* Records are laid out for the split; a collapse walks them backwards, so it
- * first notes where each edit and insert starts. */
-static int lod_reserve_scratch(mts_lod *lod, uint32_t need)
-{
-    if (need <= lod->scratch_size)
-        return 1;
-    uint32_t size = lod->scratch_size ? lod->scratch_size : 64;
-    while (size < need)
-        size *= 2;
-    const uint32_t **s = realloc(lod->scratch, (size_t)size * sizeof *s);
-    if (!s)
-        return 0;
-    lod->scratch = s;
-    lod->scratch_size = size;
-    return 1;
-}
-
 void mts_lod_collapse(mts_lod *lod)
 {
     const mts_model *m = lod->model;
@@ -170,17 +193,28 @@ void mts_lod_collapse(mts_lod *lod)
     uint32_t j = lod->level - 1;
     const uint32_t *p = m->record_data + m->record_offsets[j];
     const uint32_t u = m->parents[j];
+    /* Undo the edits last to first: two edits may name the same strip, and
+     * then the later one's positions are in the strip as the earlier one
+     * left it. The record was checked when it was split (or by
+     * mts_model_validate), and mts_lod_init or that split reserved the
+     * scratch, so this walk cannot fail. */
+    const uint32_t **edit_at = lod->scratch;
     uint32_t edits = *p++;
     for (uint32_t e = 0; e < edits; e++) {
-        uint32_t s = p[0], inserts = p[1], substs = p[2];
+        edit_at[e] = p;
+        uint32_t inserts = p[1], substs = p[2];
         p += 3;
-        /* a record was checked when it was split, so the walk cannot fail;
-         * without scratch memory fall back to re-walking (quadratic, rare) */
-        int have = lod_reserve_scratch(lod, inserts);
-        const uint32_t *q = p;
+        for (uint32_t k = 0; k < inserts; k++)
+            p += 2 + p[1];
+        p += substs;
+    }
+    const uint32_t **insert_at = lod->scratch + edits;
+    for (uint32_t e = edits; e-- > 0;) {
+        const uint32_t *q = edit_at[e];
+        uint32_t s = q[0], inserts = q[1], substs = q[2];
+        q += 3;
         for (uint32_t k = 0; k < inserts; k++) {
-            if (have)
-                lod->scratch[k] = q;
+            insert_at[k] = q;
             q += 2 + q[1];
         }
         uint32_t *str = lod->data + lod->slot[s];
@@ -188,21 +222,12 @@ void mts_lod_collapse(mts_lod *lod)
         for (uint32_t k = 0; k < substs; k++)
             str[q[k]] = u;
         for (uint32_t k = inserts; k-- > 0;) {
-            const uint32_t *ins = NULL;
-            if (have) {
-                ins = lod->scratch[k];
-            } else {
-                ins = p;
-                for (uint32_t x = 0; x < k; x++)
-                    ins += 2 + ins[1];
-            }
-            uint32_t pos = ins[0], run = ins[1];
+            uint32_t pos = insert_at[k][0], run = insert_at[k][1];
             memmove(str + pos, str + pos + run, (size_t)(len - pos - run) * 4);
             len -= run;
         }
         lod->length[s] = len;
         lod_mark(lod, s);
-        p = q + substs;
     }
     lod->level = j;
 }

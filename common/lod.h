@@ -3,12 +3,16 @@
  * strips a record names and remembering which changed so a renderer can
  * re-upload just those (paper 001, algorithms 1 and 3).
  *
- * Each strip owns a fixed slot as long as its full-level length, so no move
- * ever allocates. Splits are checked as they are applied, so a runtime can
+ * Each strip owns a fixed slot as long as its full-level length, and
+ * mts_lod_init reserves the scratch for the longest record, so no move
+ * allocates. Splits are checked as they are applied, so a runtime can
  * follow records arriving from a socket: a record that does not fit the
  * current strips is an error naming the record and strip, and leaves the
  * runtime broken (every later move fails) since the record may have been
- * half applied; the caller drops it. Collapses only undo checked splits. */
+ * half applied; the caller drops it. A collapse is the exact inverse of its
+ * split and checks nothing, so it must only undo records that were checked:
+ * splits this runtime made, or, for MTS_LOD_AT_FULL, a model that passed
+ * mts_model_validate (every loaded and every built model has). */
 #ifndef MTS_LOD_H
 #define MTS_LOD_H
 
@@ -37,7 +41,7 @@ typedef struct mts_lod {
 
 typedef enum mts_lod_start {
     MTS_LOD_AT_BASE = 0,
-    MTS_LOD_AT_FULL = 1 /* needs all records (model->level_count available) */
+    MTS_LOD_AT_FULL = 1 /* needs all records, validated (see above) */
 } mts_lod_start;
 
 /* model->base (or ->full) is copied into the slots; model must outlive lod.

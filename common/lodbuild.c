@@ -218,8 +218,13 @@ static int cleanup_strip(builder *b, uint32_t *s, uint32_t *plen, int64_t lo, in
         *plen = len - d;
         st->removed_runs++;
         st->removed_indices += d;
+        /* the changed window starts, moved past the deletion, plus the two
+         * windows that now span the join (ri - 2, ri - 1), which may lie to
+         * the right of hi when the run found reached past it */
         lo = (int64_t)ri - 2 < lo ? (int64_t)ri - 2 : lo;
         hi = hi >= (int64_t)ri ? (hi - d > (int64_t)ri ? hi - d : (int64_t)ri) : hi;
+        if (hi < (int64_t)ri - 1)
+            hi = (int64_t)ri - 1;
     }
 }
 
@@ -393,6 +398,13 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
         model->level_indices[n - 1 - c] = (uint32_t)total;
         if ((c & 1023) == 0)
             mts_progress_report(progress, "records", (double)c / n);
+    }
+    /* offsets are 32-bit words in the model and the file */
+    if (b.rec.n > UINT32_MAX - 1) {
+        rc = mts_error_set(err, MTS_ERR_LIMIT,
+                           "lodbuild: the records take %zu words, more than 32-bit offsets reach",
+                           b.rec.n);
+        goto fail;
     }
     b.rec_off[n] = (uint32_t)b.rec.n;
 

@@ -65,9 +65,21 @@ mts_result mts_model_validate(const mts_model *m, mts_error *err)
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "model: %u vertices, %u base vertices and %u levels do not add up",
                              m->vertex_count, m->base_vertex_count, n);
+    /* The box is the quantization grid's extent (DESIGN.md, "Streaming"): it
+     * must be finite and hold every position, or quantized values leave
+     * their range. */
+    for (int a = 0; a < 3; a++) {
+        if (!isfinite(m->bbox_min[a]) || !isfinite(m->bbox_max[a]) ||
+            !(m->bbox_min[a] <= m->bbox_max[a]))
+            return mts_error_set(err, MTS_ERR_FORMAT, "model: the bounding box is not finite");
+    }
     for (uint64_t i = 0; i < 3 * (uint64_t)m->vertex_count; i++) {
         if (!isfinite(m->positions[i]) || !isfinite(m->normals[i]))
             return mts_error_set(err, MTS_ERR_FORMAT, "model: vertex %llu is not a finite number",
+                                 (unsigned long long)(i / 3));
+        if (m->positions[i] < m->bbox_min[i % 3] || m->positions[i] > m->bbox_max[i % 3])
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "model: vertex %llu lies outside the bounding box",
                                  (unsigned long long)(i / 3));
     }
     if ((rc = check_strips(&m->full, "full", m->strip_count, m->vertex_count, err)) != MTS_OK)

@@ -18,9 +18,11 @@
  *
  * A split inserts each run (positions are in the strip as it is at that
  * moment), then sets the listed positions (which hold the parent u) to the new
- * vertex v = nb + j. The collapse back reverses it: positions become u, then
- * the runs are erased last to first. These are the hStrips records of paper 001
- * (hRecordsLOD + hInterLeavedData) inverted, with parity-keeping run removal. */
+ * vertex v = nb + j. The collapse back reverses it, edit by edit from the
+ * last (a record may name a strip in more than one edit): positions become u,
+ * then the runs are erased last to first. These are the hStrips records of
+ * paper 001 (hRecordsLOD + hInterLeavedData) inverted, with parity-keeping
+ * run removal. */
 #ifndef MTS_MODEL_H
 #define MTS_MODEL_H
 

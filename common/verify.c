@@ -61,6 +61,7 @@ static void verifier_free(verifier *v)
     free(v->ref.wide);
     free(v->got.keys);
     free(v->got.wide);
+    memset(v, 0, sizeof *v); /* a second free is harmless */
 }
 
 static mts_result verifier_init(verifier *v, const mts_model *m, mts_error *err)
@@ -238,7 +239,7 @@ mts_result mts_verify_model(const mts_model *m, const mts_verify_options *opts,
             goto done;
         if ((rc = check_level(&v, &up, report, err)) != MTS_OK)
             goto done;
-        state_hash(&up, hashes + 2 * i);
+        state_hash(&up, hashes + (size_t)2 * i);
         report->levels_checked++;
         mts_progress_report(&opts->progress, "verify", 0.5 * (i + 1) / samples);
     }
@@ -248,7 +249,7 @@ mts_result mts_verify_model(const mts_model *m, const mts_verify_options *opts,
         mts_lod_set_level(&down, l, NULL);
         uint64_t h[2];
         state_hash(&down, h);
-        if (h[0] != hashes[2 * i] || h[1] != hashes[2 * i + 1]) {
+        if (h[0] != hashes[(size_t)2 * i] || h[1] != hashes[(size_t)2 * i + 1]) {
             /* find the strip: bring 'up' to the same level and compare */
             mts_lod_free(&up);
             if ((rc = mts_lod_init(&up, m, MTS_LOD_AT_BASE, err)) != MTS_OK ||

@@ -1,5 +1,6 @@
 #include "cli.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdlib.h>
@@ -31,7 +32,7 @@ void cli_bar_update(void *p, const char *stage, double done)
         return;
     bar->last_draw = now;
     snprintf(bar->stage, sizeof bar->stage, "%s", stage);
-    if (done < 0)
+    if (!(done >= 0)) /* and NaN, which (int) below could not convert */
         done = 0;
     if (done > 1)
         done = 1;
@@ -54,9 +55,11 @@ void cli_bar_done(cli_bar *bar)
     bar->stage[0] = 0;
 }
 
+/* strto* skip leading white space and accept a sign after it (" -1" would
+ * wrap to a huge unsigned value): a number must start with a digit here. */
 int cli_parse_u32(const char *s, uint32_t *out)
 {
-    if (!s || !*s || *s == '-' || *s == '+')
+    if (!s || !isdigit((unsigned char)*s))
         return 0;
     char *end;
     errno = 0;
@@ -69,7 +72,7 @@ int cli_parse_u32(const char *s, uint32_t *out)
 
 int cli_parse_double(const char *s, double *out)
 {
-    if (!s || !*s)
+    if (!s || !*s || isspace((unsigned char)*s))
         return 0;
     char *end;
     errno = 0;
