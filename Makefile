@@ -17,16 +17,23 @@ OPT      := -O2 -g
 endif
 
 WARN     := -Wall -Wextra -Werror
-CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(WARN) -Icommon -Iprotocol -Itools
+CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(WARN) -Icommon -Iprotocol -Iclient -Iserver -Itools
 # OpenMesh's headers are not -Wextra clean and trip -Wmaybe-uninitialized when
 # inlined; the shims stay -Wall -Werror otherwise.
 # NDEBUG: OpenMesh asserts on property type names with string compares in
 # every point() access, a fifth of the decimation time.
 CXXFLAGS += -std=c++17 $(OPT) -DNDEBUG -Wall -Werror -Wno-maybe-uninitialized -Icommon -Iprotocol
-LDFLAGS  += $(filter -fsanitize=%,$(OPT))
-LDLIBS   += -lOpenMeshTools -lOpenMeshCore -lm
+# Draco, EGL, GLES and libpng ship pkg-config files; OpenMesh and meshoptimizer
+# do not. --as-needed keeps each program linked only to what it uses.
+PKGS     := draco egl glesv2 libpng
+PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
+PKG_LIBS := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
+CFLAGS   += $(filter-out -I/usr/include/draco%,$(PKG_CFLAGS))
+LDFLAGS  += $(filter -fsanitize=%,$(OPT)) -Wl,--as-needed
+LDLIBS   += $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
 
-LIB_C    := $(wildcard common/*.c protocol/*.c)
+# Library modules; a file named mts_*.c holds a program's main().
+LIB_C    := $(filter-out %/mts_%.c,$(wildcard common/*.c protocol/*.c client/*.c server/*.c))
 LIB_CXX  := $(wildcard common/*.cpp protocol/*.cpp)
 LIB_OBJ  := $(patsubst %.c,$(BUILD)/obj/%.o,$(LIB_C)) $(patsubst %.cpp,$(BUILD)/obj/%.o,$(LIB_CXX))
 LIB      := $(BUILD)/libmts.a

@@ -137,9 +137,9 @@ static size_t levels_encode(const mts_model *m, uint8_t *out)
     uint8_t *o = out;
     uint32_t t = 0, s = 0, i = 0;
     for (uint32_t l = 0; l <= m->level_count; l++) {
-        o += mts_varint_put(o, mts_zigzag((int32_t)(m->level_triangles[l] - t)));
-        o += mts_varint_put(o, mts_zigzag((int32_t)(m->level_strips[l] - s)));
-        o += mts_varint_put(o, mts_zigzag((int32_t)(m->level_indices[l] - i)));
+        o += mts_varint_put(o, mts_zigzag_u32(m->level_triangles[l] - t));
+        o += mts_varint_put(o, mts_zigzag_u32(m->level_strips[l] - s));
+        o += mts_varint_put(o, mts_zigzag_u32(m->level_indices[l] - i));
         t = m->level_triangles[l];
         s = m->level_strips[l];
         i = m->level_indices[l];
@@ -155,9 +155,9 @@ static int levels_decode(const uint8_t *p, const uint8_t *end, mts_model *m)
         if (!mts_varint_get(&p, end, &dt) || !mts_varint_get(&p, end, &ds) ||
             !mts_varint_get(&p, end, &di))
             return 0;
-        t += (uint32_t)mts_unzigzag(dt);
-        s += (uint32_t)mts_unzigzag(ds);
-        i += (uint32_t)mts_unzigzag(di);
+        t += mts_unzigzag_u32(dt);
+        s += mts_unzigzag_u32(ds);
+        i += mts_unzigzag_u32(di);
         m->level_triangles[l] = t;
         m->level_strips[l] = s;
         m->level_indices[l] = i;

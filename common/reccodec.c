@@ -27,7 +27,7 @@ mts_result mts_reccodec_encode(const mts_model *m, uint32_t first, uint32_t coun
         for (uint32_t e = 0; e < edits; e++) {
             uint32_t strip = p[0], inserts = p[1], substs = p[2];
             p += 3;
-            o += mts_varint_put(o, mts_zigzag((int32_t)(strip - prev_strip)));
+            o += mts_varint_put(o, mts_zigzag_u32(strip - prev_strip));
             prev_strip = strip;
             o += mts_varint_put(o, inserts);
             o += mts_varint_put(o, substs);
@@ -37,11 +37,11 @@ mts_result mts_reccodec_encode(const mts_model *m, uint32_t first, uint32_t coun
                 o += mts_varint_put(o, run);
                 p += 2;
                 for (uint32_t r = 0; r < run; r++)
-                    o += mts_varint_put(o, mts_zigzag((int32_t)(*p++ - parent)));
+                    o += mts_varint_put(o, mts_zigzag_u32(*p++ - parent));
             }
             uint32_t prev_pos = 0;
             for (uint32_t k = 0; k < substs; k++) {
-                o += mts_varint_put(o, mts_zigzag((int32_t)(*p - prev_pos)));
+                o += mts_varint_put(o, mts_zigzag_u32(*p - prev_pos));
                 prev_pos = *p++;
             }
         }
@@ -94,7 +94,7 @@ mts_result mts_reccodec_decode(const uint8_t *in, size_t size, uint32_t nb, uint
             GET(ds);
             GET(inserts);
             GET(substs);
-            strip += (uint32_t)mts_unzigzag(ds);
+            strip += mts_unzigzag_u32(ds);
             PUT(strip);
             PUT(inserts);
             PUT(substs);
@@ -107,14 +107,14 @@ mts_result mts_reccodec_decode(const uint8_t *in, size_t size, uint32_t nb, uint
                 for (uint32_t r = 0; r < run; r++) {
                     uint32_t d;
                     GET(d);
-                    PUT(parent + (uint32_t)mts_unzigzag(d));
+                    PUT(parent + mts_unzigzag_u32(d));
                 }
             }
             uint32_t pos = 0;
             for (uint32_t i = 0; i < substs; i++) {
                 uint32_t d;
                 GET(d);
-                pos += (uint32_t)mts_unzigzag(d);
+                pos += mts_unzigzag_u32(d);
                 PUT(pos);
             }
         }

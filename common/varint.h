@@ -45,14 +45,29 @@ static inline int mts_varint_get(const uint8_t **p, const uint8_t *end, uint32_t
     return 0;
 }
 
+/* Zigzag maps small signed deltas to small unsigned numbers (0, -1, 1, -2 ->
+ * 0, 1, 2, 3). Deltas are taken between uint32 values modulo 2^32, so these
+ * work on the bit patterns and never shift or overflow a signed value. */
+static inline uint32_t mts_zigzag_u32(uint32_t delta)
+{
+    return (delta << 1) ^ (0u - (delta >> 31));
+}
+
+static inline uint32_t mts_unzigzag_u32(uint32_t x)
+{
+    return (x >> 1) ^ (0u - (x & 1u));
+}
+
 static inline uint32_t mts_zigzag(int32_t x)
 {
-    return ((uint32_t)x << 1) ^ (uint32_t)(x >> 31);
+    return mts_zigzag_u32((uint32_t)x);
 }
 
 static inline int32_t mts_unzigzag(uint32_t x)
 {
-    return (int32_t)(x >> 1) ^ -(int32_t)(x & 1);
+    uint32_t u = mts_unzigzag_u32(x);
+    /* two's complement back to signed without implementation-defined casts */
+    return u <= INT32_MAX ? (int32_t)u : -(int32_t)(~u) - 1;
 }
 
 #endif

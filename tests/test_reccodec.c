@@ -39,6 +39,9 @@ static void test_varint(mts_test *t)
     for (size_t i = 0; i < sizeof signed_values / sizeof signed_values[0]; i++)
         CHECK(t, mts_unzigzag(mts_zigzag(signed_values[i])) == signed_values[i]);
     CHECK(t, mts_zigzag(-1) == 1 && mts_zigzag(1) == 2);
+    const uint32_t raw[] = {0, 1, 0x7FFFFFFFu, 0x80000000u, 0xFFFFFFFFu};
+    for (size_t i = 0; i < sizeof raw / sizeof raw[0]; i++)
+        CHECK(t, mts_unzigzag_u32(mts_zigzag_u32(raw[i])) == raw[i]);
 }
 
 static int cow_model(mts_test *t, mts_model *m)

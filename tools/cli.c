@@ -171,6 +171,8 @@ void cli_json_end(cli_json *j)
 
 void cli_stem(const char *path, char *out, size_t size)
 {
+    if (size == 0)
+        return;
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
     const char *dot = strrchr(base, '.');

@@ -79,7 +79,8 @@ static mts_result write_obj(const mts_lod *lod, const char *path, mts_error *err
                         t[2] + 1, t[2] + 1);
         }
     }
-    if (fclose(f) != 0)
+    int failed = ferror(f);
+    if (fclose(f) != 0 || failed)
         return mts_error_set(err, MTS_ERR_IO, "%s: write failed: %s", path, strerror(errno));
     return MTS_OK;
 }
@@ -216,7 +217,7 @@ int main(int argc, char **argv)
         cli_json_u64(&j, "base_vertices", m.base_vertex_count);
         cli_json_u64(&j, "base_triangles", m.level_triangles[0]);
         cli_json_u64(&j, "strip_slots", m.strip_count);
-        cli_json_u64(&j, "record_bytes", (uint64_t)m.record_word_count * 4);
+        cli_json_u64(&j, "record_words", m.record_word_count);
         cli_json_num(&j, "seconds_load", t_load, 4);
         cli_json_object_begin(&j, "level");
         cli_json_u64(&j, "level", lf.level);
@@ -238,9 +239,8 @@ int main(int argc, char **argv)
         printf("%s: built from %s\n", path, m.source[0] ? m.source : "?");
         printf("  %u vertices, %u triangles at the full level; base %u vertices, %u triangles\n",
                m.vertex_count, m.level_triangles[n], m.base_vertex_count, m.level_triangles[0]);
-        printf("  %u levels, %u strip slots, %llu bytes of records, file %llu bytes\n", n,
-               m.strip_count, (unsigned long long)m.record_word_count * 4,
-               (unsigned long long)file_bytes);
+        printf("  %u levels, %u strip slots, %u record words in memory, file %llu bytes\n", n,
+               m.strip_count, m.record_word_count, (unsigned long long)file_bytes);
         printf("  level %u: %u vertices, %llu triangles, %u strips, %llu indices with restarts "
                "(%.3f per triangle), %.1f%% degenerate windows\n",
                lf.level, lf.vertices, (unsigned long long)lf.triangles, lf.strips,
