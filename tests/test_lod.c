@@ -27,6 +27,26 @@ static int build_from(mts_test *t, const char *path, mts_model *m)
     return rc == MTS_OK;
 }
 
+/* The exact, from-scratch check of invariant 1 (sorted triangle lists) at
+ * `exact` levels spread evenly, independent of the incremental walk that
+ * mts_verify_model uses: the two methods check each other. */
+static void exact_check_levels(mts_test *t, const mts_model *m, uint32_t exact)
+{
+    mts_error err = {0};
+    mts_lod lod;
+    CHECK(t, mts_lod_init(&lod, m, MTS_LOD_AT_BASE, &err) == MTS_OK);
+    uint32_t n = m->level_count;
+    if (exact > n + 1)
+        exact = n + 1;
+    for (uint32_t i = 0; i < exact && !t->case_failed; i++) {
+        uint32_t l = exact > 1 ? (uint32_t)((uint64_t)i * n / (exact - 1)) : n;
+        CHECK(t, mts_lod_set_level(&lod, l, &err) == MTS_OK);
+        mts_verify_report rep;
+        CHECKF(t, mts_verify_level(m, &lod, &rep, &err) == MTS_OK, "level %u: %s", l, err.msg);
+    }
+    mts_lod_free(&lod);
+}
+
 static void check_model_invariants(mts_test *t, mts_model *m, uint32_t samples)
 {
     mts_error err = {0};
@@ -64,6 +84,7 @@ static void test_cow_every_level(mts_test *t)
         return;
     check_basic_shape(t, &m, 2904, 5804);
     check_model_invariants(t, &m, 0);
+    exact_check_levels(t, &m, m.level_count + 1);
     mts_model_free(&m);
 }
 
@@ -77,7 +98,66 @@ static void sampled_model(mts_test *t, const char *name, uint32_t v, uint32_t tr
     if (!build_from(t, path, &m))
         return;
     check_basic_shape(t, &m, v, tri);
-    check_model_invariants(t, &m, 500);
+    check_model_invariants(t, &m, 500);      /* the dense sample */
+    check_model_invariants(t, &m, 0);        /* and every level, which the walk makes cheap */
+    exact_check_levels(t, &m, 100);
+    mts_model_free(&m);
+}
+
+/* Verification must fail, and say where, when the strips are wrong. */
+static void test_verify_detects_winding_flip(mts_test *t)
+{
+    mts_model m;
+    if (!build_from(t, "tests/data/cow.off", &m))
+        return;
+    /* swap the first two indices of a base strip: its triangles turn over */
+    uint32_t s = 0, tri[3];
+    while (s < m.strip_count && (m.base.offsets[s + 1] - m.base.offsets[s] < 4 ||
+                                 !mts_strip_window(m.base.indices + m.base.offsets[s], 0, tri)))
+        s++;
+    CHECK(t, s < m.strip_count);
+    uint32_t *str = m.base.indices + m.base.offsets[s];
+    uint32_t x = str[0];
+    str[0] = str[1];
+    str[1] = x;
+    mts_error err = {0};
+    mts_verify_report rep;
+    CHECK(t, mts_verify_model(&m, NULL, &rep, &err) == MTS_ERR_INVARIANT);
+    CHECKF(t, rep.failed_level == 0 && rep.failed_strip == s, "failed at level %u strip %u (%s)",
+           rep.failed_level, rep.failed_strip, err.msg);
+    CHECKF(t, strstr(err.msg, "level 0") != NULL, "%s", err.msg);
+    mts_model_free(&m);
+}
+
+static void test_verify_detects_up_down_mismatch(mts_test *t)
+{
+    mts_model m;
+    if (!build_from(t, "tests/data/cow.off", &m))
+        return;
+    /* one more (degenerate) index at the end of a full strip: the same
+     * triangles, but coarsening down from it cannot match refining up */
+    uint32_t target = m.strip_count / 2;
+    mts_strips grown;
+    mts_error err = {0};
+    CHECK(t, mts_strips_alloc(&grown, m.strip_count, m.full.index_count + 1, &err) == MTS_OK);
+    uint32_t o = 0;
+    for (uint32_t s = 0; s < m.strip_count; s++) {
+        grown.offsets[s] = o;
+        uint32_t len = m.full.offsets[s + 1] - m.full.offsets[s];
+        memcpy(grown.indices + o, m.full.indices + m.full.offsets[s], (size_t)len * 4);
+        o += len;
+        if (s == target) {
+            grown.indices[o] = grown.indices[o - 1];
+            o++;
+        }
+    }
+    grown.offsets[m.strip_count] = o;
+    mts_strips_free(&m.full);
+    m.full = grown;
+    mts_verify_report rep;
+    CHECK(t, mts_verify_model(&m, NULL, &rep, &err) == MTS_ERR_INVARIANT);
+    CHECKF(t, rep.failed_level == m.level_count && rep.failed_strip == target,
+           "failed at level %u strip %u (%s)", rep.failed_level, rep.failed_strip, err.msg);
     mts_model_free(&m);
 }
 
@@ -473,6 +553,8 @@ int main(void)
     RUN(&t, test_collapse_undoes_edits_in_reverse);
     RUN(&t, test_validate_checks_bbox);
     RUN(&t, test_random_records_walk_both_ways);
+    RUN(&t, test_verify_detects_winding_flip);
+    RUN(&t, test_verify_detects_up_down_mismatch);
     RUN(&t, test_bunny_sampled);
     RUN(&t, test_fandisk_sampled);
     return mts_test_end(&t);
