@@ -405,10 +405,10 @@ static int reference_split(walk *w, verifier *v, uint32_t l)
 {
     const mts_model *m = w->m;
     const uint32_t vnew = m->base_vertex_count + l;
-    uint32_t sp = 0, nmoved = 0, nsub = 0;
+    uint32_t sp = 0, nmoved = 0;
     w->now++;
     w->stack[sp++] = vnew;
-    while (sp) { /* the subtree of v; reuses stack as the list of its vertices */
+    while (sp) { /* the subtree of v, depth first */
         uint32_t x = w->stack[--sp];
         v->rep[x] = UINT32_MAX; /* marked: rewritten below */
         for (uint32_t k = w->tri_start[x]; k < w->tri_start[x + 1]; k++) {
@@ -420,7 +420,6 @@ static int reference_split(walk *w, verifier *v, uint32_t l)
         }
         for (uint32_t c = w->child_start[x]; c < w->child_start[x + 1]; c++)
             w->stack[sp++] = w->child_list[c];
-        nsub++;
     }
     const uint32_t parent = m->parents[l];
     for (int pass = 0; pass < 2; pass++) {
@@ -445,7 +444,6 @@ static int reference_split(walk *w, verifier *v, uint32_t l)
         for (uint32_t c = w->child_start[x]; c < w->child_start[x + 1]; c++)
             w->stack[sp++] = w->child_list[c];
     }
-    (void)nsub;
     return 1;
 }
 
