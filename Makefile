@@ -23,9 +23,9 @@ CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(WARN) 
 # NDEBUG: OpenMesh asserts on property type names with string compares in
 # every point() access, a fifth of the decimation time.
 CXXFLAGS += -std=c++17 $(OPT) -DNDEBUG -Wall -Werror -Wno-maybe-uninitialized -Icommon -Iprotocol
-# Draco, EGL, GLES and libpng ship pkg-config files; OpenMesh and meshoptimizer
+# Draco, EGL, GLES, libpng and libcurl ship pkg-config files; OpenMesh and meshoptimizer
 # do not. --as-needed keeps each program linked only to what it uses.
-PKGS     := draco egl glesv2 libpng
+PKGS     := draco egl glesv2 libpng libcurl
 PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
 CFLAGS   += $(filter-out -I/usr/include/draco%,$(PKG_CFLAGS))
