@@ -1,0 +1,132 @@
+/* The wire format of PROTOCOL.md: frames, and the messages that do not need
+ * model state to encode or check (HELLO, LIST, MODEL_INFO, END, MODELS,
+ * ERROR). BASE and BATCH are built and applied by the stream module. Every
+ * parser checks the payload against its bounds and returns a clear error;
+ * nothing read is trusted. */
+#ifndef MTS_WIRE_H
+#define MTS_WIRE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "bytes.h"
+#include "error.h"
+
+#define MTS_WIRE_MAJOR 1
+#define MTS_WIRE_MINOR 0
+#define MTS_WIRE_MAX_FRAME (16u << 20) /* type + payload */
+#define MTS_WIRE_MAX_NAME 64
+#define MTS_WIRE_HEADER 5 /* u32 length, u8 type */
+
+typedef enum mts_wire_type {
+    MTS_MSG_HELLO = 1,
+    MTS_MSG_LIST = 2,
+    MTS_MSG_MODEL_INFO = 16,
+    MTS_MSG_BASE = 17,
+    MTS_MSG_BATCH = 18,
+    MTS_MSG_END = 19,
+    MTS_MSG_MODELS = 20,
+    MTS_MSG_ERROR = 31
+} mts_wire_type;
+
+typedef enum mts_wire_error_code {
+    MTS_WERR_PROTOCOL = 1,
+    MTS_WERR_VERSION = 2,
+    MTS_WERR_UNKNOWN_MODEL = 3,
+    MTS_WERR_BUSY = 4,
+    MTS_WERR_STALE = 5,
+    MTS_WERR_TIMEOUT = 6,
+    MTS_WERR_INTERNAL = 7
+} mts_wire_error_code;
+
+typedef enum mts_wire_stop {
+    MTS_STOP_FULL = 0,
+    MTS_STOP_LEVEL = 1,
+    MTS_STOP_TRIANGLES = 2,
+    MTS_STOP_FRACTION = 3 /* stop_value in millionths */
+} mts_wire_stop;
+
+typedef struct mts_wire_hello {
+    uint16_t major, minor;
+    char model[MTS_WIRE_MAX_NAME + 1];
+    uint8_t stop_kind;
+    uint32_t stop_value;
+    uint32_t resume_batch;
+    uint64_t stream_id;
+    uint32_t flags;
+} mts_wire_hello;
+
+typedef struct mts_wire_model_info {
+    uint16_t minor;
+    uint64_t stream_id;
+    char model[MTS_WIRE_MAX_NAME + 1];
+    uint32_t vertices, base_vertices, levels, triangles, strips;
+    uint32_t stop_level, stop_triangles;
+    float bbox_min[3], bbox_max[3];
+    uint8_t quant_bits;
+    float grid_origin[3], grid_range;
+    uint32_t batch_count;
+    uint32_t *batch_splits; /* batch_count */
+    uint32_t *capacities;   /* strips */
+} mts_wire_model_info;
+
+typedef struct mts_wire_end {
+    uint32_t final_level;
+    uint64_t checksum;
+    uint32_t stream_bytes;
+} mts_wire_end;
+
+typedef struct mts_wire_model_entry {
+    char name[MTS_WIRE_MAX_NAME + 1];
+    uint32_t vertices, triangles, levels, stream_bytes;
+} mts_wire_model_entry;
+
+/* 1 when name is 1..64 bytes of [A-Za-z0-9._-] not starting with '.'. */
+int mts_wire_valid_name(const char *name, size_t len);
+
+/* Frames: begin writes the header with a placeholder length, end patches it. */
+size_t mts_wire_frame_begin(mts_buf *b, uint8_t type);
+void mts_wire_frame_end(mts_buf *b, size_t frame_start);
+
+void mts_wire_put_hello(mts_buf *b, const mts_wire_hello *h);
+void mts_wire_put_list(mts_buf *b);
+void mts_wire_put_model_info(mts_buf *b, const mts_wire_model_info *mi);
+void mts_wire_put_end(mts_buf *b, const mts_wire_end *e);
+void mts_wire_put_models(mts_buf *b, const mts_wire_model_entry *models, uint32_t count);
+void mts_wire_put_error(mts_buf *b, uint16_t code, const char *text);
+
+mts_result mts_wire_parse_hello(const uint8_t *payload, size_t size, mts_wire_hello *h,
+                                mts_error *err);
+/* Allocates mi's arrays (free with mts_wire_model_info_free). */
+mts_result mts_wire_parse_model_info(const uint8_t *payload, size_t size,
+                                     mts_wire_model_info *mi, mts_error *err);
+void mts_wire_model_info_free(mts_wire_model_info *mi);
+mts_result mts_wire_parse_end(const uint8_t *payload, size_t size, mts_wire_end *e,
+                              mts_error *err);
+/* Calls fn for each model entry. */
+mts_result mts_wire_parse_models(const uint8_t *payload, size_t size,
+                                 void (*fn)(void *user, const mts_wire_model_entry *m),
+                                 void *user, mts_error *err);
+/* text is copied, truncated to text_size - 1 bytes, control characters replaced. */
+mts_result mts_wire_parse_error(const uint8_t *payload, size_t size, uint16_t *code, char *text,
+                                size_t text_size, mts_error *err);
+const char *mts_wire_error_name(uint16_t code);
+
+/* An incremental frame reader: bytes go in split anywhere (one at a time
+ * works), whole frames come out. A frame's length is checked as soon as its
+ * header is complete, so an oversized frame is refused before it is buffered. */
+typedef struct mts_wire_reader {
+    uint8_t *buf;
+    size_t len, start, cap;
+    uint64_t bytes_in;
+} mts_wire_reader;
+
+void mts_wire_reader_free(mts_wire_reader *r);
+mts_result mts_wire_reader_feed(mts_wire_reader *r, const void *data, size_t size,
+                                mts_error *err);
+/* 1: a frame is ready (payload valid until the next feed or next call);
+ * 0: more bytes needed; -1: a bad frame header (err says why). */
+int mts_wire_reader_next(mts_wire_reader *r, uint8_t *type, const uint8_t **payload,
+                         size_t *size, mts_error *err);
+
+#endif
