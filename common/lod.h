@@ -53,6 +53,13 @@ void mts_lod_free(mts_lod *lod);
  * when a split record is inconsistent; lod->level then says where it stopped. */
 mts_result mts_lod_set_level(mts_lod *lod, uint32_t target, mts_error *err);
 
+/* A streaming client raises this as batches of records arrive (records of
+ * splits below `available` must be in the model by then). */
+static inline void mts_lod_set_available(mts_lod *lod, uint32_t available)
+{
+    lod->available = available < lod->model->level_count ? available : lod->model->level_count;
+}
+
 /* One split (level -> level + 1), checked; one collapse (level -> level - 1). */
 mts_result mts_lod_split(mts_lod *lod, mts_error *err);
 void mts_lod_collapse(mts_lod *lod);

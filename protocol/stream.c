@@ -1,0 +1,830 @@
+#include "stream.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crc32c.h"
+#include "reccodec.h"
+#include "varint.h"
+
+/* ---- shared pieces ---- */
+
+/* Octahedral normal encoding (Meyer et al., "On Floating-Point Normal
+ * Vectors", 2010): two 16-bit numbers, under 0.01 degrees of error. Server and
+ * client run this same code, so both hold the same decoded normal. */
+static void oct_encode(const float n[3], uint16_t out[2])
+{
+    float l = fabsf(n[0]) + fabsf(n[1]) + fabsf(n[2]);
+    float x = l > 0 ? n[0] / l : 0, y = l > 0 ? n[1] / l : 0;
+    if (l > 0 && n[2] < 0) {
+        float ox = x;
+        x = (1 - fabsf(y)) * (ox >= 0 ? 1.0f : -1.0f);
+        y = (1 - fabsf(ox)) * (y >= 0 ? 1.0f : -1.0f);
+    }
+    out[0] = (uint16_t)lrintf((x * 0.5f + 0.5f) * 65535.0f);
+    out[1] = (uint16_t)lrintf((y * 0.5f + 0.5f) * 65535.0f);
+}
+
+static void oct_decode(const uint16_t in[2], float n[3])
+{
+    float x = (float)in[0] / 65535.0f * 2.0f - 1.0f, y = (float)in[1] / 65535.0f * 2.0f - 1.0f;
+    float z = 1.0f - fabsf(x) - fabsf(y);
+    if (z < 0) {
+        float ox = x;
+        x = (1 - fabsf(y)) * (ox >= 0 ? 1.0f : -1.0f);
+        y = (1 - fabsf(ox)) * (y >= 0 ? 1.0f : -1.0f);
+    }
+    float l = sqrtf(x * x + y * y + z * z);
+    n[0] = x / l;
+    n[1] = y / l;
+    n[2] = z / l;
+}
+
+static uint64_t mix64(uint64_t h)
+{
+    h ^= h >> 33;
+    h *= 0xff51afd7ed558ccdull;
+    h ^= h >> 33;
+    h *= 0xc4ceb9fe1a85ec53ull;
+    return h ^ (h >> 33);
+}
+
+static uint64_t strip_sum(uint32_t s, const uint32_t *str, uint32_t len)
+{
+    uint64_t h = mix64(0x5354524950ull ^ ((uint64_t)s << 32 | len));
+    for (uint32_t k = 0; k < len; k++)
+        h = mix64(h ^ str[k]) + k;
+    return h;
+}
+
+static uint64_t vertex_sum(uint32_t x, const uint32_t q[3])
+{
+    return mix64(mix64(mix64(((uint64_t)x << 32) ^ q[0]) ^ q[1]) ^ q[2]);
+}
+
+uint64_t mts_stream_checksum(const mts_lod *lod, const uint32_t *quantized)
+{
+    uint64_t sum = 0;
+    for (uint32_t s = 0; s < lod->strip_count; s++) {
+        uint32_t len;
+        const uint32_t *str = mts_lod_strip(lod, s, &len);
+        sum += strip_sum(s, str, len);
+    }
+    uint32_t nv = lod->model->base_vertex_count + lod->level;
+    for (uint32_t x = 0; x < nv; x++)
+        sum += vertex_sum(x, quantized + 3 * (size_t)x);
+    return sum;
+}
+
+/* ---- server ---- */
+
+void mts_stream_free(mts_stream *s)
+{
+    if (!s)
+        return;
+    mts_model_free(&s->model);
+    free(s->quantized);
+    free(s->bytes);
+    free(s->batch_first);
+    free(s->batch_offset);
+    free(s->level_checksum);
+    memset(s, 0, sizeof *s);
+}
+
+static mts_result copy_model(const mts_model *src, mts_model *dst, mts_error *err)
+{
+    memset(dst, 0, sizeof *dst);
+    size_t nv = src->vertex_count, n1 = (size_t)src->level_count + 1;
+    *dst = *src;
+    dst->positions = malloc(nv * 12);
+    dst->normals = malloc(nv * 12);
+    dst->parents = malloc(n1 * 4);
+    dst->record_offsets = malloc(n1 * 4);
+    dst->record_data = malloc(((size_t)src->record_word_count + 1) * 4);
+    dst->level_triangles = malloc(n1 * 4);
+    dst->level_strips = malloc(n1 * 4);
+    dst->level_indices = malloc(n1 * 4);
+    memset(&dst->full, 0, sizeof dst->full);
+    memset(&dst->base, 0, sizeof dst->base);
+    if (!dst->positions || !dst->normals || !dst->parents || !dst->record_offsets ||
+        !dst->record_data || !dst->level_triangles || !dst->level_strips ||
+        !dst->level_indices ||
+        mts_strips_alloc(&dst->full, src->strip_count, src->full.index_count, err) != MTS_OK ||
+        mts_strips_alloc(&dst->base, src->strip_count, src->base.index_count, err) != MTS_OK) {
+        mts_model_free(dst);
+        return mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory copying the model");
+    }
+    memcpy(dst->positions, src->positions, nv * 12);
+    memcpy(dst->normals, src->normals, nv * 12);
+    memcpy(dst->parents, src->parents, (n1 - 1) * 4);
+    memcpy(dst->record_offsets, src->record_offsets, n1 * 4);
+    memcpy(dst->record_data, src->record_data, (size_t)src->record_word_count * 4);
+    memcpy(dst->level_triangles, src->level_triangles, n1 * 4);
+    memcpy(dst->level_strips, src->level_strips, n1 * 4);
+    memcpy(dst->level_indices, src->level_indices, n1 * 4);
+    memcpy(dst->full.offsets, src->full.offsets, ((size_t)src->strip_count + 1) * 4);
+    memcpy(dst->full.indices, src->full.indices, (size_t)src->full.index_count * 4);
+    memcpy(dst->base.offsets, src->base.offsets, ((size_t)src->strip_count + 1) * 4);
+    memcpy(dst->base.indices, src->base.indices, (size_t)src->base.index_count * 4);
+    return MTS_OK;
+}
+
+/* Renames base vertex x to map[x] everywhere a vertex id appears. */
+static int renumber_base(mts_model *m, uint32_t *quantized, const uint32_t *map)
+{
+    const uint32_t nb = m->base_vertex_count;
+#define MAP(x) ((x) < nb ? map[x] : (x))
+    for (uint32_t i = 0; i < m->full.index_count; i++)
+        m->full.indices[i] = MAP(m->full.indices[i]);
+    for (uint32_t i = 0; i < m->base.index_count; i++)
+        m->base.indices[i] = MAP(m->base.indices[i]);
+    for (uint32_t j = 0; j < m->level_count; j++)
+        m->parents[j] = MAP(m->parents[j]);
+    for (uint32_t j = 0; j < m->level_count; j++) {
+        uint32_t *p = m->record_data + m->record_offsets[j];
+        uint32_t edits = *p++;
+        for (uint32_t e = 0; e < edits; e++) {
+            uint32_t inserts = p[1], substs = p[2];
+            p += 3;
+            for (uint32_t k = 0; k < inserts; k++) {
+                uint32_t run = p[1];
+                p += 2;
+                for (uint32_t r = 0; r < run; r++, p++)
+                    *p = MAP(*p);
+            }
+            p += substs;
+        }
+    }
+#undef MAP
+    float *pos = malloc((size_t)nb * 12 + 1), *nor = malloc((size_t)nb * 12 + 1);
+    uint32_t *q = malloc((size_t)nb * 12 + 1);
+    int ok = pos && nor && q;
+    if (ok) {
+        for (uint32_t x = 0; x < nb; x++) {
+            memcpy(pos + 3 * (size_t)map[x], m->positions + 3 * (size_t)x, 12);
+            memcpy(nor + 3 * (size_t)map[x], m->normals + 3 * (size_t)x, 12);
+            memcpy(q + 3 * (size_t)map[x], quantized + 3 * (size_t)x, 12);
+        }
+        memcpy(m->positions, pos, (size_t)nb * 12);
+        memcpy(m->normals, nor, (size_t)nb * 12);
+        memcpy(quantized, q, (size_t)nb * 12);
+    }
+    free(pos);
+    free(nor);
+    free(q);
+    return ok;
+}
+
+/* The base mesh's triangles: the base strips' drawn windows. */
+static uint32_t *base_triangles(const mts_model *m, uint32_t *count)
+{
+    uint32_t *t = malloc(((size_t)m->base.index_count + 1) * 12);
+    uint32_t n = 0;
+    if (!t)
+        return NULL;
+    for (uint32_t s = 0; s < m->strip_count; s++) {
+        const uint32_t *str = m->base.indices + m->base.offsets[s];
+        uint32_t len = m->base.offsets[s + 1] - m->base.offsets[s];
+        for (uint32_t k = 0; k + 2 < len; k++)
+            n += (uint32_t)mts_strip_window(str, k, t + 3 * (size_t)n);
+    }
+    *count = n;
+    return t;
+}
+
+/* Encodes the base with Draco, decodes it back and renumbers the model to the
+ * decoded order; falls back to the order-keeping sequential method when
+ * Edgebreaker changed the mesh itself (split or dropped vertices). */
+static mts_result encode_base(mts_stream *s, int method, uint8_t **draco, size_t *draco_size,
+                              mts_error *err)
+{
+    mts_model *m = &s->model;
+    const uint32_t nb = m->base_vertex_count;
+    uint32_t nt = 0;
+    uint32_t *tris = base_triangles(m, &nt);
+    uint32_t *map = malloc((size_t)nb * 4 + 4);
+    mts_draco_mesh_out dec = {0};
+    mts_result rc = MTS_OK;
+    if (!tris || !map) {
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory for the base mesh");
+        goto done;
+    }
+    for (int attempt = 0; attempt < 2; attempt++) {
+        mts_draco_mesh in = {nb, nt, m->positions, m->normals, tris};
+        mts_draco_options o = {0};
+        o.grid = s->grid;
+        o.method = attempt == 0 ? method : MTS_DRACO_SEQUENTIAL;
+        free(*draco);
+        *draco = NULL;
+        mts_draco_mesh_out_free(&dec);
+        if ((rc = mts_draco_encode(&in, &o, draco, draco_size, err)) != MTS_OK ||
+            (rc = mts_draco_decode(*draco, *draco_size, &dec, err)) != MTS_OK)
+            goto done;
+        if (dec.vertex_count == nb && dec.normals &&
+            mts_draco_renumber(&in, &dec, map, NULL, err) == MTS_OK) {
+            s->draco_method = o.method;
+            break;
+        }
+        if (attempt == 1) {
+            rc = mts_error_set(err, MTS_ERR_INTERNAL,
+                               "stream: the sequential Draco encoding did not round-trip");
+            goto done;
+        }
+    }
+    /* ids are renamed before the copy, so a failed copy leaves a broken model:
+     * the caller frees it */
+    if (!renumber_base(m, s->quantized, map)) {
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory renumbering");
+        goto done;
+    }
+    /* the stream stands for what clients decode: Draco's positions and normals */
+    for (uint32_t x = 0; x < nb; x++) {
+        if (memcmp(s->quantized + 3 * (size_t)x, dec.quantized + 3 * (size_t)x, 12) != 0) {
+            rc = mts_error_set(err, MTS_ERR_INTERNAL,
+                               "stream: base vertex %u changed its grid point through Draco", x);
+            goto done;
+        }
+        memcpy(m->positions + 3 * (size_t)x, dec.positions + 3 * (size_t)x, 12);
+        memcpy(m->normals + 3 * (size_t)x, dec.normals + 3 * (size_t)x, 12);
+    }
+done:
+    free(tris);
+    free(map);
+    mts_draco_mesh_out_free(&dec);
+    return rc;
+}
+
+static uint64_t fnv64(const uint8_t *p, size_t n)
+{
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ p[i]) * 0x100000001b3ull;
+    return h;
+}
+
+static void put_crc(mts_buf *b, size_t frame_start)
+{
+    size_t payload = frame_start + MTS_WIRE_HEADER;
+    uint32_t crc = b->failed ? 0 : mts_crc32c(0, b->data + payload, b->size - payload);
+    mts_buf_u32(b, crc);
+}
+
+static mts_result level_checksums(mts_stream *s, mts_error *err)
+{
+    const mts_model *m = &s->model;
+    mts_lod lod;
+    mts_result rc = mts_lod_init(&lod, m, MTS_LOD_AT_BASE, err);
+    if (rc != MTS_OK)
+        return rc;
+    uint64_t *hs = malloc(((size_t)m->strip_count + 1) * 8);
+    if (!hs) {
+        mts_lod_free(&lod);
+        return mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory");
+    }
+    uint64_t sum = mts_stream_checksum(&lod, s->quantized);
+    for (uint32_t st = 0; st < m->strip_count; st++) {
+        uint32_t len;
+        const uint32_t *str = mts_lod_strip(&lod, st, &len);
+        hs[st] = strip_sum(st, str, len);
+    }
+    mts_lod_clear_changed(&lod);
+    s->level_checksum[0] = sum;
+    for (uint32_t l = 0; l < m->level_count; l++) {
+        if ((rc = mts_lod_split(&lod, err)) != MTS_OK)
+            break;
+        uint32_t nc;
+        const uint32_t *changed = mts_lod_changed(&lod, &nc);
+        for (uint32_t c = 0; c < nc; c++) {
+            uint32_t st = changed[c], len;
+            const uint32_t *str = mts_lod_strip(&lod, st, &len);
+            sum -= hs[st];
+            hs[st] = strip_sum(st, str, len);
+            sum += hs[st];
+        }
+        mts_lod_clear_changed(&lod);
+        uint32_t v = m->base_vertex_count + l;
+        sum += vertex_sum(v, s->quantized + 3 * (size_t)v);
+        s->level_checksum[l + 1] = sum;
+    }
+    free(hs);
+    mts_lod_free(&lod);
+    return rc;
+}
+
+mts_result mts_stream_build(const mts_model *model, const char *name,
+                            const mts_stream_options *opts, mts_stream *s, mts_error *err)
+{
+    static const mts_stream_options defaults = {0};
+    if (!opts)
+        opts = &defaults;
+    memset(s, 0, sizeof *s);
+    if (!mts_wire_valid_name(name, strlen(name)))
+        return mts_error_set(err, MTS_ERR_ARG, "stream: '%s' is not a valid model name", name);
+    snprintf(s->name, sizeof s->name, "%s", name);
+    mts_buf b = {0};
+    uint8_t *draco = NULL, *rec = NULL;
+    size_t draco_size = 0;
+    mts_result rc = copy_model(model, &s->model, err);
+    if (rc != MTS_OK)
+        return rc;
+    mts_model *m = &s->model;
+    const uint32_t nv = m->vertex_count, nb = m->base_vertex_count, n = m->level_count;
+
+    /* one grid for base and batches: the full model's box */
+    if ((rc = mts_draco_grid_from_positions(m->positions, nv, opts->quant_bits ? opts->quant_bits : 14,
+                                            &s->grid, err)) != MTS_OK)
+        goto fail;
+    s->quantized = malloc((size_t)nv * 12 + 4);
+    s->batch_first = NULL;
+    s->level_checksum = malloc(((size_t)n + 1) * 8);
+    if (!s->quantized || !s->level_checksum)
+        goto nomem;
+    for (uint32_t x = 0; x < nv; x++) {
+        uint32_t *q = s->quantized + 3 * (size_t)x;
+        mts_draco_quantize(&s->grid, m->positions + 3 * (size_t)x, q);
+        mts_draco_dequantize(&s->grid, q, m->positions + 3 * (size_t)x);
+    }
+    for (uint32_t x = nb; x < nv; x++) { /* normals as the client will decode them */
+        uint16_t o[2];
+        oct_encode(m->normals + 3 * (size_t)x, o);
+        oct_decode(o, m->normals + 3 * (size_t)x);
+    }
+    if ((rc = encode_base(s, opts->draco_method, &draco, &draco_size, err)) != MTS_OK)
+        goto fail;
+
+    /* BASE */
+    size_t f = mts_wire_frame_begin(&b, MTS_MSG_BASE);
+    mts_buf_varint(&b, (uint32_t)draco_size);
+    mts_buf_put(&b, draco, draco_size);
+    for (uint32_t st = 0; st < m->strip_count; st++)
+        mts_buf_varint(&b, m->base.offsets[st + 1] - m->base.offsets[st]);
+    for (uint32_t st = 0; st < m->strip_count; st++) {
+        uint32_t prev = 0;
+        for (uint32_t k = m->base.offsets[st]; k < m->base.offsets[st + 1]; k++) {
+            mts_buf_varint(&b, mts_zigzag_u32(m->base.indices[k] - prev));
+            prev = m->base.indices[k];
+        }
+    }
+    put_crc(&b, f);
+    mts_wire_frame_end(&b, f);
+
+    /* BATCHes */
+    uint32_t per = opts->batch_splits ? opts->batch_splits : (n / 100 > 64 ? n / 100 : 64);
+    s->batch_count = n == 0 ? 0 : (n + per - 1) / per;
+    s->batch_first = malloc(((size_t)s->batch_count + 1) * 4);
+    s->batch_offset = malloc(((size_t)s->batch_count + 1) * sizeof *s->batch_offset);
+    size_t rec_cap = mts_reccodec_bound(m, 0, n) + 16;
+    rec = malloc(rec_cap);
+    if (!s->batch_first || !s->batch_offset || !rec)
+        goto nomem;
+    for (uint32_t k = 0; k < s->batch_count; k++) {
+        uint32_t first = k * per, count = n - first < per ? n - first : per;
+        s->batch_first[k] = first;
+        s->batch_offset[k] = b.size;
+        size_t rec_size = 0;
+        if ((rc = mts_reccodec_encode(m, first, count, rec, rec_cap, &rec_size, err)) != MTS_OK)
+            goto fail;
+        f = mts_wire_frame_begin(&b, MTS_MSG_BATCH);
+        mts_buf_varint(&b, k);
+        mts_buf_varint(&b, first);
+        mts_buf_varint(&b, count);
+        mts_buf_varint(&b, (uint32_t)rec_size);
+        mts_buf_put(&b, rec, rec_size);
+        for (uint32_t i = 0; i < count; i++) {
+            uint32_t v = nb + first + i, u = m->parents[first + i];
+            for (int a = 0; a < 3; a++)
+                mts_buf_varint(&b, mts_zigzag_u32(s->quantized[3 * (size_t)v + a] -
+                                                  s->quantized[3 * (size_t)u + a]));
+            uint16_t o[2];
+            oct_encode(m->normals + 3 * (size_t)v, o);
+            mts_buf_u16(&b, o[0]);
+            mts_buf_u16(&b, o[1]);
+        }
+        put_crc(&b, f);
+        mts_wire_frame_end(&b, f);
+    }
+    s->batch_first[s->batch_count] = n;
+    s->batch_offset[s->batch_count] = b.size;
+    if (b.failed)
+        goto nomem;
+    s->bytes = b.data;
+    s->size = b.size;
+    b.data = NULL;
+    s->stream_id = fnv64(s->bytes, s->size) ^ ((uint64_t)s->size << 1);
+    if ((rc = level_checksums(s, err)) != MTS_OK)
+        goto fail;
+    free(draco);
+    free(rec);
+    return MTS_OK;
+nomem:
+    rc = mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory encoding '%s'", name);
+fail:
+    free(draco);
+    free(rec);
+    mts_buf_free(&b);
+    mts_stream_free(s);
+    return rc;
+}
+
+uint32_t mts_stream_stop_level(const mts_stream *s, uint8_t kind, uint32_t value)
+{
+    const mts_model *m = &s->model;
+    switch (kind) {
+    case MTS_STOP_LEVEL:
+        return value < m->level_count ? value : m->level_count;
+    case MTS_STOP_TRIANGLES:
+        return mts_model_level_for_triangles(m, value);
+    case MTS_STOP_FRACTION:
+        return mts_model_level_for_fraction(m, value / 1e6);
+    default:
+        return m->level_count;
+    }
+}
+
+mts_result mts_stream_range(const mts_stream *s, uint32_t resume_batch, uint32_t stop_level,
+                            size_t *offset, size_t *length, mts_error *err)
+{
+    /* batches needed: those whose first split is below the stop level */
+    uint32_t end = 0;
+    while (end < s->batch_count && s->batch_first[end] < stop_level)
+        end++;
+    if (resume_batch > end)
+        return mts_error_set(err, MTS_ERR_RANGE,
+                             "resume from batch %u, but the stream to level %u has %u batches",
+                             resume_batch, stop_level, end);
+    size_t from = resume_batch == 0 ? 0 : s->batch_offset[resume_batch];
+    size_t to = s->batch_count ? s->batch_offset[end] : s->size;
+    *offset = from;
+    *length = to - from;
+    return MTS_OK;
+}
+
+void mts_stream_put_model_info(const mts_stream *s, uint32_t stop_level, mts_buf *out)
+{
+    const mts_model *m = &s->model;
+    mts_wire_model_info mi = {0};
+    mi.minor = MTS_WIRE_MINOR;
+    mi.stream_id = s->stream_id;
+    snprintf(mi.model, sizeof mi.model, "%s", s->name);
+    mi.vertices = m->vertex_count;
+    mi.base_vertices = m->base_vertex_count;
+    mi.levels = m->level_count;
+    mi.triangles = m->level_triangles[m->level_count];
+    mi.strips = m->strip_count;
+    mi.stop_level = stop_level;
+    mi.stop_triangles = m->level_triangles[stop_level];
+    memcpy(mi.bbox_min, m->bbox_min, 12);
+    memcpy(mi.bbox_max, m->bbox_max, 12);
+    mi.quant_bits = (uint8_t)s->grid.bits;
+    memcpy(mi.grid_origin, s->grid.origin, 12);
+    mi.grid_range = s->grid.range;
+    mi.batch_count = s->batch_count;
+    uint32_t *sizes = malloc(((size_t)s->batch_count + 1) * 4);
+    uint32_t *caps = malloc(((size_t)m->strip_count + 1) * 4);
+    if (!sizes || !caps) {
+        out->failed = 1;
+        free(sizes);
+        free(caps);
+        return;
+    }
+    for (uint32_t k = 0; k < s->batch_count; k++)
+        sizes[k] = s->batch_first[k + 1] - s->batch_first[k];
+    for (uint32_t st = 0; st < m->strip_count; st++)
+        caps[st] = m->full.offsets[st + 1] - m->full.offsets[st];
+    mi.batch_splits = sizes;
+    mi.capacities = caps;
+    mts_wire_put_model_info(out, &mi);
+    free(sizes);
+    free(caps);
+}
+
+void mts_stream_put_end(const mts_stream *s, uint32_t stop_level, uint32_t bytes_before_end,
+                        mts_buf *out)
+{
+    mts_wire_end e = {stop_level, s->level_checksum[stop_level], 0};
+    /* the END frame counts itself: its size depends on the count, so settle it */
+    mts_buf probe = {0};
+    for (int i = 0; i < 3; i++) {
+        probe.size = 0;
+        mts_wire_put_end(&probe, &e);
+        e.stream_bytes = bytes_before_end + (uint32_t)probe.size;
+    }
+    mts_buf_free(&probe);
+    mts_wire_put_end(out, &e);
+}
+
+/* ---- client ---- */
+
+enum { ST_INFO = 0, ST_BASE, ST_BATCHES, ST_DONE, ST_FAILED };
+
+/* A client allocates for the counts MODEL_INFO announces before any data
+ * arrives, so those counts are capped: 2^24 vertices (a 16M-vertex model
+ * holds about 1.2 GB here). */
+#define CLIENT_MAX_VERTICES (1u << 24)
+
+void mts_stream_client_init(mts_stream_client *c)
+{
+    memset(c, 0, sizeof *c);
+}
+
+void mts_stream_client_free(mts_stream_client *c)
+{
+    if (c->have_lod)
+        mts_lod_free(&c->lod);
+    mts_wire_model_info_free(&c->info);
+    mts_model_free(&c->model);
+    free(c->quantized);
+    memset(c, 0, sizeof *c);
+}
+
+static mts_result fail(mts_stream_client *c, mts_result rc)
+{
+    c->state = ST_FAILED;
+    return rc;
+}
+
+static int crc_ok(const uint8_t *payload, size_t size)
+{
+    if (size < 4)
+        return 0;
+    const uint8_t *t = payload + size - 4;
+    uint32_t want = (uint32_t)t[0] | (uint32_t)t[1] << 8 | (uint32_t)t[2] << 16 |
+                    (uint32_t)t[3] << 24;
+    return mts_crc32c(0, payload, size - 4) == want;
+}
+
+static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
+{
+    mts_result rc = mts_wire_parse_model_info(p, n, &c->info, err);
+    if (rc != MTS_OK)
+        return rc;
+    const mts_wire_model_info *mi = &c->info;
+    if (mi->vertices > CLIENT_MAX_VERTICES)
+        return mts_error_set(err, MTS_ERR_LIMIT, "MODEL_INFO: %u vertices (this client takes %u)",
+                             mi->vertices, CLIENT_MAX_VERTICES);
+    uint64_t cap = 0;
+    for (uint32_t s = 0; s < mi->strips; s++)
+        cap += mi->capacities[s];
+    /* strips at the full level hold at most a few indices per triangle, and a
+     * manifold mesh has under twice as many triangles as vertices */
+    if (cap > 8ull * mi->vertices + 2ull * mi->strips || cap > UINT32_MAX)
+        return mts_error_set(err, MTS_ERR_LIMIT,
+                             "MODEL_INFO: strip capacities add up to %llu for %u vertices",
+                             (unsigned long long)cap, mi->vertices);
+    mts_model *m = &c->model;
+    size_t nv = mi->vertices, n1 = (size_t)mi->levels + 1;
+    m->vertex_count = mi->vertices;
+    m->base_vertex_count = mi->base_vertices;
+    m->level_count = mi->levels;
+    m->strip_count = mi->strips;
+    memcpy(m->bbox_min, mi->bbox_min, 12);
+    memcpy(m->bbox_max, mi->bbox_max, 12);
+    snprintf(m->source, sizeof m->source, "%s", mi->model);
+    m->positions = calloc(nv, 12);
+    m->normals = calloc(nv, 12);
+    c->quantized = calloc(nv, 12);
+    m->parents = calloc(n1, 4);
+    m->record_offsets = calloc(n1, 4);
+    if (!m->positions || !m->normals || !c->quantized || !m->parents || !m->record_offsets ||
+        mts_strips_alloc(&m->full, mi->strips, 0, err) != MTS_OK)
+        return mts_error_set(err, MTS_ERR_NOMEM, "MODEL_INFO: out of memory for %u vertices",
+                             mi->vertices);
+    /* the full strips' lengths are the slots; their indices never travel */
+    uint32_t o = 0;
+    for (uint32_t s = 0; s < mi->strips; s++) {
+        m->full.offsets[s] = o;
+        o += mi->capacities[s];
+    }
+    m->full.offsets[mi->strips] = o;
+    m->full.index_count = o;
+    c->grid.bits = mi->quant_bits;
+    memcpy(c->grid.origin, mi->grid_origin, 12);
+    c->grid.range = mi->grid_range;
+    c->stop_level = mi->stop_level;
+    return MTS_OK;
+}
+
+static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
+{
+    if (!crc_ok(p, n))
+        return mts_error_set(err, MTS_ERR_CHECKSUM, "BASE: checksum mismatch; not applied");
+    mts_model *m = &c->model;
+    const uint32_t nb = m->base_vertex_count;
+    mts_cursor cur = mts_cursor_make(p, n - 4);
+    uint32_t dsize = mts_cursor_varint(&cur);
+    const uint8_t *draco = mts_cursor_bytes(&cur, dsize);
+    if (!draco)
+        return mts_error_set(err, MTS_ERR_FORMAT, "BASE: Draco mesh runs past the message");
+    mts_draco_mesh_out dec = {0};
+    mts_result rc = mts_draco_decode(draco, dsize, &dec, err);
+    if (rc != MTS_OK)
+        return mts_error_prefix(err, "BASE");
+    if (dec.vertex_count != nb || !dec.normals || dec.grid.bits != c->grid.bits ||
+        memcmp(dec.grid.origin, c->grid.origin, 12) != 0 || dec.grid.range != c->grid.range) {
+        rc = mts_error_set(err, MTS_ERR_FORMAT,
+                           "BASE: Draco mesh has %u vertices (expected %u) or another grid",
+                           dec.vertex_count, nb);
+        mts_draco_mesh_out_free(&dec);
+        return rc;
+    }
+    memcpy(m->positions, dec.positions, (size_t)nb * 12);
+    memcpy(m->normals, dec.normals, (size_t)nb * 12);
+    memcpy(c->quantized, dec.quantized, (size_t)nb * 12);
+    mts_draco_mesh_out_free(&dec);
+
+    /* base strip lengths, each within its slot; then the indices */
+    uint64_t total = 0;
+    if (m->strip_count > mts_cursor_left(&cur))
+        return mts_error_set(err, MTS_ERR_FORMAT, "BASE: %u strip lengths cannot fit", m->strip_count);
+    uint32_t *lens = malloc(((size_t)m->strip_count + 1) * 4);
+    if (!lens)
+        return mts_error_set(err, MTS_ERR_NOMEM, "BASE: out of memory");
+    for (uint32_t s = 0; s < m->strip_count; s++) {
+        lens[s] = mts_cursor_varint(&cur);
+        total += lens[s];
+        if (lens[s] > m->full.offsets[s + 1] - m->full.offsets[s]) {
+            free(lens);
+            return mts_error_set(err, MTS_ERR_RANGE, "BASE: strip %u is longer than its slot", s);
+        }
+    }
+    if (!cur.ok || total > mts_cursor_left(&cur)) {
+        free(lens);
+        return mts_error_set(err, MTS_ERR_FORMAT, "BASE: strip indices cannot fit the message");
+    }
+    if ((rc = mts_strips_alloc(&m->base, m->strip_count, (uint32_t)total, err)) != MTS_OK) {
+        free(lens);
+        return rc;
+    }
+    uint32_t o = 0;
+    for (uint32_t s = 0; s < m->strip_count; s++) {
+        m->base.offsets[s] = o;
+        uint32_t prev = 0;
+        for (uint32_t k = 0; k < lens[s]; k++) {
+            prev += mts_unzigzag_u32(mts_cursor_varint(&cur));
+            if (prev >= nb) {
+                free(lens);
+                return mts_error_set(err, MTS_ERR_RANGE,
+                                     "BASE: strip %u index %u is not a base vertex (%u)", s, prev,
+                                     nb);
+            }
+            m->base.indices[o++] = prev;
+        }
+    }
+    m->base.offsets[m->strip_count] = o;
+    free(lens);
+    if (!cur.ok || mts_cursor_left(&cur) != 0)
+        return mts_error_set(err, MTS_ERR_FORMAT, "BASE: malformed strips");
+    if ((rc = mts_lod_init(&c->lod, m, MTS_LOD_AT_BASE, err)) != MTS_OK)
+        return rc;
+    c->have_lod = 1;
+    mts_lod_set_available(&c->lod, 0);
+    return MTS_OK;
+}
+
+static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
+{
+    if (!crc_ok(p, n))
+        return mts_error_set(err, MTS_ERR_CHECKSUM,
+                             "BATCH %u: checksum mismatch; rejected, not applied", c->batches);
+    mts_model *m = &c->model;
+    mts_cursor cur = mts_cursor_make(p, n - 4);
+    uint32_t index = mts_cursor_varint(&cur), first = mts_cursor_varint(&cur),
+             count = mts_cursor_varint(&cur), rsize = mts_cursor_varint(&cur);
+    const uint8_t *rec = mts_cursor_bytes(&cur, rsize);
+    if (!rec)
+        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH: truncated header");
+    if (index != c->batches || index >= c->info.batch_count || first != c->splits ||
+        count != c->info.batch_splits[index] || count > m->level_count - first)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "BATCH %u (splits %u+%u) out of order: expected batch %u at split %u",
+                             index, first, count, c->batches, c->splits);
+    /* records: words never outnumber their bytes */
+    size_t words_before = m->record_offsets[first];
+    if (rsize > UINT32_MAX - words_before)
+        return mts_error_set(err, MTS_ERR_LIMIT, "BATCH %u: records too large", index);
+    if (words_before + rsize + 1 > c->record_capacity) {
+        size_t cap = c->record_capacity ? c->record_capacity : 4096;
+        while (cap < words_before + rsize + 1)
+            cap *= 2;
+        uint32_t *w = realloc(m->record_data, cap * 4);
+        if (!w)
+            return mts_error_set(err, MTS_ERR_NOMEM, "BATCH %u: out of memory", index);
+        m->record_data = w;
+        c->record_capacity = cap;
+    }
+    mts_reccodec_out ro = {m->parents + first, m->record_offsets + first,
+                           m->record_data + words_before, rsize, (uint32_t)words_before};
+    size_t consumed = 0, words = 0;
+    mts_result rc = mts_reccodec_decode(rec, rsize, m->base_vertex_count, first, count, &ro,
+                                        &consumed, &words, err);
+    if (rc != MTS_OK)
+        return mts_error_prefix(err, "BATCH %u", index);
+    if (consumed != rsize)
+        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: %zu bytes after its records", index,
+                             rsize - consumed);
+    m->record_word_count = (uint32_t)(words_before + words);
+    const uint32_t maxq = (uint32_t)((1ull << c->grid.bits) - 1);
+    for (uint32_t i = 0; i < count; i++) {
+        uint32_t v = m->base_vertex_count + first + i, u = m->parents[first + i];
+        uint32_t *q = c->quantized + 3 * (size_t)v;
+        for (int a = 0; a < 3; a++) {
+            q[a] = c->quantized[3 * (size_t)u + a] + mts_unzigzag_u32(mts_cursor_varint(&cur));
+            if (q[a] > maxq)
+                return mts_error_set(err, MTS_ERR_RANGE, "BATCH %u: vertex %u is off the grid",
+                                     index, v);
+        }
+        uint16_t o[2] = {mts_cursor_u16(&cur), mts_cursor_u16(&cur)};
+        mts_draco_dequantize(&c->grid, q, m->positions + 3 * (size_t)v);
+        oct_decode(o, m->normals + 3 * (size_t)v);
+    }
+    if (!cur.ok || mts_cursor_left(&cur) != 0)
+        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: vertex data malformed", index);
+    c->batches++;
+    c->splits += count;
+    mts_lod_set_available(&c->lod, c->splits);
+    uint32_t target = c->splits < c->stop_level ? c->splits : c->stop_level;
+    if ((rc = mts_lod_set_level(&c->lod, target, err)) != MTS_OK)
+        return mts_error_prefix(err, "BATCH %u", index);
+    return MTS_OK;
+}
+
+static mts_result take_end(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
+{
+    mts_wire_end e;
+    mts_result rc = mts_wire_parse_end(p, n, &e, err);
+    if (rc != MTS_OK)
+        return rc;
+    if (e.final_level != c->stop_level || c->lod.level != c->stop_level)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "END at level %u, but the client is at %u of the %u it asked for",
+                             e.final_level, c->lod.level, c->stop_level);
+    c->end_checksum = e.checksum;
+    c->checksum = mts_stream_checksum(&c->lod, c->quantized);
+    if (c->checksum != e.checksum)
+        return mts_error_set(err, MTS_ERR_CHECKSUM,
+                             "END: the mesh at level %u differs from the server's (checksum "
+                             "%016llx, server %016llx)",
+                             e.final_level, (unsigned long long)c->checksum,
+                             (unsigned long long)e.checksum);
+    return MTS_OK;
+}
+
+mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uint8_t *payload,
+                                   size_t size, mts_stream_event *event, mts_error *err)
+{
+    *event = MTS_EV_NONE;
+    mts_result rc;
+    if (c->state == ST_FAILED || c->state == ST_DONE)
+        return mts_error_set(err, MTS_ERR_ARG, "stream: frame after the end of the stream");
+    if (type == MTS_MSG_ERROR) {
+        if ((rc = mts_wire_parse_error(payload, size, &c->error_code, c->error_text,
+                                       sizeof c->error_text, err)) != MTS_OK)
+            return fail(c, rc);
+        c->state = ST_DONE;
+        *event = MTS_EV_ERROR;
+        return MTS_OK;
+    }
+    switch (c->state) {
+    case ST_INFO:
+        if (type == MTS_MSG_MODELS) {
+            if ((rc = mts_wire_parse_models(payload, size, c->on_model, c->user, err)) != MTS_OK)
+                return fail(c, rc);
+            c->state = ST_DONE;
+            *event = MTS_EV_MODELS;
+            return MTS_OK;
+        }
+        if (type != MTS_MSG_MODEL_INFO)
+            break;
+        if ((rc = take_info(c, payload, size, err)) != MTS_OK)
+            return fail(c, rc);
+        c->state = ST_BASE;
+        *event = MTS_EV_INFO;
+        return MTS_OK;
+    case ST_BASE:
+        if (type != MTS_MSG_BASE)
+            break;
+        if ((rc = take_base(c, payload, size, err)) != MTS_OK)
+            return fail(c, rc);
+        c->state = ST_BATCHES;
+        *event = MTS_EV_BASE;
+        return MTS_OK;
+    case ST_BATCHES:
+        if (type == MTS_MSG_BATCH) {
+            if ((rc = take_batch(c, payload, size, err)) != MTS_OK)
+                return fail(c, rc);
+            *event = MTS_EV_BATCH;
+            return MTS_OK;
+        }
+        if (type != MTS_MSG_END)
+            break;
+        if ((rc = take_end(c, payload, size, err)) != MTS_OK)
+            return fail(c, rc);
+        c->state = ST_DONE;
+        *event = MTS_EV_END;
+        return MTS_OK;
+    }
+    return fail(c, mts_error_set(err, MTS_ERR_FORMAT, "stream: unexpected message type %u",
+                                 type));
+}

@@ -1,0 +1,110 @@
+/* A model's wire stream (PROTOCOL.md), both ends.
+ *
+ * Server: mts_stream_build turns a model into an immutable byte stream -- a
+ * BASE frame (Draco base mesh + base strips) and BATCH frames (splits with
+ * their vertices and records) -- encoded once and shared read-only by every
+ * connection; a connection is then an offset range into it plus two small
+ * per-connection frames (MODEL_INFO, END). Building also fixes the model the
+ * stream stands for: positions snapped to the quantization grid, normals as
+ * the client will decode them, base vertices renumbered to Draco's decoded
+ * order. A client that applies the whole stream holds exactly that model.
+ *
+ * Client: mts_stream_client takes frames as they arrive, checks each against
+ * its bounds, the CRC and the state so far, and applies every batch through
+ * the LOD runtime (mts_lod), so a renderer can follow along. */
+#ifndef MTS_STREAM_H
+#define MTS_STREAM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "bytes.h"
+#include "draco.h"
+#include "error.h"
+#include "lod.h"
+#include "model.h"
+#include "wire.h"
+
+/* Zero-initialised means the defaults. */
+typedef struct mts_stream_options {
+    int quant_bits;          /* position grid; 0 = 14 */
+    uint32_t batch_splits;   /* splits per batch; 0 = max(64, levels / 100) */
+    int draco_method;        /* mts_draco_method; 0 = edgebreaker (sequential as fallback) */
+} mts_stream_options;
+
+typedef struct mts_stream {
+    char name[MTS_WIRE_MAX_NAME + 1];
+    uint64_t stream_id;
+    mts_model model;          /* what the stream stands for (owned) */
+    uint32_t *quantized;      /* grid point of every vertex, 3 each */
+    mts_draco_grid grid;
+    int draco_method;         /* the one used (after any fallback) */
+    uint8_t *bytes;           /* BASE frame, then BATCH frames */
+    size_t size;
+    uint32_t batch_count;
+    uint32_t *batch_first;    /* batch_count + 1: first split of each batch */
+    size_t *batch_offset;     /* batch_count + 1: where each BATCH frame starts in bytes */
+    uint64_t *level_checksum; /* levels + 1 */
+} mts_stream;
+
+mts_result mts_stream_build(const mts_model *model, const char *name,
+                            const mts_stream_options *opts, mts_stream *stream, mts_error *err);
+void mts_stream_free(mts_stream *stream);
+
+/* The level a HELLO's stop point resolves to (PROTOCOL.md, HELLO). */
+uint32_t mts_stream_stop_level(const mts_stream *s, uint8_t stop_kind, uint32_t stop_value);
+
+/* The bytes of s->bytes a connection is sent: the BASE frame unless it
+ * resumes (resume_batch > 0), then batches from resume_batch through the one
+ * that reaches stop_level. MTS_ERR_RANGE when resume_batch is past them. */
+mts_result mts_stream_range(const mts_stream *s, uint32_t resume_batch, uint32_t stop_level,
+                            size_t *offset, size_t *length, mts_error *err);
+
+void mts_stream_put_model_info(const mts_stream *s, uint32_t stop_level, mts_buf *out);
+void mts_stream_put_end(const mts_stream *s, uint32_t stop_level, uint32_t bytes_before_end,
+                        mts_buf *out);
+
+/* The mesh checksum of PROTOCOL.md's END at the runtime's current level:
+ * strips and the grid points of the vertices present. */
+uint64_t mts_stream_checksum(const mts_lod *lod, const uint32_t *quantized);
+
+/* ---- client ---- */
+
+typedef enum mts_stream_event {
+    MTS_EV_NONE = 0,
+    MTS_EV_INFO,   /* MODEL_INFO taken: c->info is valid */
+    MTS_EV_BASE,   /* base mesh and strips in place: c->lod at level 0 */
+    MTS_EV_BATCH,  /* a batch applied: c->lod moved up */
+    MTS_EV_END,    /* END checked: the stream is complete */
+    MTS_EV_ERROR,  /* the server sent ERROR: c->error_code, c->error_text */
+    MTS_EV_MODELS  /* a MODELS listing (c->listing_count entries, via callback) */
+} mts_stream_event;
+
+typedef struct mts_stream_client {
+    int state;
+    mts_wire_model_info info;
+    mts_model model;       /* filled as the stream arrives */
+    uint32_t *quantized;
+    size_t record_capacity;
+    mts_lod lod;
+    int have_lod;
+    mts_draco_grid grid;
+    uint32_t batches, splits; /* received and applied */
+    uint32_t stop_level;
+    uint64_t end_checksum, checksum; /* the server's, and ours at the end */
+    uint16_t error_code;
+    char error_text[256];
+    void (*on_model)(void *user, const mts_wire_model_entry *m); /* for LIST */
+    void *user;
+} mts_stream_client;
+
+void mts_stream_client_init(mts_stream_client *c);
+void mts_stream_client_free(mts_stream_client *c);
+
+/* Takes one frame. Errors name the message and the problem; a client that
+ * returned an error is not fed again. A batch is applied only after its CRC
+ * and every split in it have checked out, up to the stop level. */
+mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uint8_t *payload,
+                                   size_t size, mts_stream_event *event, mts_error *err);
+
+#endif
