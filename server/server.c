@@ -1,0 +1,541 @@
+/* accept4 */
+#define _GNU_SOURCE
+#include "server.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+#include <sys/socket.h>
+#include <sys/uio.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "wire.h"
+
+/* A client's first frame is a HELLO or LIST: small, so it fits here. */
+#define IN_MAX 512
+
+typedef enum phase { READING = 0, WRITING } phase;
+
+typedef struct conn {
+    int fd;
+    phase phase;
+    uint8_t in[IN_MAX];
+    size_t in_len;
+    const mts_stream *stream;
+    mts_buf head, tail;         /* per-connection frames around the shared body */
+    size_t head_off, tail_off;
+    size_t body_off, body_end;  /* range of stream->bytes still to send */
+    uint64_t sent;
+    double started, last_progress;
+    uint32_t stop_level;
+    int watching_out;
+    const char *outcome;        /* set when the conversation has an end in sight */
+    char peer[64];
+    char model[MTS_WIRE_MAX_NAME + 1];
+    struct conn *prev, *next;
+} conn;
+
+struct mts_server {
+    mts_server_options opts;
+    const mts_stream *const *streams;
+    uint32_t stream_count;
+    int listen_fd, epoll_fd, port;
+    conn *conns;
+    conn *dead; /* closed during this round of events; freed after it */
+    uint32_t conn_count;
+    mts_server_stats stats;
+};
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static void logf_(mts_server *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void logf_(mts_server *s, const char *fmt, ...)
+{
+    if (!s->opts.log)
+        return;
+    char line[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    s->opts.log(s->opts.log_user, line);
+}
+
+static int set_nonblocking(int fd)
+{
+    int flags = fcntl(fd, F_GETFL, 0);
+    return flags >= 0 && fcntl(fd, F_SETFL, flags | O_NONBLOCK) == 0;
+}
+
+static mts_result open_listener(mts_server *s, const char *spec, mts_error *err)
+{
+    char host[256];
+    const char *colon = strrchr(spec, ':');
+    if (!colon || colon == spec || (size_t)(colon - spec) >= sizeof host)
+        return mts_error_set(err, MTS_ERR_ARG, "listen address '%s' is not ADDR:PORT", spec);
+    size_t hl = (size_t)(colon - spec);
+    const char *h = spec;
+    if (spec[0] == '[' && hl >= 2 && spec[hl - 1] == ']') { /* [::1]:7447 */
+        h++;
+        hl -= 2;
+    }
+    memcpy(host, h, hl);
+    host[hl] = 0;
+    struct addrinfo hints = {0}, *res = NULL;
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    hints.ai_flags = AI_PASSIVE | AI_NUMERICSERV;
+    int gai = getaddrinfo(host, colon + 1, &hints, &res);
+    if (gai != 0)
+        return mts_error_set(err, MTS_ERR_ARG, "listen address '%s': %s", spec, gai_strerror(gai));
+    mts_result rc = MTS_OK;
+    int fd = socket(res->ai_family, res->ai_socktype | SOCK_CLOEXEC, 0);
+    int one = 1;
+    if (fd < 0 || setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0 ||
+        bind(fd, res->ai_addr, res->ai_addrlen) != 0 || listen(fd, 1024) != 0 ||
+        !set_nonblocking(fd)) {
+        rc = mts_error_set(err, MTS_ERR_IO, "cannot listen on %s: %s", spec, strerror(errno));
+        if (fd >= 0)
+            close(fd);
+        freeaddrinfo(res);
+        return rc;
+    }
+    freeaddrinfo(res);
+    struct sockaddr_storage ss;
+    socklen_t sl = sizeof ss;
+    getsockname(fd, (struct sockaddr *)&ss, &sl);
+    s->port = ss.ss_family == AF_INET6 ? ntohs(((struct sockaddr_in6 *)&ss)->sin6_port)
+                                       : ntohs(((struct sockaddr_in *)&ss)->sin_port);
+    s->listen_fd = fd;
+    return MTS_OK;
+}
+
+mts_result mts_server_create(const mts_server_options *opts, const mts_stream *const *streams,
+                             uint32_t stream_count, mts_server **out, mts_error *err)
+{
+    static const mts_server_options defaults = {0};
+    *out = NULL;
+    mts_server *s = calloc(1, sizeof *s);
+    if (!s)
+        return mts_error_set(err, MTS_ERR_NOMEM, "server: out of memory");
+    s->opts = opts ? *opts : defaults;
+    if (!s->opts.listen)
+        s->opts.listen = "127.0.0.1:7447";
+    if (!s->opts.max_clients)
+        s->opts.max_clients = 1024;
+    if (!(s->opts.handshake_timeout > 0))
+        s->opts.handshake_timeout = 10;
+    if (!(s->opts.idle_timeout > 0))
+        s->opts.idle_timeout = 30;
+    if (!(s->opts.grace > 0))
+        s->opts.grace = 5;
+    s->streams = streams;
+    s->stream_count = stream_count;
+    s->listen_fd = s->epoll_fd = -1;
+    mts_result rc = open_listener(s, s->opts.listen, err);
+    if (rc != MTS_OK) {
+        free(s);
+        return rc;
+    }
+    s->epoll_fd = epoll_create1(EPOLL_CLOEXEC);
+    struct epoll_event ev = {.events = EPOLLIN, .data.ptr = NULL};
+    if (s->epoll_fd < 0 || epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, s->listen_fd, &ev) != 0) {
+        rc = mts_error_set(err, MTS_ERR_IO, "epoll: %s", strerror(errno));
+        mts_server_free(s);
+        return rc;
+    }
+    *out = s;
+    return MTS_OK;
+}
+
+int mts_server_port(const mts_server *s)
+{
+    return s->port;
+}
+
+void mts_server_get_stats(const mts_server *s, mts_server_stats *stats)
+{
+    *stats = s->stats;
+}
+
+static void conn_close(mts_server *s, conn *c, const char *outcome)
+{
+    if (!outcome)
+        outcome = c->outcome ? c->outcome : "closed";
+    int ok = strcmp(outcome, "ok") == 0;
+    if (ok)
+        s->stats.completed++;
+    else
+        s->stats.failed++;
+    s->stats.bytes += c->sent;
+    logf_(s, "peer=%s model=%s bytes=%llu level=%u ms=%.1f outcome=%s", c->peer,
+          c->model[0] ? c->model : "-", (unsigned long long)c->sent, c->stop_level,
+          (now_s() - c->started) * 1e3, outcome);
+    epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, c->fd, NULL);
+    close(c->fd);
+    c->fd = -1;
+    mts_buf_free(&c->head);
+    mts_buf_free(&c->tail);
+    if (c->prev)
+        c->prev->next = c->next;
+    else
+        s->conns = c->next;
+    if (c->next)
+        c->next->prev = c->prev;
+    s->conn_count--;
+    /* later events of this round may still point at c: free it after them */
+    c->prev = NULL;
+    c->next = s->dead;
+    s->dead = c;
+}
+
+static void free_dead(mts_server *s)
+{
+    while (s->dead) {
+        conn *c = s->dead;
+        s->dead = c->next;
+        free(c);
+    }
+}
+
+void mts_server_free(mts_server *s)
+{
+    if (!s)
+        return;
+    while (s->conns)
+        conn_close(s, s->conns, "shutdown");
+    free_dead(s);
+    if (s->listen_fd >= 0)
+        close(s->listen_fd);
+    if (s->epoll_fd >= 0)
+        close(s->epoll_fd);
+    free(s);
+}
+
+static const mts_stream *find_stream(mts_server *s, const char *name)
+{
+    for (uint32_t i = 0; i < s->stream_count; i++) {
+        if (strcmp(s->streams[i]->name, name) == 0)
+            return s->streams[i];
+    }
+    return NULL;
+}
+
+/* Ends the conversation with an ERROR frame once it is flushed. */
+static void conn_refuse(conn *c, uint16_t code, const char *text, const char *outcome)
+{
+    c->head.size = 0;
+    mts_wire_put_error(&c->head, code, text);
+    c->body_off = c->body_end = 0;
+    c->tail.size = 0;
+    c->phase = WRITING;
+    c->outcome = outcome;
+}
+
+static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, size_t n)
+{
+    mts_error err = {0};
+    if (type == MTS_MSG_LIST) {
+        mts_wire_model_entry *list = calloc(s->stream_count + 1, sizeof *list);
+        if (!list) {
+            conn_refuse(c, MTS_WERR_INTERNAL, "out of memory", "error: out of memory");
+            return;
+        }
+        for (uint32_t i = 0; i < s->stream_count; i++) {
+            const mts_stream *st = s->streams[i];
+            snprintf(list[i].name, sizeof list[i].name, "%s", st->name);
+            list[i].vertices = st->model.vertex_count;
+            list[i].triangles = st->model.level_triangles[st->model.level_count];
+            list[i].levels = st->model.level_count;
+            list[i].stream_bytes = (uint32_t)st->size;
+        }
+        mts_wire_put_models(&c->head, list, s->stream_count);
+        free(list);
+        snprintf(c->model, sizeof c->model, "(list)");
+        c->phase = WRITING;
+        c->outcome = "ok";
+        return;
+    }
+    if (type != MTS_MSG_HELLO) {
+        conn_refuse(c, MTS_WERR_PROTOCOL, "the first message must be HELLO or LIST",
+                    "error: no hello");
+        return;
+    }
+    mts_wire_hello h;
+    mts_result rc = mts_wire_parse_hello(p, n, &h, &err);
+    if (rc != MTS_OK) {
+        conn_refuse(c, rc == MTS_ERR_VERSION ? MTS_WERR_VERSION : MTS_WERR_PROTOCOL, err.msg,
+                    rc == MTS_ERR_VERSION ? "error: version" : "error: bad hello");
+        return;
+    }
+    snprintf(c->model, sizeof c->model, "%s", h.model);
+    const mts_stream *st = find_stream(s, h.model);
+    if (!st) {
+        char text[128];
+        snprintf(text, sizeof text, "no model named '%s' (LIST shows the models)", h.model);
+        conn_refuse(c, MTS_WERR_UNKNOWN_MODEL, text, "error: unknown model");
+        return;
+    }
+    if (h.resume_batch > 0 && h.stream_id != st->stream_id) {
+        conn_refuse(c, MTS_WERR_STALE, "the model changed since; start over", "error: stale");
+        return;
+    }
+    c->stream = st;
+    c->stop_level = mts_stream_stop_level(st, h.stop_kind, h.stop_value);
+    size_t off, len;
+    if (mts_stream_range(st, h.resume_batch, c->stop_level, &off, &len, &err) != MTS_OK) {
+        conn_refuse(c, MTS_WERR_PROTOCOL, err.msg, "error: bad resume");
+        return;
+    }
+    mts_stream_put_model_info(st, c->stop_level, &c->head);
+    c->body_off = off;
+    c->body_end = off + len;
+    mts_stream_put_end(st, c->stop_level, (uint32_t)(c->head.size + len), &c->tail);
+    if (c->head.failed || c->tail.failed) {
+        conn_refuse(c, MTS_WERR_INTERNAL, "out of memory", "error: out of memory");
+        return;
+    }
+    c->phase = WRITING;
+    c->outcome = "ok";
+}
+
+/* Reads what the client sent; answers once a whole first frame is in. */
+static void conn_read(mts_server *s, conn *c)
+{
+    for (;;) {
+        if (c->phase != READING) { /* nothing more is expected: drain and ignore */
+            uint8_t sink[256];
+            ssize_t r = recv(c->fd, sink, sizeof sink, MSG_DONTWAIT);
+            if (r > 0)
+                continue;
+            if (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) {
+                conn_close(s, c, "error: reset by peer");
+            }
+            return;
+        }
+        ssize_t r = recv(c->fd, c->in + c->in_len, IN_MAX - c->in_len, MSG_DONTWAIT);
+        if (r == 0) {
+            conn_close(s, c, "error: closed before hello");
+            return;
+        }
+        if (r < 0) {
+            if (errno == EINTR)
+                continue;
+            if (errno != EAGAIN && errno != EWOULDBLOCK)
+                conn_close(s, c, "error: reset by peer");
+            return;
+        }
+        c->in_len += (size_t)r;
+        c->last_progress = now_s();
+        if (c->in_len < MTS_WIRE_HEADER)
+            continue;
+        uint32_t len = (uint32_t)c->in[0] | (uint32_t)c->in[1] << 8 | (uint32_t)c->in[2] << 16 |
+                       (uint32_t)c->in[3] << 24;
+        if (len == 0 || len > IN_MAX - 4) {
+            conn_refuse(c, MTS_WERR_PROTOCOL, "first frame is not a HELLO or LIST",
+                        "error: garbage");
+            return;
+        }
+        if (c->in_len < 4 + (size_t)len)
+            continue;
+        conn_answer(s, c, c->in[4], c->in + 5, len - 1);
+        return;
+    }
+}
+
+static void watch_out(mts_server *s, conn *c, int on)
+{
+    if (c->watching_out == on)
+        return;
+    struct epoll_event ev = {.events = EPOLLIN | EPOLLRDHUP | (on ? EPOLLOUT : 0),
+                             .data.ptr = c};
+    epoll_ctl(s->epoll_fd, EPOLL_CTL_MOD, c->fd, &ev);
+    c->watching_out = on;
+}
+
+/* Writes as much as the socket takes: the head frame, the shared stream
+ * range, the END frame -- one sendmsg, no copies. */
+static void conn_write(mts_server *s, conn *c)
+{
+    while (c->phase == WRITING) {
+        struct iovec iov[3];
+        int n = 0;
+        if (c->head_off < c->head.size)
+            iov[n++] = (struct iovec){c->head.data + c->head_off, c->head.size - c->head_off};
+        if (c->body_off < c->body_end)
+            iov[n++] = (struct iovec){(void *)(c->stream->bytes + c->body_off),
+                                      c->body_end - c->body_off};
+        if (c->tail_off < c->tail.size)
+            iov[n++] = (struct iovec){c->tail.data + c->tail_off, c->tail.size - c->tail_off};
+        if (n == 0) {
+            conn_close(s, c, NULL);
+            return;
+        }
+        struct msghdr msg = {0};
+        msg.msg_iov = iov;
+        msg.msg_iovlen = (size_t)n;
+        ssize_t w = sendmsg(c->fd, &msg, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (w < 0) {
+            if (errno == EINTR)
+                continue;
+            if (errno == EAGAIN || errno == EWOULDBLOCK) {
+                watch_out(s, c, 1);
+                return;
+            }
+            conn_close(s, c, errno == EPIPE ? "error: peer went away" : "error: reset by peer");
+            return;
+        }
+        size_t left = (size_t)w;
+        c->sent += left;
+        c->last_progress = now_s();
+        size_t k = c->head.size - c->head_off < left ? c->head.size - c->head_off : left;
+        c->head_off += k;
+        left -= k;
+        k = c->body_end - c->body_off < left ? c->body_end - c->body_off : left;
+        c->body_off += k;
+        left -= k;
+        c->tail_off += left;
+    }
+}
+
+static void accept_all(mts_server *s)
+{
+    for (;;) {
+        struct sockaddr_storage ss;
+        socklen_t sl = sizeof ss;
+        int fd = accept4(s->listen_fd, (struct sockaddr *)&ss, &sl, SOCK_NONBLOCK | SOCK_CLOEXEC);
+        if (fd < 0)
+            return; /* EAGAIN, or out of descriptors: try again on the next wake-up */
+        char peer[64] = "?";
+        char host[INET6_ADDRSTRLEN] = "?";
+        int port = 0;
+        if (ss.ss_family == AF_INET) {
+            inet_ntop(AF_INET, &((struct sockaddr_in *)&ss)->sin_addr, host, sizeof host);
+            port = ntohs(((struct sockaddr_in *)&ss)->sin_port);
+        } else if (ss.ss_family == AF_INET6) {
+            inet_ntop(AF_INET6, &((struct sockaddr_in6 *)&ss)->sin6_addr, host, sizeof host);
+            port = ntohs(((struct sockaddr_in6 *)&ss)->sin6_port);
+        }
+        snprintf(peer, sizeof peer, "%s:%d", host, port);
+        s->stats.accepted++;
+        if (s->conn_count >= s->opts.max_clients) {
+            mts_buf b = {0};
+            mts_wire_put_error(&b, MTS_WERR_BUSY, "server busy: try again later");
+            if (!b.failed)
+                (void)!send(fd, b.data, b.size, MSG_NOSIGNAL | MSG_DONTWAIT);
+            mts_buf_free(&b);
+            close(fd);
+            s->stats.busy++;
+            logf_(s, "peer=%s model=- bytes=0 level=0 ms=0.0 outcome=error: busy", peer);
+            continue;
+        }
+        conn *c = calloc(1, sizeof *c);
+        if (!c) {
+            close(fd);
+            continue;
+        }
+        int one = 1;
+        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        c->fd = fd;
+        c->started = c->last_progress = now_s();
+        snprintf(c->peer, sizeof c->peer, "%s", peer);
+        struct epoll_event ev = {.events = EPOLLIN | EPOLLRDHUP, .data.ptr = c};
+        if (epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, fd, &ev) != 0) {
+            close(fd);
+            free(c);
+            continue;
+        }
+        c->next = s->conns;
+        if (s->conns)
+            s->conns->prev = c;
+        s->conns = c;
+        s->conn_count++;
+    }
+}
+
+static void check_timeouts(mts_server *s, double now)
+{
+    conn *c = s->conns;
+    while (c) {
+        conn *next = c->next;
+        if (c->phase == READING && now - c->started > s->opts.handshake_timeout) {
+            conn_refuse(c, MTS_WERR_TIMEOUT, "no HELLO in time", "error: handshake timeout");
+            conn_write(s, c); /* best effort; closes once flushed or on error */
+        } else if (c->phase == WRITING && now - c->last_progress > s->opts.idle_timeout) {
+            conn_close(s, c, "error: idle timeout");
+        }
+        c = next;
+    }
+}
+
+mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error *err)
+{
+    struct epoll_event events[256];
+    double stop_at = 0;
+    for (;;) {
+        double now = now_s();
+        if (*stop && s->listen_fd >= 0) {
+            epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, s->listen_fd, NULL);
+            close(s->listen_fd);
+            s->listen_fd = -1;
+            stop_at = now;
+            logf_(s, "stopping: %u streams to finish within %.1f s", s->conn_count,
+                  s->opts.grace);
+        }
+        if (s->listen_fd < 0 && (s->conn_count == 0 || now - stop_at > s->opts.grace)) {
+            while (s->conns)
+                conn_close(s, s->conns, "error: server stopped");
+            free_dead(s);
+            return MTS_OK;
+        }
+        int n = epoll_wait(s->epoll_fd, events, 256, 100);
+        if (n < 0) {
+            if (errno == EINTR)
+                continue;
+            return mts_error_set(err, MTS_ERR_IO, "epoll_wait: %s", strerror(errno));
+        }
+        for (int i = 0; i < n; i++) {
+            conn *c = events[i].data.ptr;
+            if (!c) {
+                if (s->listen_fd >= 0)
+                    accept_all(s);
+                continue;
+            }
+            if (c->fd < 0) /* closed earlier in this round */
+                continue;
+            if (events[i].events & (EPOLLERR | EPOLLHUP)) {
+                conn_close(s, c, c->phase == READING ? "error: closed before hello"
+                                                     : "error: reset by peer");
+                continue;
+            }
+            if (events[i].events & (EPOLLIN | EPOLLRDHUP)) {
+                phase before = c->phase;
+                conn_read(s, c);
+                if (c->fd < 0)
+                    continue;
+                if (before == READING && c->phase == WRITING) {
+                    conn_write(s, c);
+                    continue;
+                }
+            }
+            if ((events[i].events & EPOLLOUT) && c->fd >= 0)
+                conn_write(s, c);
+        }
+        check_timeouts(s, now_s());
+        free_dead(s);
+    }
+}
