@@ -1,0 +1,242 @@
+/* The server over loopback: a well-behaved client gets the whole stream and
+ * the same mesh as the model, while at the same moment others send garbage, a
+ * wrong version, an unknown model, or nothing at all -- each of those gets an
+ * ERROR and a close, and the good client is served regardless. */
+#include <arpa/inet.h>
+#include <errno.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdint.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "build.h"
+#include "mesh.h"
+#include "server.h"
+#include "stream.h"
+#include "test.h"
+#include "wire.h"
+
+static volatile sig_atomic_t stop_flag;
+
+static void on_term(int sig)
+{
+    (void)sig;
+    stop_flag = 1;
+}
+
+static int connect_to(int port)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a = {0};
+    a.sin_family = AF_INET;
+    a.sin_port = htons((uint16_t)port);
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (fd < 0 || connect(fd, (struct sockaddr *)&a, sizeof a) != 0) {
+        if (fd >= 0)
+            close(fd);
+        return -1;
+    }
+    return fd;
+}
+
+/* Sends data, then reads until the server closes (at most `seconds`). */
+static int exchange(int port, const void *data, size_t size, mts_buf *reply, double seconds)
+{
+    int fd = connect_to(port);
+    if (fd < 0)
+        return 0;
+    if (size && send(fd, data, size, MSG_NOSIGNAL) != (ssize_t)size) {
+        close(fd);
+        return 0;
+    }
+    uint8_t buf[65536];
+    struct timespec t0;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    for (;;) {
+        struct pollfd pf = {fd, POLLIN, 0};
+        if (poll(&pf, 1, 200) < 0)
+            break;
+        ssize_t r = recv(fd, buf, sizeof buf, 0);
+        if (r > 0) {
+            mts_buf_put(reply, buf, (size_t)r);
+            continue;
+        }
+        if (r == 0 || (errno != EAGAIN && errno != EINTR))
+            break;
+        struct timespec t1;
+        clock_gettime(CLOCK_MONOTONIC, &t1);
+        if ((double)(t1.tv_sec - t0.tv_sec) + (t1.tv_nsec - t0.tv_nsec) * 1e-9 > seconds)
+            break;
+    }
+    close(fd);
+    return 1;
+}
+
+static uint16_t error_code_of(const mts_buf *reply)
+{
+    if (reply->size < 7 || reply->data[4] != MTS_MSG_ERROR)
+        return 0;
+    return (uint16_t)(reply->data[5] | reply->data[6] << 8);
+}
+
+static void hello_bytes(mts_buf *b, const char *model, uint16_t major)
+{
+    mts_wire_hello h = {0};
+    h.major = major;
+    snprintf(h.model, sizeof h.model, "%s", model);
+    mts_wire_put_hello(b, &h);
+}
+
+typedef struct served {
+    mts_stream stream;
+    pid_t pid;
+    int port;
+} served;
+
+static int start_server(mts_test *t, served *sv, const mts_server_options *opts)
+{
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_model m;
+    CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
+    CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
+    mts_mesh_free(&mesh);
+    CHECKF(t, mts_stream_build(&m, "cow", NULL, &sv->stream, &err) == MTS_OK, "%s", err.msg);
+    mts_model_free(&m);
+    const mts_stream *list[1] = {&sv->stream};
+    mts_server *server = NULL;
+    CHECKF(t, mts_server_create(opts, list, 1, &server, &err) == MTS_OK, "%s", err.msg);
+    if (!server)
+        return 0;
+    sv->port = mts_server_port(server);
+    sv->pid = fork();
+    if (sv->pid == 0) {
+        signal(SIGTERM, on_term);
+        mts_result rc = mts_server_run(server, &stop_flag, &err);
+        mts_server_free(server);
+        mts_stream_free(&sv->stream);
+        _exit(rc == MTS_OK ? 0 : 3);
+    }
+    mts_server_free(server); /* the parent's copy of the listener */
+    return sv->pid > 0;
+}
+
+static void stop_server(mts_test *t, served *sv)
+{
+    kill(sv->pid, SIGTERM);
+    int st = 0;
+    waitpid(sv->pid, &st, 0);
+    CHECKF(t, WIFEXITED(st) && WEXITSTATUS(st) == 0, "server exit status %d", st);
+    mts_stream_free(&sv->stream);
+}
+
+static void test_good_client_beside_bad_ones(mts_test *t)
+{
+    served sv;
+    mts_server_options o = {0};
+    o.listen = "127.0.0.1:0";
+    o.handshake_timeout = 0.5;
+    if (!start_server(t, &sv, &o))
+        return;
+    /* a silent client holds a connection open while the others run */
+    int silent = connect_to(sv.port);
+    CHECK(t, silent >= 0);
+
+    mts_buf hello = {0}, reply = {0};
+    hello_bytes(&hello, "cow", 1);
+    CHECK(t, exchange(sv.port, hello.data, hello.size, &reply, 10));
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_wire_reader r = {0};
+    mts_error err = {0};
+    int ended = 0;
+    CHECK(t, mts_wire_reader_feed(&r, reply.data, reply.size, &err) == MTS_OK);
+    uint8_t type;
+    const uint8_t *p;
+    size_t n;
+    while (mts_wire_reader_next(&r, &type, &p, &n, &err) == 1) {
+        mts_stream_event ev;
+        CHECKF(t, mts_stream_client_frame(&c, type, p, n, &ev, &err) == MTS_OK, "%s", err.msg);
+        ended |= ev == MTS_EV_END;
+    }
+    CHECK(t, ended && c.lod.level == sv.stream.model.level_count);
+    CHECK(t, c.checksum == sv.stream.level_checksum[sv.stream.model.level_count]);
+    mts_stream_client_free(&c);
+    mts_wire_reader_free(&r);
+
+    /* unknown model, wrong major version, garbage, a bad name */
+    struct {
+        const char *model;
+        uint16_t major;
+        uint16_t want;
+    } cases[] = {{"nosuch", 1, MTS_WERR_UNKNOWN_MODEL}, {"cow", 9, MTS_WERR_VERSION}};
+    for (size_t i = 0; i < 2; i++) {
+        mts_buf h = {0}, rep = {0};
+        hello_bytes(&h, cases[i].model, cases[i].major);
+        CHECK(t, exchange(sv.port, h.data, h.size, &rep, 5));
+        CHECKF(t, error_code_of(&rep) == cases[i].want, "case %zu: code %u", i, error_code_of(&rep));
+        mts_buf_free(&h);
+        mts_buf_free(&rep);
+    }
+    const char garbage[] = "GET / HTTP/1.1\r\nHost: x\r\n\r\n";
+    mts_buf rep = {0};
+    CHECK(t, exchange(sv.port, garbage, sizeof garbage - 1, &rep, 5));
+    CHECK(t, error_code_of(&rep) == MTS_WERR_PROTOCOL);
+    mts_buf_free(&rep);
+
+    /* the silent one is timed out with an ERROR */
+    mts_buf late = {0};
+    uint8_t buf[256];
+    struct pollfd pf = {silent, POLLIN, 0};
+    CHECK(t, poll(&pf, 1, 3000) == 1);
+    ssize_t got = recv(silent, buf, sizeof buf, 0);
+    if (got > 0)
+        mts_buf_put(&late, buf, (size_t)got);
+    CHECK(t, error_code_of(&late) == MTS_WERR_TIMEOUT);
+    close(silent);
+    mts_buf_free(&late);
+
+    /* LIST */
+    mts_buf list = {0}, lrep = {0};
+    mts_wire_put_list(&list);
+    CHECK(t, exchange(sv.port, list.data, list.size, &lrep, 5));
+    CHECK(t, lrep.size > 5 && lrep.data[4] == MTS_MSG_MODELS);
+    mts_buf_free(&list);
+    mts_buf_free(&lrep);
+
+    mts_buf_free(&hello);
+    mts_buf_free(&reply);
+    stop_server(t, &sv);
+}
+
+static void test_busy(mts_test *t)
+{
+    served sv;
+    mts_server_options o = {0};
+    o.listen = "127.0.0.1:0";
+    o.max_clients = 1;
+    if (!start_server(t, &sv, &o))
+        return;
+    int first = connect_to(sv.port);
+    CHECK(t, first >= 0);
+    usleep(100000); /* let the server take it */
+    mts_buf rep = {0};
+    CHECK(t, exchange(sv.port, NULL, 0, &rep, 3));
+    CHECK(t, error_code_of(&rep) == MTS_WERR_BUSY);
+    mts_buf_free(&rep);
+    close(first);
+    stop_server(t, &sv);
+}
+
+int main(void)
+{
+    signal(SIGPIPE, SIG_IGN);
+    mts_test t = {0};
+    RUN(&t, test_good_client_beside_bad_ones);
+    RUN(&t, test_busy);
+    return mts_test_end(&t);
+}
