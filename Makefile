@@ -39,7 +39,7 @@ LIB_OBJ  := $(patsubst %.c,$(BUILD)/obj/%.o,$(LIB_C)) $(patsubst %.cpp,$(BUILD)/
 LIB      := $(BUILD)/libmts.a
 
 CLI_OBJ  := $(BUILD)/obj/tools/cli.o
-PROGRAMS := $(BUILD)/bin/mts-build $(BUILD)/bin/mts-inspect
+PROGRAMS := $(BUILD)/bin/mts-build $(BUILD)/bin/mts-inspect $(BUILD)/bin/mts-server
 TESTS    := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 BENCH    := $(BUILD)/bin/mts-bench
 
@@ -65,6 +65,10 @@ $(LIB): $(LIB_OBJ)
 	ar rcs $@ $^
 
 $(BUILD)/bin/mts-%: $(BUILD)/obj/tools/mts_%.o $(CLI_OBJ) $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
+$(BUILD)/bin/mts-server: $(BUILD)/obj/server/mts_server.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 

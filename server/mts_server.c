@@ -1,0 +1,230 @@
+/* mts-server: streams multiresolution strip models to many clients. */
+#include <errno.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "catalog.h"
+#include "cli.h"
+#include "fetch.h"
+#include "server.h"
+#include "stream.h"
+
+static void usage(FILE *f)
+{
+    fputs("usage: mts-server [--models DIR] [--model NAME=PATH|URL]... [--listen ADDR:PORT]\n"
+          "                  [--max-clients N] [--idle-timeout S] [--handshake-timeout S]\n"
+          "                  [--grace S] [--max-download BYTES] [--quiet]\n"
+          "\n"
+          "Serves every .mtsm in DIR and every mesh there (built once and cached), each\n"
+          "named by its file stem, plus models given one by one (a file, or an http(s)\n"
+          "URL fetched and built). Clients get a Draco base mesh, then batches of strip\n"
+          "records (protocol/PROTOCOL.md).\n"
+          "\n"
+          "  --models DIR           a directory of models and meshes\n"
+          "  --model NAME=SOURCE    one model: a .mtsm, a mesh file or an http(s) URL\n"
+          "  --listen ADDR:PORT     default 127.0.0.1:7447\n"
+          "  --max-clients N        connections at once (default 1024); more get ERROR busy\n"
+          "  --idle-timeout S       drop a connection that takes no bytes for S s (default 30)\n"
+          "  --handshake-timeout S  drop a client that sends no HELLO for S s (default 10)\n"
+          "  --grace S              on SIGTERM/SIGINT, let streams finish for S s (default 5)\n"
+          "  --max-download BYTES   size cap for URL models (default 268435456)\n"
+          "  -q, --quiet            no per-connection log lines\n"
+          "  -h, --help             this help\n"
+          "\n"
+          "Exit status: 0 after a clean stop, 1 when no model could be served or the\n"
+          "address cannot be used, 2 bad usage.\n",
+          f);
+}
+
+static volatile sig_atomic_t stop_requested;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    stop_requested = 1;
+}
+
+static void log_line(void *user, const char *line)
+{
+    if (*(int *)user)
+        return;
+    char stamp[32];
+    time_t now = time(NULL);
+    struct tm tm;
+    strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%S", gmtime_r(&now, &tm));
+    fprintf(stderr, "%s %s\n", stamp, line);
+}
+
+static void report(void *user, mts_catalog_report_kind kind, const char *file, const char *msg)
+{
+    if (kind == MTS_CATALOG_ADDED && *(int *)user)
+        return;
+    const char *what = kind == MTS_CATALOG_FAILED    ? "failed"
+                       : kind == MTS_CATALOG_SKIPPED ? "skipped"
+                       : kind == MTS_CATALOG_NOTE    ? "note"
+                                                     : "added";
+    fprintf(stderr, "mts-server: %s: %s: %s\n", what, file, msg);
+}
+
+static int parse_seconds(const char *s, double *out)
+{
+    return cli_parse_double(s, out) && *out > 0;
+}
+
+int main(int argc, char **argv)
+{
+    const char *dirs[64], *models[64];
+    int ndirs = 0, nmodels = 0, quiet = 0;
+    mts_server_options so = {0};
+    mts_catalog_options co = {0};
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+            usage(stdout);
+            return CLI_EXIT_OK;
+        } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
+            quiet = 1;
+            continue;
+        }
+        if (!v) {
+            fprintf(stderr, "mts-server: %s needs a value (see --help)\n", a);
+            return CLI_EXIT_USAGE;
+        }
+        i++;
+        if (!strcmp(a, "--models") && ndirs < 64) {
+            dirs[ndirs++] = v;
+        } else if (!strcmp(a, "--model") && nmodels < 64) {
+            models[nmodels++] = v;
+        } else if (!strcmp(a, "--listen")) {
+            so.listen = v;
+        } else if (!strcmp(a, "--max-clients")) {
+            if (!cli_parse_u32(v, &so.max_clients) || so.max_clients == 0) {
+                fprintf(stderr, "mts-server: --max-clients needs a positive number\n");
+                return CLI_EXIT_USAGE;
+            }
+        } else if (!strcmp(a, "--idle-timeout") || !strcmp(a, "--handshake-timeout") ||
+                   !strcmp(a, "--grace")) {
+            double s;
+            if (!parse_seconds(v, &s)) {
+                fprintf(stderr, "mts-server: %s needs a positive number of seconds\n", a);
+                return CLI_EXIT_USAGE;
+            }
+            if (!strcmp(a, "--idle-timeout"))
+                so.idle_timeout = s;
+            else if (!strcmp(a, "--handshake-timeout"))
+                so.handshake_timeout = s;
+            else
+                so.grace = s;
+        } else if (!strcmp(a, "--max-download")) {
+            double bytes;
+            if (!cli_parse_double(v, &bytes) || bytes < 1) {
+                fprintf(stderr, "mts-server: --max-download needs a size in bytes\n");
+                return CLI_EXIT_USAGE;
+            }
+            co.fetch.max_bytes = (uint64_t)bytes;
+        } else {
+            fprintf(stderr, "mts-server: unknown option %s (see --help)\n", a);
+            return CLI_EXIT_USAGE;
+        }
+    }
+    if (ndirs == 0 && nmodels == 0) {
+        fprintf(stderr, "mts-server: give --models DIR or --model NAME=SOURCE (see --help)\n");
+        return CLI_EXIT_USAGE;
+    }
+
+    signal(SIGPIPE, SIG_IGN);
+    mts_error err = {0};
+    mts_catalog *cat = NULL;
+    mts_stream *streams = NULL;
+    const mts_stream **list = NULL;
+    mts_server *server = NULL;
+    int status = CLI_EXIT_FAIL;
+    cli_bar bar;
+    cli_bar_init(&bar, quiet);
+    co.progress = cli_bar_progress(&bar);
+    if (mts_fetch_global_init(&err) != MTS_OK || mts_catalog_create(&co, &cat, &err) != MTS_OK)
+        goto fail;
+    mts_catalog_report rep = {report, &quiet};
+    for (int i = 0; i < ndirs; i++) {
+        unsigned failed = 0;
+        if (mts_catalog_add_dir(cat, dirs[i], &rep, &failed, &err) != MTS_OK)
+            goto fail;
+    }
+    for (int i = 0; i < nmodels; i++) {
+        if (mts_catalog_add_spec(cat, models[i], &rep, &err) != MTS_OK) {
+            cli_bar_done(&bar);
+            fprintf(stderr, "mts-server: %s: %s\n", models[i], err.msg);
+        }
+    }
+    cli_bar_done(&bar);
+    uint32_t count = (uint32_t)mts_catalog_count(cat);
+    if (count == 0) {
+        mts_error_set(&err, MTS_ERR_ARG, "no model to serve");
+        goto fail;
+    }
+    streams = calloc(count, sizeof *streams);
+    list = calloc(count, sizeof *list);
+    if (!streams || !list) {
+        mts_error_set(&err, MTS_ERR_NOMEM, "out of memory");
+        goto fail;
+    }
+    uint32_t ready = 0;
+    for (uint32_t i = 0; i < count; i++) {
+        const mts_catalog_entry *e = mts_catalog_at(cat, i);
+        if (mts_stream_build(&e->model, e->name, NULL, &streams[ready], &err) != MTS_OK) {
+            fprintf(stderr, "mts-server: %s: cannot encode its stream: %s\n", e->name, err.msg);
+            continue;
+        }
+        list[ready] = &streams[ready];
+        if (!quiet)
+            fprintf(stderr, "mts-server: serving %s: %u vertices, %u levels, %zu stream bytes\n",
+                    e->name, e->model.vertex_count, e->model.level_count, streams[ready].size);
+        ready++;
+    }
+    if (ready == 0) {
+        mts_error_set(&err, MTS_ERR_ARG, "no model could be encoded");
+        goto fail;
+    }
+    so.log = log_line;
+    so.log_user = &quiet;
+    if (mts_server_create(&so, list, ready, &server, &err) != MTS_OK)
+        goto fail;
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGINT, &sa, NULL);
+    if (!quiet)
+        fprintf(stderr, "mts-server: listening on %s (port %d), %u models\n",
+                so.listen ? so.listen : "127.0.0.1:7447", mts_server_port(server), ready);
+    if (mts_server_run(server, &stop_requested, &err) != MTS_OK)
+        goto fail;
+    mts_server_stats st;
+    mts_server_get_stats(server, &st);
+    if (!quiet)
+        fprintf(stderr, "mts-server: stopped: %llu connections, %llu completed, %llu failed, "
+                        "%llu busy, %llu bytes\n",
+                (unsigned long long)st.accepted, (unsigned long long)st.completed,
+                (unsigned long long)st.failed, (unsigned long long)st.busy,
+                (unsigned long long)st.bytes);
+    status = CLI_EXIT_OK;
+    goto done;
+fail:
+    cli_bar_done(&bar);
+    fprintf(stderr, "mts-server: %s\n", err.msg);
+done:
+    mts_server_free(server);
+    if (streams) {
+        for (uint32_t i = 0; i < count; i++)
+            mts_stream_free(&streams[i]);
+    }
+    free(streams);
+    free(list);
+    mts_catalog_free(cat);
+    mts_fetch_global_cleanup();
+    return status;
+}
