@@ -33,13 +33,14 @@ LDFLAGS  += $(filter -fsanitize=%,$(OPT)) -Wl,--as-needed
 LDLIBS   += $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
 
 # Library modules; a file named mts_*.c holds a program's main().
-LIB_C    := $(filter-out %/mts_%.c,$(wildcard common/*.c protocol/*.c client/*.c server/*.c))
+LIB_C    := $(filter-out tools/mts_%.c server/mts_%.c client/mts_%.c,$(wildcard common/*.c protocol/*.c client/*.c server/*.c))
 LIB_CXX  := $(wildcard common/*.cpp protocol/*.cpp)
 LIB_OBJ  := $(patsubst %.c,$(BUILD)/obj/%.o,$(LIB_C)) $(patsubst %.cpp,$(BUILD)/obj/%.o,$(LIB_CXX))
 LIB      := $(BUILD)/libmts.a
 
 CLI_OBJ  := $(BUILD)/obj/tools/cli.o
-PROGRAMS := $(BUILD)/bin/mts-build $(BUILD)/bin/mts-inspect $(BUILD)/bin/mts-server
+PROGRAMS := $(BUILD)/bin/mts-build $(BUILD)/bin/mts-inspect $(BUILD)/bin/mts-server \
+            $(BUILD)/bin/mts-client
 TESTS    := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 BENCH    := $(BUILD)/bin/mts-bench
 
@@ -69,6 +70,10 @@ $(BUILD)/bin/mts-%: $(BUILD)/obj/tools/mts_%.o $(CLI_OBJ) $(LIB)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 $(BUILD)/bin/mts-server: $(BUILD)/obj/server/mts_server.o $(CLI_OBJ) $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
+$(BUILD)/bin/mts-client: $(BUILD)/obj/client/mts_client.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 

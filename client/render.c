@@ -1,0 +1,1041 @@
+/* The renderer (render.h has the design). */
+#include "render.h"
+
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+#include <GLES3/gl32.h>
+#include <GLES2/gl2ext.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "pngwrite.h"
+
+#ifndef EGL_PLATFORM_SURFACELESS_MESA
+#define EGL_PLATFORM_SURFACELESS_MESA 0x31DD
+#endif
+
+#define PI_F 3.14159265358979f
+
+/* ---- context ---------------------------------------------------------- */
+
+struct mts_render_context {
+    EGLDisplay display;
+    EGLContext context;
+    EGLSurface surface; /* EGL_NO_SURFACE when headless */
+    char description[256];
+};
+
+static const char *egl_error_name(EGLint e)
+{
+    switch (e) {
+    case EGL_SUCCESS: return "EGL_SUCCESS";
+    case EGL_NOT_INITIALIZED: return "EGL_NOT_INITIALIZED";
+    case EGL_BAD_ACCESS: return "EGL_BAD_ACCESS";
+    case EGL_BAD_ALLOC: return "EGL_BAD_ALLOC";
+    case EGL_BAD_ATTRIBUTE: return "EGL_BAD_ATTRIBUTE";
+    case EGL_BAD_CONFIG: return "EGL_BAD_CONFIG";
+    case EGL_BAD_CONTEXT: return "EGL_BAD_CONTEXT";
+    case EGL_BAD_CURRENT_SURFACE: return "EGL_BAD_CURRENT_SURFACE";
+    case EGL_BAD_DISPLAY: return "EGL_BAD_DISPLAY";
+    case EGL_BAD_MATCH: return "EGL_BAD_MATCH";
+    case EGL_BAD_NATIVE_PIXMAP: return "EGL_BAD_NATIVE_PIXMAP";
+    case EGL_BAD_NATIVE_WINDOW: return "EGL_BAD_NATIVE_WINDOW";
+    case EGL_BAD_PARAMETER: return "EGL_BAD_PARAMETER";
+    case EGL_BAD_SURFACE: return "EGL_BAD_SURFACE";
+    case EGL_CONTEXT_LOST: return "EGL_CONTEXT_LOST";
+    }
+    return "unknown EGL error";
+}
+
+static mts_result egl_fail(mts_error *err, const char *what)
+{
+    EGLint e = eglGetError();
+    return mts_error_set(err, MTS_ERR_IO, "EGL: %s failed: %s (0x%04x)", what,
+                         egl_error_name(e), (unsigned)e);
+}
+
+/* Whole-word search in a space-separated extension list. */
+static int has_extension(const char *list, const char *name)
+{
+    if (!list)
+        return 0;
+    size_t n = strlen(name);
+    for (const char *p = list; (p = strstr(p, name)) != NULL; p += n) {
+        if ((p == list || p[-1] == ' ') && (p[n] == ' ' || p[n] == 0))
+            return 1;
+    }
+    return 0;
+}
+
+mts_result mts_render_context_create_headless(mts_render_context **out, mts_error *err)
+{
+    if (!out)
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL context pointer");
+    *out = NULL;
+
+    const char *client_ext = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+    if (!client_ext)
+        return egl_fail(err, "eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS)");
+    if (!has_extension(client_ext, "EGL_MESA_platform_surfaceless"))
+        return mts_error_set(err, MTS_ERR_IO,
+                             "EGL: no EGL_MESA_platform_surfaceless (is Mesa's libEGL "
+                             "installed? client extensions: %.300s)",
+                             *client_ext ? client_ext : "none");
+    PFNEGLGETPLATFORMDISPLAYEXTPROC get_platform_display =
+        (PFNEGLGETPLATFORMDISPLAYEXTPROC)eglGetProcAddress("eglGetPlatformDisplayEXT");
+    if (!get_platform_display)
+        return mts_error_set(err, MTS_ERR_IO, "EGL: no eglGetPlatformDisplayEXT");
+
+    mts_render_context *c = calloc(1, sizeof *c);
+    if (!c)
+        return mts_error_set(err, MTS_ERR_NOMEM, "render: context");
+    c->surface = EGL_NO_SURFACE;
+    c->context = EGL_NO_CONTEXT;
+    mts_result rc;
+
+    c->display = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, NULL);
+    if (c->display == EGL_NO_DISPLAY) {
+        rc = egl_fail(err, "eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA)");
+        free(c);
+        return rc;
+    }
+    EGLint major = 0, minor = 0;
+    if (!eglInitialize(c->display, &major, &minor)) {
+        rc = egl_fail(err, "eglInitialize (surfaceless platform)");
+        free(c);
+        return rc;
+    }
+    if (!has_extension(eglQueryString(c->display, EGL_EXTENSIONS),
+                       "EGL_KHR_surfaceless_context")) {
+        rc = mts_error_set(err, MTS_ERR_IO, "EGL: display has no EGL_KHR_surfaceless_context");
+        goto fail;
+    }
+    /* EGL_SURFACE_TYPE 0: no surface needed (the default asks for windows). */
+    const EGLint config_attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_ES3_BIT,
+                                     EGL_SURFACE_TYPE, 0, EGL_NONE};
+    EGLConfig config;
+    EGLint configs = 0;
+    if (!eglChooseConfig(c->display, config_attribs, &config, 1, &configs)) {
+        rc = egl_fail(err, "eglChooseConfig");
+        goto fail;
+    }
+    if (configs < 1) {
+        rc = mts_error_set(err, MTS_ERR_IO, "EGL: no config with EGL_OPENGL_ES3_BIT");
+        goto fail;
+    }
+    if (!eglBindAPI(EGL_OPENGL_ES_API)) {
+        rc = egl_fail(err, "eglBindAPI(EGL_OPENGL_ES_API)");
+        goto fail;
+    }
+    const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION,
+                                      0, EGL_NONE};
+    c->context = eglCreateContext(c->display, config, EGL_NO_CONTEXT, context_attribs);
+    if (c->context == EGL_NO_CONTEXT) {
+        rc = egl_fail(err, "eglCreateContext (GLES 3.0)");
+        goto fail;
+    }
+    if (!eglMakeCurrent(c->display, EGL_NO_SURFACE, EGL_NO_SURFACE, c->context)) {
+        rc = egl_fail(err, "eglMakeCurrent (no surface)");
+        goto fail;
+    }
+    const char *renderer = (const char *)glGetString(GL_RENDERER);
+    const char *version = (const char *)glGetString(GL_VERSION);
+    snprintf(c->description, sizeof c->description, "%s | %s", renderer ? renderer : "?",
+             version ? version : "?");
+    *out = c;
+    return MTS_OK;
+fail:
+    mts_render_context_destroy(c);
+    return rc;
+}
+
+void mts_render_context_destroy(mts_render_context *c)
+{
+    if (!c)
+        return;
+    if (c->display != EGL_NO_DISPLAY) {
+        /* unbind only our own context: another may be current */
+        if (c->context != EGL_NO_CONTEXT && eglGetCurrentContext() == c->context)
+            eglMakeCurrent(c->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+        if (c->surface != EGL_NO_SURFACE)
+            eglDestroySurface(c->display, c->surface);
+        if (c->context != EGL_NO_CONTEXT)
+            eglDestroyContext(c->display, c->context);
+        /* no eglTerminate: the display is the process's (render.h) */
+    }
+    /* frees this thread's EGL state (bound API, last error) unless some
+     * other context is still current on it */
+    if (eglGetCurrentContext() == EGL_NO_CONTEXT)
+        eglReleaseThread();
+    free(c);
+}
+
+mts_result mts_render_context_make_current(mts_render_context *c, mts_error *err)
+{
+    if (!c)
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL context");
+    if (eglGetCurrentContext() == c->context)
+        return MTS_OK;
+    if (!eglMakeCurrent(c->display, c->surface, c->surface, c->context))
+        return egl_fail(err, "eglMakeCurrent");
+    return MTS_OK;
+}
+
+const char *mts_render_context_description(const mts_render_context *c)
+{
+    return c ? c->description : "";
+}
+
+/* ---- renderer --------------------------------------------------------- */
+
+struct mts_renderer {
+    mts_render_context *ctx;
+    mts_render_options opts;
+    uint32_t vertex_capacity;
+    uint32_t strip_count;
+    uint32_t *offset;   /* strip s at index offset[s], cap_s + 1 entries: slot[s] + s */
+    uint32_t *capacity; /* cap_s: the longest length */
+    uint32_t *length;   /* the length uploaded */
+    uint32_t max_capacity;
+    uint64_t index_count; /* offset[strip_count] */
+    float bbox_min[3], bbox_max[3];
+
+    GLuint program, vao, vbo, ibo, fbo, color_rb, depth_rb;
+    GLint u_mvp, u_normal, u_color, u_light, u_ambient;
+
+    uint32_t *staging; /* max_capacity + 1 */
+    GLsizei *multi_count;
+    const void **multi_offset;
+    PFNGLMULTIDRAWELEMENTSEXTPROC multi_draw;
+
+    float mvp[16], normal[9], eye[3], dir[3];
+    mts_render_stats stats;
+};
+
+static const char *gl_error_name(GLenum e)
+{
+    switch (e) {
+    case GL_NO_ERROR: return "GL_NO_ERROR";
+    case GL_INVALID_ENUM: return "GL_INVALID_ENUM";
+    case GL_INVALID_VALUE: return "GL_INVALID_VALUE";
+    case GL_INVALID_OPERATION: return "GL_INVALID_OPERATION";
+    case GL_INVALID_FRAMEBUFFER_OPERATION: return "GL_INVALID_FRAMEBUFFER_OPERATION";
+    case GL_OUT_OF_MEMORY: return "GL_OUT_OF_MEMORY";
+    }
+    return "unknown GL error";
+}
+
+/* Returns MTS_OK when GL has no error pending; else names `what`. Drains
+ * every pending error so the next check starts clean. */
+static mts_result gl_check(mts_error *err, const char *what)
+{
+    GLenum first = glGetError();
+    if (first == GL_NO_ERROR)
+        return MTS_OK;
+    for (int i = 0; i < 16 && glGetError() != GL_NO_ERROR; i++)
+        ;
+    return mts_error_set(err, first == GL_OUT_OF_MEMORY ? MTS_ERR_NOMEM : MTS_ERR_INTERNAL,
+                         "GL: %s: %s (0x%04x)", what, gl_error_name(first), (unsigned)first);
+}
+
+void mts_render_options_default(mts_render_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->width = 512;
+    o->height = 512;
+    o->camera.yaw_deg = 30.0f;
+    o->camera.pitch_deg = 20.0f;
+    o->camera.zoom = 1.0f;
+    o->camera.fov_y_deg = 35.0f;
+    o->style.background[0] = 0.12f;
+    o->style.background[1] = 0.14f;
+    o->style.background[2] = 0.18f;
+    o->style.background[3] = 1.0f;
+    o->style.color[0] = 0.85f;
+    o->style.color[1] = 0.82f;
+    o->style.color[2] = 0.76f;
+    o->style.ambient = 0.25f;
+    o->style.color_by_strip = 0;
+    o->style.cull_back_faces = 1;
+    o->style.draw_mode = MTS_RENDER_DRAW_RESTART;
+}
+
+void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *l)
+{
+    memset(l, 0, sizeof *l);
+    l->vertex_capacity = lod->model->vertex_count;
+    l->strip_count = lod->strip_count;
+    l->slot = lod->slot;
+    memcpy(l->bbox_min, lod->model->bbox_min, sizeof l->bbox_min);
+    memcpy(l->bbox_max, lod->model->bbox_max, sizeof l->bbox_max);
+}
+
+/* ---- camera ----------------------------------------------------------- */
+
+static float clampf(float x, float lo, float hi)
+{
+    return x < lo ? lo : x > hi ? hi : x;
+}
+
+/* Column-major 4x4: m[col * 4 + row]. */
+static void mat4_mul(float out[16], const float a[16], const float b[16])
+{
+    float t[16];
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 4; r++) {
+            float s = 0;
+            for (int k = 0; k < 4; k++)
+                s += a[k * 4 + r] * b[c * 4 + k];
+            t[c * 4 + r] = s;
+        }
+    memcpy(out, t, sizeof t);
+}
+
+static void normalize3(float v[3])
+{
+    float n = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (n > 0) {
+        v[0] /= n;
+        v[1] /= n;
+        v[2] /= n;
+    }
+}
+
+static void cross3(float o[3], const float a[3], const float b[3])
+{
+    o[0] = a[1] * b[2] - a[2] * b[1];
+    o[1] = a[2] * b[0] - a[0] * b[2];
+    o[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static void update_camera(mts_renderer *r)
+{
+    const mts_render_camera *cam = &r->opts.camera;
+    float center[3], radius = 0;
+    for (int i = 0; i < 3; i++) {
+        center[i] = 0.5f * (r->bbox_min[i] + r->bbox_max[i]);
+        float h = 0.5f * (r->bbox_max[i] - r->bbox_min[i]);
+        radius += h * h;
+    }
+    radius = sqrtf(radius);
+    if (!(radius > 0) || !isfinite(radius))
+        radius = 1.0f;
+    for (int i = 0; i < 3; i++)
+        if (!isfinite(center[i]))
+            center[i] = 0;
+
+    float yaw = cam->yaw_deg * PI_F / 180.0f;
+    float pitch = clampf(cam->pitch_deg, -89.0f, 89.0f) * PI_F / 180.0f;
+    float zoom = cam->zoom > 1e-3f && isfinite(cam->zoom) ? cam->zoom : 1.0f;
+    float fovy = clampf(isfinite(cam->fov_y_deg) ? cam->fov_y_deg : 35.0f, 1.0f, 170.0f) *
+                 PI_F / 180.0f;
+    float aspect = (float)r->opts.width / (float)r->opts.height;
+
+    /* the narrower half-angle decides the fit */
+    float half = 0.5f * fovy;
+    float half_x = atanf(tanf(half) * aspect);
+    if (half_x < half)
+        half = half_x;
+    float dist = 1.1f * radius / sinf(half) / zoom;
+
+    float back[3] = {cosf(pitch) * sinf(yaw), sinf(pitch), cosf(pitch) * cosf(yaw)};
+    for (int i = 0; i < 3; i++) {
+        r->eye[i] = center[i] + dist * back[i];
+        r->dir[i] = -back[i];
+    }
+
+    /* view: rows are the camera's right, up and back axes */
+    float up0[3] = {0, 1, 0}, right[3], up[3];
+    cross3(right, up0, back);
+    normalize3(right);
+    cross3(up, back, right);
+    float view[16] = {0};
+    for (int i = 0; i < 3; i++) {
+        view[i * 4 + 0] = right[i];
+        view[i * 4 + 1] = up[i];
+        view[i * 4 + 2] = back[i];
+    }
+    view[12] = -(right[0] * r->eye[0] + right[1] * r->eye[1] + right[2] * r->eye[2]);
+    view[13] = -(up[0] * r->eye[0] + up[1] * r->eye[1] + up[2] * r->eye[2]);
+    view[14] = -(back[0] * r->eye[0] + back[1] * r->eye[1] + back[2] * r->eye[2]);
+    view[15] = 1;
+
+    float znear = dist - 1.05f * radius;
+    if (znear < dist * 1e-3f)
+        znear = dist * 1e-3f;
+    float zfar = dist + 1.05f * radius;
+    float f = 1.0f / tanf(0.5f * fovy);
+    float proj[16] = {0};
+    proj[0] = f / aspect;
+    proj[5] = f;
+    proj[10] = (zfar + znear) / (znear - zfar);
+    proj[11] = -1;
+    proj[14] = 2 * zfar * znear / (znear - zfar);
+    mat4_mul(r->mvp, proj, view);
+
+    /* normals: the view's rotation (the model matrix is the identity) */
+    for (int c = 0; c < 3; c++)
+        for (int rr = 0; rr < 3; rr++)
+            r->normal[c * 3 + rr] = view[c * 4 + rr];
+}
+
+void mts_render_set_camera(mts_renderer *r, const mts_render_camera *camera)
+{
+    r->opts.camera = *camera;
+    update_camera(r);
+}
+
+void mts_render_set_style(mts_renderer *r, const mts_render_style *style)
+{
+    r->opts.style = *style;
+}
+
+void mts_render_eye(const mts_renderer *r, float eye[3], float dir[3])
+{
+    memcpy(eye, r->eye, sizeof r->eye);
+    memcpy(dir, r->dir, sizeof r->dir);
+}
+
+/* ---- shader ----------------------------------------------------------- */
+
+static const char *vertex_src =
+    "#version 300 es\n"
+    "layout(location = 0) in vec3 a_position;\n"
+    "layout(location = 1) in vec3 a_normal;\n"
+    "uniform mat4 u_mvp;\n"
+    "uniform mat3 u_normal;\n"
+    "out vec3 v_normal;\n"
+    "void main() {\n"
+    "    v_normal = u_normal * a_normal;\n"
+    "    gl_Position = u_mvp * vec4(a_position, 1.0);\n"
+    "}\n";
+
+static const char *fragment_src =
+    "#version 300 es\n"
+    "precision highp float;\n"
+    "in vec3 v_normal;\n"
+    "uniform vec3 u_color;\n"
+    "uniform vec3 u_light;\n" /* unit, towards the light, view space */
+    "uniform float u_ambient;\n"
+    "out vec4 o_color;\n"
+    "void main() {\n"
+    "    float len = length(v_normal);\n"
+    /* a zero normal (a vertex of zero-area faces only) gets half light */
+    "    float d = len > 1e-12 ? max(dot(v_normal / len, u_light), 0.0) : 0.5;\n"
+    "    o_color = vec4(u_color * (u_ambient + (1.0 - u_ambient) * d), 1.0);\n"
+    "}\n";
+
+static mts_result compile(GLenum type, const char *src, GLuint *out, mts_error *err)
+{
+    GLuint s = glCreateShader(type);
+    if (!s) {
+        mts_result rc = gl_check(err, "glCreateShader");
+        return rc != MTS_OK ? rc
+                            : mts_error_set(err, MTS_ERR_INTERNAL, "GL: glCreateShader returned 0");
+    }
+    glShaderSource(s, 1, &src, NULL);
+    glCompileShader(s);
+    GLint ok = 0;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        char log[400] = {0};
+        glGetShaderInfoLog(s, sizeof log, NULL, log);
+        glDeleteShader(s);
+        return mts_error_set(err, MTS_ERR_INTERNAL, "GL: %s shader does not compile: %s",
+                             type == GL_VERTEX_SHADER ? "vertex" : "fragment", log);
+    }
+    *out = s;
+    return MTS_OK;
+}
+
+static mts_result build_program(mts_renderer *r, mts_error *err)
+{
+    GLuint vs = 0, fs = 0;
+    mts_result rc = compile(GL_VERTEX_SHADER, vertex_src, &vs, err);
+    if (rc != MTS_OK)
+        return rc;
+    rc = compile(GL_FRAGMENT_SHADER, fragment_src, &fs, err);
+    if (rc != MTS_OK) {
+        glDeleteShader(vs);
+        return rc;
+    }
+    r->program = glCreateProgram();
+    glAttachShader(r->program, vs);
+    glAttachShader(r->program, fs);
+    glLinkProgram(r->program);
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    GLint ok = 0;
+    glGetProgramiv(r->program, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[400] = {0};
+        glGetProgramInfoLog(r->program, sizeof log, NULL, log);
+        return mts_error_set(err, MTS_ERR_INTERNAL, "GL: program does not link: %s", log);
+    }
+    r->u_mvp = glGetUniformLocation(r->program, "u_mvp");
+    r->u_normal = glGetUniformLocation(r->program, "u_normal");
+    r->u_color = glGetUniformLocation(r->program, "u_color");
+    r->u_light = glGetUniformLocation(r->program, "u_light");
+    r->u_ambient = glGetUniformLocation(r->program, "u_ambient");
+    return gl_check(err, "building the shader program");
+}
+
+/* ---- create / destroy ------------------------------------------------- */
+
+static mts_result check_layout(const mts_render_layout *l, mts_error *err)
+{
+    if (!l->slot)
+        return mts_error_set(err, MTS_ERR_ARG, "render: layout without slots");
+    if (l->vertex_capacity == 0)
+        return mts_error_set(err, MTS_ERR_ARG, "render: layout with no vertices");
+    if (l->slot[0] != 0)
+        return mts_error_set(err, MTS_ERR_ARG, "render: layout slot[0] is %u, not 0", l->slot[0]);
+    for (uint32_t s = 0; s < l->strip_count; s++)
+        if (l->slot[s + 1] < l->slot[s])
+            return mts_error_set(err, MTS_ERR_ARG, "render: layout slot %u ends before it starts",
+                                 s);
+    for (int i = 0; i < 3; i++)
+        if (!isfinite(l->bbox_min[i]) || !isfinite(l->bbox_max[i]) ||
+            l->bbox_min[i] > l->bbox_max[i])
+            return mts_error_set(err, MTS_ERR_ARG, "render: layout bounding box is not a box");
+    return MTS_OK;
+}
+
+void mts_renderer_destroy(mts_renderer *r)
+{
+    if (!r)
+        return;
+    if (mts_render_context_make_current(r->ctx, NULL) == MTS_OK) {
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        glBindVertexArray(0);
+        if (r->fbo)
+            glDeleteFramebuffers(1, &r->fbo);
+        GLuint rbs[2] = {r->color_rb, r->depth_rb};
+        glDeleteRenderbuffers(2, rbs);
+        GLuint bufs[2] = {r->vbo, r->ibo};
+        glDeleteBuffers(2, bufs);
+        if (r->vao)
+            glDeleteVertexArrays(1, &r->vao);
+        if (r->program)
+            glDeleteProgram(r->program);
+        glGetError(); /* nothing to report from here */
+    }
+    free(r->offset);
+    free(r->capacity);
+    free(r->length);
+    free(r->staging);
+    free(r->multi_count);
+    free(r->multi_offset);
+    free(r);
+}
+
+mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options *opts,
+                               const mts_render_layout *layout, mts_renderer **out,
+                               mts_error *err)
+{
+    if (!ctx || !opts || !layout || !out)
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to mts_renderer_create");
+    *out = NULL;
+    mts_result rc = check_layout(layout, err);
+    if (rc != MTS_OK)
+        return rc;
+    if (opts->width == 0 || opts->height == 0)
+        return mts_error_set(err, MTS_ERR_ARG, "render: size %ux%u", opts->width, opts->height);
+    rc = mts_render_context_make_current(ctx, err);
+    if (rc != MTS_OK)
+        return rc;
+    glGetError(); /* start clean */
+
+    GLint max_rb = 0;
+    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+    if (opts->width > (uint32_t)max_rb || opts->height > (uint32_t)max_rb)
+        return mts_error_set(err, MTS_ERR_LIMIT, "render: size %ux%u above GL's %d",
+                             opts->width, opts->height, max_rb);
+    /* the restart index may not be a vertex id; GL must address the largest */
+    GLint64 max_index = 0;
+    glGetInteger64v(GL_MAX_ELEMENT_INDEX, &max_index);
+    if (layout->vertex_capacity == UINT32_MAX ||
+        (int64_t)layout->vertex_capacity - 1 > (int64_t)max_index)
+        return mts_error_set(err, MTS_ERR_LIMIT,
+                             "render: %u vertices, GL addresses indices up to %lld",
+                             layout->vertex_capacity, (long long)max_index);
+    uint64_t index_count = (uint64_t)layout->slot[layout->strip_count] + layout->strip_count;
+    if (index_count > (uint64_t)INT32_MAX) /* glDrawElements takes a GLsizei */
+        return mts_error_set(err, MTS_ERR_LIMIT,
+                             "render: %llu indices in the strip buffer, at most %d",
+                             (unsigned long long)index_count, INT32_MAX);
+    uint64_t vbytes = (uint64_t)layout->vertex_capacity * 24u;
+    if (vbytes > (uint64_t)PTRDIFF_MAX || index_count * 4u > (uint64_t)PTRDIFF_MAX)
+        return mts_error_set(err, MTS_ERR_LIMIT, "render: buffers of %llu + %llu bytes",
+                             (unsigned long long)vbytes, (unsigned long long)index_count * 4u);
+
+    mts_renderer *r = calloc(1, sizeof *r);
+    if (!r)
+        return mts_error_set(err, MTS_ERR_NOMEM, "render: renderer");
+    r->ctx = ctx;
+    r->opts = *opts;
+    r->vertex_capacity = layout->vertex_capacity;
+    r->strip_count = layout->strip_count;
+    r->index_count = index_count;
+    memcpy(r->bbox_min, layout->bbox_min, sizeof r->bbox_min);
+    memcpy(r->bbox_max, layout->bbox_max, sizeof r->bbox_max);
+    size_t n = (size_t)layout->strip_count + 1;
+    r->offset = malloc(n * sizeof *r->offset);
+    r->capacity = malloc(n * sizeof *r->capacity);
+    r->length = calloc(n, sizeof *r->length);
+    r->multi_count = malloc(n * sizeof *r->multi_count);
+    r->multi_offset = malloc(n * sizeof *r->multi_offset);
+    uint32_t *all = malloc((size_t)(index_count ? index_count : 1) * sizeof *all);
+    if (!r->offset || !r->capacity || !r->length || !r->multi_count || !r->multi_offset ||
+        !all) {
+        free(all);
+        mts_renderer_destroy(r);
+        return mts_error_set(err, MTS_ERR_NOMEM, "render: %llu indices",
+                             (unsigned long long)index_count);
+    }
+    for (uint32_t s = 0; s < layout->strip_count; s++) {
+        r->offset[s] = layout->slot[s] + s;
+        r->capacity[s] = layout->slot[s + 1] - layout->slot[s];
+        if (r->capacity[s] > r->max_capacity)
+            r->max_capacity = r->capacity[s];
+    }
+    r->offset[layout->strip_count] = (uint32_t)index_count;
+    r->capacity[layout->strip_count] = 0;
+    r->staging = malloc(((size_t)r->max_capacity + 1) * sizeof *r->staging);
+    if (!r->staging) {
+        free(all);
+        mts_renderer_destroy(r);
+        return mts_error_set(err, MTS_ERR_NOMEM, "render: staging for %u indices",
+                             r->max_capacity);
+    }
+
+    rc = build_program(r, err);
+    if (rc != MTS_OK)
+        goto fail;
+
+    glGenVertexArrays(1, &r->vao);
+    glGenBuffers(1, &r->vbo);
+    glGenBuffers(1, &r->ibo);
+    glBindVertexArray(r->vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->vbo);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)vbytes, NULL, GL_DYNAMIC_DRAW);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, (const void *)0);
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0,
+                          (const void *)(uintptr_t)((uint64_t)r->vertex_capacity * 12u));
+    /* the element buffer binding is VAO state */
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
+    for (uint64_t i = 0; i < index_count; i++)
+        all[i] = MTS_RENDER_RESTART_INDEX;
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(index_count * 4u),
+                 index_count ? all : NULL, GL_DYNAMIC_DRAW);
+    glBindVertexArray(0);
+    free(all);
+    all = NULL;
+    rc = gl_check(err, "creating the buffers");
+    if (rc != MTS_OK)
+        goto fail;
+
+    glGenRenderbuffers(1, &r->color_rb);
+    glBindRenderbuffer(GL_RENDERBUFFER, r->color_rb);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, (GLsizei)opts->width,
+                          (GLsizei)opts->height);
+    glGenRenderbuffers(1, &r->depth_rb);
+    glBindRenderbuffer(GL_RENDERBUFFER, r->depth_rb);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, (GLsizei)opts->width,
+                          (GLsizei)opts->height);
+    glGenFramebuffers(1, &r->fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, r->fbo);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                              r->color_rb);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
+                              r->depth_rb);
+    GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE) {
+        rc = mts_error_set(err, MTS_ERR_INTERNAL, "GL: framebuffer %ux%u incomplete (0x%04x)",
+                           opts->width, opts->height, (unsigned)status);
+        goto fail;
+    }
+    rc = gl_check(err, "creating the framebuffer");
+    if (rc != MTS_OK)
+        goto fail;
+
+    /* glMultiDrawElementsEXT where the driver has it */
+    GLint ext_count = 0;
+    glGetIntegerv(GL_NUM_EXTENSIONS, &ext_count);
+    for (GLint i = 0; i < ext_count; i++) {
+        const char *e = (const char *)glGetStringi(GL_EXTENSIONS, (GLuint)i);
+        if (e && strcmp(e, "GL_EXT_multi_draw_arrays") == 0) {
+            r->multi_draw = (PFNGLMULTIDRAWELEMENTSEXTPROC)eglGetProcAddress(
+                "glMultiDrawElementsEXT");
+            break;
+        }
+    }
+
+    update_camera(r);
+    r->stats.width = opts->width;
+    r->stats.height = opts->height;
+    r->stats.vertex_buffer_bytes = vbytes;
+    r->stats.index_buffer_bytes = index_count * 4u;
+    r->stats.multi_draw_available = r->multi_draw != NULL;
+    *out = r;
+    return MTS_OK;
+fail:
+    free(all);
+    mts_renderer_destroy(r);
+    return rc;
+}
+
+/* ---- geometry --------------------------------------------------------- */
+
+mts_result mts_render_append_vertices(mts_renderer *r, uint32_t first, uint32_t count,
+                                      const float *positions, const float *normals,
+                                      mts_error *err)
+{
+    if (!r || (count && (!positions || !normals)))
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to append_vertices");
+    if (first > r->stats.vertices)
+        return mts_error_set(err, MTS_ERR_RANGE,
+                             "render: vertices from %u appended, but only %u are there "
+                             "(appending leaves no gap)",
+                             first, r->stats.vertices);
+    if ((uint64_t)first + count > r->vertex_capacity)
+        return mts_error_set(err, MTS_ERR_RANGE,
+                             "render: vertices %u..%llu beyond the capacity of %u", first,
+                             (unsigned long long)first + count - 1, r->vertex_capacity);
+    if (count == 0)
+        return MTS_OK;
+    mts_result rc = mts_render_context_make_current(r->ctx, err);
+    if (rc != MTS_OK)
+        return rc;
+    glBindBuffer(GL_ARRAY_BUFFER, r->vbo);
+    glBufferSubData(GL_ARRAY_BUFFER, (GLintptr)((uint64_t)first * 12u),
+                    (GLsizeiptr)((uint64_t)count * 12u), positions);
+    glBufferSubData(GL_ARRAY_BUFFER,
+                    (GLintptr)((uint64_t)r->vertex_capacity * 12u + (uint64_t)first * 12u),
+                    (GLsizeiptr)((uint64_t)count * 12u), normals);
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
+    rc = gl_check(err, "uploading vertices");
+    if (rc != MTS_OK)
+        return rc;
+    if (first + count > r->stats.vertices)
+        r->stats.vertices = first + count;
+    r->stats.vertex_bytes_uploaded += (uint64_t)count * 24u;
+    return MTS_OK;
+}
+
+uint32_t mts_render_vertex_count(const mts_renderer *r)
+{
+    return r->stats.vertices;
+}
+
+/* Checks that strip s may hold these indices. */
+static mts_result check_strip(const mts_renderer *r, uint32_t s, const uint32_t *idx,
+                              uint32_t len, mts_error *err)
+{
+    if (s >= r->strip_count)
+        return mts_error_set(err, MTS_ERR_RANGE, "render: strip %u of %u", s, r->strip_count);
+    if (len > r->capacity[s])
+        return mts_error_set(err, MTS_ERR_RANGE,
+                             "render: strip %u has %u indices, its slot holds %u", s, len,
+                             r->capacity[s]);
+    uint32_t nv = r->stats.vertices;
+    for (uint32_t i = 0; i < len; i++)
+        if (idx[i] >= nv)
+            return mts_error_set(err, MTS_ERR_RANGE,
+                                 "render: strip %u position %u is vertex %u, but %u vertices "
+                                 "are uploaded",
+                                 s, i, idx[i], nv);
+    return MTS_OK;
+}
+
+/* Uploads strip s (checked) over max(old, new) entries; the index buffer is bound. */
+static uint64_t put_strip(mts_renderer *r, uint32_t s, const uint32_t *idx, uint32_t len)
+{
+    uint32_t old = r->length[s];
+    uint32_t n = len > old ? len : old;
+    if (n == 0)
+        return 0;
+    memcpy(r->staging, idx, (size_t)len * sizeof *idx);
+    for (uint32_t i = len; i < n; i++)
+        r->staging[i] = MTS_RENDER_RESTART_INDEX;
+    glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, (GLintptr)((uint64_t)r->offset[s] * 4u),
+                    (GLsizeiptr)((uint64_t)n * 4u), r->staging);
+    r->length[s] = len;
+    return (uint64_t)n * 4u;
+}
+
+mts_result mts_render_set_strip(mts_renderer *r, uint32_t s, const uint32_t *indices,
+                                uint32_t length, mts_error *err)
+{
+    if (!r || (length && !indices))
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to set_strip");
+    mts_result rc = check_strip(r, s, indices, length, err);
+    if (rc != MTS_OK)
+        return rc;
+    rc = mts_render_context_make_current(r->ctx, err);
+    if (rc != MTS_OK)
+        return rc;
+    glBindVertexArray(r->vao);
+    uint64_t bytes = put_strip(r, s, indices, length);
+    glBindVertexArray(0);
+    rc = gl_check(err, "uploading a strip");
+    if (rc != MTS_OK)
+        return rc;
+    r->stats.last_update_strips = 1;
+    r->stats.last_update_bytes = bytes;
+    r->stats.last_update_full = 0;
+    r->stats.strip_uploads++;
+    r->stats.index_bytes_uploaded += bytes;
+    return MTS_OK;
+}
+
+mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_error *err)
+{
+    if (!r || !lod)
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to update_strips");
+    if (lod->strip_count != r->strip_count)
+        return mts_error_set(err, MTS_ERR_ARG, "render: runtime has %u strips, renderer %u",
+                             lod->strip_count, r->strip_count);
+    uint32_t count = 0;
+    const uint32_t *changed = mts_lod_changed(lod, &count);
+    r->stats.last_update_strips = 0;
+    r->stats.last_update_bytes = 0;
+    r->stats.last_update_full = 0;
+    if (count == 0)
+        return MTS_OK;
+    for (uint32_t i = 0; i < count; i++) {
+        uint32_t len;
+        const uint32_t *idx = mts_lod_strip(lod, changed[i], &len);
+        mts_result rc = check_strip(r, changed[i], idx, len, err);
+        if (rc != MTS_OK)
+            return mts_error_prefix(err, "update at level %u", lod->level);
+    }
+    mts_result rc = mts_render_context_make_current(r->ctx, err);
+    if (rc != MTS_OK)
+        return rc;
+    glBindVertexArray(r->vao);
+    uint64_t bytes = 0;
+    int full = (uint64_t)count * 2u > r->strip_count;
+    if (full) {
+        /* one upload of the whole buffer beats thousands of small ones */
+        uint32_t *all = malloc((size_t)r->index_count * sizeof *all);
+        if (!all) {
+            glBindVertexArray(0);
+            return mts_error_set(err, MTS_ERR_NOMEM, "render: %llu indices",
+                                 (unsigned long long)r->index_count);
+        }
+        for (uint32_t s = 0; s < r->strip_count; s++) {
+            uint32_t len;
+            const uint32_t *idx = mts_lod_strip(lod, s, &len);
+            uint32_t *dst = all + r->offset[s];
+            memcpy(dst, idx, (size_t)len * sizeof *idx);
+            for (uint32_t i = len; i <= r->capacity[s]; i++)
+                dst[i] = MTS_RENDER_RESTART_INDEX;
+            r->length[s] = len;
+        }
+        bytes = r->index_count * 4u;
+        glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, all);
+        free(all);
+    } else {
+        for (uint32_t i = 0; i < count; i++) {
+            uint32_t len;
+            const uint32_t *idx = mts_lod_strip(lod, changed[i], &len);
+            bytes += put_strip(r, changed[i], idx, len);
+        }
+    }
+    glBindVertexArray(0);
+    rc = gl_check(err, "uploading strips");
+    if (rc != MTS_OK)
+        return rc;
+    r->stats.last_update_strips = full ? r->strip_count : count;
+    r->stats.last_update_bytes = bytes;
+    r->stats.last_update_full = full;
+    if (full)
+        r->stats.full_uploads++;
+    else
+        r->stats.strip_uploads += count;
+    r->stats.index_bytes_uploaded += bytes;
+    return MTS_OK;
+}
+
+/* ---- drawing ---------------------------------------------------------- */
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* A distinct colour per strip: hue by the golden ratio. */
+static void strip_color(uint32_t s, float rgb[3])
+{
+    float h = fmodf((float)s * 0.61803398875f, 1.0f) * 6.0f;
+    float sat = 0.6f, val = 0.95f;
+    int i = (int)h;
+    float f = h - (float)i;
+    float p = val * (1 - sat), q = val * (1 - sat * f), t = val * (1 - sat * (1 - f));
+    switch (i % 6) {
+    case 0: rgb[0] = val; rgb[1] = t; rgb[2] = p; break;
+    case 1: rgb[0] = q; rgb[1] = val; rgb[2] = p; break;
+    case 2: rgb[0] = p; rgb[1] = val; rgb[2] = t; break;
+    case 3: rgb[0] = p; rgb[1] = q; rgb[2] = val; break;
+    case 4: rgb[0] = t; rgb[1] = p; rgb[2] = val; break;
+    default: rgb[0] = val; rgb[1] = p; rgb[2] = q; break;
+    }
+}
+
+mts_result mts_render_draw(mts_renderer *r, mts_error *err)
+{
+    if (!r)
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL renderer");
+    mts_result rc = mts_render_context_make_current(r->ctx, err);
+    if (rc != MTS_OK)
+        return rc;
+    const mts_render_style *st = &r->opts.style;
+    double t0 = now_seconds();
+
+    glBindFramebuffer(GL_FRAMEBUFFER, r->fbo);
+    glViewport(0, 0, (GLsizei)r->opts.width, (GLsizei)r->opts.height);
+    glClearColor(st->background[0], st->background[1], st->background[2], st->background[3]);
+    glClearDepthf(1.0f);
+    glDepthMask(GL_TRUE);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glFrontFace(GL_CCW);
+    glCullFace(GL_BACK);
+    if (st->cull_back_faces)
+        glEnable(GL_CULL_FACE);
+    else
+        glDisable(GL_CULL_FACE);
+    glEnable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
+
+    glUseProgram(r->program);
+    glUniformMatrix4fv(r->u_mvp, 1, GL_FALSE, r->mvp);
+    glUniformMatrix3fv(r->u_normal, 1, GL_FALSE, r->normal);
+    /* towards the light, view space: above-left of the camera, in front */
+    float light[3] = {-0.45f, 0.6f, 0.66f};
+    normalize3(light);
+    glUniform3fv(r->u_light, 1, light);
+    glUniform1f(r->u_ambient, clampf(st->ambient, 0.0f, 1.0f));
+    glUniform3fv(r->u_color, 1, st->color);
+    glBindVertexArray(r->vao);
+
+    uint32_t calls = 0;
+    uint64_t indices = 0;
+    if (st->color_by_strip || st->draw_mode == MTS_RENDER_DRAW_PER_STRIP ||
+        (st->draw_mode == MTS_RENDER_DRAW_MULTI && !r->multi_draw)) {
+        for (uint32_t s = 0; s < r->strip_count; s++) {
+            if (r->length[s] < 3)
+                continue;
+            if (st->color_by_strip) {
+                float c[3];
+                strip_color(s, c);
+                glUniform3fv(r->u_color, 1, c);
+            }
+            glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)r->length[s], GL_UNSIGNED_INT,
+                           (const void *)(uintptr_t)((uint64_t)r->offset[s] * 4u));
+            calls++;
+            indices += r->length[s];
+        }
+    } else if (st->draw_mode == MTS_RENDER_DRAW_MULTI) {
+        GLsizei n = 0;
+        for (uint32_t s = 0; s < r->strip_count; s++) {
+            if (r->length[s] < 3)
+                continue;
+            r->multi_count[n] = (GLsizei)r->length[s];
+            r->multi_offset[n] = (const void *)(uintptr_t)((uint64_t)r->offset[s] * 4u);
+            indices += r->length[s];
+            n++;
+        }
+        if (n) {
+            r->multi_draw(GL_TRIANGLE_STRIP, r->multi_count, GL_UNSIGNED_INT, r->multi_offset,
+                          n);
+            calls = 1;
+        }
+    } else if (r->index_count) {
+        glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)r->index_count, GL_UNSIGNED_INT,
+                       (const void *)0);
+        calls = 1;
+        indices = r->index_count;
+    }
+    glBindVertexArray(0);
+    glFinish();
+    double t1 = now_seconds();
+    rc = gl_check(err, "drawing");
+    if (rc != MTS_OK)
+        return rc;
+    r->stats.last_draw_seconds = t1 - t0;
+    r->stats.last_draw_calls = calls;
+    r->stats.last_draw_indices = indices;
+    return MTS_OK;
+}
+
+/* glReadPixels of the framebuffer: GL's row order, bottom row first. */
+static mts_result read_raw(mts_renderer *r, uint8_t *rgba, mts_error *err)
+{
+    mts_result rc = mts_render_context_make_current(r->ctx, err);
+    if (rc != MTS_OK)
+        return rc;
+    glBindFramebuffer(GL_FRAMEBUFFER, r->fbo);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, (GLsizei)r->opts.width, (GLsizei)r->opts.height, GL_RGBA,
+                 GL_UNSIGNED_BYTE, rgba);
+    return gl_check(err, "glReadPixels");
+}
+
+mts_result mts_render_read_rgba(mts_renderer *r, uint8_t *rgba, mts_error *err)
+{
+    if (!r || !rgba)
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to read_rgba");
+    mts_result rc = read_raw(r, rgba, err);
+    if (rc != MTS_OK)
+        return rc;
+    uint32_t w = r->opts.width, h = r->opts.height;
+    size_t row = (size_t)w * 4u;
+    for (uint32_t y = 0; y < h / 2; y++) {
+        uint8_t *a = rgba + (size_t)y * row, *b = rgba + (size_t)(h - 1 - y) * row;
+        for (size_t i = 0; i < row; i++) {
+            uint8_t t = a[i];
+            a[i] = b[i];
+            b[i] = t;
+        }
+    }
+    return MTS_OK;
+}
+
+mts_result mts_render_write_png(mts_renderer *r, const char *path, mts_error *err)
+{
+    if (!r || !path)
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to write_png");
+    uint8_t *buf = malloc((size_t)r->opts.width * r->opts.height * 4u);
+    if (!buf)
+        return mts_error_set(err, MTS_ERR_NOMEM, "render: %ux%u frame", r->opts.width,
+                             r->opts.height);
+    mts_result rc = read_raw(r, buf, err);
+    if (rc == MTS_OK) /* libpng flips: bottom_up */
+        rc = mts_png_write_rgba(path, r->opts.width, r->opts.height, buf, 1, err);
+    free(buf);
+    return rc;
+}
+
+void mts_render_get_stats(const mts_renderer *r, mts_render_stats *stats)
+{
+    *stats = r->stats;
+}
+
+void mts_render_reset_counters(mts_renderer *r)
+{
+    r->stats.vertex_bytes_uploaded = 0;
+    r->stats.index_bytes_uploaded = 0;
+    r->stats.strip_uploads = 0;
+    r->stats.full_uploads = 0;
+}

@@ -1,0 +1,220 @@
+/* The renderer: draws a model's strips at the LOD runtime's current level
+ * with OpenGL ES 3 (DESIGN.md, "Rendering").
+ *
+ * Two parts, kept apart so that a windowed client reuses the same renderer:
+ *
+ *   mts_render_context  the EGL display + GLES 3 context (+ surface). Today:
+ *                       headless, on Mesa's surfaceless platform, current with
+ *                       no surface (EGL_KHR_surfaceless_context). A windowed
+ *                       variant (EGL window surface) comes later and adds a
+ *                       present step (blit the renderer's frame to the window,
+ *                       swap); nothing below changes.
+ *   mts_renderer        GL state only: buffers, shader, an offscreen
+ *                       framebuffer (RGBA8 colour + 24-bit depth) of the
+ *                       requested size. Every frame is drawn there, so it can
+ *                       always be read back. Several renderers may share one
+ *                       context; each call makes the context current first.
+ *
+ * Geometry, following the stream's shape:
+ *   - One vertex buffer sized for the model's full vertex count up front:
+ *     positions (3 floats) for all vertices, then normals (3 floats) for all
+ *     vertices. It is filled by appending ranges, since a streaming client
+ *     only ever appends vertices (stream order).
+ *   - One index buffer (GL_UNSIGNED_INT) holding every strip at a fixed place:
+ *     strip s owns cap_s + 1 indices, cap_s being its length at the full
+ *     level (the runtime's slot size). The strip's indices come first; the
+ *     rest of its range is the restart index 0xFFFFFFFF, so the last entry is
+ *     always a restart and a strip that shrank leaves no stale triangles (a
+ *     run of restarts draws nothing: each one only ends the current
+ *     primitive). One glDrawElements(GL_TRIANGLE_STRIP) with
+ *     GL_PRIMITIVE_RESTART_FIXED_INDEX draws the whole model.
+ *   - mts_render_update_strips re-uploads only the strips the runtime lists as
+ *     changed, one glBufferSubData per strip covering max(old, new) length,
+ *     or the whole buffer in one call when more than half the strips changed
+ *     (the first upload after mts_lod_init, which marks every strip changed).
+ *     The caller clears the runtime's changed list afterwards.
+ *
+ * Draw modes: RESTART (the default, one call) and two that draw strip by strip
+ * with their current lengths and no restarts: PER_STRIP (a glDrawElements per
+ * non-empty strip) and MULTI (glMultiDrawElementsEXT from
+ * GL_EXT_multi_draw_arrays where the driver has it, Mesa does; else the same
+ * loop as PER_STRIP). GLES 3.2 core has no glMultiDrawElements.
+ *
+ * Colour by strip: a per-vertex attribute cannot carry a strip id (strips
+ * share vertices), and gl_PrimitiveID (fragment shaders, GLES 3.2) numbers
+ * the triangles of the whole draw call: on Mesa 22 it counts every window,
+ * degenerate ones included, and a restart neither resets nor advances it.
+ * Mapping it back to a strip would need a prefix sum of the current
+ * max(0, length - 2) per strip in a texture, re-uploaded whenever a length
+ * changes, and a binary search per fragment. Instead, with color_by_strip
+ * the renderer draws strip by strip with the strip's colour in a uniform (as
+ * PER_STRIP): slower, for inspection only.
+ *
+ * Shading: Lambert from a directional light above-left of the camera plus
+ * ambient, per-vertex normals, back-face culling of clockwise triangles
+ * (counter-clockwise is front, as the strips' winding rule gives), depth test.
+ * A winding error therefore shows as a hole.
+ *
+ * Camera: perspective, looking at the layout's bounding-box centre from the
+ * direction given by yaw (about +Y, 0 = from +Z, positive turns towards +X)
+ * and pitch (positive looks from above), at the distance where the box's
+ * bounding sphere fits the narrower field of view with a 10% margin, divided
+ * by zoom.
+ *
+ * Errors: every call returns an mts_result and fills mts_error (the EGL or GL
+ * error named); nothing is printed. Not thread-safe: a context and its
+ * renderers belong to one thread at a time. */
+#ifndef MTS_RENDER_H
+#define MTS_RENDER_H
+
+#include <stdint.h>
+
+#include "error.h"
+#include "lod.h"
+
+#define MTS_RENDER_RESTART_INDEX 0xFFFFFFFFu
+
+/* ---- context ---------------------------------------------------------- */
+
+typedef struct mts_render_context mts_render_context;
+
+/* EGL on EGL_PLATFORM_SURFACELESS_MESA (eglGetPlatformDisplayEXT), a GLES 3
+ * context current with no surface. Fails with MTS_ERR_IO (the EGL call and
+ * error named) where there is no usable EGL, e.g. no Mesa: callers that can
+ * run without pictures (tests) skip then. */
+mts_result mts_render_context_create_headless(mts_render_context **ctx, mts_error *err);
+
+/* Destroys the context (destroy its renderers first). The EGL display is
+ * left initialised: an EGL display is one per platform per process, shared
+ * by every context on it (Mesa 22 has no EGL_KHR_display_reference), so
+ * eglTerminate here would pull it from under any other context in the
+ * process; and on Mesa each terminate unloads the driver, whose static
+ * allocations (112 bytes on llvmpipe) leak once per terminate + initialise
+ * cycle. EGL finalises the display at exit. Creating and destroying contexts
+ * repeatedly is fine and reuses the display. */
+void mts_render_context_destroy(mts_render_context *ctx);
+
+mts_result mts_render_context_make_current(mts_render_context *ctx, mts_error *err);
+
+/* "GL_RENDERER | GL_VERSION", e.g. "llvmpipe (LLVM 15.0.6, 256 bits) |
+ * OpenGL ES 3.2 Mesa 22.3.6". */
+const char *mts_render_context_description(const mts_render_context *ctx);
+
+/* ---- renderer --------------------------------------------------------- */
+
+/* What the buffers are sized for: fixed for the renderer's life. */
+typedef struct mts_render_layout {
+    uint32_t vertex_capacity; /* full vertex count */
+    uint32_t strip_count;
+    const uint32_t *slot;     /* strip_count + 1 entries, slot[s+1]-slot[s] = strip s's
+                                 longest length; copied at create */
+    float bbox_min[3], bbox_max[3]; /* what the camera frames */
+} mts_render_layout;
+
+/* The layout a runtime's model needs (its vertex count, bbox and slots). */
+void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *layout);
+
+typedef enum mts_render_draw_mode {
+    MTS_RENDER_DRAW_RESTART = 0,
+    MTS_RENDER_DRAW_PER_STRIP,
+    MTS_RENDER_DRAW_MULTI
+} mts_render_draw_mode;
+
+typedef struct mts_render_camera {
+    float yaw_deg, pitch_deg; /* pitch is clamped to [-89, 89] */
+    float zoom;               /* > 0; 1 frames the bounding sphere */
+    float fov_y_deg;          /* vertical field of view, in (1, 170) */
+} mts_render_camera;
+
+typedef struct mts_render_style {
+    float background[4]; /* RGBA in [0,1] */
+    float color[3];      /* the surface colour */
+    float ambient;       /* [0,1]: ambient share of the lighting */
+    int color_by_strip;  /* each strip its own colour (draws strip by strip) */
+    int cull_back_faces; /* 1 by default */
+    mts_render_draw_mode draw_mode;
+} mts_render_style;
+
+typedef struct mts_render_options {
+    uint32_t width, height; /* framebuffer size, 1..GL_MAX_RENDERBUFFER_SIZE */
+    mts_render_camera camera;
+    mts_render_style style;
+} mts_render_options;
+
+/* 512x512, yaw 30, pitch 20, zoom 1, fov 35, dark blue-grey background,
+ * light grey surface, ambient 0.25, culling on, RESTART. */
+void mts_render_options_default(mts_render_options *opts);
+
+typedef struct mts_renderer mts_renderer;
+
+/* Creates the buffers (index buffer all restarts, vertex buffer unfilled), the
+ * shader and the framebuffer. MTS_ERR_LIMIT when the layout exceeds what GL
+ * can address (GLsizei index count, GL_MAX_ELEMENT_INDEX, buffer size). */
+mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options *opts,
+                               const mts_render_layout *layout, mts_renderer **r,
+                               mts_error *err);
+void mts_renderer_destroy(mts_renderer *r);
+
+/* Uploads vertices first .. first+count-1 (3 floats each in positions and
+ * normals). Appending: first may not be beyond the vertices already there (a
+ * range may be sent again, as after a resumed stream) and first+count may not
+ * pass vertex_capacity (MTS_ERR_RANGE). */
+mts_result mts_render_append_vertices(mts_renderer *r, uint32_t first, uint32_t count,
+                                      const float *positions, const float *normals,
+                                      mts_error *err);
+uint32_t mts_render_vertex_count(const mts_renderer *r);
+
+/* Sets strip s to the given indices (length <= its capacity; every index below
+ * the vertices uploaded, else MTS_ERR_RANGE and nothing changes). One
+ * glBufferSubData of max(old, new) length. The building block of
+ * mts_render_update_strips, for callers without a runtime. */
+mts_result mts_render_set_strip(mts_renderer *r, uint32_t s, const uint32_t *indices,
+                                uint32_t length, mts_error *err);
+
+/* Uploads the strips lod lists as changed (see the top of this file). Checks
+ * first that lod has the layout's strip count, every changed strip fits its
+ * slot and every index is below the vertices uploaded; on failure nothing is
+ * uploaded. Leaves lod's changed list alone: the caller clears it. */
+mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_error *err);
+
+void mts_render_set_camera(mts_renderer *r, const mts_render_camera *camera);
+void mts_render_set_style(mts_renderer *r, const mts_render_style *style);
+
+/* The camera's position (world space) and the view direction (unit, from the
+ * eye towards the box centre), for callers that need the view (tests). */
+void mts_render_eye(const mts_renderer *r, float eye[3], float dir[3]);
+
+/* Draws a frame into the framebuffer and waits for it (glFinish), so
+ * stats.last_draw_seconds is the frame's time, clear to finish. */
+mts_result mts_render_draw(mts_renderer *r, mts_error *err);
+
+/* Reads the last frame, RGBA8, width*height*4 bytes, top row first. */
+mts_result mts_render_read_rgba(mts_renderer *r, uint8_t *rgba, mts_error *err);
+
+/* Reads the last frame and writes it as a PNG. */
+mts_result mts_render_write_png(mts_renderer *r, const char *path, mts_error *err);
+
+typedef struct mts_render_stats {
+    uint32_t width, height;
+    uint64_t vertex_buffer_bytes, index_buffer_bytes; /* GPU buffer sizes */
+    uint32_t vertices;                                /* uploaded so far */
+    /* totals since create or mts_render_reset_counters */
+    uint64_t vertex_bytes_uploaded;
+    uint64_t index_bytes_uploaded;
+    uint64_t strip_uploads;   /* strips uploaded one by one */
+    uint64_t full_uploads;    /* whole index buffer uploads */
+    /* the last mts_render_update_strips */
+    uint32_t last_update_strips; /* strips it covered (all of them for a full upload) */
+    uint64_t last_update_bytes;
+    int last_update_full;
+    /* the last mts_render_draw */
+    double last_draw_seconds; /* CPU time clear .. glFinish (CLOCK_MONOTONIC) */
+    uint32_t last_draw_calls;
+    uint64_t last_draw_indices; /* indices submitted, restarts included */
+    int multi_draw_available;   /* GL_EXT_multi_draw_arrays */
+} mts_render_stats;
+
+void mts_render_get_stats(const mts_renderer *r, mts_render_stats *stats);
+void mts_render_reset_counters(mts_renderer *r);
+
+#endif
