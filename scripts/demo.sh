@@ -1,12 +1,16 @@
 #!/usr/bin/env bash
-# The README's first command: builds the built-in default model (tests/data/cow.off,
-# the "Cow" of the MTS paper, shipped in the repository), verifies it at every
-# level, and shows it at a few levels of detail.
+# The README's first command. Builds the built-in default model
+# (tests/data/cow.off, the "Cow" of the MTS paper, shipped in the repository),
+# verifies it at every level, starts mts-server on loopback, streams the model
+# to mts-client to the full level with PNGs at three levels on the way, stops
+# the server and says where the pictures are.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=build/bin
 out=build/demo
-mkdir -p "$out"
+port=${MTS_DEMO_PORT:-7447}
+mkdir -p "$out/models"
+cp tests/data/cow.off "$out/models/cow.off"
 
 echo "== mts-build tests/data/cow.off -o $out/cow.mtsm"
 "$bin/mts-build" tests/data/cow.off -o "$out/cow.mtsm"
@@ -14,9 +18,21 @@ echo
 echo "== mts-inspect $out/cow.mtsm --verify"
 "$bin/mts-inspect" "$out/cow.mtsm" --verify
 echo
-for f in 0.5 0.1 0.01; do
-  echo "== mts-inspect $out/cow.mtsm --fraction $f --obj $out/cow_$f.obj"
-  "$bin/mts-inspect" "$out/cow.mtsm" --fraction "$f" --obj "$out/cow_$f.obj" | sed -n '4,5p'
+echo "== mts-server --models $out/models --listen 127.0.0.1:$port"
+"$bin/mts-server" --models "$out/models" --listen "127.0.0.1:$port" &
+server=$!
+trap 'kill "$server" 2>/dev/null || true' EXIT
+for _ in $(seq 1 50); do  # until it listens
+  "$bin/mts-client" "127.0.0.1:$port" --list >/dev/null 2>&1 && break
+  sleep 0.1
 done
 echo
-echo "Model and meshes are in $out/. Next: mts-build your own mesh (OFF, OBJ, PLY, STL)."
+echo "== mts-client 127.0.0.1:$port cow --png $out/cow.png --png-levels 0,300,1500 --verify --model-file $out/cow.mtsm"
+"$bin/mts-client" "127.0.0.1:$port" cow --png "$out/cow.png" --png-levels 0,300,1500 \
+  --verify --model-file "$out/cow.mtsm"
+kill -TERM "$server"
+wait "$server" || true
+trap - EXIT
+echo
+echo "Pictures: $out/cow_L0.png (base), $out/cow_L300.png, $out/cow_L1500.png, $out/cow.png (full)."
+echo "Next: mts-build your own mesh (OFF, OBJ, PLY, STL), or serve a folder: mts-server --models DIR"
