@@ -1,0 +1,215 @@
+/* mts-server and mts-client as a user runs them, over loopback:
+ *   - a server that dies mid-stream leaves the client with a clear error, a
+ *     non-zero exit and its last whole batch drawn (the PNG is written);
+ *   - a model given as an http URL (served by python3 -m http.server on
+ *     127.0.0.1) is fetched, built and streamed; ftp:// and file:// are
+ *     refused, and so is a body over --max-download. */
+#include <arpa/inet.h>
+#include <libgen.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <stdint.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "build.h"
+#include "mesh.h"
+#include "stream.h"
+#include "test.h"
+
+static char bin_dir[512], tmp_dir[512];
+
+static int run(const char *cmd, char *out, size_t size)
+{
+    char full[8192];
+    snprintf(full, sizeof full, "(%.8000s) 2>&1", cmd);
+    FILE *p = popen(full, "r");
+    if (!p)
+        return -1;
+    size_t n = fread(out, 1, size - 1, p);
+    out[n] = 0;
+    int st = pclose(p);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static int listen_any(int *port)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0), one = 1;
+    struct sockaddr_in a = {0};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    if (bind(fd, (struct sockaddr *)&a, sizeof a) != 0 || listen(fd, 4) != 0)
+        return -1;
+    socklen_t sl = sizeof a;
+    getsockname(fd, (struct sockaddr *)&a, &sl);
+    *port = ntohs(a.sin_port);
+    return fd;
+}
+
+static int file_size(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return -1;
+    fseek(f, 0, SEEK_END);
+    int n = (int)ftell(f);
+    fclose(f);
+    return n;
+}
+
+/* A server that sends a real stream for cow but dies after `cut` bytes. */
+static void test_server_dies_mid_stream(mts_test *t)
+{
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_model m;
+    mts_stream s;
+    CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
+    CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
+    mts_mesh_free(&mesh);
+    CHECK(t, mts_stream_build(&m, "cow", NULL, &s, &err) == MTS_OK);
+    mts_model_free(&m);
+    int port, lfd = listen_any(&port);
+    CHECK(t, lfd >= 0);
+    mts_buf b = {0};
+    mts_stream_put_model_info(&s, s.model.level_count, &b);
+    size_t cut = b.size + s.batch_offset[10] + 7; /* inside batch 10 */
+    mts_buf_put(&b, s.bytes, s.size);
+    pid_t pid = fork();
+    if (pid == 0) {
+        int fd = accept(lfd, NULL, NULL);
+        char hello[256];
+        (void)!recv(fd, hello, sizeof hello, 0);
+        (void)!send(fd, b.data, cut, MSG_NOSIGNAL);
+        usleep(100000);
+        close(fd);
+        _exit(0);
+    }
+    close(lfd);
+    char cmd[4096], out[8192], png[1024];
+    snprintf(png, sizeof png, "%s/e2e_cut.png", tmp_dir);
+    remove(png);
+    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow --png %s --json", bin_dir, port,
+             png);
+    int rc = run(cmd, out, sizeof out);
+    waitpid(pid, NULL, 0);
+    CHECKF(t, rc == 1, "exit %d: %s", rc, out);
+    CHECKF(t, strstr(out, "mid-stream") && strstr(out, "10 batches applied"), "%s", out);
+    CHECKF(t, strstr(out, "\"batches\":10,") != NULL, "%s", out);
+    char level[64];
+    snprintf(level, sizeof level, "\"level\":%u,", s.batch_first[10]);
+    CHECKF(t, strstr(out, level) != NULL, "want %s in %s", level, out);
+    CHECKF(t, file_size(png) > 1000, "no picture of the last whole batch at %s", png);
+    mts_buf_free(&b);
+    mts_stream_free(&s);
+}
+
+typedef struct proc {
+    pid_t pid;
+} proc;
+
+static pid_t spawn(char *const argv[], const char *log)
+{
+    pid_t pid = fork();
+    if (pid == 0) {
+        FILE *f = freopen(log, "w", stderr);
+        (void)f;
+        if (!freopen("/dev/null", "w", stdout))
+            _exit(126);
+        execvp(argv[0], argv);
+        _exit(127);
+    }
+    return pid;
+}
+
+static void stop(pid_t pid)
+{
+    if (pid <= 0)
+        return;
+    kill(pid, SIGTERM);
+    waitpid(pid, NULL, 0);
+}
+
+static int free_port(void)
+{
+    int port, fd = listen_any(&port);
+    close(fd);
+    return port;
+}
+
+static void test_url_models(mts_test *t)
+{
+    char out[8192], cmd[4096];
+    if (run("python3 -c 'import http.server'", out, sizeof out) != 0)
+        SKIP(t, "python3 with http.server is not available");
+    int web = free_port(), mts = free_port();
+    char webport[16], listen[64], log_web[600], log_srv[600], url_ok[256], url_big[256];
+    snprintf(webport, sizeof webport, "%d", web);
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", mts);
+    snprintf(log_web, sizeof log_web, "%s/e2e_web.log", tmp_dir);
+    snprintf(log_srv, sizeof log_srv, "%s/e2e_srv.log", tmp_dir);
+    char *web_argv[] = {"python3", "-m", "http.server", webport, "--bind", "127.0.0.1",
+                        "--directory", "tests/data", NULL};
+    pid_t wpid = spawn(web_argv, log_web);
+    /* until the web server answers */
+    snprintf(cmd, sizeof cmd,
+             "for i in $(seq 1 50); do python3 -c 'import urllib.request,sys; "
+             "urllib.request.urlopen(\"http://127.0.0.1:%d/cow.off\")' && exit 0; sleep 0.1; "
+             "done; exit 1",
+             web);
+    CHECK(t, run(cmd, out, sizeof out) == 0);
+    snprintf(url_ok, sizeof url_ok, "cowweb=http://127.0.0.1:%d/cow.off", web);
+    snprintf(url_big, sizeof url_big, "cowbig=http://127.0.0.1:%d/cow.off", web);
+    char server_bin[600];
+    snprintf(server_bin, sizeof server_bin, "%s/mts-server", bin_dir);
+    /* two good-or-refused URL models and two refused schemes, with a small cap
+     * on one of them: the server serves what it can and says why not the rest */
+    char *srv_argv[] = {server_bin, "--listen", listen, "--model", url_ok,
+                        "--model", "ftpmodel=ftp://127.0.0.1/cow.off",
+                        "--model", "filemodel=file:///etc/passwd", "--quiet", NULL};
+    pid_t spid = spawn(srv_argv, log_srv);
+    snprintf(cmd, sizeof cmd,
+             "for i in $(seq 1 100); do %s/mts-client 127.0.0.1:%d --list && exit 0; sleep 0.1; "
+             "done; exit 1",
+             bin_dir, mts);
+    CHECKF(t, run(cmd, out, sizeof out) == 0, "server did not come up: %s", out);
+    CHECKF(t, strstr(out, "cowweb") && !strstr(out, "ftpmodel") && !strstr(out, "filemodel"),
+           "%s", out);
+    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cowweb --no-render --json --verify",
+             bin_dir, mts);
+    CHECKF(t, run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECK(t, strstr(out, "\"complete\":true") && strstr(out, "\"triangles\":5804"));
+    stop(spid);
+    FILE *f = fopen(log_srv, "r");
+    char logtext[8192] = {0};
+    if (f) {
+        size_t n = fread(logtext, 1, sizeof logtext - 1, f);
+        logtext[n] = 0;
+        fclose(f);
+    }
+    CHECKF(t, strstr(logtext, "ftp://") && strstr(logtext, "file://"),
+           "refusals not reported: %s", logtext);
+
+    /* over the size cap: nothing to serve, exit 1, the cap named */
+    snprintf(cmd, sizeof cmd, "%s/mts-server --listen %s --model %s --max-download 1000",
+             bin_dir, listen, url_big);
+    CHECK(t, run(cmd, out, sizeof out) == 1);
+    CHECKF(t, strstr(out, "1000") != NULL, "%s", out);
+    stop(wpid);
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    char self[400];
+    snprintf(self, sizeof self, "%s", argv[0]);
+    snprintf(bin_dir, sizeof bin_dir, "%s/../bin", dirname(self));
+    snprintf(tmp_dir, sizeof tmp_dir, "%s", mts_test_tmpdir());
+    signal(SIGPIPE, SIG_IGN);
+    mts_test t = {0};
+    RUN(&t, test_server_dies_mid_stream);
+    RUN(&t, test_url_models);
+    return mts_test_end(&t);
+}
