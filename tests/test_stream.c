@@ -220,17 +220,26 @@ static void test_bunny_stream_size(mts_test *t)
         fprintf(stderr, "  bunny00: stream %zu bytes (base frame %zu), %u batches, draco %s\n",
                 s.size, s.batch_offset[0], s.batch_count,
                 s.draco_method == MTS_DRACO_SEQUENTIAL ? "sequential" : "edgebreaker");
-    mts_buf b = {0};
-    uint32_t stop;
-    connection_bytes(&s, MTS_STOP_FULL, 0, &b, &stop);
-    mts_stream_client c;
-    mts_stream_client_init(&c);
-    mts_error err = {0};
-    int saw_end;
-    CHECKF(t, feed(&c, b.data, b.size, 3, &saw_end, &err) == MTS_OK && saw_end, "%s", err.msg);
-    same_as_server(t, &s, &c);
-    mts_stream_client_free(&c);
-    mts_buf_free(&b);
+    /* the full level and two partial stops */
+    const uint8_t kinds[3] = {MTS_STOP_FULL, MTS_STOP_FRACTION, MTS_STOP_TRIANGLES};
+    const uint32_t values[3] = {0, 250000, 40000};
+    for (int i = 0; i < 3; i++) {
+        mts_buf b = {0};
+        uint32_t stop;
+        connection_bytes(&s, kinds[i], values[i], &b, &stop);
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        mts_error err = {0};
+        int saw_end;
+        CHECKF(t, feed(&c, b.data, b.size, 3 + (uint64_t)i, &saw_end, &err) == MTS_OK && saw_end,
+               "%s", err.msg);
+        CHECK(t, c.lod.level == stop);
+        same_as_server(t, &s, &c);
+        if (getenv("MTS_TEST_VERBOSE"))
+            fprintf(stderr, "  bunny00 stop %d: level %u, %zu bytes\n", i, stop, b.size);
+        mts_stream_client_free(&c);
+        mts_buf_free(&b);
+    }
     mts_stream_free(&s);
 }
 
