@@ -85,6 +85,10 @@ $(BENCH): $(BUILD)/obj/bench/mts_bench.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -lmeshoptimizer -o $@
 
+$(BUILD)/bin/mts-bench-stream: $(BUILD)/obj/bench/mts_bench_stream.o $(CLI_OBJ) $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
 deps:
 	@scripts/deps.sh
 
@@ -103,7 +107,7 @@ test-asan:
 	@tests/run.sh build/asan
 
 bench: deps
-	@$(MAKE) --no-print-directory programs $(BENCH)
+	@$(MAKE) --no-print-directory programs $(BENCH) $(BUILD)/bin/mts-bench-stream
 	@bench/run.sh
 
 demo: deps

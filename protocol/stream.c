@@ -239,16 +239,21 @@ static mts_result encode_base(mts_stream *s, int method, uint8_t **draco, size_t
         rc = mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory renumbering");
         goto done;
     }
-    /* the stream stands for what clients decode: Draco's positions and normals */
+    /* The stream stands for what clients decode: Draco's grid (it stores the
+     * origin and range in its own precision, which can move them in the last
+     * bits), Draco's base normals, and every position -- base and refinement
+     * alike -- dequantized on that one grid, so they meet without cracks. */
+    s->grid = dec.grid;
     for (uint32_t x = 0; x < nb; x++) {
         if (memcmp(s->quantized + 3 * (size_t)x, dec.quantized + 3 * (size_t)x, 12) != 0) {
             rc = mts_error_set(err, MTS_ERR_INTERNAL,
                                "stream: base vertex %u changed its grid point through Draco", x);
             goto done;
         }
-        memcpy(m->positions + 3 * (size_t)x, dec.positions + 3 * (size_t)x, 12);
         memcpy(m->normals + 3 * (size_t)x, dec.normals + 3 * (size_t)x, 12);
     }
+    for (uint32_t x = 0; x < m->vertex_count; x++)
+        mts_draco_dequantize(&s->grid, s->quantized + 3 * (size_t)x, m->positions + 3 * (size_t)x);
 done:
     free(tris);
     free(map);
@@ -325,6 +330,7 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     snprintf(s->name, sizeof s->name, "%s", name);
     mts_buf b = {0};
     uint8_t *draco = NULL, *rec = NULL;
+    uint16_t *oct = NULL;
     size_t draco_size = 0;
     mts_result rc = copy_model(model, &s->model, err);
     if (rc != MTS_OK)
@@ -346,8 +352,13 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         mts_draco_quantize(&s->grid, m->positions + 3 * (size_t)x, q);
         mts_draco_dequantize(&s->grid, q, m->positions + 3 * (size_t)x);
     }
-    for (uint32_t x = nb; x < nv; x++) { /* normals as the client will decode them */
-        uint16_t o[2];
+    /* normals as the client will decode them; the codes are kept, since
+     * encoding a decoded normal again need not give the same code */
+    oct = malloc(((size_t)nv - nb + 1) * 4);
+    if (!oct)
+        goto nomem;
+    for (uint32_t x = nb; x < nv; x++) {
+        uint16_t *o = oct + 2 * (size_t)(x - nb);
         oct_encode(m->normals + 3 * (size_t)x, o);
         oct_decode(o, m->normals + 3 * (size_t)x);
     }
@@ -397,8 +408,7 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
             for (int a = 0; a < 3; a++)
                 mts_buf_varint(&b, mts_zigzag_u32(s->quantized[3 * (size_t)v + a] -
                                                   s->quantized[3 * (size_t)u + a]));
-            uint16_t o[2];
-            oct_encode(m->normals + 3 * (size_t)v, o);
+            const uint16_t *o = oct + 2 * (size_t)(v - nb);
             mts_buf_u16(&b, o[0]);
             mts_buf_u16(&b, o[1]);
         }
@@ -417,12 +427,14 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         goto fail;
     free(draco);
     free(rec);
+    free(oct);
     return MTS_OK;
 nomem:
     rc = mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory encoding '%s'", name);
 fail:
     free(draco);
     free(rec);
+    free(oct);
     mts_buf_free(&b);
     mts_stream_free(s);
     return rc;

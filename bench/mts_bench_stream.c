@@ -1,0 +1,224 @@
+/* mts-bench-stream: the streaming figures of `make bench` (issue 3) for each
+ * mesh given: full-stream bytes beside Draco single-rate of the same full mesh
+ * on the same grid (encoded here, in the same process), the raw file and the
+ * .mtsm; bytes a client needs for 10%, 50% and 100% of the triangles; the
+ * client's apply throughput (splits/s) decoding in memory, without GL upload
+ * and, where EGL works, with it. Time to first frame over loopback is
+ * measured by bench/run.sh with the real server and client. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+#include "build.h"
+#include "cli.h"
+#include "draco.h"
+#include "mesh.h"
+#include "modelfile.h"
+#include "render.h"
+#include "stream.h"
+#include "wire.h"
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* MODEL_INFO + stream range + END for a stop level. */
+static size_t connection_bytes(const mts_stream *s, uint32_t stop, mts_buf *out)
+{
+    mts_error err;
+    size_t off, len;
+    out->size = 0;
+    mts_stream_put_model_info(s, stop, out);
+    if (mts_stream_range(s, 0, stop, &off, &len, &err) != MTS_OK)
+        return 0;
+    mts_buf_put(out, s->bytes + off, len);
+    mts_stream_put_end(s, stop, (uint32_t)out->size, out);
+    return out->size;
+}
+
+/* Decodes and applies a whole connection's bytes; with a renderer, uploads
+ * each batch's vertices and changed strips too. Returns seconds, 0 on error. */
+static double apply_all(const mts_buf *b, mts_renderer *r, mts_error *err)
+{
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_wire_reader rd = {0};
+    double t0 = now_s();
+    uint32_t uploaded = 0;
+    int ok = mts_wire_reader_feed(&rd, b->data, b->size, err) == MTS_OK;
+    uint8_t type;
+    const uint8_t *p;
+    size_t n;
+    while (ok && mts_wire_reader_next(&rd, &type, &p, &n, err) == 1) {
+        mts_stream_event ev;
+        ok = mts_stream_client_frame(&c, type, p, n, &ev, err) == MTS_OK;
+        if (ok && r && (ev == MTS_EV_BASE || ev == MTS_EV_BATCH)) {
+            uint32_t have = c.model.base_vertex_count + c.splits;
+            ok = mts_render_append_vertices(r, uploaded, have - uploaded,
+                                            c.model.positions + 3 * (size_t)uploaded,
+                                            c.model.normals + 3 * (size_t)uploaded, err) ==
+                     MTS_OK &&
+                 mts_render_update_strips(r, &c.lod, err) == MTS_OK;
+            mts_lod_clear_changed(&c.lod);
+            uploaded = have;
+        }
+    }
+    double t = now_s() - t0;
+    mts_wire_reader_free(&rd);
+    mts_stream_client_free(&c);
+    return ok ? t : 0;
+}
+
+int main(int argc, char **argv)
+{
+    const char *json_path = NULL;
+    const char *paths[16];
+    int np = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--json") && i + 1 < argc)
+            json_path = argv[++i];
+        else if (np < 16)
+            paths[np++] = argv[i];
+    }
+    FILE *jf = json_path ? fopen(json_path, "w") : NULL;
+    if (jf)
+        fputs("{", jf);
+    mts_render_context *ctx = NULL;
+    mts_error cerr = {0};
+    int have_gl = mts_render_context_create_headless(&ctx, &cerr) == MTS_OK;
+
+    printf("\nStreaming (issue 3): bytes on the wire beside Draco single-rate on the same 14-bit grid\n");
+    printf("%-14s %10s %10s %10s %10s %10s %10s %8s %10s %10s %10s\n", "model", "stream B",
+           "base B", "draco cl7", "draco cl10", "+normals", "mtsm B", "x draco7", "10% tri B",
+           "50% tri B", "100% B");
+    printf("%s\n", "---------------------------------------------------------------------------"
+                   "-------------------------------------------");
+    int first_json = 1;
+    for (int i = 0; i < np; i++) {
+        struct stat st;
+        char name[64];
+        cli_stem(paths[i], name, sizeof name);
+        if (stat(paths[i], &st) != 0) {
+            printf("%-14s skipped: %s not found\n", name, paths[i]);
+            continue;
+        }
+        mts_error err = {0};
+        mts_mesh mesh = {0};
+        mts_model m;
+        mts_stream s;
+        if (mts_mesh_load(paths[i], NULL, &mesh, NULL, &err) != MTS_OK ||
+            mts_build_model(&mesh, paths[i], NULL, &m, NULL, &err) != MTS_OK) {
+            printf("%-14s FAILED: %s\n", name, err.msg);
+            continue;
+        }
+        if (mts_stream_build(&m, name, NULL, &s, &err) != MTS_OK) {
+            printf("%-14s FAILED: %s\n", name, err.msg);
+            mts_model_free(&m);
+            mts_mesh_free(&mesh);
+            continue;
+        }
+        /* Draco single-rate of the full mesh on the stream's grid */
+        size_t draco[3] = {0};
+        for (int k = 0; k < 3; k++) {
+            mts_draco_mesh dm = {mesh.vertex_count, mesh.triangle_count, mesh.positions,
+                                 k == 2 ? mesh.normals : NULL, mesh.triangles};
+            mts_draco_options o = {0};
+            o.grid = s.grid;
+            o.normal_bits = k == 2 ? 10 : -1;
+            o.compression_level = k == 0 ? 7 : 10;
+            uint8_t *out = NULL;
+            if (mts_draco_encode(&dm, &o, &out, &draco[k], &err) != MTS_OK)
+                draco[k] = 0;
+            free(out);
+        }
+        uint8_t *file = NULL;
+        size_t file_size = 0;
+        mts_modelfile_encode(&m, &file, &file_size, &err);
+        free(file);
+        mts_buf b = {0};
+        size_t at[3];
+        const double fr[3] = {0.1, 0.5, 1.0};
+        for (int k = 0; k < 3; k++) {
+            uint64_t tri = (uint64_t)(fr[k] * m.level_triangles[m.level_count] + 0.5);
+            at[k] = connection_bytes(&s, mts_model_level_for_triangles(&m, tri), &b);
+        }
+        size_t full = connection_bytes(&s, m.level_count, &b);
+        printf("%-14s %10zu %10zu %10zu %10zu %10zu %10zu %8.2f %10zu %10zu %10zu\n", name, full,
+               s.batch_offset[0], draco[0], draco[1], draco[2], file_size,
+               draco[0] ? (double)full / draco[0] : 0, at[0], at[1], at[2]);
+
+        /* apply throughput, median of 5 */
+        double no_gl[5] = {0}, with_gl[5] = {0};
+        for (int k = 0; k < 5; k++)
+            no_gl[k] = apply_all(&b, NULL, &err);
+        if (no_gl[0] == 0)
+            printf("%-14s apply FAILED: %s\n", "", err.msg);
+        qsort(no_gl, 5, sizeof(double), cmp_double);
+        double gl_med = 0;
+        if (have_gl) {
+            for (int k = 0; k < 5; k++) {
+                mts_lod lod;
+                mts_renderer *r = NULL;
+                mts_render_options ro;
+                mts_render_options_default(&ro);
+                if (mts_lod_init(&lod, &s.model, MTS_LOD_AT_BASE, &err) == MTS_OK) {
+                    mts_render_layout layout;
+                    mts_render_layout_from_lod(&lod, &layout);
+                    if (mts_renderer_create(ctx, &ro, &layout, &r, &err) == MTS_OK)
+                        with_gl[k] = apply_all(&b, r, &err);
+                    mts_renderer_destroy(r);
+                    mts_lod_free(&lod);
+                }
+            }
+            qsort(with_gl, 5, sizeof(double), cmp_double);
+            gl_med = with_gl[2];
+        }
+        double splits = m.level_count;
+        printf("%-14s apply %u splits: %.2f ms decode+apply (%.2f M splits/s)", "", m.level_count,
+               no_gl[2] * 1e3, no_gl[2] > 0 ? splits / no_gl[2] / 1e6 : 0);
+        if (have_gl)
+            printf(", %.2f ms with GL upload (%.2f M splits/s)", gl_med * 1e3,
+                   gl_med > 0 ? splits / gl_med / 1e6 : 0);
+        printf("\n");
+        if (jf) {
+            fprintf(jf,
+                    "%s\"%s\":{\"stream_bytes\":%zu,\"base_frame_bytes\":%zu,\"batches\":%u,"
+                    "\"draco_cl7_bytes\":%zu,\"draco_cl10_bytes\":%zu,\"draco_cl10_normals_bytes\":%zu,"
+                    "\"stream_over_draco_cl7\":%.3f,\"input_bytes\":%lld,\"mtsm_bytes\":%zu,"
+                    "\"bytes_10pct_triangles\":%zu,\"bytes_50pct_triangles\":%zu,"
+                    "\"bytes_100pct_triangles\":%zu,\"apply_ms\":%.3f,\"splits_per_s\":%.0f,"
+                    "\"apply_gl_ms\":%.3f,\"splits_per_s_gl\":%.0f}",
+                    first_json ? "" : ",", name, full, s.batch_offset[0], s.batch_count, draco[0],
+                    draco[1], draco[2], draco[0] ? (double)full / draco[0] : 0,
+                    (long long)st.st_size, file_size, at[0], at[1], at[2], no_gl[2] * 1e3,
+                    no_gl[2] > 0 ? splits / no_gl[2] : 0, gl_med * 1e3,
+                    gl_med > 0 ? splits / gl_med : 0);
+            first_json = 0;
+        }
+        mts_buf_free(&b);
+        mts_stream_free(&s);
+        mts_model_free(&m);
+        mts_mesh_free(&mesh);
+    }
+    if (!have_gl)
+        printf("(no EGL here: %s; GL upload not measured)\n", cerr.msg);
+    printf("(stream B: MODEL_INFO + BASE + every BATCH + END for the full level; x draco7: stream / "
+           "Draco edgebreaker cl 7, positions only)\n");
+    if (jf) {
+        fputs("}\n", jf);
+        fclose(jf);
+    }
+    mts_render_context_destroy(ctx);
+    return 0;
+}
