@@ -25,6 +25,26 @@ rm -f "$out/models.json" # never merge a previous run's figures
 build/bin/mts-bench "${models[@]}" --json "$out/models.json" || status=1
 [ -s "$out/models.json" ] || { echo "bench: mts-bench wrote no figures" >&2; exit 1; }
 
+# --- streaming (issue 3) -------------------------------------------------------
+rm -f "$out/stream.json" "$out/loopback.txt"
+build/bin/mts-bench-stream "${models[@]}" --json "$out/stream.json" || status=1
+# time to first frame over loopback: the real server and client, bunny00
+if [ -f "$shared/models/bunny00.off" ]; then
+  port=$((20000 + RANDOM % 20000))
+  build/bin/mts-server --model "bunny00=$shared/models/bunny00.off" --listen "127.0.0.1:$port" \
+    --quiet 2>"$out/server.log" &
+  server=$!
+  for _ in $(seq 1 200); do
+    build/bin/mts-client "127.0.0.1:$port" --list >/dev/null 2>&1 && break
+    sleep 0.1
+  done
+  for _ in 1 2 3 4 5; do
+    build/bin/mts-client "127.0.0.1:$port" bunny00 --json >>"$out/loopback.txt" 2>/dev/null || status=1
+  done
+  kill -TERM "$server" 2>/dev/null
+  wait "$server" 2>/dev/null
+fi
+
 # seconds since some epoch, with microseconds (bash 5)
 now() { printf '%s\n' "$EPOCHREALTIME"; }
 elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", b - a }'; }
@@ -185,6 +205,32 @@ else:
                  f"{ours['size']['model_file_bytes']} B ({ours['size']['model_file_mb']:.3f} MB)")
     print(line)
 res["openmesh_pm"] = pm
+
+stream = {}
+try:
+    with open(os.path.join(out, "stream.json")) as f:
+        stream = json.load(f)
+except (OSError, ValueError):
+    pass
+runs = []
+try:
+    with open(os.path.join(out, "loopback.txt")) as f:
+        runs = [json.loads(line) for line in f if line.strip()]
+except (OSError, ValueError):
+    pass
+if runs:
+    def median(key):
+        v = sorted(r[key] for r in runs)
+        return v[len(v) // 2]
+    loop = {"model": "bunny00", "runs": len(runs), "ms_base_median": median("ms_base"),
+            "ms_final_median": median("ms_final"), "ms_apply_median": median("ms_apply"),
+            "ms_render_median": median("ms_render"), "bytes": runs[0]["bytes"]}
+    stream["loopback"] = loop
+    print(f"\nOver loopback (mts-server + mts-client, bunny00, median of {len(runs)}): first frame "
+          f"(base decoded and drawn) {loop['ms_base_median']:.1f} ms after connect, full level "
+          f"{loop['ms_final_median']:.1f} ms, decode+apply {loop['ms_apply_median']:.1f} ms, "
+          f"render {loop['ms_render_median']:.1f} ms, {loop['bytes']} bytes")
+res["stream"] = stream
 
 with open(dest + ".tmp", "w") as f:
     json.dump(res, f, indent=2)
