@@ -168,6 +168,22 @@ static int on_event(void *user, mts_stream_event ev, mts_stream_client *c)
     return 0;
 }
 
+/* One triangle through a throw-away renderer with the real options. */
+static int warm_up(run *rn)
+{
+    const uint32_t slot[2] = {0, 3};
+    mts_render_layout layout = {3, 1, slot, {0, 0, 0}, {1, 1, 1}};
+    mts_renderer *r = NULL;
+    const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, nor[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+    const uint32_t tri[3] = {0, 1, 2};
+    int ok = mts_renderer_create(rn->ctx, &rn->ro, &layout, &r, &rn->err) == MTS_OK &&
+             mts_render_append_vertices(r, 0, 3, pos, nor, &rn->err) == MTS_OK &&
+             mts_render_set_strip(r, 0, tri, 3, &rn->err) == MTS_OK &&
+             mts_render_draw(r, &rn->err) == MTS_OK;
+    mts_renderer_destroy(r);
+    return ok;
+}
+
 static int parse_size(const char *s, uint32_t *w, uint32_t *h)
 {
     char *x;
@@ -374,11 +390,14 @@ int main(int argc, char **argv)
     so.user = &rn;
     cli_bar_init(&rn.bar, rn.quiet || json || list);
 
-    /* EGL comes up before connecting: the first frame should wait for the
-     * network, not for the driver */
+    /* EGL comes up, and draws once, before connecting: the first frame of
+     * the model should wait for the network, not for the driver (llvmpipe
+     * compiles a shader variant at its first draw) */
     if (rn.render && !list &&
-        mts_render_context_create_headless(&rn.ctx, &rn.err) != MTS_OK) {
+        (mts_render_context_create_headless(&rn.ctx, &rn.err) != MTS_OK ||
+         !warm_up(&rn))) {
         fprintf(stderr, "mts-client: %s\n", rn.err.msg);
+        mts_render_context_destroy(rn.ctx);
         return CLI_EXIT_FAIL;
     }
     mts_stream_client c;
