@@ -3,6 +3,8 @@
  * row stride reads a bottom-up buffer, so no copy is needed to flip. */
 #include "pngwrite.h"
 
+#include "fileio.h"
+
 #include <errno.h>
 #include <png.h>
 #include <stdio.h>
@@ -65,32 +67,7 @@ mts_result mts_png_write_rgba(const char *path, uint32_t width, uint32_t height,
         return rc;
     }
 
-    char tmp[4096];
-    if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp) {
-        free(buf);
-        return mts_error_set(err, MTS_ERR_ARG, "%s: path too long", path);
-    }
-    FILE *f = fopen(tmp, "wb");
-    if (!f) {
-        rc = mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
-        free(buf);
-        return rc;
-    }
-    int ok = fwrite(buf, 1, size, f) == size;
-    int e = ok ? 0 : errno;
-    if (fclose(f) != 0 && ok) {
-        ok = 0;
-        e = errno;
-    }
+    rc = mts_file_write_atomic(path, buf, size, err);
     free(buf);
-    if (ok && rename(tmp, path) != 0) {
-        ok = 0;
-        e = errno;
-    }
-    if (!ok) {
-        unlink(tmp);
-        return mts_error_set(err, MTS_ERR_IO, "%s: write failed: %s", path,
-                             strerror(e ? e : EIO));
-    }
-    return MTS_OK;
+    return rc;
 }

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include "crc32c.h"
+#include "fileio.h"
 #include "reccodec.h"
 #include "varint.h"
 
@@ -446,25 +447,10 @@ mts_result mts_modelfile_save(const mts_model *m, const char *path, uint64_t *by
     mts_result rc = mts_modelfile_encode(m, &buf, &size, err);
     if (rc != MTS_OK)
         return rc;
-    char tmp[4096];
-    if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp) {
-        free(buf);
-        return mts_error_set(err, MTS_ERR_ARG, "%s: path too long", path);
-    }
-    FILE *f = fopen(tmp, "wb");
-    if (!f) {
-        rc = mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
-        free(buf);
-        return rc;
-    }
-    int ok = fwrite(buf, 1, size, f) == size;
-    ok = (fclose(f) == 0) && ok;
+    rc = mts_file_write_atomic(path, buf, size, err);
     free(buf);
-    if (!ok || rename(tmp, path) != 0) {
-        rc = mts_error_set(err, MTS_ERR_IO, "%s: write failed: %s", path, strerror(errno));
-        unlink(tmp);
+    if (rc != MTS_OK)
         return rc;
-    }
     if (bytes)
         *bytes = size;
     return MTS_OK;

@@ -14,6 +14,7 @@
 
 #include "mesh.h"
 #include "modelfile.h"
+#include "fileio.h"
 
 struct mts_catalog {
     mts_catalog_options opts;
@@ -113,16 +114,6 @@ static char *str_printf(const char *fmt, ...)
     return s;
 }
 
-static int ascii_ieq(const char *a, const char *b)
-{
-    for (; *a && *b; a++, b++) {
-        char x = *a >= 'A' && *a <= 'Z' ? (char)(*a | 0x20) : *a;
-        if (x != *b) /* b is lower case */
-            return 0;
-    }
-    return !*a && !*b;
-}
-
 /* The extension after the last '.', not counting a leading '.'; NULL when none. */
 static const char *extension(const char *file)
 {
@@ -132,13 +123,13 @@ static const char *extension(const char *file)
 
 static int is_model_ext(const char *ext)
 {
-    return ext && ascii_ieq(ext, "mtsm");
+    return ext && mts_ascii_ieq(ext, "mtsm");
 }
 
 static int is_mesh_ext(const char *ext)
 {
-    return ext && (ascii_ieq(ext, "off") || ascii_ieq(ext, "obj") || ascii_ieq(ext, "ply") ||
-                   ascii_ieq(ext, "stl"));
+    return ext && (mts_ascii_ieq(ext, "off") || mts_ascii_ieq(ext, "obj") || mts_ascii_ieq(ext, "ply") ||
+                   mts_ascii_ieq(ext, "stl"));
 }
 
 static double now_seconds(void)

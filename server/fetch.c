@@ -1,4 +1,5 @@
 #include "fetch.h"
+#include "fileio.h"
 
 #include <curl/curl.h>
 #include <stdlib.h>
@@ -16,16 +17,6 @@ int mts_fetch_is_url(const char *s)
            *p == '+' || *p == '-' || *p == '.')
         p++;
     return p[0] == ':' && p[1] == '/' && p[2] == '/';
-}
-
-static int ascii_ieq(const char *a, const char *b)
-{
-    for (; *a && *b; a++, b++) {
-        char x = *a >= 'A' && *a <= 'Z' ? (char)(*a | 0x20) : *a;
-        if (x != *b) /* b is lower case */
-            return 0;
-    }
-    return !*a && !*b;
 }
 
 /* The scheme as written before ':' (at most size-1 characters, for messages
@@ -59,7 +50,7 @@ static mts_result parse_url(const char *url, const char *shown, CURLU **out, mts
         curl_url_cleanup(u);
         char scheme[40];
         scheme_of(url, scheme, sizeof scheme);
-        if (scheme[0] && !ascii_ieq(scheme, "http") && !ascii_ieq(scheme, "https"))
+        if (scheme[0] && !mts_ascii_ieq(scheme, "http") && !mts_ascii_ieq(scheme, "https"))
             return mts_error_set(err, MTS_ERR_ARG,
                                  "%s: scheme \"%s\" is not allowed (only http and https)", shown,
                                  scheme);
@@ -73,7 +64,7 @@ static mts_result parse_url(const char *url, const char *shown, CURLU **out, mts
         return mts_error_set(err, MTS_ERR_ARG, "%s: the URL has no scheme (give http:// or https://)",
                              shown);
     }
-    int ok = ascii_ieq(scheme, "http") || ascii_ieq(scheme, "https");
+    int ok = mts_ascii_ieq(scheme, "http") || mts_ascii_ieq(scheme, "https");
     if (!ok) {
         mts_error_set(err, MTS_ERR_ARG, "%s: scheme \"%.32s\" is not allowed (only http and https)",
                       shown, scheme);

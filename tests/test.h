@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 
 typedef struct mts_test {
     int passed, failed, skipped;
@@ -80,6 +81,21 @@ static inline const char *mts_test_model(const char *name, char *buf, size_t siz
     snprintf(buf, size, "%s/%s", dir, name);
     struct stat st;
     return stat(buf, &st) == 0 ? buf : NULL;
+}
+
+/* Runs a shell command with stdout and stderr captured together into out;
+ * returns its exit status (-1 when it did not exit normally). */
+static inline int mts_test_run(const char *cmd, char *out, size_t size)
+{
+    char full[8192];
+    snprintf(full, sizeof full, "(%.8000s) 2>&1", cmd);
+    FILE *p = popen(full, "r");
+    if (!p)
+        return -1;
+    size_t n = fread(out, 1, size - 1, p);
+    out[n] = 0;
+    int st = pclose(p);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
 /* A scratch directory for files a test writes. */

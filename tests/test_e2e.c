@@ -20,19 +20,6 @@
 
 static char bin_dir[512], tmp_dir[512];
 
-static int run(const char *cmd, char *out, size_t size)
-{
-    char full[8192];
-    snprintf(full, sizeof full, "(%.8000s) 2>&1", cmd);
-    FILE *p = popen(full, "r");
-    if (!p)
-        return -1;
-    size_t n = fread(out, 1, size - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
 static int listen_any(int *port)
 {
     int fd = socket(AF_INET, SOCK_STREAM, 0), one = 1;
@@ -94,7 +81,7 @@ static void test_server_dies_mid_stream(mts_test *t)
     /* detect_leaks=0: see test_pngs_at_three_levels */
     snprintf(cmd, sizeof cmd, "ASAN_OPTIONS=detect_leaks=0 %s/mts-client 127.0.0.1:%d cow --png %s --json",
              bin_dir, port, png);
-    int rc = run(cmd, out, sizeof out);
+    int rc = mts_test_run(cmd, out, sizeof out);
     waitpid(pid, NULL, 0);
     CHECKF(t, rc == 1, "exit %d: %s", rc, out);
     CHECKF(t, strstr(out, "mid-stream") && strstr(out, "10 batches applied"), "%s", out);
@@ -143,7 +130,7 @@ static int free_port(void)
 static void test_url_models(mts_test *t)
 {
     char out[8192], cmd[4096];
-    if (run("python3 -c 'import http.server'", out, sizeof out) != 0)
+    if (mts_test_run("python3 -c 'import http.server'", out, sizeof out) != 0)
         SKIP(t, "python3 with http.server is not available");
     int web = free_port(), mts = free_port();
     char webport[16], listen[64], log_web[600], log_srv[600], url_ok[256], url_big[256];
@@ -160,7 +147,7 @@ static void test_url_models(mts_test *t)
              "urllib.request.urlopen(\"http://127.0.0.1:%d/cow.off\")' && exit 0; sleep 0.1; "
              "done; exit 1",
              web);
-    CHECK(t, run(cmd, out, sizeof out) == 0);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
     snprintf(url_ok, sizeof url_ok, "cowweb=http://127.0.0.1:%d/cow.off", web);
     snprintf(url_big, sizeof url_big, "cowbig=http://127.0.0.1:%d/cow.off", web);
     char server_bin[600];
@@ -175,12 +162,12 @@ static void test_url_models(mts_test *t)
              "for i in $(seq 1 100); do %s/mts-client 127.0.0.1:%d --list && exit 0; sleep 0.1; "
              "done; exit 1",
              bin_dir, mts);
-    CHECKF(t, run(cmd, out, sizeof out) == 0, "server did not come up: %s", out);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "server did not come up: %s", out);
     CHECKF(t, strstr(out, "cowweb") && !strstr(out, "ftpmodel") && !strstr(out, "filemodel"),
            "%s", out);
     snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cowweb --no-render --json --verify",
              bin_dir, mts);
-    CHECKF(t, run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
     CHECK(t, strstr(out, "\"complete\":true") && strstr(out, "\"triangles\":5804"));
     stop(spid);
     FILE *f = fopen(log_srv, "r");
@@ -196,7 +183,7 @@ static void test_url_models(mts_test *t)
     /* over the size cap: nothing to serve, exit 1, the cap named */
     snprintf(cmd, sizeof cmd, "%s/mts-server --listen %s --model %s --max-download 1000",
              bin_dir, listen, url_big);
-    CHECK(t, run(cmd, out, sizeof out) == 1);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 1);
     CHECKF(t, strstr(out, "1000") != NULL, "%s", out);
     stop(wpid);
 }
@@ -208,7 +195,7 @@ static void test_pngs_at_three_levels(mts_test *t)
     char out[8192], cmd[4096], dir[600], log[700];
     snprintf(dir, sizeof dir, "%s/e2e_models", tmp_dir);
     snprintf(cmd, sizeof cmd, "mkdir -p %s && cp tests/data/cow.off %s/", dir, dir);
-    CHECK(t, run(cmd, out, sizeof out) == 0);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
     int port = free_port();
     char listen[64], server_bin[600];
     snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
@@ -220,7 +207,7 @@ static void test_pngs_at_three_levels(mts_test *t)
              "for i in $(seq 1 100); do %s/mts-client %s --list >/dev/null && exit 0; sleep 0.1; "
              "done; exit 1",
              bin_dir, listen);
-    CHECK(t, run(cmd, out, sizeof out) == 0);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
     char png[700];
     snprintf(png, sizeof png, "%s/e2e_cow.png", tmp_dir);
     /* In the sanitizer build LeakSanitizer's exit-time scan crashes while it
@@ -231,7 +218,7 @@ static void test_pngs_at_three_levels(mts_test *t)
              "ASAN_OPTIONS=detect_leaks=0 %s/mts-client %s cow --png %s --png-levels 0,300,1500 "
              "--size 256x256",
              bin_dir, listen, png);
-    int rc = run(cmd, out, sizeof out);
+    int rc = mts_test_run(cmd, out, sizeof out);
     stop(spid);
     if (rc != 0 && strstr(out, "EGL") && !getenv("MTS_TEST_REQUIRE_EGL"))
         SKIP(t, "no EGL here: %s", out);

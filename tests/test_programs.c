@@ -12,19 +12,6 @@ static char bin_dir[512];
 static char tmp_dir[512];
 
 /* Runs a shell command, captures stdout and stderr together, returns the exit status. */
-static int run(const char *cmd, char *out, size_t size)
-{
-    char full[8192];
-    snprintf(full, sizeof full, "%.8000s 2>&1", cmd);
-    FILE *p = popen(full, "r");
-    if (!p)
-        return -1;
-    size_t n = fread(out, 1, size - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
 static int has_key(const char *json, const char *key)
 {
     char k[128];
@@ -38,25 +25,25 @@ static void test_help_and_usage(mts_test *t)
     const char *progs[] = {"mts-build", "mts-inspect"};
     for (int i = 0; i < 2; i++) {
         snprintf(cmd, sizeof cmd, "%s/%s --help", bin_dir, progs[i]);
-        CHECKF(t, run(cmd, out, sizeof out) == 0, "%s --help", progs[i]);
+        CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s --help", progs[i]);
         CHECK(t, strstr(out, "usage:") != NULL);
         snprintf(cmd, sizeof cmd, "%s/%s", bin_dir, progs[i]);
-        CHECKF(t, run(cmd, out, sizeof out) == 2, "%s without arguments should exit 2", progs[i]);
+        CHECKF(t, mts_test_run(cmd, out, sizeof out) == 2, "%s without arguments should exit 2", progs[i]);
         snprintf(cmd, sizeof cmd, "%s/%s --no-such-option x", bin_dir, progs[i]);
-        CHECK(t, run(cmd, out, sizeof out) == 2);
+        CHECK(t, mts_test_run(cmd, out, sizeof out) == 2);
         CHECK(t, strstr(out, "--no-such-option") != NULL);
     }
     snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off --base-vertices abc", bin_dir);
-    CHECK(t, run(cmd, out, sizeof out) == 2);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 2);
     snprintf(cmd, sizeof cmd, "%s/mts-inspect x.mtsm --fraction 1.5", bin_dir);
-    CHECK(t, run(cmd, out, sizeof out) == 2);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 2);
 }
 
 static void test_bad_input_exits_1(mts_test *t)
 {
     char cmd[8192], out[8192], path[1024];
     snprintf(cmd, sizeof cmd, "%s/mts-build /nonexistent/mesh.off -o %s/x.mtsm", bin_dir, tmp_dir);
-    CHECK(t, run(cmd, out, sizeof out) == 1);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 1);
     CHECKF(t, strstr(out, "/nonexistent/mesh.off") != NULL, "message: %s", out);
 
     snprintf(path, sizeof path, "%s/garbage.off", tmp_dir);
@@ -64,7 +51,7 @@ static void test_bad_input_exits_1(mts_test *t)
     fputs("OFF\n3 1 0\n0 0 0\n1 0 0\n", f); /* ends before its third vertex */
     fclose(f);
     snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s/x.mtsm", bin_dir, path, tmp_dir);
-    CHECK(t, run(cmd, out, sizeof out) == 1);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 1);
     CHECKF(t, strstr(out, "garbage.off") && strstr(out, "truncated"), "message: %s", out);
 
     snprintf(path, sizeof path, "%s/not_a_model.mtsm", tmp_dir);
@@ -72,7 +59,7 @@ static void test_bad_input_exits_1(mts_test *t)
     fputs("this is not a model file at all", f);
     fclose(f);
     snprintf(cmd, sizeof cmd, "%s/mts-inspect %s", bin_dir, path);
-    CHECK(t, run(cmd, out, sizeof out) == 1);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 1);
     CHECKF(t, strstr(out, "not_a_model.mtsm") && strstr(out, "magic"), "message: %s", out);
 }
 
@@ -81,7 +68,7 @@ static void test_build_inspect_verify(mts_test *t)
     char cmd[8192], out[16384], model[1024], obj[1024];
     snprintf(model, sizeof model, "%s/cow_programs.mtsm", tmp_dir);
     snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off -o %s --json", bin_dir, model);
-    CHECKF(t, run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
     const char *keys[] = {"vertices", "triangles", "levels", "base_vertices", "base_triangles",
                           "strips_full", "indices_full", "file_bytes", "seconds", "load",
                           "stripify", "simplify", "records", "write"};
@@ -94,21 +81,21 @@ static void test_build_inspect_verify(mts_test *t)
     CHECK(t, nl && nl[1] == 0);
 
     snprintf(cmd, sizeof cmd, "%s/mts-inspect %s --verify --json", bin_dir, model);
-    CHECKF(t, run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
     CHECK(t, strstr(out, "\"verified\":true") != NULL);
     CHECK(t, strstr(out, "\"levels_verified\":2876") != NULL);
 
     snprintf(cmd, sizeof cmd, "%s/mts-inspect %s --sample 50", bin_dir, model);
-    CHECKF(t, run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
     CHECK(t, strstr(out, "at 50 levels") != NULL);
 
     snprintf(cmd, sizeof cmd, "%s/mts-inspect %s --level 99999", bin_dir, model);
-    CHECK(t, run(cmd, out, sizeof out) == 2);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 2);
 
     /* --obj at the base level: as many faces as the level table says */
     snprintf(obj, sizeof obj, "%s/cow_base.obj", tmp_dir);
     snprintf(cmd, sizeof cmd, "%s/mts-inspect %s --level 0 --obj %s --json", bin_dir, model, obj);
-    CHECKF(t, run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
     const char *tri = strstr(out, "\"level\":{");
     unsigned long want = 0;
     CHECK(t, tri && sscanf(strstr(tri, "\"triangles\":"), "\"triangles\":%lu", &want) == 1);
@@ -127,7 +114,7 @@ static void test_build_inspect_verify(mts_test *t)
     /* the OBJ is a mesh our own loader reads back */
     snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s/cow_base_again.mtsm --json", bin_dir, obj,
              tmp_dir);
-    CHECKF(t, run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
 
     /* a model damaged after the fact is refused with its name */
     f = fopen(model, "r+b");
@@ -138,7 +125,7 @@ static void test_build_inspect_verify(mts_test *t)
         fclose(f);
     }
     snprintf(cmd, sizeof cmd, "%s/mts-inspect %s", bin_dir, model);
-    CHECK(t, run(cmd, out, sizeof out) == 1);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 1);
     CHECKF(t, strstr(out, "checksum"), "message: %s", out);
     remove(model);
     remove(obj);
