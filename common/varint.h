@@ -28,6 +28,11 @@ static inline size_t mts_varint_put(uint8_t *p, uint32_t x)
 static inline int mts_varint_get(const uint8_t **p, const uint8_t *end, uint32_t *x)
 {
     const uint8_t *q = *p;
+    if (q < end && *q < 0x80) { /* most values here take one byte */
+        *x = *q;
+        *p = q + 1;
+        return 1;
+    }
     uint32_t v = 0;
     for (int shift = 0; shift < 35; shift += 7) {
         if (q >= end)
