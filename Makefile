@@ -87,7 +87,7 @@ $(BENCH): $(BUILD)/obj/bench/mts_bench.o $(CLI_OBJ) $(LIB)
 
 $(BUILD)/bin/mts-bench-stream: $(BUILD)/obj/bench/mts_bench_stream.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(dir $@)
-	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -lmeshoptimizer -o $@
 
 deps:
 	@scripts/deps.sh

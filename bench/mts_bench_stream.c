@@ -20,6 +20,8 @@
 #include "stream.h"
 #include "wire.h"
 
+#include <meshoptimizer.h>
+
 static double now_s(void)
 {
     struct timespec ts;
@@ -78,6 +80,85 @@ static double apply_all(const mts_buf *b, mts_renderer *r, mts_error *err)
     mts_wire_reader_free(&rd);
     mts_stream_client_free(&c);
     return ok ? t : 0;
+}
+
+/* Median frame time of n draws in the renderer's current mode. */
+static double frame_ms(mts_renderer *r, int n, mts_error *err)
+{
+    double t[32];
+    if (n > 32)
+        n = 32;
+    for (int i = 0; i < n; i++) {
+        if (mts_render_draw(r, err) != MTS_OK)
+            return 0;
+        mts_render_stats st;
+        mts_render_get_stats(r, &st);
+        t[i] = st.last_draw_seconds * 1e3;
+    }
+    qsort(t, (size_t)n, sizeof(double), cmp_double);
+    return t[n / 2];
+}
+
+typedef struct draw_figures {
+    double strips_ms, list_ms, list_opt_ms;
+    uint64_t strip_index_bytes, list_index_bytes;
+} draw_figures;
+
+/* The full level drawn as restart strips, as the plain triangle list of the
+ * same triangles (in strip order) and as that list after
+ * meshopt_optimizeVertexCache: same vertices, shader and camera. */
+static int draw_compare(mts_render_context *ctx, const mts_model *m, draw_figures *f,
+                        mts_error *err)
+{
+    mts_lod lod;
+    mts_renderer *r = NULL;
+    uint32_t *list = NULL, *opt = NULL;
+    int ok = 0;
+    if (mts_lod_init(&lod, m, MTS_LOD_AT_FULL, err) != MTS_OK)
+        return 0;
+    mts_render_options ro;
+    mts_render_options_default(&ro);
+    ro.width = ro.height = 1024;
+    mts_render_layout layout;
+    mts_render_layout_from_lod(&lod, &layout);
+    if (mts_renderer_create(ctx, &ro, &layout, &r, err) != MTS_OK ||
+        mts_render_append_vertices(r, 0, m->vertex_count, m->positions, m->normals, err) !=
+            MTS_OK ||
+        mts_render_update_strips(r, &lod, err) != MTS_OK)
+        goto done;
+    f->strips_ms = frame_ms(r, 21, err);
+    mts_strip_stats ss = {0};
+    list = malloc(((size_t)m->level_triangles[m->level_count] + 1) * 12);
+    opt = malloc(((size_t)m->level_triangles[m->level_count] + 1) * 12);
+    if (!list || !opt)
+        goto done;
+    size_t n = 0;
+    for (uint32_t s = 0; s < lod.strip_count; s++) {
+        uint32_t len;
+        const uint32_t *str = mts_lod_strip(&lod, s, &len);
+        mts_strip_stats_add(&ss, str, len);
+        for (uint32_t k = 0; k + 2 < len; k++)
+            n += 3 * (size_t)mts_strip_window(str, k, list + n);
+    }
+    f->strip_index_bytes = mts_strip_stats_draw_indices(&ss) * 4;
+    f->list_index_bytes = (uint64_t)n * 4;
+    mts_render_style style = ro.style;
+    style.draw_mode = MTS_RENDER_DRAW_LIST;
+    mts_render_set_style(r, &style);
+    if (mts_render_set_list(r, list, (uint32_t)n, err) != MTS_OK)
+        goto done;
+    f->list_ms = frame_ms(r, 21, err);
+    meshopt_optimizeVertexCache(opt, list, n, m->vertex_count);
+    if (mts_render_set_list(r, opt, (uint32_t)n, err) != MTS_OK)
+        goto done;
+    f->list_opt_ms = frame_ms(r, 21, err);
+    ok = 1;
+done:
+    free(list);
+    free(opt);
+    mts_renderer_destroy(r);
+    mts_lod_free(&lod);
+    return ok;
 }
 
 int main(int argc, char **argv)
@@ -192,6 +273,15 @@ int main(int argc, char **argv)
             printf(", %.2f ms with GL upload (%.2f M splits/s)", gl_med * 1e3,
                    gl_med > 0 ? splits / gl_med / 1e6 : 0);
         printf("\n");
+        draw_figures df = {0};
+        if (have_gl && draw_compare(ctx, &s.model, &df, &err))
+            printf("%-14s full level at 1024x1024 on %s: strips %.2f ms (%llu index bytes), "
+                   "triangle list %.2f ms, meshopt-optimized list %.2f ms (%llu index bytes, "
+                   "strips %.2fx)\n",
+                   "", mts_render_context_description(ctx), df.strips_ms,
+                   (unsigned long long)df.strip_index_bytes, df.list_ms, df.list_opt_ms,
+                   (unsigned long long)df.list_index_bytes,
+                   df.list_index_bytes ? (double)df.strip_index_bytes / df.list_index_bytes : 0);
         if (jf) {
             fprintf(jf,
                     "%s\"%s\":{\"stream_bytes\":%zu,\"base_frame_bytes\":%zu,\"batches\":%u,"
@@ -199,12 +289,16 @@ int main(int argc, char **argv)
                     "\"stream_over_draco_cl7\":%.3f,\"input_bytes\":%lld,\"mtsm_bytes\":%zu,"
                     "\"bytes_10pct_triangles\":%zu,\"bytes_50pct_triangles\":%zu,"
                     "\"bytes_100pct_triangles\":%zu,\"apply_ms\":%.3f,\"splits_per_s\":%.0f,"
-                    "\"apply_gl_ms\":%.3f,\"splits_per_s_gl\":%.0f}",
+                    "\"apply_gl_ms\":%.3f,\"splits_per_s_gl\":%.0f,\"frame_ms_strips\":%.3f,"
+                    "\"frame_ms_list\":%.3f,\"frame_ms_list_meshopt\":%.3f,"
+                    "\"strip_index_bytes\":%llu,\"list_index_bytes\":%llu}",
                     first_json ? "" : ",", name, full, s.batch_offset[0], s.batch_count, draco[0],
                     draco[1], draco[2], draco[0] ? (double)full / draco[0] : 0,
                     (long long)st.st_size, file_size, at[0], at[1], at[2], no_gl[2] * 1e3,
                     no_gl[2] > 0 ? splits / no_gl[2] : 0, gl_med * 1e3,
-                    gl_med > 0 ? splits / gl_med : 0);
+                    gl_med > 0 ? splits / gl_med : 0, df.strips_ms, df.list_ms, df.list_opt_ms,
+                    (unsigned long long)df.strip_index_bytes,
+                    (unsigned long long)df.list_index_bytes);
             first_json = 0;
         }
         mts_buf_free(&b);

@@ -206,6 +206,8 @@ struct mts_renderer {
     float bbox_min[3], bbox_max[3];
 
     GLuint program, vao, vbo, ibo, fbo, color_rb, depth_rb;
+    GLuint list_ibo; /* MTS_RENDER_DRAW_LIST only */
+    uint32_t list_count;
     GLint u_mvp, u_normal, u_color, u_light, u_ambient;
 
     uint32_t *staging; /* max_capacity + 1 */
@@ -517,8 +519,8 @@ void mts_renderer_destroy(mts_renderer *r)
             glDeleteFramebuffers(1, &r->fbo);
         GLuint rbs[2] = {r->color_rb, r->depth_rb};
         glDeleteRenderbuffers(2, rbs);
-        GLuint bufs[2] = {r->vbo, r->ibo};
-        glDeleteBuffers(2, bufs);
+        GLuint bufs[3] = {r->vbo, r->ibo, r->list_ibo};
+        glDeleteBuffers(3, bufs);
         if (r->vao)
             glDeleteVertexArrays(1, &r->vao);
         if (r->program)
@@ -892,6 +894,30 @@ static void strip_color(uint32_t s, float rgb[3])
     }
 }
 
+mts_result mts_render_set_list(mts_renderer *r, const uint32_t *indices, uint32_t count,
+                               mts_error *err)
+{
+    if (!r || (count && !indices) || count % 3 || count > (uint32_t)INT32_MAX)
+        return mts_error_set(err, MTS_ERR_ARG, "render: a triangle list of %u indices", count);
+    for (uint32_t i = 0; i < count; i++) {
+        if (indices[i] >= r->stats.vertices)
+            return mts_error_set(err, MTS_ERR_RANGE,
+                                 "render: list index %u is past the %u vertices uploaded",
+                                 indices[i], r->stats.vertices);
+    }
+    mts_result rc = mts_render_context_make_current(r->ctx, err);
+    if (rc != MTS_OK)
+        return rc;
+    if (!r->list_ibo)
+        glGenBuffers(1, &r->list_ibo);
+    glBindVertexArray(0);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->list_ibo);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)count * 4, indices, GL_STATIC_DRAW);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, 0);
+    r->list_count = count;
+    return gl_check(err, "uploading a triangle list");
+}
+
 mts_result mts_render_draw(mts_renderer *r, mts_error *err)
 {
     if (!r)
@@ -931,7 +957,16 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
 
     uint32_t calls = 0;
     uint64_t indices = 0;
-    if (st->color_by_strip || st->draw_mode == MTS_RENDER_DRAW_PER_STRIP ||
+    if (st->draw_mode == MTS_RENDER_DRAW_LIST) {
+        if (r->list_count) {
+            /* the element binding is VAO state: swap it in and back */
+            glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->list_ibo);
+            glDrawElements(GL_TRIANGLES, (GLsizei)r->list_count, GL_UNSIGNED_INT, (const void *)0);
+            glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
+            calls = 1;
+            indices = r->list_count;
+        }
+    } else if (st->color_by_strip || st->draw_mode == MTS_RENDER_DRAW_PER_STRIP ||
         (st->draw_mode == MTS_RENDER_DRAW_MULTI && !r->multi_draw)) {
         for (uint32_t s = 0; s < r->strip_count; s++) {
             if (r->length[s] < 3)

@@ -117,7 +117,9 @@ void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *layout);
 typedef enum mts_render_draw_mode {
     MTS_RENDER_DRAW_RESTART = 0,
     MTS_RENDER_DRAW_PER_STRIP,
-    MTS_RENDER_DRAW_MULTI
+    MTS_RENDER_DRAW_MULTI,
+    MTS_RENDER_DRAW_LIST /* the triangle list given to mts_render_set_list, not the strips:
+                            for measuring strips against lists on the same vertices */
 } mts_render_draw_mode;
 
 typedef struct mts_render_camera {
@@ -176,6 +178,12 @@ mts_result mts_render_set_strip(mts_renderer *r, uint32_t s, const uint32_t *ind
  * slot and every index is below the vertices uploaded; on failure nothing is
  * uploaded. Leaves lod's changed list alone: the caller clears it. */
 mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_error *err);
+
+/* An indexed triangle list (3 indices a triangle, each below the vertices
+ * uploaded) in a buffer of its own, drawn instead of the strips in
+ * MTS_RENDER_DRAW_LIST mode. */
+mts_result mts_render_set_list(mts_renderer *r, const uint32_t *indices, uint32_t count,
+                               mts_error *err);
 
 void mts_render_set_camera(mts_renderer *r, const mts_render_camera *camera);
 void mts_render_set_style(mts_renderer *r, const mts_render_style *style);
