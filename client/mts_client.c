@@ -418,8 +418,10 @@ int main(int argc, char **argv)
         err = rn.err;
     }
     int verified = -1;
-    /* whatever happened, the last whole batch is drawn and written */
-    if (rn.r && c.have_lod) {
+    /* whatever happened, the last whole batch is drawn and written -- unless a
+     * record failed while a batch was being applied: the runtime is then
+     * broken part-way through a split and there is no whole level to draw */
+    if (rn.r && c.have_lod && !c.lod.broken) {
         if (rc == MTS_OK)
             level_pngs(&rn, &c, 1);
         if (draw(&rn, &c) && rn.png)

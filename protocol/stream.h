@@ -102,8 +102,10 @@ void mts_stream_client_init(mts_stream_client *c);
 void mts_stream_client_free(mts_stream_client *c);
 
 /* Takes one frame. Errors name the message and the problem; a client that
- * returned an error is not fed again. A batch is applied only after its CRC
- * and every split in it have checked out, up to the stop level. */
+ * returned an error is not fed again. A batch is applied only after its CRC,
+ * its header and its encoding have checked out; each split's record is then
+ * checked against the strips as it is applied (mts_lod_split), so a record
+ * that fails leaves c->lod broken part-way through that batch (lod.broken). */
 mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uint8_t *payload,
                                    size_t size, mts_stream_event *event, mts_error *err);
 

@@ -1,5 +1,6 @@
 #include "wire.h"
 
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -312,26 +313,32 @@ void mts_wire_reader_free(mts_wire_reader *r)
 mts_result mts_wire_reader_feed(mts_wire_reader *r, const void *data, size_t size,
                                 mts_error *err)
 {
-    if (r->start > 0 && (r->start >= r->len || r->start > r->cap / 2)) {
-        /* drop consumed frames before growing */
+    if (r->start > 0 &&
+        (r->start >= r->len || r->start > r->cap / 2 || size > r->cap - r->len)) {
+        /* drop consumed frames before growing: whenever the new bytes would
+         * not fit otherwise, so the buffer holds only what is still unread */
         memmove(r->buf, r->buf + r->start, r->len - r->start);
         r->len -= r->start;
         r->start = 0;
     }
     if (size > r->cap - r->len) {
-        size_t cap = r->cap ? r->cap : 4096;
-        while (cap - r->len < size)
-            cap *= 2;
-        /* a reader never holds more than one frame and what follows it in one read */
-        if (cap > 2 * ((size_t)MTS_WIRE_MAX_FRAME + MTS_WIRE_HEADER) + size)
+        /* a drained reader holds less than one frame; one that is fed without
+         * being drained is allowed one more, then refused */
+        if (r->len > 2 * ((size_t)MTS_WIRE_MAX_FRAME + MTS_WIRE_HEADER) ||
+            size > SIZE_MAX / 2 - r->len)
             return mts_error_set(err, MTS_ERR_LIMIT, "reader: more than a frame buffered");
+        size_t need = r->len + size;
+        size_t cap = r->cap ? r->cap : 4096;
+        while (cap < need)
+            cap *= 2;
         uint8_t *b = realloc(r->buf, cap);
         if (!b)
             return mts_error_set(err, MTS_ERR_NOMEM, "reader: out of memory");
         r->buf = b;
         r->cap = cap;
     }
-    memcpy(r->buf + r->len, data, size);
+    if (size)
+        memcpy(r->buf + r->len, data, size);
     r->len += size;
     r->bytes_in += size;
     return MTS_OK;

@@ -38,6 +38,8 @@ typedef struct conn {
     double started, last_progress;
     uint32_t stop_level;
     int watching_out;
+    int rd_closed;              /* the peer shut down its side: stop watching for input */
+    uint32_t events;            /* what epoll watches now */
     const char *outcome;        /* set when the conversation has an end in sight */
     char peer[64];
     char model[MTS_WIRE_MAX_NAME + 1];
@@ -265,6 +267,10 @@ static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, 
         }
         mts_wire_put_models(&c->head, list, s->stream_count);
         free(list);
+        if (c->head.failed) {
+            conn_refuse(c, MTS_WERR_INTERNAL, "out of memory", "error: out of memory");
+            return;
+        }
         snprintf(c->model, sizeof c->model, "(list)");
         c->phase = WRITING;
         c->outcome = "ok";
@@ -313,16 +319,43 @@ static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, 
     c->outcome = "ok";
 }
 
+static void update_events(mts_server *s, conn *c)
+{
+    uint32_t want = (c->rd_closed ? 0 : EPOLLIN | EPOLLRDHUP) | (c->watching_out ? EPOLLOUT : 0);
+    if (want == c->events)
+        return;
+    struct epoll_event ev = {.events = want, .data.ptr = c};
+    epoll_ctl(s->epoll_fd, EPOLL_CTL_MOD, c->fd, &ev);
+    c->events = want;
+}
+
+static void watch_out(mts_server *s, conn *c, int on)
+{
+    c->watching_out = on;
+    update_events(s, c);
+}
+
 /* Reads what the client sent; answers once a whole first frame is in. */
 static void conn_read(mts_server *s, conn *c)
 {
-    for (;;) {
+    for (int rounds = 0;; rounds++) {
         if (c->phase != READING) { /* nothing more is expected: drain and ignore */
-            uint8_t sink[256];
+            /* a bounded drain per wake-up: a client that keeps sending cannot
+             * hold the loop (the level-triggered event comes back) */
+            if (rounds >= 16)
+                return;
+            uint8_t sink[4096];
             ssize_t r = recv(c->fd, sink, sizeof sink, MSG_DONTWAIT);
             if (r > 0)
                 continue;
-            if (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) {
+            if (r == 0) {
+                /* half-closed after its request (legal): the input event
+                 * would fire forever, so stop watching it; writing goes on */
+                c->rd_closed = 1;
+                update_events(s, c);
+            } else if (errno == EINTR) {
+                continue;
+            } else if (errno != EAGAIN && errno != EWOULDBLOCK) {
                 conn_close(s, c, "error: reset by peer");
             }
             return;
@@ -355,16 +388,6 @@ static void conn_read(mts_server *s, conn *c)
         conn_answer(s, c, c->in[4], c->in + 5, len - 1);
         return;
     }
-}
-
-static void watch_out(mts_server *s, conn *c, int on)
-{
-    if (c->watching_out == on)
-        return;
-    struct epoll_event ev = {.events = EPOLLIN | EPOLLRDHUP | (on ? EPOLLOUT : 0),
-                             .data.ptr = c};
-    epoll_ctl(s->epoll_fd, EPOLL_CTL_MOD, c->fd, &ev);
-    c->watching_out = on;
 }
 
 /* Writes as much as the socket takes: the head frame, the shared stream
@@ -451,6 +474,7 @@ static void accept_all(mts_server *s)
         int one = 1;
         setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
         c->fd = fd;
+        c->events = EPOLLIN | EPOLLRDHUP;
         c->started = c->last_progress = now_s();
         snprintf(c->peer, sizeof c->peer, "%s", peer);
         struct epoll_event ev = {.events = EPOLLIN | EPOLLRDHUP, .data.ptr = c};

@@ -8,6 +8,7 @@
 #include <poll.h>
 #include <signal.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -232,11 +233,77 @@ static void test_busy(mts_test *t)
     stop_server(t, &sv);
 }
 
+/* utime + stime of a process, in clock ticks. */
+static long cpu_ticks(pid_t pid)
+{
+    char path[64], line[1024];
+    snprintf(path, sizeof path, "/proc/%d/stat", (int)pid);
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return -1;
+    size_t n = fread(line, 1, sizeof line - 1, f);
+    fclose(f);
+    line[n] = 0;
+    const char *p = strrchr(line, ')');
+    unsigned long ut = 0, st = 0;
+    /* fields after the name: state ppid pgrp session tty tpgid flags minflt
+     * cminflt majflt cmajflt utime stime */
+    if (!p || sscanf(p + 2, "%*c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %lu %lu", &ut, &st) != 2)
+        return -1;
+    return (long)(ut + st);
+}
+
+/* A client that sends its HELLO, shuts down its side (legal: it sends
+ * nothing more) and reads slowly is served to the end, and the server does
+ * not spin on the half-closed socket's input event while it waits. */
+static void test_half_closed_slow_reader(mts_test *t)
+{
+    served sv;
+    mts_server_options o = {0};
+    o.listen = "127.0.0.1:0";
+    if (!start_server(t, &sv, &o))
+        return;
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    int small = 2048;
+    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+    struct sockaddr_in a = {0};
+    a.sin_family = AF_INET;
+    a.sin_port = htons((uint16_t)sv.port);
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    CHECK(t, connect(fd, (struct sockaddr *)&a, sizeof a) == 0);
+    mts_buf hello = {0}, reply = {0};
+    hello_bytes(&hello, "cow", 1);
+    CHECK(t, send(fd, hello.data, hello.size, MSG_NOSIGNAL) == (ssize_t)hello.size);
+    shutdown(fd, SHUT_WR);
+    usleep(200000);
+    long t0 = cpu_ticks(sv.pid);
+    usleep(1000000); /* not reading: the server waits on a full socket */
+    long t1 = cpu_ticks(sv.pid);
+    CHECKF(t, t0 >= 0 && t1 - t0 < 30, "server used %ld ticks in 1 s while waiting", t1 - t0);
+    uint8_t buf[65536];
+    for (;;) {
+        struct pollfd pf = {fd, POLLIN, 0};
+        if (poll(&pf, 1, 5000) != 1)
+            break;
+        ssize_t r = recv(fd, buf, sizeof buf, 0);
+        if (r <= 0)
+            break;
+        mts_buf_put(&reply, buf, (size_t)r);
+    }
+    close(fd);
+    CHECKF(t, reply.size > sv.stream.size, /* MODEL_INFO + the whole stream + END */
+           "got %zu bytes of a %zu-byte stream", reply.size, sv.stream.size);
+    mts_buf_free(&hello);
+    mts_buf_free(&reply);
+    stop_server(t, &sv);
+}
+
 int main(void)
 {
     signal(SIGPIPE, SIG_IGN);
     mts_test t = {0};
     RUN(&t, test_good_client_beside_bad_ones);
     RUN(&t, test_busy);
+    RUN(&t, test_half_closed_slow_reader);
     return mts_test_end(&t);
 }

@@ -246,6 +246,49 @@ static void test_reader_refuses_bad_lengths(mts_test *t)
     mts_wire_reader_free(&r);
 }
 
+/* Two near-maximal frames back to back, fed in pieces and drained after each
+ * feed as a client does: consumed bytes are dropped before the buffer grows,
+ * so a legal stream is never refused as "more than a frame buffered". */
+static void test_reader_two_big_frames(mts_test *t)
+{
+    const size_t a_len = (16u << 20) - 4, b_len = MTS_WIRE_MAX_FRAME; /* type + payload */
+    const size_t total = 4 + a_len + 4 + b_len;
+    uint8_t *data = calloc(total, 1);
+    CHECK(t, data != NULL);
+    if (!data)
+        return;
+    data[0] = (uint8_t)a_len;
+    data[1] = (uint8_t)(a_len >> 8);
+    data[2] = (uint8_t)(a_len >> 16);
+    data[3] = (uint8_t)(a_len >> 24);
+    data[4] = MTS_MSG_BASE;
+    uint8_t *bh = data + 4 + a_len;
+    bh[0] = (uint8_t)b_len;
+    bh[1] = (uint8_t)(b_len >> 8);
+    bh[2] = (uint8_t)(b_len >> 16);
+    bh[3] = (uint8_t)(b_len >> 24);
+    bh[4] = MTS_MSG_BATCH;
+    mts_wire_reader r = {0};
+    mts_error err = {0};
+    int frames = 0, ok = 1;
+    for (size_t at = 0; at < total && ok; at += 100000) {
+        size_t k = total - at < 100000 ? total - at : 100000;
+        ok = mts_wire_reader_feed(&r, data + at, k, &err) == MTS_OK;
+        CHECKF(t, ok, "at %zu: %s", at, err.msg);
+        uint8_t type;
+        const uint8_t *p;
+        size_t n;
+        while (ok && mts_wire_reader_next(&r, &type, &p, &n, &err) == 1) {
+            CHECK(t, n == (frames == 0 ? a_len : b_len) - 1);
+            frames++;
+        }
+    }
+    CHECK(t, frames == 2);
+    CHECK(t, r.cap <= 2 * ((size_t)MTS_WIRE_MAX_FRAME + MTS_WIRE_HEADER) + 100000);
+    mts_wire_reader_free(&r);
+    free(data);
+}
+
 int main(void)
 {
     mts_test t = {0};
@@ -254,5 +297,6 @@ int main(void)
     RUN(&t, test_small_messages);
     RUN(&t, test_reader_any_split);
     RUN(&t, test_reader_refuses_bad_lengths);
+    RUN(&t, test_reader_two_big_frames);
     return mts_test_end(&t);
 }
