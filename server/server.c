@@ -48,6 +48,7 @@ typedef struct conn {
 
 struct mts_server {
     mts_server_options opts;
+    double listen_paused_until; /* out of descriptors: the listener is not watched */
     const mts_stream *const *streams;
     uint32_t stream_count;
     int listen_fd, epoll_fd, port;
@@ -441,8 +442,16 @@ static void accept_all(mts_server *s)
         struct sockaddr_storage ss;
         socklen_t sl = sizeof ss;
         int fd = accept4(s->listen_fd, (struct sockaddr *)&ss, &sl, SOCK_NONBLOCK | SOCK_CLOEXEC);
-        if (fd < 0)
-            return; /* EAGAIN, or out of descriptors: try again on the next wake-up */
+        if (fd < 0) {
+            if (errno == EMFILE || errno == ENFILE || errno == ENOBUFS || errno == ENOMEM) {
+                /* the pending connection stays queued and the listener stays
+                 * readable: stop watching it for a moment instead of spinning */
+                epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, s->listen_fd, NULL);
+                s->listen_paused_until = now_s() + 0.1;
+                logf_(s, "accept: %s; not accepting for 100 ms", strerror(errno));
+            }
+            return;
+        }
         char peer[64] = "?";
         char host[INET6_ADDRSTRLEN] = "?";
         int port = 0;
@@ -512,6 +521,11 @@ mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error 
     double stop_at = 0;
     for (;;) {
         double now = now_s();
+        if (s->listen_paused_until > 0 && now >= s->listen_paused_until && s->listen_fd >= 0) {
+            struct epoll_event ev = {.events = EPOLLIN, .data.ptr = NULL};
+            if (epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, s->listen_fd, &ev) == 0)
+                s->listen_paused_until = 0;
+        }
         if (*stop && s->listen_fd >= 0) {
             epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, s->listen_fd, NULL);
             close(s->listen_fd);

@@ -9,6 +9,7 @@
 #include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -22,6 +23,8 @@
 #include "wire.h"
 
 static volatile sig_atomic_t stop_flag;
+/* > 0: the forked server runs with this few file descriptors */
+static int fd_limit;
 
 static void on_term(int sig)
 {
@@ -117,6 +120,12 @@ static int start_server(mts_test *t, served *sv, const mts_server_options *opts)
     sv->pid = fork();
     if (sv->pid == 0) {
         signal(SIGTERM, on_term);
+        if (fd_limit > 0) {
+            struct rlimit rl;
+            getrlimit(RLIMIT_NOFILE, &rl);
+            rl.rlim_cur = (rlim_t)fd_limit;
+            setrlimit(RLIMIT_NOFILE, &rl);
+        }
         mts_result rc = mts_server_run(server, &stop_flag, &err);
         mts_server_free(server);
         mts_stream_free(&sv->stream);
@@ -298,6 +307,50 @@ static void test_half_closed_slow_reader(mts_test *t)
     stop_server(t, &sv);
 }
 
+/* Out of file descriptors, the server must neither spin nor stop: it pauses
+ * accepting and serves the queued client once descriptors free up. */
+static void test_out_of_descriptors(mts_test *t)
+{
+    served sv;
+    mts_server_options o = {0};
+    o.listen = "127.0.0.1:0";
+    o.handshake_timeout = 0.4;
+    /* stdio, listener, epoll, and a few more: leaves room for about two clients */
+    int highest = dup(0);
+    close(highest);
+    fd_limit = highest + 4;
+    int started = start_server(t, &sv, &o);
+    fd_limit = 0;
+    if (!started)
+        return;
+    int silent[8];
+    for (int i = 0; i < 8; i++)
+        silent[i] = connect_to(sv.port); /* the kernel queues what the server cannot take */
+    usleep(200000);
+    long t0 = cpu_ticks(sv.pid);
+    usleep(300000);
+    long t1 = cpu_ticks(sv.pid);
+    CHECKF(t, t1 - t0 < 15, "server used %ld ticks in 0.3 s while out of descriptors", t1 - t0);
+    for (int i = 0; i < 8; i++)
+        if (silent[i] >= 0)
+            close(silent[i]);
+    /* the queued ones time out and free their descriptors; then a good client is served */
+    mts_buf hello = {0}, reply = {0};
+    hello_bytes(&hello, "cow", 1);
+    int served_ok = 0;
+    for (int attempt = 0; attempt < 20 && !served_ok; attempt++) {
+        reply.size = 0;
+        exchange(sv.port, hello.data, hello.size, &reply, 3);
+        served_ok = reply.size > 1000 && reply.data[4] == MTS_MSG_MODEL_INFO;
+        if (!served_ok)
+            usleep(200000);
+    }
+    CHECK(t, served_ok);
+    mts_buf_free(&hello);
+    mts_buf_free(&reply);
+    stop_server(t, &sv);
+}
+
 int main(void)
 {
     signal(SIGPIPE, SIG_IGN);
@@ -305,5 +358,6 @@ int main(void)
     RUN(&t, test_good_client_beside_bad_ones);
     RUN(&t, test_busy);
     RUN(&t, test_half_closed_slow_reader);
+    RUN(&t, test_out_of_descriptors);
     return mts_test_end(&t);
 }
