@@ -376,6 +376,9 @@ int main(int argc, char **argv)
             snprintf(host, sizeof host, "%.*s", (int)(close - server - 1), server + 1);
             if (close[1] == ':')
                 snprintf(port, sizeof port, "%s", close + 2);
+        } else if (colon && strchr(server, ':') != colon) {
+            /* more than one ':' without brackets: a bare IPv6 address */
+            snprintf(host, sizeof host, "%s", server);
         } else if (colon) {
             snprintf(host, sizeof host, "%.*s", (int)(colon - server), server);
             snprintf(port, sizeof port, "%s", colon + 1);

@@ -43,8 +43,11 @@ static int connect_bounded(const char *host, const char *port, double timeout, m
             struct pollfd pf = {fd, POLLOUT, 0};
             int soerr = 0;
             socklen_t sl = sizeof soerr;
-            if (poll(&pf, 1, (int)(timeout * 1000)) == 1 &&
-                getsockopt(fd, SOL_SOCKET, SO_ERROR, &soerr, &sl) == 0 && soerr == 0)
+            int pr;
+            do
+                pr = poll(&pf, 1, (int)(timeout * 1000));
+            while (pr < 0 && errno == EINTR);
+            if (pr == 1 && getsockopt(fd, SOL_SOCKET, SO_ERROR, &soerr, &sl) == 0 && soerr == 0)
                 break;
             last = soerr ? soerr : ETIMEDOUT;
         } else {
