@@ -39,6 +39,8 @@ typedef struct conn {
     uint32_t stop_level;
     int watching_out;
     int rd_closed;              /* the peer shut down its side: stop watching for input */
+    double linger_until;        /* > 0: a refusal is sent and our side shut; wait for the
+                                   peer's close so it reads the ERROR instead of a reset */
     uint32_t events;            /* what epoll watches now */
     const char *outcome;        /* set when the conversation has an end in sight */
     char peer[64];
@@ -349,7 +351,9 @@ static void conn_read(mts_server *s, conn *c)
             ssize_t r = recv(c->fd, sink, sizeof sink, MSG_DONTWAIT);
             if (r > 0)
                 continue;
-            if (r == 0) {
+            if (r == 0 && c->linger_until > 0) {
+                conn_close(s, c, NULL); /* the refused client has read and closed */
+            } else if (r == 0) {
                 /* half-closed after its request (legal): the input event
                  * would fire forever, so stop watching it; writing goes on */
                 c->rd_closed = 1;
@@ -406,6 +410,16 @@ static void conn_write(mts_server *s, conn *c)
         if (c->tail_off < c->tail.size)
             iov[n++] = (struct iovec){c->tail.data + c->tail_off, c->tail.size - c->tail_off};
         if (n == 0) {
+            if (c->outcome && strncmp(c->outcome, "error", 5) == 0 && !c->rd_closed) {
+                /* Closing now, with client bytes still unread, would send a
+                 * reset that can destroy the ERROR in flight: shut our side
+                 * and let the client close first (briefly). */
+                shutdown(c->fd, SHUT_WR);
+                c->linger_until = now_s() + 1.0;
+                c->watching_out = 0;
+                update_events(s, c);
+                return;
+            }
             conn_close(s, c, NULL);
             return;
         }
@@ -470,6 +484,13 @@ static void accept_all(mts_server *s)
             if (!b.failed)
                 (void)!send(fd, b.data, b.size, MSG_NOSIGNAL | MSG_DONTWAIT);
             mts_buf_free(&b);
+            /* read what the client already sent (its HELLO) and shut our
+             * side first, so the close is a FIN the client reads after the
+             * ERROR, not a reset that can overtake it */
+            uint8_t sink[512];
+            while (recv(fd, sink, sizeof sink, MSG_DONTWAIT) > 0) {
+            }
+            shutdown(fd, SHUT_WR);
             close(fd);
             s->stats.busy++;
             logf_(s, "peer=%s model=- bytes=0 level=0 ms=0.0 outcome=error: busy", peer);
@@ -505,7 +526,10 @@ static void check_timeouts(mts_server *s, double now)
     conn *c = s->conns;
     while (c) {
         conn *next = c->next;
-        if (c->phase == READING && now - c->started > s->opts.handshake_timeout) {
+        if (c->linger_until > 0) {
+            if (now > c->linger_until)
+                conn_close(s, c, NULL);
+        } else if (c->phase == READING && now - c->started > s->opts.handshake_timeout) {
             conn_refuse(c, MTS_WERR_TIMEOUT, "no HELLO in time", "error: handshake timeout");
             conn_write(s, c); /* best effort; closes once flushed or on error */
         } else if (c->phase == WRITING && now - c->last_progress > s->opts.idle_timeout) {
