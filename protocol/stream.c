@@ -603,7 +603,10 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
         mts_strips_alloc(&m->full, mi->strips, 0, err) != MTS_OK)
         return mts_error_set(err, MTS_ERR_NOMEM, "MODEL_INFO: out of memory for %u vertices",
                              mi->vertices);
-    /* the full strips' lengths are the slots; their indices never travel */
+    /* The full strips' lengths are the slots; their indices never travel, so
+     * this model's full.indices is empty (index_count counts the slots' room
+     * only): it may start runtimes at the base, never at the full level,
+     * and is not for mts_model_validate or mts_verify_model. */
     uint32_t o = 0;
     for (uint32_t s = 0; s < mi->strips; s++) {
         m->full.offsets[s] = o;

@@ -83,7 +83,8 @@ typedef enum mts_stream_event {
 typedef struct mts_stream_client {
     int state;
     mts_wire_model_info info;
-    mts_model model;       /* filled as the stream arrives */
+    mts_model model;       /* filled as the stream arrives; it has no full-level
+                              strip indices (only their lengths), see take_info */
     uint32_t *quantized;
     size_t record_capacity;
     mts_lod lod;
