@@ -189,6 +189,9 @@ int main(int argc, char **argv)
         mts_error_set(&err, MTS_ERR_ARG, "no model could be encoded");
         goto fail;
     }
+    /* every stream holds its own copy of its model: the catalog's can go */
+    mts_catalog_free(cat);
+    cat = NULL;
     so.log = log_line;
     so.log_user = &quiet;
     if (mts_server_create(&so, list, ready, &server, &err) != MTS_OK)
