@@ -27,6 +27,16 @@ void mts__mesh_raw_free(mts__mesh_raw *raw)
     raw->triangle_count = raw->triangle_capacity = 0;
 }
 
+/* The next capacity for `need` items: doubling from `current` (or 256),
+ * capped at the loader's limit (callers have checked need against it). */
+static uint64_t grown_capacity(uint32_t current, uint64_t need)
+{
+    uint64_t cap = current ? (uint64_t)current * 2 : 256;
+    while (cap < need)
+        cap *= 2;
+    return cap > MTS__MESH_MAX_COUNT ? MTS__MESH_MAX_COUNT : cap;
+}
+
 /* Makes room for `need` vertices (positions, and normals when with_normals;
  * new normals start at zero because OBJ sums into them). Doubling keeps the
  * cost linear; callers only ask for what they have parsed or what the bytes
@@ -39,11 +49,7 @@ static mts_result raw_reserve_vertices(mts__mesh_raw *raw, uint64_t need, int wi
     if (need > MTS__MESH_MAX_COUNT)
         return mts_error_set(err, MTS_ERR_LIMIT, "%s: more than %u vertices", raw->name,
                              MTS__MESH_MAX_COUNT);
-    uint64_t cap = raw->vertex_capacity ? (uint64_t)raw->vertex_capacity * 2 : 256;
-    while (cap < need)
-        cap *= 2;
-    if (cap > MTS__MESH_MAX_COUNT)
-        cap = MTS__MESH_MAX_COUNT;
+    uint64_t cap = grown_capacity(raw->vertex_capacity, need);
     float *p = realloc(raw->positions, (size_t)cap * 3 * sizeof *p);
     if (!p)
         goto nomem;
@@ -70,11 +76,7 @@ static mts_result raw_reserve_triangles(mts__mesh_raw *raw, uint64_t need, mts_e
     if (need > MTS__MESH_MAX_COUNT)
         return mts_error_set(err, MTS_ERR_LIMIT, "%s: more than %u triangles", raw->name,
                              MTS__MESH_MAX_COUNT);
-    uint64_t cap = raw->triangle_capacity ? (uint64_t)raw->triangle_capacity * 2 : 256;
-    while (cap < need)
-        cap *= 2;
-    if (cap > MTS__MESH_MAX_COUNT)
-        cap = MTS__MESH_MAX_COUNT;
+    uint64_t cap = grown_capacity(raw->triangle_capacity, need);
     uint32_t *t = realloc(raw->triangles, (size_t)cap * 3 * sizeof *t);
     if (!t)
         return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for %llu triangles",
