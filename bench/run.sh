@@ -45,6 +45,14 @@ if [ -f "$shared/models/bunny00.off" ]; then
   wait "$server" 2>/dev/null
 fi
 
+# --- many clients (issue 4): mts-server beside nginx on the same bytes --------
+rm -f "$out/stress.json"
+if [ "${MTS_BENCH_STRESS:-1}" = 0 ]; then
+  printf '{"skipped": "MTS_BENCH_STRESS=0"}\n' >"$out/stress.json"
+else
+  bench/stress.sh "$out" || status=1
+fi
+
 # seconds since some epoch, with microseconds (bash 5)
 now() { printf '%s\n' "$EPOCHREALTIME"; }
 elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", b - a }'; }
@@ -231,6 +239,36 @@ if runs:
           f"{loop['ms_final_median']:.1f} ms, decode+apply {loop['ms_apply_median']:.1f} ms, "
           f"render {loop['ms_render_median']:.1f} ms, {loop['bytes']} bytes")
 res["stream"] = stream
+
+stress = {}
+try:
+    with open(os.path.join(out, "stress.json")) as f:
+        stress = json.load(f)
+except (OSError, ValueError):
+    stress = {"skipped": "bench/stress.sh wrote nothing"}
+if "skipped" in stress:
+    print(f"\nMany clients: skipped: {stress['skipped']}")
+else:
+    print(f"\nMany clients (mts-stress --no-apply, bunny00 full stream {stress['stream_bytes']} B "
+          f"each; nginx: {stress['nginx']}; median of {stress['runs_per_point']} runs)")
+    print(f"{'clients':>8} {'server':<11} {'MB/s':>8} {'p50 ms':>9} {'p99 ms':>9} {'failed':>7} "
+          f"{'srv CPU s':>9} {'srv RSS MB':>10} {'mts/nginx':>9}")
+    print("-" * 88)
+    for p in stress["throughput"]:
+        for name in ("mts-server", "nginx"):
+            r = p.get(name)
+            if not r:
+                continue
+            ratio = f"{p['ratio_mts_to_nginx']:.2f}" if name == "nginx" and "ratio_mts_to_nginx" in p else ""
+            print(f"{p['clients']:>8} {name:<11} {r['mb_per_s']:>8.1f} {r['p50_ms_final']:>9.1f} "
+                  f"{r['p99_ms_final']:>9.1f} {r['failed']:>7} {r['server_cpu_s']:>9.2f} "
+                  f"{r['server_peak_rss_mb']:>10.1f} {ratio:>9}")
+    c = stress.get("concurrent")
+    if c:
+        print(f"  10,000 at once ({c['how']}): peak {c['peak_connections']} connections, "
+              f"{c['failed']} failed, server RSS {c['server_idle_rss_mb']} -> "
+              f"{c['server_peak_rss_mb']} MB = {c['bytes_per_connection']} B per connection")
+res["stress"] = stress
 
 with open(dest + ".tmp", "w") as f:
     json.dump(res, f, indent=2)

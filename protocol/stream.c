@@ -90,6 +90,7 @@ void mts_stream_free(mts_stream *s)
     free(s->batch_first);
     free(s->batch_offset);
     free(s->level_checksum);
+    free(s->info_tail);
     memset(s, 0, sizeof *s);
 }
 
@@ -318,6 +319,8 @@ static mts_result level_checksums(mts_stream *s, mts_error *err)
     return rc;
 }
 
+static mts_result build_info_tail(mts_stream *s);
+
 mts_result mts_stream_build(const mts_model *model, const char *name,
                             const mts_stream_options *opts, mts_stream *s, mts_error *err)
 {
@@ -425,6 +428,8 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     s->stream_id = fnv64(s->bytes, s->size) ^ ((uint64_t)s->size << 1);
     if ((rc = level_checksums(s, err)) != MTS_OK)
         goto fail;
+    if (build_info_tail(s) != MTS_OK)
+        goto nomem;
     free(draco);
     free(rec);
     free(oct);
@@ -473,43 +478,69 @@ mts_result mts_stream_range(const mts_stream *s, uint32_t resume_batch, uint32_t
     return MTS_OK;
 }
 
-void mts_stream_put_model_info(const mts_stream *s, uint32_t stop_level, mts_buf *out)
+/* MODEL_INFO's fields for a stop level; the tail's arrays are left NULL. */
+static void info_fields(const mts_stream *s, uint32_t stop_level, mts_wire_model_info *mi)
 {
     const mts_model *m = &s->model;
-    mts_wire_model_info mi = {0};
-    mi.minor = MTS_WIRE_MINOR;
-    mi.stream_id = s->stream_id;
-    snprintf(mi.model, sizeof mi.model, "%s", s->name);
-    mi.vertices = m->vertex_count;
-    mi.base_vertices = m->base_vertex_count;
-    mi.levels = m->level_count;
-    mi.triangles = m->level_triangles[m->level_count];
-    mi.strips = m->strip_count;
-    mi.stop_level = stop_level;
-    mi.stop_triangles = m->level_triangles[stop_level];
-    memcpy(mi.bbox_min, m->bbox_min, 12);
-    memcpy(mi.bbox_max, m->bbox_max, 12);
-    mi.quant_bits = (uint8_t)s->grid.bits;
-    memcpy(mi.grid_origin, s->grid.origin, 12);
-    mi.grid_range = s->grid.range;
-    mi.batch_count = s->batch_count;
+    memset(mi, 0, sizeof *mi);
+    mi->minor = MTS_WIRE_MINOR;
+    mi->stream_id = s->stream_id;
+    snprintf(mi->model, sizeof mi->model, "%s", s->name);
+    mi->vertices = m->vertex_count;
+    mi->base_vertices = m->base_vertex_count;
+    mi->levels = m->level_count;
+    mi->triangles = m->level_triangles[m->level_count];
+    mi->strips = m->strip_count;
+    mi->stop_level = stop_level;
+    mi->stop_triangles = m->level_triangles[stop_level];
+    memcpy(mi->bbox_min, m->bbox_min, 12);
+    memcpy(mi->bbox_max, m->bbox_max, 12);
+    mi->quant_bits = (uint8_t)s->grid.bits;
+    memcpy(mi->grid_origin, s->grid.origin, 12);
+    mi->grid_range = s->grid.range;
+    mi->batch_count = s->batch_count;
+}
+
+/* The part of MODEL_INFO every connection shares, encoded once. */
+static mts_result build_info_tail(mts_stream *s)
+{
+    const mts_model *m = &s->model;
+    mts_wire_model_info mi;
+    info_fields(s, m->level_count, &mi);
     uint32_t *sizes = malloc(((size_t)s->batch_count + 1) * 4);
     uint32_t *caps = malloc(((size_t)m->strip_count + 1) * 4);
-    if (!sizes || !caps) {
-        out->failed = 1;
-        free(sizes);
-        free(caps);
-        return;
+    mts_buf tail = {0};
+    if (sizes && caps) {
+        for (uint32_t k = 0; k < s->batch_count; k++)
+            sizes[k] = s->batch_first[k + 1] - s->batch_first[k];
+        for (uint32_t st = 0; st < m->strip_count; st++)
+            caps[st] = m->full.offsets[st + 1] - m->full.offsets[st];
+        mi.batch_splits = sizes;
+        mi.capacities = caps;
+        mts_wire_put_model_info_tail(&tail, &mi);
     }
-    for (uint32_t k = 0; k < s->batch_count; k++)
-        sizes[k] = s->batch_first[k + 1] - s->batch_first[k];
-    for (uint32_t st = 0; st < m->strip_count; st++)
-        caps[st] = m->full.offsets[st + 1] - m->full.offsets[st];
-    mi.batch_splits = sizes;
-    mi.capacities = caps;
-    mts_wire_put_model_info(out, &mi);
     free(sizes);
     free(caps);
+    if (!sizes || !caps || tail.failed) {
+        mts_buf_free(&tail);
+        return MTS_ERR_NOMEM;
+    }
+    s->info_tail = tail.data;
+    s->info_tail_size = tail.size;
+    return MTS_OK;
+}
+
+void mts_stream_put_model_info_head(const mts_stream *s, uint32_t stop_level, mts_buf *out)
+{
+    mts_wire_model_info mi;
+    info_fields(s, stop_level, &mi);
+    mts_wire_put_model_info_head(out, &mi, s->info_tail_size);
+}
+
+void mts_stream_put_model_info(const mts_stream *s, uint32_t stop_level, mts_buf *out)
+{
+    mts_stream_put_model_info_head(s, stop_level, out);
+    mts_buf_put(out, s->info_tail, s->info_tail_size);
 }
 
 void mts_stream_put_end(const mts_stream *s, uint32_t stop_level, uint32_t bytes_before_end,
@@ -529,7 +560,9 @@ void mts_stream_put_end(const mts_stream *s, uint32_t stop_level, uint32_t bytes
 
 /* ---- client ---- */
 
-enum { ST_INFO = 0, ST_BASE, ST_BATCHES, ST_DONE, ST_FAILED };
+/* ST_SKIP_BASE: a resumed conversation that the server started from batch 0
+ * after our base was in; its BASE is the one we hold (same stream_id). */
+enum { ST_INFO = 0, ST_BASE, ST_BATCHES, ST_DONE, ST_FAILED, ST_SKIP_BASE };
 
 /* A client allocates for the counts MODEL_INFO announces before any data
  * arrives, so those counts are capped: 2^24 vertices (a 16M-vertex model
@@ -619,6 +652,50 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     c->grid.range = mi->grid_range;
     c->stop_level = mi->stop_level;
     return MTS_OK;
+}
+
+/* A resumed conversation's MODEL_INFO against the first one: everything the
+ * client's state depends on must be equal, or the batches to come belong to
+ * another stream. The minor version may differ (a server upgraded in
+ * between speaks the same stream). */
+static mts_result check_resumed_info(mts_stream_client *c, const uint8_t *p, size_t n,
+                                     mts_error *err)
+{
+    mts_wire_model_info mi = {0};
+    mts_result rc = mts_wire_parse_model_info(p, n, &mi, err);
+    if (rc != MTS_OK)
+        return rc;
+    const mts_wire_model_info *a = &c->info;
+    const char *what = NULL;
+    if (mi.stream_id != a->stream_id)
+        what = "stream_ids";
+    else if (strcmp(mi.model, a->model) != 0)
+        what = "names";
+    else if (mi.vertices != a->vertices || mi.base_vertices != a->base_vertices ||
+             mi.levels != a->levels || mi.triangles != a->triangles || mi.strips != a->strips)
+        what = "counts";
+    else if (mi.stop_level != a->stop_level || mi.stop_triangles != a->stop_triangles)
+        what = "stop levels";
+    else if (memcmp(mi.bbox_min, a->bbox_min, 12) != 0 ||
+             memcmp(mi.bbox_max, a->bbox_max, 12) != 0 || mi.quant_bits != a->quant_bits ||
+             memcmp(mi.grid_origin, a->grid_origin, 12) != 0 ||
+             memcmp(&mi.grid_range, &a->grid_range, 4) != 0)
+        what = "grids";
+    else if (mi.batch_count != a->batch_count ||
+             (a->batch_count &&
+              memcmp(mi.batch_splits, a->batch_splits, (size_t)a->batch_count * 4) != 0))
+        what = "batches";
+    else if (a->strips && memcmp(mi.capacities, a->capacities, (size_t)a->strips * 4) != 0)
+        what = "strip capacities";
+    if (what)
+        rc = mts_error_set(err, MTS_ERR_FORMAT,
+                           "MODEL_INFO on resume: '%s' is now another stream (%s differ: stream "
+                           "%016llx, was %016llx) than the one this client holds %u batches of; "
+                           "not mixing two streams",
+                           mi.model, what, (unsigned long long)mi.stream_id,
+                           (unsigned long long)a->stream_id, c->batches);
+    mts_wire_model_info_free(&mi);
+    return rc;
 }
 
 static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
@@ -803,6 +880,16 @@ mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uin
     }
     switch (c->state) {
     case ST_INFO:
+        if (c->resuming) {
+            if (type != MTS_MSG_MODEL_INFO)
+                break;
+            if ((rc = check_resumed_info(c, payload, size, err)) != MTS_OK)
+                return fail(c, rc);
+            c->state = c->batches == 0 ? ST_SKIP_BASE : ST_BATCHES;
+            c->resumes++;
+            *event = MTS_EV_RESUMED;
+            return MTS_OK;
+        }
         if (type == MTS_MSG_MODELS) {
             if ((rc = mts_wire_parse_models(payload, size, c->on_model, c->user, err)) != MTS_OK)
                 return fail(c, rc);
@@ -825,6 +912,16 @@ mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uin
         c->state = ST_BATCHES;
         *event = MTS_EV_BASE;
         return MTS_OK;
+    case ST_SKIP_BASE:
+        /* the same stream_id means the same bytes: this BASE is the one in
+         * place; the CRC still guards against a corrupted frame */
+        if (type != MTS_MSG_BASE)
+            break;
+        if (!crc_ok(payload, size))
+            return fail(c, mts_error_set(err, MTS_ERR_CHECKSUM,
+                                         "BASE (resumed): checksum mismatch"));
+        c->state = ST_BATCHES;
+        return MTS_OK;
     case ST_BATCHES:
         if (type == MTS_MSG_BATCH) {
             if ((rc = take_batch(c, payload, size, err)) != MTS_OK)
@@ -842,4 +939,41 @@ mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uin
     }
     return fail(c, mts_error_set(err, MTS_ERR_FORMAT, "stream: unexpected message type %u",
                                  type));
+}
+
+int mts_stream_client_resume_point(const mts_stream_client *c, uint32_t *resume_batch,
+                                   uint64_t *stream_id)
+{
+    *resume_batch = 0;
+    *stream_id = 0;
+    if (c->state == ST_DONE || c->state == ST_FAILED)
+        return 0;
+    if (c->have_lod && c->batches > 0) {
+        *resume_batch = c->batches;
+        *stream_id = c->info.stream_id;
+    }
+    return 1;
+}
+
+mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)
+{
+    if (c->state == ST_DONE || c->state == ST_FAILED)
+        return mts_error_set(err, MTS_ERR_ARG, "stream: cannot resume a stream that %s",
+                             c->state == ST_DONE ? "ended" : "failed");
+    if (!c->have_lod) {
+        /* nothing applied yet: start over, keeping only the caller's hooks */
+        void (*on_model)(void *, const mts_wire_model_entry *) = c->on_model;
+        void *user = c->user;
+        uint32_t resumes = c->resumes;
+        mts_stream_client_free(c);
+        mts_stream_client_init(c);
+        c->on_model = on_model;
+        c->user = user;
+        c->resumes = resumes;
+        return MTS_OK;
+    }
+    /* from ST_BATCHES, ST_SKIP_BASE, or ST_INFO of a resume broken again */
+    c->state = ST_INFO;
+    c->resuming = 1;
+    return MTS_OK;
 }

@@ -11,7 +11,9 @@
  *
  * Client: mts_stream_client takes frames as they arrive, checks each against
  * its bounds, the CRC and the state so far, and applies every batch through
- * the LOD runtime (mts_lod), so a renderer can follow along. */
+ * the LOD runtime (mts_lod), so a renderer can follow along. After a broken
+ * connection it takes a new conversation that resumes from the last batch it
+ * applied (mts_stream_client_resume_point, mts_stream_client_reconnected). */
 #ifndef MTS_STREAM_H
 #define MTS_STREAM_H
 
@@ -45,6 +47,8 @@ typedef struct mts_stream {
     uint32_t *batch_first;    /* batch_count + 1: first split of each batch */
     size_t *batch_offset;     /* batch_count + 1: where each BATCH frame starts in bytes */
     uint64_t *level_checksum; /* levels + 1 */
+    uint8_t *info_tail;       /* MODEL_INFO's shared part (mts_wire_put_model_info_tail) */
+    size_t info_tail_size;
 } mts_stream;
 
 mts_result mts_stream_build(const mts_model *model, const char *name,
@@ -61,6 +65,9 @@ mts_result mts_stream_range(const mts_stream *s, uint32_t resume_batch, uint32_t
                             size_t *offset, size_t *length, mts_error *err);
 
 void mts_stream_put_model_info(const mts_stream *s, uint32_t stop_level, mts_buf *out);
+/* Only MODEL_INFO's per-connection head; s->info_tail must follow it on the
+ * wire (a server sends it from the stream's buffer, not a copy). */
+void mts_stream_put_model_info_head(const mts_stream *s, uint32_t stop_level, mts_buf *out);
 void mts_stream_put_end(const mts_stream *s, uint32_t stop_level, uint32_t bytes_before_end,
                         mts_buf *out);
 
@@ -77,7 +84,9 @@ typedef enum mts_stream_event {
     MTS_EV_BATCH,  /* a batch applied: c->lod moved up */
     MTS_EV_END,    /* END checked: the stream is complete */
     MTS_EV_ERROR,  /* the server sent ERROR: c->error_code, c->error_text */
-    MTS_EV_MODELS  /* a MODELS listing (c->listing_count entries, via callback) */
+    MTS_EV_MODELS, /* a MODELS listing (c->listing_count entries, via callback) */
+    MTS_EV_RESUMED /* a resumed conversation's MODEL_INFO matched the first:
+                      batches go on from c->batches */
 } mts_stream_event;
 
 typedef struct mts_stream_client {
@@ -95,6 +104,8 @@ typedef struct mts_stream_client {
     uint64_t end_checksum, checksum; /* the server's, and ours at the end */
     uint16_t error_code;
     char error_text[256];
+    int resuming;       /* in a conversation after a broken one (see reconnected) */
+    uint32_t resumes;   /* conversations that resumed (MTS_EV_RESUMED) */
     void (*on_model)(void *user, const mts_wire_model_entry *m); /* for LIST */
     void *user;
 } mts_stream_client;
@@ -109,5 +120,29 @@ void mts_stream_client_free(mts_stream_client *c);
  * that fails leaves c->lod broken part-way through that batch (lod.broken). */
 mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uint8_t *payload,
                                    size_t size, mts_stream_event *event, mts_error *err);
+
+/* Resuming after a broken connection (PROTOCOL.md, HELLO). A batch is
+ * applied only once it is whole and its CRC checks, so a break loses nothing
+ * that arrived intact: the client holds the base and batches 0..batches-1.
+ *
+ * resume_point says what the next HELLO asks for: *resume_batch is
+ * c->batches once the base is in (0 before: that is a fresh start), and
+ * *stream_id the first MODEL_INFO's when *resume_batch > 0 (else 0). Returns
+ * 0 when there is nothing to resume: the stream ended or a frame was
+ * rejected (c->lod may be broken), and a new conversation would not help. */
+int mts_stream_client_resume_point(const mts_stream_client *c, uint32_t *resume_batch,
+                                   uint64_t *stream_id);
+
+/* Readies c for the frames of a new conversation, started with the HELLO
+ * that resume_point described; the caller starts a new frame reader, so a
+ * partial frame of the broken one is dropped. Before the base was in, c
+ * starts over (the next MODEL_INFO gives MTS_EV_INFO again). After it, the
+ * new MODEL_INFO must describe the same stream as the first -- stream_id,
+ * counts, grid, batches, stop level -- or it is rejected (MTS_ERR_FORMAT):
+ * two streams are never mixed. It gives MTS_EV_RESUMED; a BASE that follows
+ * (a resume from batch 0 is a fresh start for the server) is checked and
+ * skipped, and BATCH frames go on from c->batches. MTS_ERR_ARG when
+ * resume_point returns 0. */
+mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err);
 
 #endif

@@ -52,7 +52,7 @@ void mts_wire_put_list(mts_buf *b)
     mts_wire_frame_end(b, mts_wire_frame_begin(b, MTS_MSG_LIST));
 }
 
-void mts_wire_put_model_info(mts_buf *b, const mts_wire_model_info *mi)
+void mts_wire_put_model_info_head(mts_buf *b, const mts_wire_model_info *mi, size_t tail_size)
 {
     size_t f = mts_wire_frame_begin(b, MTS_MSG_MODEL_INFO);
     mts_buf_u16(b, mi->minor);
@@ -62,6 +62,11 @@ void mts_wire_put_model_info(mts_buf *b, const mts_wire_model_info *mi)
                                mi->strips, mi->stop_level, mi->stop_triangles};
     for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++)
         mts_buf_varint(b, counts[i]);
+    mts_buf_patch_u32(b, f, (uint32_t)(b->size - f - 4 + tail_size));
+}
+
+void mts_wire_put_model_info_tail(mts_buf *b, const mts_wire_model_info *mi)
+{
     for (int a = 0; a < 3; a++)
         mts_buf_f32(b, mi->bbox_min[a]);
     for (int a = 0; a < 3; a++)
@@ -75,6 +80,13 @@ void mts_wire_put_model_info(mts_buf *b, const mts_wire_model_info *mi)
         mts_buf_varint(b, mi->batch_splits[i]);
     for (uint32_t s = 0; s < mi->strips; s++)
         mts_buf_varint(b, mi->capacities[s]);
+}
+
+void mts_wire_put_model_info(mts_buf *b, const mts_wire_model_info *mi)
+{
+    size_t f = b->size;
+    mts_wire_put_model_info_head(b, mi, 0);
+    mts_wire_put_model_info_tail(b, mi);
     mts_wire_frame_end(b, f);
 }
 

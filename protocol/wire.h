@@ -91,6 +91,13 @@ void mts_wire_frame_end(mts_buf *b, size_t frame_start);
 void mts_wire_put_hello(mts_buf *b, const mts_wire_hello *h);
 void mts_wire_put_list(mts_buf *b);
 void mts_wire_put_model_info(mts_buf *b, const mts_wire_model_info *mi);
+/* MODEL_INFO in two parts: the head (ids, counts and the stop point) differs
+ * per connection; the tail (box, grid, batch sizes, strip capacities) is the
+ * same for every connection to a stream, so a server encodes it once and
+ * sends it from one shared buffer. The head's frame length counts tail_size
+ * bytes to follow. */
+void mts_wire_put_model_info_head(mts_buf *b, const mts_wire_model_info *mi, size_t tail_size);
+void mts_wire_put_model_info_tail(mts_buf *b, const mts_wire_model_info *mi);
 void mts_wire_put_end(mts_buf *b, const mts_wire_end *e);
 void mts_wire_put_models(mts_buf *b, const mts_wire_model_entry *models, uint32_t count);
 void mts_wire_put_error(mts_buf *b, uint16_t code, const char *text);

@@ -1,9 +1,11 @@
 /* mts-server: streams multiresolution strip models to many clients. */
 #include <errno.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <time.h>
 
 #include "catalog.h"
@@ -16,7 +18,8 @@ static void usage(FILE *f)
 {
     fputs("usage: mts-server [--models DIR] [--model NAME=PATH|URL]... [--listen ADDR:PORT]\n"
           "                  [--max-clients N] [--idle-timeout S] [--handshake-timeout S]\n"
-          "                  [--grace S] [--max-download BYTES] [--quiet]\n"
+          "                  [--grace S] [--max-download BYTES] [--workers N]\n"
+          "                  [--rate-limit BYTES/S] [--stats-interval S] [--quiet]\n"
           "\n"
           "Serves every .mtsm in DIR and every mesh there (built once and cached), each\n"
           "named by its file stem, plus models given one by one (a file, or an http(s)\n"
@@ -26,11 +29,17 @@ static void usage(FILE *f)
           "  --models DIR           a directory of models and meshes\n"
           "  --model NAME=SOURCE    one model: a .mtsm, a mesh file or an http(s) URL\n"
           "  --listen ADDR:PORT     default 127.0.0.1:7447\n"
-          "  --max-clients N        connections at once (default 1024); more get ERROR busy\n"
+          "  --max-clients N        connections at once per worker (default 1024); more get\n"
+          "                         ERROR busy\n"
           "  --idle-timeout S       drop a connection that takes no bytes for S s (default 30)\n"
           "  --handshake-timeout S  drop a client that sends no HELLO for S s (default 10)\n"
           "  --grace S              on SIGTERM/SIGINT, let streams finish for S s (default 5)\n"
           "  --max-download BYTES   size cap for URL models (default 268435456)\n"
+          "  --workers N            N event loops on N threads sharing the port through\n"
+          "                         SO_REUSEPORT and the streams in memory (default 1)\n"
+          "  --rate-limit BYTES/S   pace each connection (a realistic preview); default none\n"
+          "  --stats-interval S     a 'stats:' log line every S s per worker: connections,\n"
+          "                         peak, outcomes, MB/s out, resident memory\n"
           "  -q, --quiet            no per-connection log lines\n"
           "  -h, --help             this help\n"
           "\n"
@@ -74,10 +83,48 @@ static int parse_seconds(const char *s, double *out)
     return cli_parse_double(s, out) && *out > 0;
 }
 
+/* Every connection is a descriptor: raise the soft limit toward what the
+ * connection limits need, as far as the hard limit allows, and say so when
+ * that is not enough. */
+static void raise_nofile(uint64_t need, int quiet)
+{
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_NOFILE, &rl) != 0)
+        return;
+    rlim_t want = (rlim_t)need + 64;
+    if (rl.rlim_cur >= want)
+        return;
+    rlim_t to = rl.rlim_max == RLIM_INFINITY || rl.rlim_max >= want ? want : rl.rlim_max;
+    rl.rlim_cur = to;
+    if (setrlimit(RLIMIT_NOFILE, &rl) == 0 && !quiet)
+        fprintf(stderr, "mts-server: open-file limit raised to %llu\n", (unsigned long long)to);
+    if (to < want)
+        fprintf(stderr,
+                "mts-server: warning: the open-file hard limit (%llu) is below the %llu "
+                "descriptors --max-clients needs; clients over it wait in the accept queue "
+                "(raise it with ulimit -Hn or LimitNOFILE=)\n",
+                (unsigned long long)rl.rlim_max, (unsigned long long)want);
+}
+
+typedef struct worker {
+    mts_server *server;
+    mts_error err;
+    mts_result rc;
+    pthread_t thread;
+} worker;
+
+static void *worker_main(void *arg)
+{
+    worker *w = arg;
+    w->rc = mts_server_run(w->server, &stop_requested, &w->err);
+    return NULL;
+}
+
 int main(int argc, char **argv)
 {
     const char *dirs[64], *models[64];
     int ndirs = 0, nmodels = 0, quiet = 0;
+    uint32_t nworkers = 1;
     mts_server_options so = {0};
     mts_catalog_options co = {0};
     for (int i = 1; i < argc; i++) {
@@ -119,6 +166,21 @@ int main(int argc, char **argv)
                 so.handshake_timeout = s;
             else
                 so.grace = s;
+        } else if (!strcmp(a, "--workers")) {
+            if (!cli_parse_u32(v, &nworkers) || nworkers == 0 || nworkers > 256) {
+                fprintf(stderr, "mts-server: --workers needs a number from 1 to 256\n");
+                return CLI_EXIT_USAGE;
+            }
+        } else if (!strcmp(a, "--rate-limit")) {
+            if (!cli_parse_double(v, &so.rate_limit) || so.rate_limit < 1) {
+                fprintf(stderr, "mts-server: --rate-limit needs bytes per second (>= 1)\n");
+                return CLI_EXIT_USAGE;
+            }
+        } else if (!strcmp(a, "--stats-interval")) {
+            if (!parse_seconds(v, &so.stats_interval)) {
+                fprintf(stderr, "mts-server: --stats-interval needs a positive number of seconds\n");
+                return CLI_EXIT_USAGE;
+            }
         } else if (!strcmp(a, "--max-download")) {
             double bytes;
             if (!cli_parse_double(v, &bytes) || bytes < 1) {
@@ -141,7 +203,8 @@ int main(int argc, char **argv)
     mts_catalog *cat = NULL;
     mts_stream *streams = NULL;
     const mts_stream **list = NULL;
-    mts_server *server = NULL;
+    worker *workers = NULL;
+    uint32_t created = 0;
     int status = CLI_EXIT_FAIL;
     cli_bar bar;
     cli_bar_init(&bar, quiet);
@@ -194,33 +257,84 @@ int main(int argc, char **argv)
     cat = NULL;
     so.log = log_line;
     so.log_user = &quiet;
-    if (mts_server_create(&so, list, ready, &server, &err) != MTS_OK)
+    so.reuse_port = nworkers > 1;
+    raise_nofile((uint64_t)(so.max_clients ? so.max_clients : 1024) * nworkers, quiet);
+    workers = calloc(nworkers, sizeof *workers);
+    if (!workers) {
+        mts_error_set(&err, MTS_ERR_NOMEM, "out of memory");
         goto fail;
+    }
+    /* the first worker binds (port 0 picks one); the others join its port */
+    char listen_spec[300];
+    for (; created < nworkers; created++) {
+        if (created == 1) {
+            const char *spec = so.listen ? so.listen : "127.0.0.1:7447";
+            const char *colon = strrchr(spec, ':');
+            snprintf(listen_spec, sizeof listen_spec, "%.*s:%d", (int)(colon - spec), spec,
+                     mts_server_port(workers[0].server));
+            so.listen = listen_spec;
+        }
+        if (mts_server_create(&so, list, ready, &workers[created].server, &err) != MTS_OK)
+            goto fail;
+    }
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;
     sigaction(SIGTERM, &sa, NULL);
     sigaction(SIGINT, &sa, NULL);
     if (!quiet)
-        fprintf(stderr, "mts-server: listening on %s (port %d), %u models\n",
-                so.listen ? so.listen : "127.0.0.1:7447", mts_server_port(server), ready);
-    if (mts_server_run(server, &stop_requested, &err) != MTS_OK)
+        fprintf(stderr, "mts-server: listening on %s (port %d), %u models, %u worker%s\n",
+                so.listen ? so.listen : "127.0.0.1:7447", mts_server_port(workers[0].server),
+                ready, nworkers, nworkers == 1 ? "" : "s");
+    /* worker 0 runs on this thread; signals may land on any thread, and
+     * every loop polls the one flag */
+    uint32_t started = 1;
+    for (; started < nworkers; started++) {
+        if (pthread_create(&workers[started].thread, NULL, worker_main, &workers[started]) != 0) {
+            stop_requested = 1;
+            fprintf(stderr, "mts-server: cannot start worker %u; stopping\n", started);
+            break;
+        }
+    }
+    worker_main(&workers[0]);
+    mts_server_stats st = {0};
+    mts_result rc = workers[0].rc;
+    if (rc != MTS_OK)
+        err = workers[0].err;
+    for (uint32_t i = 0; i < nworkers; i++) {
+        if (i > 0 && i < started) {
+            pthread_join(workers[i].thread, NULL);
+            if (workers[i].rc != MTS_OK && rc == MTS_OK) {
+                rc = workers[i].rc;
+                err = workers[i].err;
+            }
+        }
+        mts_server_stats ws;
+        mts_server_get_stats(workers[i].server, &ws);
+        st.accepted += ws.accepted;
+        st.completed += ws.completed;
+        st.failed += ws.failed;
+        st.busy += ws.busy;
+        st.bytes += ws.bytes;
+        st.peak += ws.peak;
+    }
+    if (rc != MTS_OK)
         goto fail;
-    mts_server_stats st;
-    mts_server_get_stats(server, &st);
     if (!quiet)
         fprintf(stderr, "mts-server: stopped: %llu connections, %llu completed, %llu failed, "
-                        "%llu busy, %llu bytes\n",
+                        "%llu busy, %llu bytes, peak %u at once\n",
                 (unsigned long long)st.accepted, (unsigned long long)st.completed,
                 (unsigned long long)st.failed, (unsigned long long)st.busy,
-                (unsigned long long)st.bytes);
+                (unsigned long long)st.bytes, st.peak);
     status = CLI_EXIT_OK;
     goto done;
 fail:
     cli_bar_done(&bar);
     fprintf(stderr, "mts-server: %s\n", err.msg);
 done:
-    mts_server_free(server);
+    for (uint32_t i = 0; i < created && workers; i++)
+        mts_server_free(workers[i].server);
+    free(workers);
     if (streams) {
         for (uint32_t i = 0; i < count; i++)
             mts_stream_free(&streams[i]);

@@ -33,9 +33,12 @@ typedef struct conn {
     const mts_stream *stream;
     mts_buf head, tail;         /* per-connection frames around the shared body */
     size_t head_off, tail_off;
+    size_t info_off, info_size; /* MODEL_INFO's shared tail, sent right after head */
     size_t body_off, body_end;  /* range of stream->bytes still to send */
     uint64_t sent;
     double started, last_progress;
+    double answered;            /* when the HELLO was answered: pacing counts from here */
+    double paced_until;         /* > 0: over its rate; output resumes then */
     uint32_t stop_level;
     int watching_out;
     int rd_closed;              /* the peer shut down its side: stop watching for input */
@@ -46,6 +49,7 @@ typedef struct conn {
     char peer[64];
     char model[MTS_WIRE_MAX_NAME + 1];
     struct conn *prev, *next;
+    struct conn *pprev, *pnext; /* on the paced list while paced_until > 0 */
 } conn;
 
 struct mts_server {
@@ -56,7 +60,11 @@ struct mts_server {
     int listen_fd, epoll_fd, port;
     conn *conns;
     conn *dead; /* closed during this round of events; freed after it */
-    uint32_t conn_count;
+    conn *paced; /* connections over their rate, waiting to resume */
+    uint32_t conn_count, paced_count;
+    double next_scan, next_stats;
+    uint64_t bytes_out;      /* sent so far, live (stats.bytes counts closed connections) */
+    uint64_t stats_bytes_at; /* bytes_out at the last stats line */
     mts_server_stats stats;
 };
 
@@ -110,8 +118,12 @@ static mts_result open_listener(mts_server *s, const char *spec, mts_error *err)
     mts_result rc = MTS_OK;
     int fd = socket(res->ai_family, res->ai_socktype | SOCK_CLOEXEC, 0);
     int one = 1;
+    /* a deep accept queue: thousands of clients may connect in one burst, and
+     * a full queue costs each of them a SYN retry (a second or more) */
     if (fd < 0 || setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0 ||
-        bind(fd, res->ai_addr, res->ai_addrlen) != 0 || listen(fd, 1024) != 0 ||
+        (s->opts.reuse_port &&
+         setsockopt(fd, SOL_SOCKET, SO_REUSEPORT, &one, sizeof one) != 0) ||
+        bind(fd, res->ai_addr, res->ai_addrlen) != 0 || listen(fd, 4096) != 0 ||
         !set_nonblocking(fd)) {
         rc = mts_error_set(err, MTS_ERR_IO, "cannot listen on %s: %s", spec, strerror(errno));
         if (fd >= 0)
@@ -150,6 +162,7 @@ mts_result mts_server_create(const mts_server_options *opts, const mts_stream *c
         s->opts.grace = 5;
     s->streams = streams;
     s->stream_count = stream_count;
+    s->next_stats = now_s() + s->opts.stats_interval;
     s->listen_fd = s->epoll_fd = -1;
     mts_result rc = open_listener(s, s->opts.listen, err);
     if (rc != MTS_OK) {
@@ -177,6 +190,34 @@ void mts_server_get_stats(const mts_server *s, mts_server_stats *stats)
     *stats = s->stats;
 }
 
+static void paced_add(mts_server *s, conn *c, double until)
+{
+    if (c->paced_until == 0) {
+        c->pprev = NULL;
+        c->pnext = s->paced;
+        if (s->paced)
+            s->paced->pprev = c;
+        s->paced = c;
+        s->paced_count++;
+    }
+    c->paced_until = until;
+}
+
+static void paced_remove(mts_server *s, conn *c)
+{
+    if (c->paced_until == 0)
+        return;
+    if (c->pprev)
+        c->pprev->pnext = c->pnext;
+    else
+        s->paced = c->pnext;
+    if (c->pnext)
+        c->pnext->pprev = c->pprev;
+    c->pprev = c->pnext = NULL;
+    c->paced_until = 0;
+    s->paced_count--;
+}
+
 static void conn_close(mts_server *s, conn *c, const char *outcome)
 {
     if (!outcome)
@@ -187,6 +228,7 @@ static void conn_close(mts_server *s, conn *c, const char *outcome)
     else
         s->stats.failed++;
     s->stats.bytes += c->sent;
+    paced_remove(s, c);
     logf_(s, "peer=%s model=%s bytes=%llu level=%u ms=%.1f outcome=%s", c->peer,
           c->model[0] ? c->model : "-", (unsigned long long)c->sent, c->stop_level,
           (now_s() - c->started) * 1e3, outcome);
@@ -246,6 +288,7 @@ static void conn_refuse(conn *c, uint16_t code, const char *text, const char *ou
     c->head.size = 0;
     mts_wire_put_error(&c->head, code, text);
     c->body_off = c->body_end = 0;
+    c->info_size = 0;
     c->tail.size = 0;
     c->phase = WRITING;
     c->outcome = outcome;
@@ -304,16 +347,19 @@ static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, 
         return;
     }
     c->stream = st;
+    c->answered = now_s();
     c->stop_level = mts_stream_stop_level(st, h.stop_kind, h.stop_value);
     size_t off, len;
     if (mts_stream_range(st, h.resume_batch, c->stop_level, &off, &len, &err) != MTS_OK) {
         conn_refuse(c, MTS_WERR_PROTOCOL, err.msg, "error: bad resume");
         return;
     }
-    mts_stream_put_model_info(st, c->stop_level, &c->head);
+    mts_stream_put_model_info_head(st, c->stop_level, &c->head);
+    c->info_size = st->info_tail_size;
     c->body_off = off;
     c->body_end = off + len;
-    mts_stream_put_end(st, c->stop_level, (uint32_t)(c->head.size + len), &c->tail);
+    mts_stream_put_end(st, c->stop_level, (uint32_t)(c->head.size + c->info_size + len),
+                       &c->tail);
     if (c->head.failed || c->tail.failed) {
         conn_refuse(c, MTS_WERR_INTERNAL, "out of memory", "error: out of memory");
         return;
@@ -395,15 +441,29 @@ static void conn_read(mts_server *s, conn *c)
     }
 }
 
-/* Writes as much as the socket takes: the head frame, the shared stream
- * range, the END frame -- one sendmsg, no copies. */
+/* Bytes a paced connection may send now: its rate since it was answered,
+ * plus a burst of a tenth of a second so writes are not tiny. */
+static size_t pace_allowance(const mts_server *s, const conn *c, double now)
+{
+    double rate = s->opts.rate_limit;
+    double burst = rate * 0.1 > 4096 ? rate * 0.1 : 4096;
+    double allowed = rate * (now - c->answered) + burst - (double)c->sent;
+    return allowed > 0 ? (size_t)allowed : 0;
+}
+
+/* Writes as much as the socket (and the rate limit) takes: the head frame,
+ * MODEL_INFO's shared tail, the shared stream range, the END frame -- one
+ * sendmsg, no copies. */
 static void conn_write(mts_server *s, conn *c)
 {
     while (c->phase == WRITING) {
-        struct iovec iov[3];
+        struct iovec iov[4];
         int n = 0;
         if (c->head_off < c->head.size)
             iov[n++] = (struct iovec){c->head.data + c->head_off, c->head.size - c->head_off};
+        if (c->info_off < c->info_size)
+            iov[n++] = (struct iovec){c->stream->info_tail + c->info_off,
+                                      c->info_size - c->info_off};
         if (c->body_off < c->body_end)
             iov[n++] = (struct iovec){(void *)(c->stream->bytes + c->body_off),
                                       c->body_end - c->body_off};
@@ -423,6 +483,27 @@ static void conn_write(mts_server *s, conn *c)
             conn_close(s, c, NULL);
             return;
         }
+        if (s->opts.rate_limit > 0 && c->stream) {
+            double now = now_s();
+            size_t allow = pace_allowance(s, c, now);
+            if (allow == 0) {
+                /* over its rate: stop watching output until a useful
+                 * amount is due (at least 4 KiB or 50 ms of its rate) */
+                double chunk = s->opts.rate_limit * 0.05 > 4096 ? s->opts.rate_limit * 0.05 : 4096;
+                paced_add(s, c, now + chunk / s->opts.rate_limit);
+                c->last_progress = now; /* pacing is not stalling */
+                watch_out(s, c, 0);
+                return;
+            }
+            for (int k = 0; k < n; k++) {
+                if (iov[k].iov_len >= allow) {
+                    iov[k].iov_len = allow;
+                    n = k + 1;
+                    break;
+                }
+                allow -= iov[k].iov_len;
+            }
+        }
         struct msghdr msg = {0};
         msg.msg_iov = iov;
         msg.msg_iovlen = (size_t)n;
@@ -439,14 +520,24 @@ static void conn_write(mts_server *s, conn *c)
         }
         size_t left = (size_t)w;
         c->sent += left;
+        s->bytes_out += left;
         c->last_progress = now_s();
         size_t k = c->head.size - c->head_off < left ? c->head.size - c->head_off : left;
         c->head_off += k;
+        left -= k;
+        k = c->info_size - c->info_off < left ? c->info_size - c->info_off : left;
+        c->info_off += k;
         left -= k;
         k = c->body_end - c->body_off < left ? c->body_end - c->body_off : left;
         c->body_off += k;
         left -= k;
         c->tail_off += left;
+        if (c->head_off == c->head.size && c->head.data && c->outcome &&
+            strcmp(c->outcome, "ok") == 0) {
+            /* sent: a long stream should not keep its head frame around */
+            mts_buf_free(&c->head);
+            c->head_off = 0;
+        }
     }
 }
 
@@ -518,6 +609,50 @@ static void accept_all(mts_server *s)
             s->conns->prev = c;
         s->conns = c;
         s->conn_count++;
+        if (s->conn_count > s->stats.peak)
+            s->stats.peak = s->conn_count;
+    }
+}
+
+/* Resident memory of the whole process, from /proc (0 where unreadable). */
+static double rss_mb(void)
+{
+    FILE *f = fopen("/proc/self/statm", "r");
+    unsigned long pages = 0, resident = 0;
+    if (!f)
+        return 0;
+    if (fscanf(f, "%lu %lu", &pages, &resident) != 2)
+        resident = 0;
+    fclose(f);
+    return (double)resident * (double)sysconf(_SC_PAGESIZE) / 1048576.0;
+}
+
+static void stats_line(mts_server *s, double now)
+{
+    double dt = s->opts.stats_interval;
+    logf_(s,
+          "stats: connections=%u peak=%u accepted=%llu completed=%llu failed=%llu busy=%llu "
+          "out_mb_s=%.2f rss_mb=%.1f",
+          s->conn_count, s->stats.peak, (unsigned long long)s->stats.accepted,
+          (unsigned long long)s->stats.completed, (unsigned long long)s->stats.failed,
+          (unsigned long long)s->stats.busy, (double)(s->bytes_out - s->stats_bytes_at) / 1e6 / dt,
+          rss_mb());
+    s->stats_bytes_at = s->bytes_out;
+    s->next_stats = now + dt;
+}
+
+/* Paced connections whose time has come send their allowance. */
+static void resume_paced(mts_server *s, double now)
+{
+    conn *c = s->paced;
+    while (c) {
+        conn *next = c->pnext;
+        if (now >= c->paced_until) {
+            paced_remove(s, c);
+            c->last_progress = now;
+            conn_write(s, c); /* sends; paces again, waits for room, or closes */
+        }
+        c = next;
     }
 }
 
@@ -532,6 +667,8 @@ static void check_timeouts(mts_server *s, double now)
         } else if (c->phase == READING && now - c->started > s->opts.handshake_timeout) {
             conn_refuse(c, MTS_WERR_TIMEOUT, "no HELLO in time", "error: handshake timeout");
             conn_write(s, c); /* best effort; closes once flushed or on error */
+        } else if (c->paced_until > 0) {
+            /* resumed by resume_paced */
         } else if (c->phase == WRITING && now - c->last_progress > s->opts.idle_timeout) {
             conn_close(s, c, "error: idle timeout");
         }
@@ -541,7 +678,7 @@ static void check_timeouts(mts_server *s, double now)
 
 mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error *err)
 {
-    struct epoll_event events[256];
+    struct epoll_event events[1024];
     double stop_at = 0;
     for (;;) {
         double now = now_s();
@@ -564,7 +701,8 @@ mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error 
             free_dead(s);
             return MTS_OK;
         }
-        int n = epoll_wait(s->epoll_fd, events, 256, 100);
+        /* paced connections resume from the scan below: scan often then */
+        int n = epoll_wait(s->epoll_fd, events, 1024, s->paced_count ? 5 : 100);
         if (n < 0) {
             if (errno == EINTR)
                 continue;
@@ -580,8 +718,11 @@ mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error 
             if (c->fd < 0) /* closed earlier in this round */
                 continue;
             if (events[i].events & (EPOLLERR | EPOLLHUP)) {
-                conn_close(s, c, c->phase == READING ? "error: closed before hello"
-                                                     : "error: reset by peer");
+                /* a refused client closing after its ERROR is the expected
+                 * end: keep the refusal's outcome in the log */
+                conn_close(s, c, c->linger_until > 0 ? NULL
+                                 : c->phase == READING ? "error: closed before hello"
+                                                       : "error: reset by peer");
                 continue;
             }
             if (events[i].events & (EPOLLIN | EPOLLRDHUP)) {
@@ -597,7 +738,16 @@ mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error 
             if ((events[i].events & EPOLLOUT) && c->fd >= 0)
                 conn_write(s, c);
         }
-        check_timeouts(s, now_s());
+        now = now_s();
+        if (s->paced_count)
+            resume_paced(s, now);
+        /* the timeout scan is over every connection: a few times a second */
+        if (now >= s->next_scan) {
+            check_timeouts(s, now);
+            s->next_scan = now + 0.05;
+        }
+        if (s->opts.stats_interval > 0 && now >= s->next_stats)
+            stats_line(s, now);
         free_dead(s);
     }
 }

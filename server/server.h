@@ -25,12 +25,16 @@ typedef struct mts_server_options {
     double handshake_timeout; /* seconds for the first frame; 0: 10 */
     double idle_timeout;      /* seconds a connection may make no progress; 0: 30 */
     double grace;             /* seconds streams may finish after stop; 0: 5 */
+    double rate_limit;        /* bytes/s per connection (previews at a realistic pace); 0: none */
+    double stats_interval;    /* seconds between "stats:" log lines; 0: none */
+    int reuse_port;           /* SO_REUSEPORT: several servers (workers) share the port */
     void (*log)(void *user, const char *line);
     void *log_user;
 } mts_server_options;
 
 typedef struct mts_server_stats {
     uint64_t accepted, completed, failed, busy, bytes;
+    uint32_t peak; /* most connections open at once */
 } mts_server_stats;
 
 typedef struct mts_server mts_server;

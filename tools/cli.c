@@ -182,3 +182,28 @@ void cli_stem(const char *path, char *out, size_t size)
     memcpy(out, base, n);
     out[n] = 0;
 }
+
+int cli_parse_server(const char *server, char *host, size_t host_size, char *port,
+                     size_t port_size)
+{
+    const char *colon = strrchr(server, ':');
+    if (server[0] == '[') { /* [v6]:port */
+        const char *close = strchr(server, ']');
+        if (!close || (close[1] && close[1] != ':') || (size_t)(close - server - 1) >= host_size)
+            return 0;
+        snprintf(host, host_size, "%.*s", (int)(close - server - 1), server + 1);
+        if (close[1] == ':')
+            snprintf(port, port_size, "%s", close + 2);
+    } else if (colon && strchr(server, ':') != colon) {
+        /* more than one ':' without brackets: a bare IPv6 address */
+        snprintf(host, host_size, "%s", server);
+    } else if (colon) {
+        if ((size_t)(colon - server) >= host_size)
+            return 0;
+        snprintf(host, host_size, "%.*s", (int)(colon - server), server);
+        snprintf(port, port_size, "%s", colon + 1);
+    } else {
+        snprintf(host, host_size, "%s", server);
+    }
+    return host[0] != 0 && port[0] != 0;
+}

@@ -52,6 +52,11 @@ void cli_json_num(cli_json *j, const char *key, double value, int decimals);
 void cli_json_bool(cli_json *j, const char *key, int value);
 void cli_json_end(cli_json *j);
 
+/* HOST[:PORT], [V6]:PORT or a bare IPv6 address into host and port; port is
+ * left as it was (the default) when none is given. 0 when malformed. */
+int cli_parse_server(const char *server, char *host, size_t host_size, char *port,
+                     size_t port_size);
+
 /* "name" from "dir/name.ext". */
 void cli_stem(const char *path, char *out, size_t size);
 

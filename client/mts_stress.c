@@ -1,0 +1,261 @@
+/* mts-stress: many simulated clients against one mts-server (or a balancer
+ * in front of several), with latency percentiles and throughput. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include "cli.h"
+#include "stress.h"
+
+static void usage(FILE *f)
+{
+    fputs("usage: mts-stress [HOST[:PORT]] MODEL --clients N [--concurrency C] [--ramp S]\n"
+          "                  [--level L | --fraction F] [--no-apply] [--verify]\n"
+          "                  [--connect-timeout S] [--io-timeout S] [--json] [--quiet]\n"
+          "       mts-stress HOST:PORT --http PATH --clients N ...   (a static file server)\n"
+          "\n"
+          "Runs N simulated clients against an mts-server (default 127.0.0.1:7447) from\n"
+          "one process, each speaking the whole protocol, and reports how they fared:\n"
+          "failures by reason, bytes, time to the base mesh and to the final level\n"
+          "(p50/p90/p99/max), MB/s and batches/s, and its own CPU time.\n"
+          "\n"
+          "  --clients N          clients in all (default 1)\n"
+          "  --concurrency C      at most C connected at once (default: all N)\n"
+          "  --ramp S             start the clients evenly over S seconds (default 0)\n"
+          "  --level L / --fraction F   where each client stops (default: full)\n"
+          "  --no-apply           only read and frame the stream; do not decode or apply\n"
+          "                       (loads the server, not this process)\n"
+          "  --verify             with --no-apply, still check every batch's CRC (applying\n"
+          "                       clients always check CRCs and the final checksum)\n"
+          "  --http PATH          not mtstream: GET PATH over HTTP/1.0 from each client, to\n"
+          "                       measure a web server (nginx) on the same bytes\n"
+          "  --connect-timeout S  default 10 (a full listen queue costs SYN retries)\n"
+          "  --io-timeout S       give up on a client after S s without a byte (default 30)\n"
+          "  --json               one line of JSON with the figures\n"
+          "  -q, --quiet          no live line, no summary\n"
+          "  -h, --help           this help\n"
+          "\n"
+          "Each client holds a socket; N or C above the open-file limit is raised to the\n"
+          "hard limit. Applying clients each hold a decoded model: use --concurrency or\n"
+          "--no-apply for thousands of clients of a large model.\n"
+          "\n"
+          "Exit status: 0 every client completed, 1 some failed (see the reasons),\n"
+          "2 bad usage.\n",
+          f);
+}
+
+static void live(void *user, const mts_stress_report *r)
+{
+    (void)user;
+    fprintf(stderr, "\r\033[K  %.1f s  %u/%u done, %u active, %u failed, %.1f MB, %.1f MB/s", r->seconds,
+            r->succeeded + r->failed, r->clients, r->active, r->failed, (double)r->bytes / 1e6,
+            r->seconds > 0 ? (double)r->bytes / 1e6 / r->seconds : 0.0);
+    fflush(stderr);
+}
+
+static double cpu_seconds(void)
+{
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return (double)ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6 + (double)ru.ru_stime.tv_sec +
+           ru.ru_stime.tv_usec * 1e-6;
+}
+
+/* Each client needs a descriptor: raise the soft limit as far as the hard one
+ * allows, and say so when that is still too low. */
+static void raise_nofile(uint32_t need, int quiet)
+{
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_NOFILE, &rl) != 0)
+        return;
+    rlim_t want = (rlim_t)need + 64;
+    if (rl.rlim_cur >= want)
+        return;
+    rlim_t to = rl.rlim_max == RLIM_INFINITY || rl.rlim_max >= want ? want : rl.rlim_max;
+    rl.rlim_cur = to;
+    setrlimit(RLIMIT_NOFILE, &rl);
+    if (to < want && !quiet)
+        fprintf(stderr,
+                "mts-stress: the open-file limit (hard %llu) is below the %u descriptors "
+                "wanted: clients over it fail as 'local'; raise it (ulimit -Hn) or use "
+                "--concurrency\n",
+                (unsigned long long)rl.rlim_max, need);
+}
+
+int main(int argc, char **argv)
+{
+    mts_stress_options so = {0};
+    const char *pos[2];
+    int npos = 0, json = 0, quiet = 0, stops = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+            usage(stdout);
+            return CLI_EXIT_OK;
+        } else if (!strcmp(a, "--json")) {
+            json = 1;
+        } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
+            quiet = 1;
+        } else if (!strcmp(a, "--no-apply")) {
+            so.no_apply = 1;
+        } else if (!strcmp(a, "--verify")) {
+            so.verify = 1;
+        } else if (!strcmp(a, "--clients") || !strcmp(a, "--concurrency") ||
+                   !strcmp(a, "--level")) {
+            uint32_t x;
+            if (!v || !cli_parse_u32(v, &x) || (x == 0 && strcmp(a, "--level") != 0)) {
+                fprintf(stderr, "mts-stress: %s needs a %s number\n", a,
+                        strcmp(a, "--level") ? "positive" : "whole");
+                return CLI_EXIT_USAGE;
+            }
+            if (!strcmp(a, "--clients")) {
+                so.clients = x;
+            } else if (!strcmp(a, "--concurrency")) {
+                so.concurrency = x;
+            } else {
+                so.hello.stop_kind = MTS_STOP_LEVEL;
+                so.hello.stop_value = x;
+                stops++;
+            }
+            i++;
+        } else if (!strcmp(a, "--http")) {
+            if (!v) {
+                fprintf(stderr, "mts-stress: --http needs a path\n");
+                return CLI_EXIT_USAGE;
+            }
+            so.http_path = v;
+            i++;
+        } else if (!strcmp(a, "--fraction")) {
+            double f;
+            if (!v || !cli_parse_double(v, &f) || f < 0 || f > 1) {
+                fprintf(stderr, "mts-stress: --fraction needs a number from 0 to 1\n");
+                return CLI_EXIT_USAGE;
+            }
+            so.hello.stop_kind = MTS_STOP_FRACTION;
+            so.hello.stop_value = (uint32_t)(f * 1e6 + 0.5);
+            stops++;
+            i++;
+        } else if (!strcmp(a, "--ramp") || !strcmp(a, "--connect-timeout") ||
+                   !strcmp(a, "--io-timeout")) {
+            double s;
+            int ramp = !strcmp(a, "--ramp");
+            if (!v || !cli_parse_double(v, &s) || s < 0 || (!ramp && s == 0)) {
+                fprintf(stderr, "mts-stress: %s needs a %s number of seconds\n", a,
+                        ramp ? "non-negative" : "positive");
+                return CLI_EXIT_USAGE;
+            }
+            if (ramp)
+                so.ramp = s;
+            else if (!strcmp(a, "--connect-timeout"))
+                so.connect_timeout = s;
+            else
+                so.io_timeout = s;
+            i++;
+        } else if (a[0] == '-' && a[1]) {
+            fprintf(stderr, "mts-stress: unknown option %s (see --help)\n", a);
+            return CLI_EXIT_USAGE;
+        } else if (npos < 2) {
+            pos[npos++] = a;
+        } else {
+            fprintf(stderr, "mts-stress: too many arguments (see --help)\n");
+            return CLI_EXIT_USAGE;
+        }
+    }
+    if (so.http_path && npos == 1) /* no model: the path names what to fetch */
+        pos[npos++] = "http";
+    if (npos == 0) {
+        usage(stderr);
+        return CLI_EXIT_USAGE;
+    }
+    if (stops > 1) {
+        fprintf(stderr, "mts-stress: give one of --level, --fraction\n");
+        return CLI_EXIT_USAGE;
+    }
+    const char *model = pos[npos - 1];
+    if (!mts_wire_valid_name(model, strlen(model))) {
+        fprintf(stderr, "mts-stress: '%s' is not a model name ([A-Za-z0-9._-], 1..64)\n", model);
+        return CLI_EXIT_USAGE;
+    }
+    snprintf(so.hello.model, sizeof so.hello.model, "%s", model);
+    char host[256] = "127.0.0.1", port[16] = "7447";
+    if (npos == 2 && !cli_parse_server(pos[0], host, sizeof host, port, sizeof port)) {
+        fprintf(stderr, "mts-stress: bad address %s (HOST[:PORT])\n", pos[0]);
+        return CLI_EXIT_USAGE;
+    }
+    so.host = host;
+    so.port = port;
+    if (!so.clients)
+        so.clients = 1;
+    raise_nofile(so.concurrency && so.concurrency < so.clients ? so.concurrency : so.clients,
+                 quiet);
+    if (!quiet && !json && isatty(STDERR_FILENO))
+        so.on_progress = live;
+
+    mts_stress_report r;
+    mts_error err = {0};
+    double cpu0 = cpu_seconds();
+    mts_result rc = mts_stress_run(&so, &r, &err);
+    double cpu = cpu_seconds() - cpu0;
+    if (so.on_progress)
+        fputs("\r\033[K", stderr);
+    if (rc != MTS_OK) {
+        fprintf(stderr, "mts-stress: %s\n", err.msg);
+        return CLI_EXIT_FAIL;
+    }
+    if (json) {
+        cli_json j;
+        cli_json_begin(&j, stdout);
+        cli_json_str(&j, "model", model);
+        cli_json_u64(&j, "clients", r.clients);
+        cli_json_u64(&j, "succeeded", r.succeeded);
+        cli_json_u64(&j, "failed", r.failed);
+        cli_json_object_begin(&j, "failures");
+        for (int k = 0; k < MTS_STRESS_FAILURE_KINDS; k++) {
+            if (r.failures[k])
+                cli_json_u64(&j, mts_stress_failure_name((mts_stress_failure)k), r.failures[k]);
+        }
+        cli_json_object_end(&j);
+        cli_json_bool(&j, "apply", !so.no_apply);
+        cli_json_u64(&j, "concurrency", so.concurrency ? so.concurrency : so.clients);
+        cli_json_u64(&j, "bytes", r.bytes);
+        cli_json_u64(&j, "batches", r.batches);
+        cli_json_num(&j, "seconds", r.seconds, 3);
+        cli_json_num(&j, "mb_per_s", r.mb_per_s, 2);
+        cli_json_num(&j, "batches_per_s", r.batches_per_s, 1);
+        static const char *pct[4] = {"p50", "p90", "p99", "max"};
+        char key[32];
+        for (int k = 0; k < 4; k++) {
+            snprintf(key, sizeof key, "%s_ms_base", pct[k]);
+            cli_json_num(&j, key, r.ms_base[k], 2);
+        }
+        for (int k = 0; k < 4; k++) {
+            snprintf(key, sizeof key, "%s_ms_final", pct[k]);
+            cli_json_num(&j, key, r.ms_final[k], 2);
+        }
+        cli_json_num(&j, "cpu_s", cpu, 3);
+        cli_json_end(&j);
+    }
+    if (!quiet && !json) {
+        printf("%u clients of %s at %s:%s%s: %u succeeded, %u failed in %.2f s\n", r.clients,
+               model, host, port, so.no_apply ? " (not applied)" : "", r.succeeded, r.failed,
+               r.seconds);
+        printf("  %.1f MB, %.1f MB/s, %.0f batches/s; this process used %.2f s of CPU\n",
+               (double)r.bytes / 1e6, r.mb_per_s, r.batches_per_s, cpu);
+        if (r.succeeded)
+            printf("  ms to base   p50 %.1f  p90 %.1f  p99 %.1f  max %.1f\n"
+                   "  ms to final  p50 %.1f  p90 %.1f  p99 %.1f  max %.1f\n",
+                   r.ms_base[0], r.ms_base[1], r.ms_base[2], r.ms_base[3], r.ms_final[0],
+                   r.ms_final[1], r.ms_final[2], r.ms_final[3]);
+    }
+    if (!quiet) {
+        for (int k = 0; k < MTS_STRESS_FAILURE_KINDS; k++) {
+            if (r.failures[k])
+                fprintf(stderr, "mts-stress: %u failed (%s), first: %s\n", r.failures[k],
+                        mts_stress_failure_name((mts_stress_failure)k), r.first_error[k]);
+        }
+    }
+    return r.failed ? CLI_EXIT_FAIL : CLI_EXIT_OK;
+}

@@ -1,0 +1,632 @@
+/* strcasestr */
+#define _GNU_SOURCE
+#include "stress.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "crc32c.h"
+#include "stream.h"
+
+#define HTTP_HEAD_MAX 1024
+
+typedef enum sc_state { SC_WAITING = 0, SC_CONNECTING, SC_SENDING, SC_READING, SC_DONE } sc_state;
+
+/* One simulated client. Small on purpose: with no_apply there is nothing
+ * else per client but the frame reader's buffer (one frame at most). */
+typedef struct sclient {
+    int fd;
+    sc_state state;
+    uint8_t got_info, got_base;
+    uint32_t hello_sent;
+    double t_start, t_last; /* seconds */
+    float ms_base;
+    mts_wire_reader reader;
+    mts_stream_client *decoder; /* apply mode only */
+    char *http_head;            /* http mode: the response head so far (then NULL) */
+    uint32_t http_head_len;
+    uint64_t http_body, http_length; /* body bytes received, and Content-Length */
+    /* skim mode (no_apply without verify): frames are walked, not buffered;
+     * only the small control frames are kept whole, to be parsed */
+    uint8_t skim_hdr[MTS_WIRE_HEADER], skim_hdr_len, skim_type;
+    uint32_t skim_left;  /* payload bytes of the current frame still to come */
+    uint8_t *skim_keep;  /* the current control frame's payload, or NULL */
+    uint32_t skim_kept;
+} sclient;
+
+typedef struct stress {
+    const mts_stress_options *o;
+    mts_stress_report *rep;
+    struct addrinfo *addr;
+    int epfd;
+    sclient *c;
+    uint8_t *hello;
+    size_t hello_size;
+    float *ms_final, *ms_base; /* per succeeded client */
+    uint8_t *chunk;
+    double t0;
+} stress;
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+const char *mts_stress_failure_name(mts_stress_failure f)
+{
+    static const char *names[MTS_STRESS_FAILURE_KINDS] = {
+        "connect", "busy", "server_error", "closed", "timeout", "protocol", "verify", "local"};
+    return (unsigned)f < MTS_STRESS_FAILURE_KINDS ? names[f] : "unknown";
+}
+
+static void sc_release(stress *s, sclient *c)
+{
+    if (c->fd >= 0) {
+        epoll_ctl(s->epfd, EPOLL_CTL_DEL, c->fd, NULL);
+        close(c->fd);
+        c->fd = -1;
+    }
+    mts_wire_reader_free(&c->reader);
+    free(c->http_head);
+    c->http_head = NULL;
+    free(c->skim_keep);
+    c->skim_keep = NULL;
+    if (c->decoder) {
+        mts_stream_client_free(c->decoder);
+        free(c->decoder);
+        c->decoder = NULL;
+    }
+    c->state = SC_DONE;
+    s->rep->active--;
+}
+
+static void sc_fail(stress *s, sclient *c, mts_stress_failure why, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+static void sc_fail(stress *s, sclient *c, mts_stress_failure why, const char *fmt, ...)
+{
+    mts_stress_report *r = s->rep;
+    if (r->failures[why]++ == 0) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(r->first_error[why], sizeof r->first_error[why], fmt, ap);
+        va_end(ap);
+    }
+    r->failed++;
+    sc_release(s, c);
+}
+
+static void sc_succeed(stress *s, sclient *c, double now)
+{
+    mts_stress_report *r = s->rep;
+    s->ms_base[r->succeeded] = c->ms_base;
+    s->ms_final[r->succeeded] = (float)((now - c->t_start) * 1e3);
+    r->succeeded++;
+    sc_release(s, c);
+}
+
+static void sc_start(stress *s, sclient *c, double now)
+{
+    s->rep->started++;
+    s->rep->active++;
+    c->t_start = c->t_last = now;
+    c->fd = socket(s->addr->ai_family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (c->fd < 0) {
+        sc_fail(s, c, MTS_STRESS_LOCAL, "socket: %s", strerror(errno));
+        return;
+    }
+    int one = 1;
+    setsockopt(c->fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    if (s->o->http_path) {
+        c->http_head = malloc(HTTP_HEAD_MAX + 1);
+        if (!c->http_head) {
+            sc_fail(s, c, MTS_STRESS_LOCAL, "out of memory");
+            return;
+        }
+    } else if (!s->o->no_apply) {
+        c->decoder = malloc(sizeof *c->decoder);
+        if (!c->decoder) {
+            sc_fail(s, c, MTS_STRESS_LOCAL, "out of memory");
+            return;
+        }
+        mts_stream_client_init(c->decoder);
+    }
+    int r = connect(c->fd, s->addr->ai_addr, s->addr->ai_addrlen);
+    if (r != 0 && errno != EINPROGRESS) {
+        sc_fail(s, c, errno == EMFILE || errno == ENFILE || errno == EADDRNOTAVAIL
+                          ? MTS_STRESS_LOCAL
+                          : MTS_STRESS_CONNECT,
+                "connect: %s", strerror(errno));
+        return;
+    }
+    c->state = r == 0 ? SC_SENDING : SC_CONNECTING;
+    struct epoll_event ev = {.events = EPOLLOUT, .data.ptr = c};
+    if (epoll_ctl(s->epfd, EPOLL_CTL_ADD, c->fd, &ev) != 0)
+        sc_fail(s, c, MTS_STRESS_LOCAL, "epoll_ctl: %s", strerror(errno));
+}
+
+static void sc_send(stress *s, sclient *c, double now)
+{
+    if (c->state == SC_CONNECTING) {
+        int soerr = 0;
+        socklen_t sl = sizeof soerr;
+        if (getsockopt(c->fd, SOL_SOCKET, SO_ERROR, &soerr, &sl) != 0)
+            soerr = errno;
+        if (soerr != 0) {
+            sc_fail(s, c, MTS_STRESS_CONNECT, "connect: %s", strerror(soerr));
+            return;
+        }
+        c->state = SC_SENDING;
+    }
+    while (c->hello_sent < s->hello_size) {
+        ssize_t w = send(c->fd, s->hello + c->hello_sent, s->hello_size - c->hello_sent,
+                         MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
+            return; /* EPOLLOUT comes back */
+        if (w < 0) {
+            sc_fail(s, c, MTS_STRESS_CLOSED, "sending HELLO: %s", strerror(errno));
+            return;
+        }
+        c->hello_sent += (uint32_t)w;
+    }
+    c->state = SC_READING;
+    c->t_last = now;
+    struct epoll_event ev = {.events = EPOLLIN | EPOLLRDHUP, .data.ptr = c};
+    if (epoll_ctl(s->epfd, EPOLL_CTL_MOD, c->fd, &ev) != 0)
+        sc_fail(s, c, MTS_STRESS_LOCAL, "epoll_ctl: %s", strerror(errno));
+}
+
+/* Frame checks without a decoder (no_apply): the conversation's order, the
+ * messages that need no model state, and with verify each BATCH's CRC. */
+static int sc_frame_light(stress *s, sclient *c, uint8_t type, const uint8_t *p, size_t n,
+                          int *done)
+{
+    mts_error err = {0};
+    switch (type) {
+    case MTS_MSG_MODEL_INFO: {
+        if (c->got_info) {
+            sc_fail(s, c, MTS_STRESS_PROTOCOL, "a second MODEL_INFO");
+            return 0;
+        }
+        mts_wire_model_info mi = {0};
+        mts_result rc = mts_wire_parse_model_info(p, n, &mi, &err);
+        mts_wire_model_info_free(&mi);
+        if (rc != MTS_OK) {
+            sc_fail(s, c, MTS_STRESS_PROTOCOL, "%s", err.msg);
+            return 0;
+        }
+        c->got_info = 1;
+        return 1;
+    }
+    case MTS_MSG_BASE:
+        if (!c->got_info || c->got_base) {
+            sc_fail(s, c, MTS_STRESS_PROTOCOL, "BASE out of order");
+            return 0;
+        }
+        c->got_base = 1;
+        c->ms_base = (float)((now_s() - c->t_start) * 1e3);
+        return 1;
+    case MTS_MSG_BATCH:
+        if (!c->got_base) {
+            sc_fail(s, c, MTS_STRESS_PROTOCOL, "BATCH before BASE");
+            return 0;
+        }
+        if (n < 4) {
+            sc_fail(s, c, MTS_STRESS_PROTOCOL, "BATCH of %zu bytes", n);
+            return 0;
+        }
+        if (s->o->verify) {
+            uint32_t want = (uint32_t)p[n - 4] | (uint32_t)p[n - 3] << 8 |
+                            (uint32_t)p[n - 2] << 16 | (uint32_t)p[n - 1] << 24;
+            if (mts_crc32c(0, p, n - 4) != want) {
+                sc_fail(s, c, MTS_STRESS_PROTOCOL, "BATCH: CRC mismatch");
+                return 0;
+            }
+        }
+        s->rep->batches++;
+        return 1;
+    case MTS_MSG_END: {
+        mts_wire_end e;
+        if (!c->got_base || mts_wire_parse_end(p, n, &e, &err) != MTS_OK) {
+            sc_fail(s, c, MTS_STRESS_PROTOCOL, "END: %s", c->got_base ? err.msg : "before BASE");
+            return 0;
+        }
+        *done = 1;
+        return 1;
+    }
+    case MTS_MSG_ERROR: {
+        uint16_t code = 0;
+        char text[128] = "";
+        mts_wire_parse_error(p, n, &code, text, sizeof text, &err);
+        sc_fail(s, c, code == MTS_WERR_BUSY ? MTS_STRESS_BUSY : MTS_STRESS_SERVER,
+                "server: %s (%s)", text, mts_wire_error_name(code));
+        return 0;
+    }
+    default:
+        sc_fail(s, c, MTS_STRESS_PROTOCOL, "unexpected frame type %u", type);
+        return 0;
+    }
+}
+
+static int sc_frame_apply(stress *s, sclient *c, uint8_t type, const uint8_t *p, size_t n,
+                          int *done)
+{
+    mts_error err = {0};
+    mts_stream_event ev = MTS_EV_NONE;
+    uint32_t splits_before = c->decoder->splits;
+    mts_result rc = mts_stream_client_frame(c->decoder, type, p, n, &ev, &err);
+    if (rc != MTS_OK) {
+        sc_fail(s, c,
+                rc == MTS_ERR_NOMEM                                 ? MTS_STRESS_LOCAL
+                : type == MTS_MSG_END && rc == MTS_ERR_CHECKSUM     ? MTS_STRESS_VERIFY
+                                                                    : MTS_STRESS_PROTOCOL,
+                "%s", err.msg);
+        return 0;
+    }
+    switch (ev) {
+    case MTS_EV_BASE:
+        c->ms_base = (float)((now_s() - c->t_start) * 1e3);
+        break;
+    case MTS_EV_BATCH:
+        s->rep->batches++;
+        s->rep->splits += c->decoder->splits - splits_before;
+        break;
+    case MTS_EV_END:
+        *done = 1;
+        break;
+    case MTS_EV_ERROR:
+        sc_fail(s, c, c->decoder->error_code == MTS_WERR_BUSY ? MTS_STRESS_BUSY : MTS_STRESS_SERVER,
+                "server: %s (%s)", c->decoder->error_text,
+                mts_wire_error_name(c->decoder->error_code));
+        return 0;
+    case MTS_EV_MODELS:
+        sc_fail(s, c, MTS_STRESS_PROTOCOL, "MODELS in answer to a HELLO");
+        return 0;
+    default:
+        break;
+    }
+    return 1;
+}
+
+/* http mode: the head is kept until its blank line, then only the body is
+ * counted; the response must be a 200 with exactly Content-Length bytes. */
+static void sc_read_http(stress *s, sclient *c, const uint8_t *p, size_t n)
+{
+    if (c->http_head) {
+        size_t take = n < HTTP_HEAD_MAX - c->http_head_len ? n : HTTP_HEAD_MAX - c->http_head_len;
+        memcpy(c->http_head + c->http_head_len, p, take);
+        c->http_head_len += (uint32_t)take;
+        c->http_head[c->http_head_len] = 0;
+        char *end = strstr(c->http_head, "\r\n\r\n");
+        if (!end) {
+            if (c->http_head_len == HTTP_HEAD_MAX)
+                sc_fail(s, c, MTS_STRESS_PROTOCOL, "HTTP response head over %d bytes",
+                        HTTP_HEAD_MAX);
+            return;
+        }
+        if (strncmp(c->http_head, "HTTP/1.", 7) != 0 || strncmp(c->http_head + 8, " 200", 4) != 0) {
+            char *eol = strstr(c->http_head, "\r\n");
+            *eol = 0;
+            sc_fail(s, c, MTS_STRESS_SERVER, "%s", c->http_head);
+            return;
+        }
+        const char *cl = strcasestr(c->http_head, "\r\ncontent-length:");
+        c->http_length = cl ? strtoull(cl + 17, NULL, 10) : UINT64_MAX;
+        size_t head = (size_t)(end + 4 - c->http_head);
+        c->http_body = (uint64_t)(c->http_head_len - head) + (n - take);
+        free(c->http_head);
+        c->http_head = NULL;
+        c->got_base = 1;
+        c->ms_base = (float)((now_s() - c->t_start) * 1e3);
+        return;
+    }
+    c->http_body += n;
+}
+
+/* Skim mode: walks the frames in p without copying the bulk of them, so the
+ * client costs about what a plain file download costs (the figures are the
+ * server's). Returns 0 once the client has ended (failed or done). */
+static int sc_skim(stress *s, sclient *c, const uint8_t *p, size_t n)
+{
+    const uint8_t *end = p + n;
+    while (p < end) {
+        if (c->skim_hdr_len < MTS_WIRE_HEADER) {
+            c->skim_hdr[c->skim_hdr_len++] = *p++;
+            if (c->skim_hdr_len < MTS_WIRE_HEADER)
+                continue;
+            const uint8_t *h = c->skim_hdr;
+            uint32_t len = (uint32_t)h[0] | (uint32_t)h[1] << 8 | (uint32_t)h[2] << 16 |
+                           (uint32_t)h[3] << 24;
+            if (len == 0 || len > MTS_WIRE_MAX_FRAME) {
+                sc_fail(s, c, MTS_STRESS_PROTOCOL, "frame of %u bytes (1..%u allowed)", len,
+                        MTS_WIRE_MAX_FRAME);
+                return 0;
+            }
+            c->skim_type = h[4];
+            c->skim_left = len - 1;
+            c->skim_kept = 0;
+            if (c->skim_type != MTS_MSG_BASE && c->skim_type != MTS_MSG_BATCH) {
+                c->skim_keep = malloc(c->skim_left + 1);
+                if (!c->skim_keep) {
+                    sc_fail(s, c, MTS_STRESS_LOCAL, "out of memory");
+                    return 0;
+                }
+            }
+        } else {
+            size_t take = (size_t)(end - p) < c->skim_left ? (size_t)(end - p) : c->skim_left;
+            if (c->skim_keep)
+                memcpy(c->skim_keep + c->skim_kept, p, take);
+            c->skim_kept += (uint32_t)take;
+            c->skim_left -= (uint32_t)take;
+            p += take;
+        }
+        if (c->skim_hdr_len == MTS_WIRE_HEADER && c->skim_left == 0) {
+            /* a whole frame: BASE and BATCH are checked for order and size
+             * only (a BATCH ends in its 4-byte CRC) */
+            int done = 0, ok;
+            static const uint8_t four[4] = {0};
+            if (c->skim_type == MTS_MSG_BASE || c->skim_type == MTS_MSG_BATCH)
+                ok = sc_frame_light(s, c, c->skim_type, four, c->skim_kept >= 4 ? 4 : 0, &done);
+            else
+                ok = sc_frame_light(s, c, c->skim_type, c->skim_keep, c->skim_kept, &done);
+            free(c->skim_keep);
+            c->skim_keep = NULL;
+            c->skim_hdr_len = 0;
+            if (!ok)
+                return 0;
+            if (done) {
+                sc_succeed(s, c, now_s());
+                return 0;
+            }
+        }
+    }
+    return 1;
+}
+
+static void sc_read(stress *s, sclient *c, double now)
+{
+    /* a few reads per wake-up, then the others get their turn */
+    for (int round = 0; round < 4; round++) {
+        ssize_t got = recv(c->fd, s->chunk, 1 << 16, MSG_DONTWAIT);
+        if (got == 0 && s->o->http_path && !c->http_head && c->http_body == c->http_length) {
+            sc_succeed(s, c, now_s());
+            return;
+        }
+        if (got == 0) {
+            sc_fail(s, c, MTS_STRESS_CLOSED, "closed before END (after %llu bytes)",
+                    (unsigned long long)c->reader.bytes_in);
+            return;
+        }
+        if (got < 0) {
+            if (errno == EINTR)
+                continue;
+            if (errno == EAGAIN || errno == EWOULDBLOCK)
+                return;
+            sc_fail(s, c, MTS_STRESS_CLOSED, "after %llu bytes: %s",
+                    (unsigned long long)c->reader.bytes_in, strerror(errno));
+            return;
+        }
+        s->rep->bytes += (uint64_t)got;
+        c->t_last = now;
+        if (s->o->no_apply && !s->o->verify && !s->o->http_path) {
+            if (!sc_skim(s, c, s->chunk, (size_t)got))
+                return;
+            c->reader.bytes_in += (uint64_t)got; /* for the error messages */
+            continue;
+        }
+        if (s->o->http_path) {
+            sc_read_http(s, c, s->chunk, (size_t)got);
+            if (c->state == SC_DONE)
+                return;
+            c->reader.bytes_in += (uint64_t)got; /* for the error messages */
+            continue;
+        }
+        mts_error err = {0};
+        if (mts_wire_reader_feed(&c->reader, s->chunk, (size_t)got, &err) != MTS_OK) {
+            sc_fail(s, c, err.code == MTS_ERR_NOMEM ? MTS_STRESS_LOCAL : MTS_STRESS_PROTOCOL,
+                    "%s", err.msg);
+            return;
+        }
+        uint8_t type;
+        const uint8_t *p;
+        size_t n;
+        int next, done = 0;
+        while ((next = mts_wire_reader_next(&c->reader, &type, &p, &n, &err)) > 0) {
+            int ok = s->o->no_apply ? sc_frame_light(s, c, type, p, n, &done)
+                                    : sc_frame_apply(s, c, type, p, n, &done);
+            if (!ok)
+                return; /* failed and released */
+            if (done) {
+                /* the clock again, not the round's: a round of many applying
+                 * clients can take long enough to blur the percentiles */
+                sc_succeed(s, c, now_s());
+                return;
+            }
+        }
+        if (next < 0) {
+            sc_fail(s, c, MTS_STRESS_PROTOCOL, "%s", err.msg);
+            return;
+        }
+        if ((size_t)got < (1u << 16))
+            return; /* the socket is drained */
+    }
+}
+
+static void check_timeouts(stress *s, uint32_t started, double now)
+{
+    double cto = s->o->connect_timeout > 0 ? s->o->connect_timeout : 10;
+    double ito = s->o->io_timeout > 0 ? s->o->io_timeout : 30;
+    for (uint32_t i = 0; i < started; i++) {
+        sclient *c = &s->c[i];
+        if (c->state == SC_CONNECTING && now - c->t_start > cto)
+            sc_fail(s, c, MTS_STRESS_CONNECT, "no connection within %.0f s", cto);
+        else if ((c->state == SC_SENDING || c->state == SC_READING) && now - c->t_last > ito)
+            sc_fail(s, c, MTS_STRESS_TIMEOUT, "no data for %.0f s", ito);
+    }
+}
+
+static int cmp_float(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+/* Nearest-rank percentiles of the sorted values: p50, p90, p99, max. */
+static void percentiles(float *v, uint32_t n, double out[4])
+{
+    memset(out, 0, 4 * sizeof *out);
+    if (n == 0)
+        return;
+    qsort(v, n, sizeof *v, cmp_float);
+    static const double q[3] = {0.50, 0.90, 0.99};
+    for (int k = 0; k < 3; k++) {
+        uint32_t rank = (uint32_t)ceil(q[k] * n);
+        out[k] = v[(rank ? rank : 1) - 1];
+    }
+    out[3] = v[n - 1];
+}
+
+mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, mts_error *err)
+{
+    memset(rep, 0, sizeof *rep);
+    stress s = {0};
+    s.o = o;
+    s.rep = rep;
+    s.epfd = -1;
+    uint32_t n = o->clients ? o->clients : 1;
+    uint32_t conc = o->concurrency && o->concurrency < n ? o->concurrency : n;
+    double ramp = o->ramp > 0 ? o->ramp : 0;
+    double interval = o->progress_interval > 0 ? o->progress_interval : 0.5;
+    rep->clients = n;
+    mts_result rc = MTS_OK;
+    mts_buf hello = {0};
+
+    const char *host = o->host ? o->host : "127.0.0.1", *port = o->port ? o->port : "7447";
+    struct addrinfo hints = {0};
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    int gai = getaddrinfo(host, port, &hints, &s.addr);
+    if (gai != 0) {
+        rc = mts_error_set(err, MTS_ERR_ARG, "%s:%s: %s", host, port, gai_strerror(gai));
+        goto done;
+    }
+    if (o->http_path) {
+        /* HTTP/1.0: one response per connection, ended by the server's close */
+        char req[1200];
+        int len = snprintf(req, sizeof req, "GET /%s HTTP/1.0\r\nHost: %s\r\n\r\n",
+                           o->http_path[0] == '/' ? o->http_path + 1 : o->http_path, host);
+        if (len < 0 || (size_t)len >= sizeof req) {
+            rc = mts_error_set(err, MTS_ERR_ARG, "HTTP path too long");
+            goto done;
+        }
+        mts_buf_put(&hello, req, (size_t)len);
+    } else {
+        mts_wire_hello h = o->hello;
+        if (h.major == 0) {
+            h.major = MTS_WIRE_MAJOR;
+            h.minor = MTS_WIRE_MINOR;
+        }
+        mts_wire_put_hello(&hello, &h);
+    }
+    s.c = calloc(n, sizeof *s.c);
+    s.ms_final = malloc((size_t)n * sizeof *s.ms_final);
+    s.ms_base = malloc((size_t)n * sizeof *s.ms_base);
+    s.chunk = malloc(1 << 16);
+    if (hello.failed || !s.c || !s.ms_final || !s.ms_base || !s.chunk) {
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for %u clients", n);
+        goto done;
+    }
+    s.hello = hello.data;
+    s.hello_size = hello.size;
+    for (uint32_t i = 0; i < n; i++)
+        s.c[i].fd = -1;
+    s.epfd = epoll_create1(EPOLL_CLOEXEC);
+    if (s.epfd < 0) {
+        rc = mts_error_set(err, MTS_ERR_IO, "epoll: %s", strerror(errno));
+        goto done;
+    }
+
+    struct epoll_event events[512];
+    uint32_t next = 0; /* the next client to start */
+    s.t0 = now_s();
+    double last_progress = s.t0, last_scan = s.t0;
+    while (rep->succeeded + rep->failed < n) {
+        double now = now_s();
+        /* start whoever is due and fits under the concurrency limit */
+        while (next < n && rep->active < conc &&
+               (ramp == 0 || now - s.t0 >= ramp * (double)next / (double)n)) {
+            sc_start(&s, &s.c[next], now);
+            next++;
+        }
+        int timeout_ms = 100;
+        if (next < n && rep->active < conc && ramp > 0) {
+            double due = s.t0 + ramp * (double)next / (double)n - now;
+            int ms = (int)(due * 1e3) + 1;
+            timeout_ms = ms < timeout_ms ? (ms > 0 ? ms : 0) : timeout_ms;
+        }
+        int got = epoll_wait(s.epfd, events, 512, timeout_ms);
+        if (got < 0 && errno != EINTR) {
+            rc = mts_error_set(err, MTS_ERR_IO, "epoll_wait: %s", strerror(errno));
+            goto done;
+        }
+        now = now_s();
+        for (int i = 0; i < got; i++) {
+            sclient *c = events[i].data.ptr;
+            if (c->state == SC_DONE)
+                continue;
+            if (c->state == SC_CONNECTING || c->state == SC_SENDING)
+                sc_send(&s, c, now);
+            else
+                sc_read(&s, c, now); /* data, or the EOF/reset a read reports */
+        }
+        if (now - last_scan >= 0.1) {
+            check_timeouts(&s, next, now);
+            last_scan = now;
+        }
+        if (o->on_progress && now - last_progress >= interval) {
+            rep->seconds = now - s.t0;
+            o->on_progress(o->user, rep);
+            last_progress = now;
+        }
+    }
+    rep->seconds = now_s() - s.t0;
+    percentiles(s.ms_base, rep->succeeded, rep->ms_base);
+    percentiles(s.ms_final, rep->succeeded, rep->ms_final);
+    if (rep->seconds > 0) {
+        rep->mb_per_s = (double)rep->bytes / 1e6 / rep->seconds;
+        rep->batches_per_s = (double)rep->batches / rep->seconds;
+    }
+done:
+    if (s.c) {
+        for (uint32_t i = 0; i < n; i++) {
+            if (s.c[i].state != SC_DONE && (s.c[i].fd >= 0 || s.c[i].decoder)) {
+                rep->active++; /* sc_release counts it down */
+                sc_release(&s, &s.c[i]);
+            }
+        }
+    }
+    if (s.epfd >= 0)
+        close(s.epfd);
+    if (s.addr)
+        freeaddrinfo(s.addr);
+    mts_buf_free(&hello);
+    free(s.c);
+    free(s.ms_final);
+    free(s.ms_base);
+    free(s.chunk);
+    return rc;
+}

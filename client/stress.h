@@ -1,0 +1,75 @@
+/* Many simulated clients from one process, for load-testing a server: one
+ * non-blocking epoll loop drives N conversations (no GL), each speaking the
+ * whole protocol. By default every client decodes and applies its batches
+ * through the same mts_stream_client and LOD runtime as mts-client, so the
+ * figures include a real client's work; with no_apply a client only reads
+ * and frames what arrives (and checks each BATCH's CRC when verify is set),
+ * which loads the server alone.
+ *
+ * Clients start evenly over `ramp` seconds, at most `concurrency` at once; a
+ * client that finishes makes room for the next. Each failure is counted by
+ * reason; one failing client never stops the others. */
+#ifndef MTS_STRESS_H
+#define MTS_STRESS_H
+
+#include <stdint.h>
+
+#include "error.h"
+#include "wire.h"
+
+typedef enum mts_stress_failure {
+    MTS_STRESS_CONNECT = 0, /* refused, unreachable, or no connection in time */
+    MTS_STRESS_BUSY,        /* the server answered ERROR busy */
+    MTS_STRESS_SERVER,      /* any other ERROR from the server */
+    MTS_STRESS_CLOSED,      /* reset, or closed before END */
+    MTS_STRESS_TIMEOUT,     /* no byte for io_timeout seconds */
+    MTS_STRESS_PROTOCOL,    /* a bad frame, CRC or record */
+    MTS_STRESS_VERIFY,      /* the final mesh's checksum differs from END's */
+    MTS_STRESS_LOCAL,       /* out of memory or descriptors here, not the server's fault */
+    MTS_STRESS_FAILURE_KINDS
+} mts_stress_failure;
+
+/* "connect", "busy", "server_error", "closed", "timeout", "protocol",
+ * "verify", "local": stable names for reports and JSON. */
+const char *mts_stress_failure_name(mts_stress_failure f);
+
+typedef struct mts_stress_report {
+    uint32_t clients, started, active, succeeded, failed;
+    uint32_t failures[MTS_STRESS_FAILURE_KINDS];
+    char first_error[MTS_STRESS_FAILURE_KINDS][160]; /* the first message of each kind */
+    uint64_t bytes, batches, splits;
+    double seconds; /* since the first connection attempt */
+    /* Filled at the end, over the clients that succeeded (0 when none): */
+    double ms_base[4];  /* p50, p90, p99, max: connect started -> base mesh in */
+    double ms_final[4]; /* connect started -> END checked */
+    double mb_per_s, batches_per_s;
+} mts_stress_report;
+
+/* Zero-initialised means the defaults. */
+typedef struct mts_stress_options {
+    const char *host;       /* NULL: 127.0.0.1 */
+    const char *port;       /* NULL: 7447 */
+    mts_wire_hello hello;   /* model and stop point; major/minor filled in when zero */
+    uint32_t clients;       /* 0: 1 */
+    uint32_t concurrency;   /* clients connected at once; 0: all of them */
+    double ramp;            /* seconds over which the clients start; 0: at once */
+    int no_apply;           /* frame only, do not decode or apply */
+    int verify;             /* with no_apply: still check every BATCH's CRC */
+    /* Not mtstream at all: GET this path over HTTP/1.0 (one response per
+     * connection) and count the body, so a static file server (nginx) can be
+     * measured by the same clients on the same bytes. NULL: mtstream. */
+    const char *http_path;
+    double connect_timeout; /* 0: 10 s (a full listen queue costs SYN retries) */
+    double io_timeout;      /* 0: 30 s without a byte */
+    double progress_interval; /* seconds between on_progress calls; 0: 0.5 */
+    void (*on_progress)(void *user, const mts_stress_report *so_far);
+    void *user;
+} mts_stress_options;
+
+/* Runs every client to its end. Returns an error only when the run itself
+ * cannot go on (bad options, the host does not resolve, epoll fails); client
+ * failures are counted in the report, which is filled either way. */
+mts_result mts_stress_run(const mts_stress_options *opts, mts_stress_report *report,
+                          mts_error *err);
+
+#endif

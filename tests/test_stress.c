@@ -1,0 +1,296 @@
+/* mts-stress against mts-server over loopback, and the server under load and
+ * abuse:
+ *   - many applying clients all complete, each receiving the whole stream;
+ *   - --no-apply --verify clients complete too;
+ *   - over --max-clients, clients get ERROR busy, counted as such, while the
+ *     others complete;
+ *   - silent and byte-a-second clients are dropped at the handshake timeout
+ *     without holding up well-behaved clients served at the same moment;
+ *   - clients that reset or vanish mid-stream are cleaned up: the server
+ *     stops cleanly afterwards (in the ASan build, LeakSanitizer checks that
+ *     nothing leaked at its exit);
+ *   - --workers 2 serves everyone; --rate-limit paces a stream; and
+ *     --stats-interval writes stats lines. */
+#include <errno.h>
+#include <fcntl.h>
+#include <stdint.h>
+
+#include "test.h"
+#include "test_proc.h"
+
+static char bin_dir[512], tmp_dir[512], models_dir[600];
+
+typedef struct server {
+    pid_t pid;
+    int port;
+    char log[700];
+} server;
+
+/* Starts mts-server on a free port serving models_dir, plus extra options. */
+static int server_start(server *sv, const char *name, const char *const *extra)
+{
+    char bin[600], listen[64];
+    snprintf(bin, sizeof bin, "%s/mts-server", bin_dir);
+    sv->port = mts_test_free_port();
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", sv->port);
+    snprintf(sv->log, sizeof sv->log, "%s/stress_%s.log", tmp_dir, name);
+    char *argv[32] = {bin, "--models", models_dir, "--listen", listen};
+    int n = 5;
+    for (; extra && *extra && n < 30; extra++)
+        argv[n++] = (char *)*extra;
+    argv[n] = NULL;
+    sv->pid = mts_test_spawn(argv, sv->log);
+    return mts_test_wait_port(sv->port, 30);
+}
+
+static int server_stop(server *sv)
+{
+    int st = mts_test_stop(sv->pid);
+    sv->pid = 0;
+    return st;
+}
+
+/* Runs mts-stress with args against sv; returns its exit status, output in out. */
+static int stress(const server *sv, const char *args, char *out, size_t size)
+{
+    char cmd[2048];
+    snprintf(cmd, sizeof cmd, "%s/mts-stress 127.0.0.1:%d %s", bin_dir, sv->port, args);
+    return mts_test_run(cmd, out, size);
+}
+
+static long json_num(const char *json, const char *key)
+{
+    char pat[64];
+    snprintf(pat, sizeof pat, "\"%s\":", key);
+    const char *p = strstr(json, pat);
+    return p ? strtol(p + strlen(pat), NULL, 10) : -1;
+}
+
+static int count_lines(const char *text, const char *needle)
+{
+    int n = 0;
+    for (const char *p = text; (p = strstr(p, needle)); p += strlen(needle))
+        n++;
+    return n;
+}
+
+static void test_many_clients_apply(mts_test *t)
+{
+    server sv;
+    CHECK(t, server_start(&sv, "apply", NULL));
+    char one[4096], out[4096];
+    CHECKF(t, stress(&sv, "cow --json", one, sizeof one) == 0, "%s", one);
+    long stream_bytes = json_num(one, "bytes");
+    CHECK(t, stream_bytes > 10000);
+    int rc = stress(&sv, "cow --clients 100 --concurrency 50 --ramp 0.2 --json", out, sizeof out);
+    CHECKF(t, rc == 0, "exit %d: %s", rc, out);
+    CHECKF(t, json_num(out, "succeeded") == 100 && json_num(out, "failed") == 0, "%s", out);
+    /* every client got the whole stream, no more, no less */
+    CHECKF(t, json_num(out, "bytes") == 100 * stream_bytes, "%s vs %ld each", out, stream_bytes);
+    CHECK(t, strstr(out, "\"failures\":{}") && strstr(out, "\"p99_ms_final\":"));
+    CHECK(t, server_stop(&sv) == 0);
+}
+
+static void test_no_apply_verify(mts_test *t)
+{
+    server sv;
+    CHECK(t, server_start(&sv, "noapply", NULL));
+    char out[4096];
+    int rc = stress(&sv, "cow --clients 300 --no-apply --verify --json", out, sizeof out);
+    CHECKF(t, rc == 0 && json_num(out, "succeeded") == 300, "exit %d: %s", rc, out);
+    CHECK(t, strstr(out, "\"apply\":false") != NULL);
+    /* a partial stop: fewer bytes, still complete */
+    rc = stress(&sv, "cow --clients 20 --fraction 0.3 --json", out, sizeof out);
+    CHECKF(t, rc == 0 && json_num(out, "succeeded") == 20, "exit %d: %s", rc, out);
+    CHECK(t, server_stop(&sv) == 0);
+}
+
+static void test_busy(mts_test *t)
+{
+    /* 4 slots, each stream paced to last about a second: the rest are refused */
+    const char *extra[] = {"--max-clients", "4", "--rate-limit", "60000", NULL};
+    server sv;
+    CHECK(t, server_start(&sv, "busy", extra));
+    char out[4096];
+    int rc = stress(&sv, "cow --clients 40 --no-apply --json", out, sizeof out);
+    long ok = json_num(out, "succeeded"), failed = json_num(out, "failed");
+    CHECKF(t, rc == 1 && ok >= 4 && ok + failed == 40, "exit %d: %s", rc, out);
+    long busy = -1;
+    const char *b = strstr(out, "\"busy\":");
+    if (b)
+        busy = strtol(b + 7, NULL, 10);
+    CHECKF(t, busy == failed && busy >= 30, "busy %ld of %ld failed: %s", busy, failed, out);
+    CHECK(t, strstr(out, "server busy") != NULL); /* the reason, in words */
+    CHECK(t, server_stop(&sv) == 0);
+    char logtext[1 << 16];
+    mts_test_read_file(sv.log, logtext, sizeof logtext);
+    CHECKF(t, count_lines(logtext, "outcome=error: busy") == busy, "%s", logtext);
+}
+
+/* Silent clients and one that sends a byte at a time, all at once with
+ * well-behaved ones: the bad ones are dropped at the handshake timeout, the
+ * good ones finish as fast as alone. */
+static void test_hostile_handshakes(mts_test *t)
+{
+    const char *extra[] = {"--handshake-timeout", "1", NULL};
+    server sv;
+    CHECK(t, server_start(&sv, "hostile", extra));
+    int silent[20], drip = mts_test_connect(sv.port);
+    for (int i = 0; i < 20; i++)
+        silent[i] = mts_test_connect(sv.port);
+    CHECK(t, drip >= 0 && silent[19] >= 0);
+    const char hello_start[] = {40, 0, 0, 0, 1, 'M', 'T', 'S', 'H'};
+    for (int i = 0; i < 3; i++) { /* a byte every 0.2 s */
+        CHECK(t, send(drip, hello_start + i, 1, MSG_NOSIGNAL) == 1);
+        struct timespec ts = {0, 200 * 1000 * 1000};
+        nanosleep(&ts, NULL);
+    }
+    char out[4096];
+    int rc = stress(&sv, "cow --clients 30 --json", out, sizeof out);
+    CHECKF(t, rc == 0 && json_num(out, "succeeded") == 30, "exit %d: %s", rc, out);
+    /* the good clients were not held up behind the silent ones */
+    CHECKF(t, json_num(out, "p99_ms_final") < 900, "%s", out);
+    /* every bad one gets ERROR timeout and a close within about a second */
+    int closed = 0;
+    for (int i = 0; i <= 20; i++) {
+        int fd = i < 20 ? silent[i] : drip;
+        struct timeval tv = {3, 0};
+        setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+        char buf[512];
+        ssize_t n, total = 0;
+        while ((n = recv(fd, buf, sizeof buf, 0)) > 0)
+            total += n;
+        if (n == 0 && total > 5 && buf[4] == 31) /* an ERROR frame, then EOF */
+            closed++;
+        close(fd);
+    }
+    CHECKF(t, closed == 21, "%d of 21 dropped with an ERROR", closed);
+    CHECK(t, server_stop(&sv) == 0);
+    char logtext[1 << 16];
+    mts_test_read_file(sv.log, logtext, sizeof logtext);
+    CHECKF(t, count_lines(logtext, "handshake timeout") == 21, "%s", logtext);
+}
+
+/* Clients that reset or vanish mid-stream; then everyone else is still
+ * served and the server stops cleanly with nothing leaked. */
+static void test_resets_mid_stream(mts_test *t)
+{
+    const char *extra[] = {"--rate-limit", "200000", NULL};
+    server sv;
+    CHECK(t, server_start(&sv, "resets", extra));
+    uint8_t hello[128];
+    /* a HELLO for cow, as mts-stress would send it */
+    size_t hn = 0;
+    {
+        const char model[] = "cow";
+        uint8_t body[96];
+        size_t b = 0;
+        body[b++] = 1; /* HELLO */
+        memcpy(body + b, "MTSH", 4);
+        b += 4;
+        body[b++] = 1, body[b++] = 0; /* major 1 */
+        body[b++] = 0, body[b++] = 0; /* minor 0 */
+        body[b++] = (uint8_t)strlen(model);
+        memcpy(body + b, model, strlen(model));
+        b += strlen(model);
+        body[b++] = 0; /* stop: full */
+        body[b++] = 0; /* stop value */
+        body[b++] = 0; /* resume batch */
+        memset(body + b, 0, 8); /* stream id */
+        b += 8;
+        body[b++] = 0; /* flags */
+        hello[0] = (uint8_t)b, hello[1] = hello[2] = hello[3] = 0;
+        memcpy(hello + 4, body, b);
+        hn = 4 + b;
+    }
+    for (int i = 0; i < 40; i++) {
+        int fd = mts_test_connect(sv.port);
+        CHECK(t, fd >= 0 && send(fd, hello, hn, MSG_NOSIGNAL) == (ssize_t)hn);
+        char buf[2048];
+        CHECK(t, recv(fd, buf, sizeof buf, MSG_WAITALL) > 0);
+        if (i % 2 == 0) { /* reset: linger 0 makes close send RST */
+            struct linger lg = {1, 0};
+            setsockopt(fd, SOL_SOCKET, SO_LINGER, &lg, sizeof lg);
+        }
+        close(fd);
+    }
+    char out[4096];
+    int rc = stress(&sv, "cow --clients 20 --no-apply --json", out, sizeof out);
+    CHECKF(t, rc == 0 && json_num(out, "succeeded") == 20, "exit %d: %s", rc, out);
+    CHECK(t, server_stop(&sv) == 0);
+    char logtext[1 << 16];
+    mts_test_read_file(sv.log, logtext, sizeof logtext);
+    int gone = count_lines(logtext, "outcome=error: reset by peer") +
+               count_lines(logtext, "outcome=error: peer went away");
+    CHECKF(t, gone == 40, "%d of 40 broken clients logged as such", gone);
+    CHECKF(t, !strstr(logtext, "Sanitizer"), "%s", logtext);
+    CHECK(t, strstr(logtext, "mts-server: stopped:") != NULL);
+}
+
+static void test_workers_rate_stats(mts_test *t)
+{
+    const char *extra[] = {"--workers", "2", "--stats-interval", "0.2", NULL};
+    server sv;
+    CHECK(t, server_start(&sv, "workers", extra));
+    char out[4096];
+    int rc = stress(&sv, "cow --clients 200 --no-apply --json", out, sizeof out);
+    CHECKF(t, rc == 0 && json_num(out, "succeeded") == 200, "exit %d: %s", rc, out);
+    struct timespec ts = {0, 300 * 1000 * 1000};
+    nanosleep(&ts, NULL);
+    CHECK(t, server_stop(&sv) == 0);
+    char logtext[1 << 17];
+    mts_test_read_file(sv.log, logtext, sizeof logtext);
+    CHECK(t, strstr(logtext, "2 workers") != NULL);
+    CHECKF(t, count_lines(logtext, "stats: connections=") >= 2, "no stats lines");
+    CHECK(t, strstr(logtext, "200 completed") != NULL);
+
+    /* --rate-limit: a stream of B bytes takes about (B - burst) / rate */
+    const char *paced[] = {"--rate-limit", "100000", NULL};
+    CHECK(t, server_start(&sv, "paced", paced));
+    rc = stress(&sv, "cow --clients 3 --json", out, sizeof out);
+    long bytes = json_num(out, "bytes") / 3, ms = json_num(out, "p50_ms_final");
+    long want = (bytes - 10000) * 1000 / 100000;
+    CHECKF(t, rc == 0 && ms >= want * 9 / 10 && ms < want * 3 + 500,
+           "%ld bytes in %ld ms, about %ld expected: %s", bytes, ms, want, out);
+    CHECK(t, server_stop(&sv) == 0);
+}
+
+static void test_usage(mts_test *t)
+{
+    char cmd[1024], out[8192];
+    snprintf(cmd, sizeof cmd, "%s/mts-stress --help", bin_dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0 && strstr(out, "--concurrency"));
+    snprintf(cmd, sizeof cmd, "%s/mts-stress cow --clients 0", bin_dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 2);
+    snprintf(cmd, sizeof cmd, "%s/mts-stress cow --level 3 --fraction 0.5", bin_dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 2);
+    /* nobody listening: every client fails to connect, named as such */
+    snprintf(cmd, sizeof cmd, "%s/mts-stress 127.0.0.1:%d cow --clients 5 --json", bin_dir,
+             mts_test_free_port());
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 1 && strstr(out, "\"connect\":5"), "%s", out);
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    mts_test_bin_dir(argv[0], bin_dir, sizeof bin_dir);
+    snprintf(tmp_dir, sizeof tmp_dir, "%s", mts_test_tmpdir());
+    snprintf(models_dir, sizeof models_dir, "%s/stress_models", tmp_dir);
+    signal(SIGPIPE, SIG_IGN);
+    mts_test t = {0};
+    char cmd[2048], out[8192];
+    snprintf(cmd, sizeof cmd, "mkdir -p %s && %s/mts-build tests/data/cow.off -o %s/cow.mtsm --quiet",
+             models_dir, bin_dir, models_dir);
+    if (mts_test_run(cmd, out, sizeof out) != 0) {
+        fprintf(stderr, "cannot build cow: %s\n", out);
+        return 1;
+    }
+    RUN(&t, test_usage);
+    RUN(&t, test_many_clients_apply);
+    RUN(&t, test_no_apply_verify);
+    RUN(&t, test_busy);
+    RUN(&t, test_hostile_handshakes);
+    RUN(&t, test_resets_mid_stream);
+    RUN(&t, test_workers_rate_stats);
+    return mts_test_end(&t);
+}
