@@ -12,7 +12,7 @@
 static void usage(FILE *f)
 {
     fputs("usage: mts-stress [HOST[:PORT]] MODEL --clients N [--concurrency C] [--ramp S]\n"
-          "                  [--level L | --fraction F] [--no-apply] [--verify]\n"
+          "                  [--level L | --triangles N | --fraction F] [--no-apply] [--verify]\n"
           "                  [--connect-timeout S] [--io-timeout S] [--json] [--quiet]\n"
           "       mts-stress HOST:PORT --http PATH --clients N ...   (a static file server)\n"
           "\n"
@@ -24,7 +24,7 @@ static void usage(FILE *f)
           "  --clients N          clients in all (default 1)\n"
           "  --concurrency C      at most C connected at once (default: all N)\n"
           "  --ramp S             start the clients evenly over S seconds (default 0)\n"
-          "  --level L / --fraction F   where each client stops (default: full)\n"
+          "  --level L / --triangles N / --fraction F   where each client stops (default: full)\n"
           "  --no-apply           only read and frame the stream; do not decode or apply\n"
           "                       (loads the server, not this process)\n"
           "  --verify             with --no-apply, still check every batch's CRC (applying\n"
@@ -63,32 +63,26 @@ static double cpu_seconds(void)
            ru.ru_stime.tv_usec * 1e-6;
 }
 
-/* Each client needs a descriptor: raise the soft limit as far as the hard one
- * allows, and say so when that is still too low. */
-static void raise_nofile(uint32_t need, int quiet)
+/* Each client needs a descriptor: raise the soft limit as far as the hard
+ * one allows, and say so when that is still too low. */
+static void raise_nofile(uint64_t need, int quiet)
 {
-    struct rlimit rl;
-    if (getrlimit(RLIMIT_NOFILE, &rl) != 0)
-        return;
-    rlim_t want = (rlim_t)need + 64;
-    if (rl.rlim_cur >= want)
-        return;
-    rlim_t to = rl.rlim_max == RLIM_INFINITY || rl.rlim_max >= want ? want : rl.rlim_max;
-    rl.rlim_cur = to;
-    setrlimit(RLIMIT_NOFILE, &rl);
-    if (to < want && !quiet)
+    uint64_t now, hard;
+    need += 64;
+    cli_raise_nofile(need, &now, &hard);
+    if (now < need && !quiet)
         fprintf(stderr,
-                "mts-stress: the open-file limit (hard %llu) is below the %u descriptors "
+                "mts-stress: the open-file limit (hard %llu) is below the %llu descriptors "
                 "wanted: clients over it fail as 'local'; raise it (ulimit -Hn) or use "
                 "--concurrency\n",
-                (unsigned long long)rl.rlim_max, need);
+                (unsigned long long)hard, (unsigned long long)need);
 }
 
 int main(int argc, char **argv)
 {
     mts_stress_options so = {0};
     const char *pos[2];
-    int npos = 0, json = 0, quiet = 0, stops = 0;
+    int npos = 0, json = 0, quiet = 0, stops = 0, stop;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -103,23 +97,24 @@ int main(int argc, char **argv)
             so.no_apply = 1;
         } else if (!strcmp(a, "--verify")) {
             so.verify = 1;
-        } else if (!strcmp(a, "--clients") || !strcmp(a, "--concurrency") ||
-                   !strcmp(a, "--level")) {
+        } else if (!strcmp(a, "--clients") || !strcmp(a, "--concurrency")) {
             uint32_t x;
-            if (!v || !cli_parse_u32(v, &x) || (x == 0 && strcmp(a, "--level") != 0)) {
-                fprintf(stderr, "mts-stress: %s needs a %s number\n", a,
-                        strcmp(a, "--level") ? "positive" : "whole");
+            if (!v || !cli_parse_u32(v, &x) || x == 0) {
+                fprintf(stderr, "mts-stress: %s needs a positive number\n", a);
                 return CLI_EXIT_USAGE;
             }
-            if (!strcmp(a, "--clients")) {
+            if (!strcmp(a, "--clients"))
                 so.clients = x;
-            } else if (!strcmp(a, "--concurrency")) {
+            else
                 so.concurrency = x;
-            } else {
-                so.hello.stop_kind = MTS_STOP_LEVEL;
-                so.hello.stop_value = x;
-                stops++;
+            i++;
+        } else if ((stop = cli_parse_stop(a, v, &so.hello.stop_kind, &so.hello.stop_value))) {
+            if (stop < 0) {
+                fprintf(stderr, "mts-stress: %s needs %s\n", a,
+                        strcmp(a, "--fraction") ? "a whole number" : "a number from 0 to 1");
+                return CLI_EXIT_USAGE;
             }
+            stops++;
             i++;
         } else if (!strcmp(a, "--http")) {
             if (!v) {
@@ -127,16 +122,6 @@ int main(int argc, char **argv)
                 return CLI_EXIT_USAGE;
             }
             so.http_path = v;
-            i++;
-        } else if (!strcmp(a, "--fraction")) {
-            double f;
-            if (!v || !cli_parse_double(v, &f) || f < 0 || f > 1) {
-                fprintf(stderr, "mts-stress: --fraction needs a number from 0 to 1\n");
-                return CLI_EXIT_USAGE;
-            }
-            so.hello.stop_kind = MTS_STOP_FRACTION;
-            so.hello.stop_value = (uint32_t)(f * 1e6 + 0.5);
-            stops++;
             i++;
         } else if (!strcmp(a, "--ramp") || !strcmp(a, "--connect-timeout") ||
                    !strcmp(a, "--io-timeout")) {
@@ -171,7 +156,7 @@ int main(int argc, char **argv)
         return CLI_EXIT_USAGE;
     }
     if (stops > 1) {
-        fprintf(stderr, "mts-stress: give one of --level, --fraction\n");
+        fprintf(stderr, "mts-stress: give one of --level, --triangles, --fraction\n");
         return CLI_EXIT_USAGE;
     }
     const char *model = pos[npos - 1];

@@ -5,7 +5,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/resource.h>
 #include <time.h>
 
 #include "catalog.h"
@@ -84,26 +83,19 @@ static int parse_seconds(const char *s, double *out)
 }
 
 /* Every connection is a descriptor: raise the soft limit toward what the
- * connection limits need, as far as the hard limit allows, and say so when
- * that is not enough. */
+ * connection limits need, and say so when the hard limit is too low. */
 static void raise_nofile(uint64_t need, int quiet)
 {
-    struct rlimit rl;
-    if (getrlimit(RLIMIT_NOFILE, &rl) != 0)
-        return;
-    rlim_t want = (rlim_t)need + 64;
-    if (rl.rlim_cur >= want)
-        return;
-    rlim_t to = rl.rlim_max == RLIM_INFINITY || rl.rlim_max >= want ? want : rl.rlim_max;
-    rl.rlim_cur = to;
-    if (setrlimit(RLIMIT_NOFILE, &rl) == 0 && !quiet)
-        fprintf(stderr, "mts-server: open-file limit raised to %llu\n", (unsigned long long)to);
-    if (to < want)
+    uint64_t now, hard;
+    need += 64; /* listeners, epoll, logs, model files */
+    if (cli_raise_nofile(need, &now, &hard) && !quiet)
+        fprintf(stderr, "mts-server: open-file limit raised to %llu\n", (unsigned long long)now);
+    if (now < need)
         fprintf(stderr,
-                "mts-server: warning: the open-file hard limit (%llu) is below the %llu "
+                "mts-server: warning: the open-file limit (hard %llu) is below the %llu "
                 "descriptors --max-clients needs; clients over it wait in the accept queue "
                 "(raise it with ulimit -Hn or LimitNOFILE=)\n",
-                (unsigned long long)rl.rlim_max, (unsigned long long)want);
+                (unsigned long long)hard, (unsigned long long)need);
 }
 
 typedef struct worker {

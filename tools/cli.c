@@ -5,6 +5,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -206,4 +207,41 @@ int cli_parse_server(const char *server, char *host, size_t host_size, char *por
         snprintf(host, host_size, "%s", server);
     }
     return host[0] != 0 && port[0] != 0;
+}
+
+int cli_raise_nofile(uint64_t need, uint64_t *now, uint64_t *hard)
+{
+    struct rlimit rl;
+    *now = *hard = 0;
+    if (getrlimit(RLIMIT_NOFILE, &rl) != 0)
+        return 0;
+    *now = rl.rlim_cur;
+    *hard = rl.rlim_max == RLIM_INFINITY ? UINT64_MAX : rl.rlim_max;
+    if ((uint64_t)rl.rlim_cur >= need)
+        return 0;
+    rlim_t to = *hard >= need ? (rlim_t)need : rl.rlim_max;
+    rl.rlim_cur = to;
+    if (setrlimit(RLIMIT_NOFILE, &rl) != 0)
+        return 0;
+    *now = to;
+    return 1;
+}
+
+int cli_parse_stop(const char *opt, const char *value, uint8_t *kind, uint32_t *stop_value)
+{
+    if (!strcmp(opt, "--level") || !strcmp(opt, "--triangles")) {
+        if (!value || !cli_parse_u32(value, stop_value))
+            return -1;
+        *kind = !strcmp(opt, "--level") ? 1 : 2; /* MTS_STOP_LEVEL, MTS_STOP_TRIANGLES */
+        return 1;
+    }
+    if (!strcmp(opt, "--fraction")) {
+        double f;
+        if (!value || !cli_parse_double(value, &f) || f < 0 || f > 1)
+            return -1;
+        *kind = 3; /* MTS_STOP_FRACTION, in millionths */
+        *stop_value = (uint32_t)(f * 1e6 + 0.5);
+        return 1;
+    }
+    return 0;
 }

@@ -57,6 +57,15 @@ void cli_json_end(cli_json *j);
 int cli_parse_server(const char *server, char *host, size_t host_size, char *port,
                      size_t port_size);
 
+/* Raises the open-file soft limit toward need, as far as the hard limit
+ * allows; returns 1 when it raised it. now and hard get the limits after. */
+int cli_raise_nofile(uint64_t need, uint64_t *now, uint64_t *hard);
+
+/* The stop options every streaming program takes: --level L, --triangles N,
+ * --fraction F. 1: it was one (kind and value set, as in mts_wire_stop);
+ * 0: opt is another option; -1: its value is missing or malformed. */
+int cli_parse_stop(const char *opt, const char *value, uint8_t *kind, uint32_t *stop_value);
+
 /* "name" from "dir/name.ext". */
 void cli_stem(const char *path, char *out, size_t size);
 
