@@ -16,7 +16,8 @@ static void usage(FILE *f)
 {
     fputs("usage: mts-client [HOST[:PORT]] MODEL [--level L | --triangles N | --fraction F]\n"
           "                  [--png FILE] [--png-levels L1,L2,...] [--size WxH] [--color-strips]\n"
-          "                  [--verify] [--model-file M.mtsm] [--no-render] [--json] [--quiet]\n"
+          "                  [--verify] [--model-file M.mtsm] [--no-render] [--resume]\n"
+          "                  [--retries N] [--json] [--quiet]\n"
           "       mts-client [HOST[:PORT]] --list\n"
           "\n"
           "Streams MODEL from an mts-server (default 127.0.0.1:7447): a Draco base mesh,\n"
@@ -32,12 +33,17 @@ static void usage(FILE *f)
           "                      done) and, with --model-file, that the final strips and\n"
           "                      positions equal that model's stream at the same level\n"
           "  --no-render         decode and apply only\n"
+          "  --resume            when the connection breaks (or cannot be made), wait\n"
+          "                      0.1 s doubling to 2 s (with jitter), reconnect and go on\n"
+          "                      from the last batch applied; the final mesh is the same\n"
+          "  --retries N         with --resume: give up after N tries in a row without\n"
+          "                      progress (default 8)\n"
           "  --list              print the server's models\n"
           "  --json              one line of JSON with the figures\n"
           "  -q, --quiet         no progress, no summary\n"
           "\n"
-          "Exit status: 0 complete, 1 failed (the last whole batch is still drawn),\n"
-          "2 bad usage.\n",
+          "Exit status: 0 complete, 1 failed (the last whole batch is still drawn;\n"
+          "with --resume, after the last try), 2 bad usage.\n",
           f);
 }
 
@@ -147,6 +153,11 @@ static int level_pngs(run *rn, mts_stream_client *c, int final)
 static int on_event(void *user, mts_stream_event ev, mts_stream_client *c)
 {
     run *rn = user;
+    if (ev == MTS_EV_RESUMED && !rn->quiet) {
+        cli_bar_done(&rn->bar);
+        fprintf(stderr, "mts-client: reconnected; resuming at batch %u of %u\n", c->batches,
+                c->info.batch_count);
+    }
     if (ev == MTS_EV_INFO) {
         cli_bar_update(&rn->bar, "stream", 0);
     } else if (ev == MTS_EV_BASE && rn->render) {
@@ -165,6 +176,23 @@ static int on_event(void *user, mts_stream_event ev, mts_stream_client *c)
             return 1;
         }
     }
+    return 0;
+}
+
+/* --resume: the session waits and tries again; say so on stderr. */
+static int on_retry(void *user, const mts_session_retry *r)
+{
+    run *rn = user;
+    if (rn->quiet)
+        return 0;
+    cli_bar_done(&rn->bar);
+    if (r->have_base)
+        fprintf(stderr, "mts-client: connection lost at batch %u (%s); retrying in %.2f s "
+                        "(try %u/%u)\n",
+                r->batches, r->reason, r->delay, r->attempt, r->max_tries);
+    else
+        fprintf(stderr, "mts-client: %s; retrying in %.2f s (try %u/%u)\n", r->reason, r->delay,
+                r->attempt, r->max_tries);
     return 0;
 }
 
@@ -274,6 +302,15 @@ int main(int argc, char **argv)
             list = 1;
         } else if (!strcmp(a, "--no-render")) {
             rn.render = 0;
+        } else if (!strcmp(a, "--resume")) {
+            so.resume = 1;
+        } else if (!strcmp(a, "--retries")) {
+            if (!v || !cli_parse_u32(v, &so.max_tries) || so.max_tries < 1 ||
+                so.max_tries > 1000) {
+                fprintf(stderr, "mts-client: --retries needs a whole number from 1 to 1000\n");
+                return CLI_EXIT_USAGE;
+            }
+            i++;
         } else if (!strcmp(a, "--color-strips")) {
             rn.ro.style.color_by_strip = 1;
         } else if (!strcmp(a, "--level") || !strcmp(a, "--triangles")) {
@@ -390,6 +427,7 @@ int main(int argc, char **argv)
     so.port = port;
     so.list = list;
     so.on_event = on_event;
+    so.on_retry = on_retry;
     so.user = &rn;
     cli_bar_init(&rn.bar, rn.quiet || json || list);
 
@@ -460,6 +498,12 @@ int main(int argc, char **argv)
         cli_json_u64(&j, "level", c.have_lod ? c.lod.level : 0);
         cli_json_u64(&j, "levels", c.info.levels);
         cli_json_u64(&j, "triangles", triangles);
+        if (c.end_checksum) { /* END came: the mesh checksum at the final level */
+            char hex[17];
+            snprintf(hex, sizeof hex, "%016llx", (unsigned long long)c.checksum);
+            cli_json_str(&j, "checksum", hex);
+        }
+        cli_json_u64(&j, "reconnects", st.reconnects);
         cli_json_num(&j, "ms_connect", st.ms_connect, 3);
         cli_json_num(&j, "ms_base", st.ms_base, 3);
         cli_json_num(&j, "ms_final", st.ms_final, 3);

@@ -3,7 +3,9 @@
  * an mts_stream_client, calling back after each event so a renderer can
  * follow. The socket never blocks past the I/O timeout; a server that dies
  * mid-stream leaves the client at its last whole batch and an error that
- * says so. */
+ * says so -- or, with `resume`, the session waits (exponential backoff with
+ * jitter), connects again and asks for the stream from the first batch it
+ * does not hold, a bounded number of times. */
 #ifndef MTS_SESSION_H
 #define MTS_SESSION_H
 
@@ -12,6 +14,16 @@
 #include "error.h"
 #include "stream.h"
 #include "wire.h"
+
+/* What on_retry is told: what broke, where the stream stands, what comes. */
+typedef struct mts_session_retry {
+    const char *reason; /* the error that ended the last try */
+    int have_base;      /* the base is in: the stream resumes at batch `batches` */
+    uint32_t batches;   /* batches applied */
+    uint32_t attempt;   /* 1..max_tries: the try about to be made */
+    uint32_t max_tries;
+    double delay;       /* seconds it waits first */
+} mts_session_retry;
 
 /* Zero-initialised means the defaults. */
 typedef struct mts_session_options {
@@ -24,6 +36,20 @@ typedef struct mts_session_options {
     /* after each event; returning non-zero stops the session (MTS_ERR_ARG) */
     int (*on_event)(void *user, mts_stream_event ev, mts_stream_client *c);
     void *user;
+    /* Resume: on a connection error (connect refused or timed out, reset,
+     * EOF before END, no byte for io_timeout) wait, reconnect and send HELLO
+     * with resume_batch = the batches applied and the stream_id. Each try
+     * counts, a failed connect included; a conversation that applied
+     * something (base, batch, END) starts the count again. An ERROR from
+     * the server (unknown model, stale stream, busy) is its answer, not a
+     * broken connection, and a stream that fails its checks would fail
+     * again: neither is retried. */
+    int resume;
+    uint32_t max_tries;     /* tries after a break before giving up; 0: 8 */
+    double backoff_initial; /* seconds before the first try; 0: 0.1 */
+    double backoff_max;     /* the wait doubles up to this; 0: 2 */
+    /* before each wait (the library never prints); non-zero gives up */
+    int (*on_retry)(void *user, const mts_session_retry *r);
 } mts_session_options;
 
 typedef struct mts_session_stats {
@@ -34,10 +60,13 @@ typedef struct mts_session_stats {
     double ms_final;   /* END checked */
     double ms_apply;   /* time spent decoding and applying frames */
     uint32_t frames;
+    uint32_t reconnects; /* connections made after a break (resume only) */
 } mts_session_stats;
 
 /* Runs to END (MTS_OK), an ERROR from the server (MTS_ERR_FORMAT with its
- * text; c->error_code says which), or a failure. */
+ * text; c->error_code says which), or a failure; with resume, a connection
+ * error only after max_tries tries (the message names the last error).
+ * Times in stats run from the first connect. */
 mts_result mts_session_run(const mts_session_options *opts, mts_stream_client *c,
                            mts_session_stats *stats, mts_error *err);
 

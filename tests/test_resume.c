@@ -1,0 +1,773 @@
+/* Resuming a stream after a broken connection (PROTOCOL.md, HELLO):
+ *   - in memory: a conversation cut anywhere, then the rest asked for from
+ *     the client's resume point (mts_stream_range, as the server answers),
+ *     ends with the unbroken stream's checksum -- also after several breaks
+ *     and at a partial stop level; a resumed MODEL_INFO of another stream is
+ *     refused, never mixed in;
+ *   - over loopback: mts-server is killed mid-stream (the client's bytes go
+ *     through a small proxy in this program that cuts the first connection
+ *     inside batch 10, so "mid-stream" is exact) and started again on the
+ *     same port: `mts-client --resume` completes with the unbroken run's
+ *     checksum, triangles and verification; a server that never comes back
+ *     makes it give up after its bounded tries, in the time the backoff
+ *     allows; a server that comes back with another model under the same
+ *     name answers `stale`, which is not retried. */
+#include <fcntl.h>
+#include <libgen.h>
+#include <netinet/in.h>
+#include <arpa/inet.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdint.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "modelfile.h"
+#include "build.h"
+#include "mesh.h"
+#include "stream.h"
+#include "test.h"
+#include "wire.h"
+
+static char bin_dir[512], tmp_dir[512];
+
+/* ---- in memory ---- */
+
+/* cow, built once (the simplifier is the slow part, under ASan most of all) */
+static mts_model cow;
+static int cow_state; /* 0: not yet, 1: built, -1: failed */
+
+static int build_stream(mts_test *t, const mts_stream_options *o, mts_stream *s)
+{
+    mts_error err = {0};
+    if (cow_state == 0) {
+        mts_mesh mesh = {0};
+        cow_state = -1;
+        if (mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK &&
+            mts_build_model(&mesh, "cow", NULL, &cow, NULL, &err) == MTS_OK)
+            cow_state = 1;
+        mts_mesh_free(&mesh);
+    }
+    if (cow_state < 0) {
+        CHECKF(t, 0, "building cow: %s", err.msg[0] ? err.msg : "failed before");
+        return 0;
+    }
+    mts_result rc = mts_stream_build(&cow, "cow", o, s, &err);
+    CHECKF(t, rc == MTS_OK, "stream: %s", err.msg);
+    return rc == MTS_OK;
+}
+
+/* What the server sends for a HELLO (server.c: MODEL_INFO, the range, END),
+ * including its refusal of a resume for another stream. */
+static int conversation(const mts_stream *s, uint32_t stop, uint32_t resume_batch,
+                        uint64_t stream_id, mts_buf *out)
+{
+    mts_error err = {0};
+    if (resume_batch > 0 && stream_id != s->stream_id) {
+        size_t f = mts_wire_frame_begin(out, MTS_MSG_ERROR);
+        mts_buf_u16(out, MTS_WERR_STALE);
+        mts_buf_varint(out, 5);
+        mts_buf_put(out, "stale", 5);
+        mts_wire_frame_end(out, f);
+        return 0;
+    }
+    size_t off, len;
+    if (mts_stream_range(s, resume_batch, stop, &off, &len, &err) != MTS_OK)
+        return 0;
+    mts_stream_put_model_info(s, stop, out);
+    size_t head = out->size;
+    mts_buf_put(out, s->bytes + off, len);
+    mts_stream_put_end(s, stop, (uint32_t)(head + len), out);
+    return 1;
+}
+
+typedef struct tally {
+    int info, base, batch, end, resumed, error;
+} tally;
+
+/* Feeds data in seeded pieces through a fresh frame reader, as one
+ * connection does; a frame left incomplete is dropped with the reader. */
+static mts_result feed(mts_stream_client *c, const uint8_t *data, size_t size, uint64_t seed,
+                       tally *n, mts_error *err)
+{
+    mts_wire_reader r = {0};
+    mts_result rc = MTS_OK;
+    size_t at = 0;
+    while (at < size && rc == MTS_OK) {
+        seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+        size_t piece = 1 + (size_t)((seed >> 33) % 1500);
+        if (piece > size - at)
+            piece = size - at;
+        if ((rc = mts_wire_reader_feed(&r, data + at, piece, err)) != MTS_OK)
+            break;
+        at += piece;
+        uint8_t type;
+        const uint8_t *p;
+        size_t len;
+        int got;
+        while (rc == MTS_OK && (got = mts_wire_reader_next(&r, &type, &p, &len, err)) == 1) {
+            mts_stream_event ev;
+            if ((rc = mts_stream_client_frame(c, type, p, len, &ev, err)) != MTS_OK)
+                break;
+            n->info += ev == MTS_EV_INFO;
+            n->base += ev == MTS_EV_BASE;
+            n->batch += ev == MTS_EV_BATCH;
+            n->end += ev == MTS_EV_END;
+            n->resumed += ev == MTS_EV_RESUMED;
+            n->error += ev == MTS_EV_ERROR;
+        }
+        if (rc == MTS_OK && got < 0)
+            rc = err->code;
+    }
+    mts_wire_reader_free(&r);
+    return rc;
+}
+
+/* Streams to `stop` over connections that break at cuts[0], cuts[1], ...
+ * (bytes into each connection; SIZE_MAX: no break), resuming each time;
+ * checks that the end is the unbroken stream's. */
+static void run_with_breaks(mts_test *t, const mts_stream *s, uint32_t stop, const size_t *cuts,
+                            int ncuts, uint64_t seed, const char *what)
+{
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_error err = {0};
+    tally n = {0};
+    int have_base_before = 0;
+    for (int k = 0; k <= ncuts && !t->case_failed; k++) {
+        uint32_t batch = 0;
+        uint64_t id = 0;
+        if (k > 0) {
+            CHECKF(t, mts_stream_client_resume_point(&c, &batch, &id), "%s: break %d", what, k);
+            CHECK(t, batch == (c.have_lod ? c.batches : 0));
+            CHECK(t, batch == 0 ? id == 0 : id == s->stream_id);
+            have_base_before = c.have_lod;
+            CHECKF(t, mts_stream_client_reconnected(&c, &err) == MTS_OK, "%s: %s", what, err.msg);
+        }
+        mts_buf b = {0};
+        CHECKF(t, conversation(s, stop, batch, id, &b), "%s: the server refused the resume", what);
+        size_t len = k < ncuts && cuts[k] < b.size ? cuts[k] : b.size;
+        int resumed = n.resumed;
+        mts_result rc = feed(&c, b.data, len, seed + (uint64_t)k, &n, &err);
+        CHECKF(t, rc == MTS_OK, "%s, connection %d (%zu of %zu bytes): %s", what, k, len, b.size,
+               err.msg);
+        /* once the base is in, a new conversation's whole MODEL_INFO is a
+         * resume (MTS_EV_RESUMED); before, it starts over (MTS_EV_INFO) */
+        size_t info_size = 4 + ((size_t)b.data[0] | (size_t)b.data[1] << 8 |
+                                (size_t)b.data[2] << 16 | (size_t)b.data[3] << 24);
+        if (k > 0 && have_base_before && rc == MTS_OK)
+            CHECKF(t, n.resumed == resumed + (len >= info_size), "%s: MTS_EV_RESUMED %d, was %d",
+                   what, n.resumed, resumed);
+        int whole = len == b.size;
+        mts_buf_free(&b);
+        if (whole) /* a cut past the end: that conversation completed */
+            break;
+    }
+    CHECKF(t, n.end == 1 && n.base == 1 && n.error == 0,
+           "%s: %d END, %d BASE events (want 1 and 1)", what, n.end, n.base);
+    CHECKF(t, (uint32_t)n.batch == c.batches, "%s: %d batch events for %u batches", what, n.batch,
+           c.batches);
+    CHECK(t, c.have_lod && c.lod.level == stop);
+    CHECKF(t, c.checksum == s->level_checksum[stop] && c.checksum == c.end_checksum,
+           "%s: checksum %016llx, unbroken %016llx", what, (unsigned long long)c.checksum,
+           (unsigned long long)s->level_checksum[stop]);
+    if (c.have_lod) {
+        size_t nv = (size_t)s->model.base_vertex_count + stop;
+        CHECKF(t, memcmp(c.model.positions, s->model.positions, nv * 12) == 0 &&
+                      memcmp(c.model.normals, s->model.normals, nv * 12) == 0,
+               "%s: vertices differ", what);
+    }
+    uint32_t b2;
+    uint64_t id2;
+    CHECK(t, !mts_stream_client_resume_point(&c, &b2, &id2)); /* ended: nothing to resume */
+    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_ERR_ARG);
+    mts_stream_client_free(&c);
+}
+
+static void test_cut_anywhere_then_resume(mts_test *t)
+{
+    mts_stream s;
+    if (!build_stream(t, NULL, &s))
+        return;
+    const uint32_t n = s.model.level_count;
+    mts_buf info = {0};
+    mts_stream_put_model_info(&s, n, &info);
+    const size_t hi = info.size;
+    mts_buf_free(&info);
+    /* the edges: in and right after MODEL_INFO (a fresh start), inside and
+     * right after BASE (base in, no batch: the server sends BASE again and
+     * the client skips it), on a batch boundary, inside the last batch, in END */
+    size_t edges[] = {0, 1, 4, 5, hi - 1, hi, hi + 9, hi + s.batch_offset[0],
+                      hi + s.batch_offset[1], hi + s.batch_offset[3], hi + s.batch_offset[3] + 1,
+                      hi + s.batch_offset[s.batch_count] - 3, hi + s.size, hi + s.size + 3};
+    char what[128];
+    for (size_t i = 0; i < sizeof edges / sizeof edges[0] && !t->case_failed; i++) {
+        snprintf(what, sizeof what, "cut at %zu", edges[i]);
+        run_with_breaks(t, &s, n, &edges[i], 1, i, what);
+    }
+    /* random cuts, one break and three, at the full level and a partial stop */
+    uint64_t seed = 42;
+    size_t total = hi + s.size + 20;
+    for (int round = 0; round < 40 && !t->case_failed; round++) {
+        size_t cuts[3];
+        int k = round % 2 ? 3 : 1;
+        for (int j = 0; j < k; j++) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            /* later conversations are shorter: cut within what is left */
+            cuts[j] = (size_t)(seed >> 33) % (total / (size_t)(j + 1));
+        }
+        uint32_t stop = round % 4 < 2 ? n : n / 3;
+        snprintf(what, sizeof what, "round %d (stop %u, cut %zu...)", round, stop, cuts[0]);
+        run_with_breaks(t, &s, stop, cuts, k, seed, what);
+    }
+    mts_stream_free(&s);
+}
+
+/* A resumed conversation that brings another stream is refused whole. */
+static void test_other_stream_refused(mts_test *t)
+{
+    mts_stream a, b;
+    if (!build_stream(t, NULL, &a))
+        return;
+    mts_stream_options o = {0};
+    o.batch_splits = 50; /* same model, other batches: another stream_id */
+    if (!build_stream(t, &o, &b)) {
+        mts_stream_free(&a);
+        return;
+    }
+    CHECK(t, a.stream_id != b.stream_id);
+    const uint32_t n = a.model.level_count;
+    mts_buf first = {0}, second = {0};
+    conversation(&a, n, 0, 0, &first);
+    mts_buf info = {0};
+    mts_stream_put_model_info(&a, n, &info);
+    size_t cut = info.size + a.batch_offset[4] + 10; /* inside batch 4 */
+    mts_buf_free(&info);
+
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_error err = {0};
+    tally k = {0};
+    CHECK(t, feed(&c, first.data, cut, 1, &k, &err) == MTS_OK && c.batches == 4);
+    uint32_t batch;
+    uint64_t id;
+    CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == 4 && id == a.stream_id);
+    /* a server that does not check stream_id sends the other stream */
+    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK);
+    conversation(&b, n, batch, b.stream_id, &second);
+    mts_result rc = feed(&c, second.data, second.size, 2, &k, &err);
+    CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, "not mixing"), "%d: %s", rc, err.msg);
+    CHECK(t, c.batches == 4 && c.lod.level == a.batch_first[4]); /* untouched */
+    CHECK(t, !mts_stream_client_resume_point(&c, &batch, &id));
+    mts_stream_client_free(&c);
+
+    /* the server that checks answers ERROR stale: an event, not a mix */
+    mts_stream_client_init(&c);
+    k = (tally){0};
+    CHECK(t, feed(&c, first.data, cut, 1, &k, &err) == MTS_OK);
+    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK);
+    mts_buf_free(&second);
+    CHECK(t, !conversation(&b, n, 4, a.stream_id, &second));
+    CHECK(t, feed(&c, second.data, second.size, 3, &k, &err) == MTS_OK);
+    CHECK(t, k.error == 1 && c.error_code == MTS_WERR_STALE);
+    CHECK(t, !mts_stream_client_resume_point(&c, &batch, &id));
+    mts_stream_client_free(&c);
+
+    /* a break before any batch with the base in, then another stream from
+     * batch 0: the client holds a's base, so b must be refused too */
+    mts_stream_client_init(&c);
+    k = (tally){0};
+    CHECK(t, feed(&c, first.data, cut - a.batch_offset[4] + a.batch_offset[0] + 2, 1, &k, &err) ==
+             MTS_OK);
+    CHECK(t, c.have_lod && c.batches == 0);
+    CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == 0 && id == 0);
+    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK);
+    mts_buf_free(&second);
+    conversation(&b, n, 0, 0, &second);
+    rc = feed(&c, second.data, second.size, 4, &k, &err);
+    CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, "not mixing"), "%s", err.msg);
+    mts_stream_client_free(&c);
+
+    mts_buf_free(&first);
+    mts_buf_free(&second);
+    mts_stream_free(&a);
+    mts_stream_free(&b);
+}
+
+/* ---- over loopback ---- */
+
+static int listen_any(int *port)
+{
+    int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0), one = 1;
+    struct sockaddr_in a = {0};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    if (bind(fd, (struct sockaddr *)&a, sizeof a) != 0 || listen(fd, 16) != 0) {
+        close(fd);
+        return -1;
+    }
+    socklen_t sl = sizeof a;
+    getsockname(fd, (struct sockaddr *)&a, &sl);
+    *port = ntohs(a.sin_port);
+    return fd;
+}
+
+static int free_port(void)
+{
+    int port, fd = listen_any(&port);
+    if (fd < 0)
+        return -1;
+    close(fd);
+    return port;
+}
+
+static int connect_port(int port)
+{
+    int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    struct sockaddr_in a = {0};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    a.sin_port = htons((uint16_t)port);
+    if (fd >= 0 && connect(fd, (struct sockaddr *)&a, sizeof a) == 0)
+        return fd;
+    if (fd >= 0)
+        close(fd);
+    return -1;
+}
+
+static int send_all(int fd, const uint8_t *p, size_t n)
+{
+    while (n > 0) {
+        ssize_t w = send(fd, p, n, MSG_NOSIGNAL);
+        if (w <= 0)
+            return 0;
+        p += w;
+        n -= (size_t)w;
+    }
+    return 1;
+}
+
+/* Copies both ways until either side closes or `limit` bytes went from the
+ * server to the client. */
+static void pump(int cfd, int ufd, size_t limit)
+{
+    uint8_t buf[1 << 15];
+    size_t down = 0;
+    while (down < limit) {
+        struct pollfd pf[2] = {{cfd, POLLIN, 0}, {ufd, POLLIN, 0}};
+        if (poll(pf, 2, 30000) <= 0)
+            return;
+        if (pf[0].revents) {
+            ssize_t r = recv(cfd, buf, sizeof buf, 0);
+            if (r <= 0 || !send_all(ufd, buf, (size_t)r))
+                return;
+        }
+        if (pf[1].revents) {
+            size_t want = limit - down < sizeof buf ? limit - down : sizeof buf;
+            ssize_t r = recv(ufd, buf, want, 0);
+            if (r <= 0 || !send_all(cfd, buf, (size_t)r))
+                return;
+            down += (size_t)r;
+        }
+    }
+}
+
+/* The proxy (a child process): the first connection is cut after `cut`
+ * bytes from the server; it then tells the parent ('c' on `tell`) and waits
+ * for the server to be dead (a byte on `wait`) before closing the client's
+ * side, so the client sees what a killed server leaves: the stream ending
+ * mid-frame. Later connections are forwarded whole while the server is up;
+ * while it is down the client's connection is reset at once, as a refused
+ * connect would be. With `vanish` the proxy stops listening after the cut:
+ * every try is refused. */
+static void proxy_main(int lfd, int upstream, size_t cut, int tell, int wait, int vanish)
+{
+    signal(SIGPIPE, SIG_IGN);
+    for (int first = 1;; first = 0) {
+        int cfd = accept(lfd, NULL, NULL);
+        if (cfd < 0)
+            _exit(1);
+        int ufd = connect_port(upstream);
+        if (ufd < 0) {
+            struct linger lg = {1, 0};
+            setsockopt(cfd, SOL_SOCKET, SO_LINGER, &lg, sizeof lg);
+            close(cfd);
+            continue;
+        }
+        pump(cfd, ufd, first ? cut : SIZE_MAX);
+        if (first) {
+            char b = 'c';
+            if (write(tell, &b, 1) != 1 || read(wait, &b, 1) != 1)
+                _exit(1);
+        }
+        close(ufd);
+        close(cfd);
+        if (first && vanish)
+            _exit(0);
+    }
+}
+
+static pid_t spawn_server(const char *models, int port, const char *log)
+{
+    char bin[600], listen[64];
+    snprintf(bin, sizeof bin, "%s/mts-server", bin_dir);
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
+    pid_t pid = fork();
+    if (pid == 0) {
+        if (!freopen(log, "a", stderr) || !freopen("/dev/null", "w", stdout))
+            _exit(126);
+        execl(bin, bin, "--models", models, "--listen", listen, (char *)NULL);
+        _exit(127);
+    }
+    return pid;
+}
+
+static int server_up(int port)
+{
+    char cmd[1024], out[4096];
+    snprintf(cmd, sizeof cmd,
+             "for i in $(seq 1 200); do %s/mts-client 127.0.0.1:%d --list >/dev/null && exit 0; "
+             "sleep 0.05; done; exit 1",
+             bin_dir, port);
+    return mts_test_run(cmd, out, sizeof out) == 0;
+}
+
+static void stop_pid(pid_t pid, int sig)
+{
+    if (pid <= 0)
+        return;
+    kill(pid, sig);
+    waitpid(pid, NULL, 0);
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+/* The value of "key": in a JSON line, as text ("" when absent). */
+static void json_get(const char *json, const char *key, char *out, size_t size)
+{
+    char k[64];
+    snprintf(k, sizeof k, "\"%s\":", key);
+    const char *p = strstr(json, k);
+    out[0] = 0;
+    if (!p)
+        return;
+    p += strlen(k);
+    size_t n = strcspn(p, ",}\n");
+    if (n >= size)
+        n = size - 1;
+    memcpy(out, p, n);
+    out[n] = 0;
+}
+
+typedef struct fixture {
+    char models[600], other[600], model_file[700], log[700];
+    const char *render; /* "" or "--no-render" */
+    int port;
+    size_t cut;  /* into the first connection: inside batch 10 */
+    uint32_t cut_batch;
+    char unbroken[8192];
+} fixture;
+
+static int have_programs(mts_test *t)
+{
+    const char *need[] = {"mts-build", "mts-server", "mts-client"};
+    for (int i = 0; i < 3; i++) {
+        char path[700];
+        snprintf(path, sizeof path, "%s/%s", bin_dir, need[i]);
+        if (access(path, X_OK) != 0) {
+            fprintf(stderr, "  SKIP %s: %s is not built\n", t->case_name, path);
+            t->case_skipped = 1;
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Builds cow.mtsm (and, in `other`, an octahedron named cow: another stream
+ * under the same name), starts a server, runs the unbroken client. */
+static int setup(mts_test *t, fixture *f, pid_t *server)
+{
+    char cmd[8192], out[8192];
+    snprintf(f->models, sizeof f->models, "%s/resume_models", tmp_dir);
+    snprintf(f->other, sizeof f->other, "%s/resume_other", tmp_dir);
+    snprintf(f->model_file, sizeof f->model_file, "%s/cow.mtsm", f->models);
+    snprintf(f->log, sizeof f->log, "%s/resume_server.log", tmp_dir);
+    snprintf(cmd, sizeof cmd,
+             "rm -rf %s %s && mkdir -p %s %s && %s/mts-build tests/data/cow.off -o %s --quiet && "
+             "printf 'OFF\\n6 8 0\\n1 0 0\\n-1 0 0\\n0 1 0\\n0 -1 0\\n0 0 1\\n0 0 -1\\n"
+             "3 0 2 4\\n3 2 1 4\\n3 1 3 4\\n3 3 0 4\\n3 2 0 5\\n3 1 2 5\\n3 3 1 5\\n"
+             "3 0 3 5\\n' > %s/resume_octa.off && %s/mts-build %s/resume_octa.off -o %s/cow.mtsm "
+             "--quiet",
+             f->models, f->other, f->models, f->other, bin_dir, f->model_file, tmp_dir, bin_dir,
+             tmp_dir, f->other);
+    if (mts_test_run(cmd, out, sizeof out) != 0) {
+        CHECKF(t, 0, "building the models: %s", out);
+        return 0;
+    }
+    /* where batch 10 is in the server's stream: the same model file, encoded
+     * the way the server does */
+    mts_error err = {0};
+    mts_model m;
+    mts_stream s;
+    if (mts_modelfile_load(f->model_file, &m, &err) != MTS_OK) {
+        CHECKF(t, 0, "%s", err.msg);
+        return 0;
+    }
+    mts_result rc = mts_stream_build(&m, "cow", NULL, &s, &err);
+    mts_model_free(&m);
+    if (rc != MTS_OK) {
+        CHECKF(t, 0, "%s", err.msg);
+        return 0;
+    }
+    mts_buf info = {0};
+    mts_stream_put_model_info(&s, s.model.level_count, &info);
+    f->cut_batch = 10;
+    f->cut = info.size + s.batch_offset[f->cut_batch] + 7;
+    CHECK(t, s.batch_count > 20);
+    mts_buf_free(&info);
+    mts_stream_free(&s);
+
+    f->port = free_port();
+    *server = spawn_server(f->models, f->port, f->log);
+    if (!server_up(f->port)) {
+        CHECKF(t, 0, "the server did not come up (log: %s)", f->log);
+        return 0;
+    }
+    /* the unbroken run; rendering as a user would, unless there is no EGL */
+    f->render = "";
+    for (int attempt = 0; attempt < 2; attempt++) {
+        snprintf(cmd, sizeof cmd,
+                 "ASAN_OPTIONS=detect_leaks=0 timeout 60 %s/mts-client 127.0.0.1:%d cow --json "
+                 "--verify --model-file %s %s",
+                 bin_dir, f->port, f->model_file, f->render);
+        rc = mts_test_run(cmd, f->unbroken, sizeof f->unbroken);
+        if (rc != 0 && attempt == 0 && strstr(f->unbroken, "EGL") &&
+            !getenv("MTS_TEST_REQUIRE_EGL")) {
+            fprintf(stderr, "  (%s: no EGL here, the clients run --no-render)\n", t->case_name);
+            f->render = "--no-render";
+            continue;
+        }
+        break;
+    }
+    CHECKF(t, rc == 0 && strstr(f->unbroken, "\"complete\":true") &&
+                  strstr(f->unbroken, "\"verified\":true") && strstr(f->unbroken, "\"checksum\""),
+           "unbroken run: %s", f->unbroken);
+    return !t->case_failed;
+}
+
+/* The models, the cut and the unbroken run are the same for every case:
+ * set up once; each case then gets a running server. */
+static fixture fx;
+static int fx_state; /* 0: not yet, 1: ready, -1: failed */
+static pid_t fx_server = -1;
+
+static fixture *get_fixture(mts_test *t, pid_t *server)
+{
+    if (fx_state == 0)
+        fx_state = setup(t, &fx, &fx_server) ? 1 : -1;
+    if (fx_state < 0) {
+        CHECKF(t, 0, "the set-up failed (see above)");
+        *server = fx_server;
+        fx_server = -1;
+        return NULL;
+    }
+    if (fx_server > 0) { /* the one the unbroken run used */
+        *server = fx_server;
+        fx_server = -1;
+        return &fx;
+    }
+    *server = spawn_server(fx.models, fx.port, fx.log);
+    if (!server_up(fx.port)) {
+        CHECKF(t, 0, "the server did not come up (log: %s)", fx.log);
+        return NULL;
+    }
+    return &fx;
+}
+
+enum { AFTER_CUT_RESTART, AFTER_CUT_NOTHING, AFTER_CUT_OTHER_MODEL };
+
+/* Starts the proxy and the client (--resume), cuts, kills the server, then
+ * does `after`; returns the client's exit status, its output in out and
+ * the seconds from the cut to its end. */
+static int broken_run(mts_test *t, fixture *f, pid_t *server, int after, const char *extra,
+                      char *out, size_t size, double *seconds_after_cut)
+{
+    int pport, lfd = listen_any(&pport);
+    int to_parent[2], to_proxy[2];
+    if (lfd < 0 || pipe(to_parent) != 0 || pipe(to_proxy) != 0) {
+        CHECK(t, 0);
+        return -1;
+    }
+    /* the client and the servers started later need none of these */
+    for (int i = 0; i < 2; i++) {
+        fcntl(to_parent[i], F_SETFD, FD_CLOEXEC);
+        fcntl(to_proxy[i], F_SETFD, FD_CLOEXEC);
+    }
+    pid_t proxy = fork();
+    if (proxy == 0) {
+        close(to_parent[0]);
+        close(to_proxy[1]);
+        proxy_main(lfd, f->port, f->cut, to_parent[1], to_proxy[0], after == AFTER_CUT_NOTHING);
+        _exit(0);
+    }
+    close(lfd);
+    close(to_parent[1]);
+    close(to_proxy[0]);
+    char cmd[8192];
+    snprintf(cmd, sizeof cmd,
+             "(ASAN_OPTIONS=detect_leaks=0 timeout 60 %s/mts-client 127.0.0.1:%d cow --resume "
+             "--json --verify --model-file %s %s %s) 2>&1",
+             bin_dir, pport, f->model_file, f->render, extra);
+    FILE *p = popen(cmd, "r");
+    double t_cut = now_s();
+    struct pollfd pf = {to_parent[0], POLLIN, 0};
+    char b = 0;
+    int cut = poll(&pf, 1, 20000) == 1 && read(to_parent[0], &b, 1) == 1 && b == 'c';
+    CHECKF(t, cut, "the proxy never cut the stream");
+    if (cut) {
+        t_cut = now_s();
+        /* the server dies with the client's stream cut short, then the
+         * proxy lets the client see it */
+        stop_pid(*server, SIGKILL);
+        *server = -1;
+        b = 'k';
+        CHECK(t, write(to_proxy[1], &b, 1) == 1);
+        if (after != AFTER_CUT_NOTHING) {
+            struct timespec ts = {0, 300 * 1000 * 1000};
+            nanosleep(&ts, NULL); /* the client's first tries find it down */
+            *server = spawn_server(after == AFTER_CUT_OTHER_MODEL ? f->other : f->models, f->port,
+                                   f->log);
+        }
+    }
+    size_t n = p ? fread(out, 1, size - 1, p) : 0;
+    out[n] = 0;
+    int st = p ? pclose(p) : -1;
+    *seconds_after_cut = now_s() - t_cut;
+    close(to_parent[0]);
+    close(to_proxy[1]);
+    stop_pid(proxy, SIGKILL);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static void test_server_killed_and_restarted(mts_test *t)
+{
+    if (!have_programs(t))
+        return;
+    fixture *f;
+    pid_t server = -1;
+    if (!(f = get_fixture(t, &server))) {
+        stop_pid(server, SIGTERM);
+        return;
+    }
+    char out[16384];
+    double secs;
+    int rc = broken_run(t, f, &server, AFTER_CUT_RESTART, "", out, sizeof out, &secs);
+    stop_pid(server, SIGTERM);
+    CHECKF(t, rc == 0, "exit %d: %s", rc, out);
+    char want[64];
+    snprintf(want, sizeof want, "connection lost at batch %u", f->cut_batch);
+    CHECKF(t, strstr(out, want) && strstr(out, "retrying in") && strstr(out, "(try 1/8)"),
+           "no retry reported: %s", out);
+    snprintf(want, sizeof want, "resuming at batch %u", f->cut_batch);
+    CHECKF(t, strstr(out, want) != NULL, "no resume reported: %s", out);
+    CHECKF(t, strstr(out, "\"complete\":true") && strstr(out, "\"verified\":true"), "%s", out);
+    /* the same mesh as the unbroken run */
+    const char *keys[] = {"checksum", "triangles", "level", "batches", "levels"};
+    for (int i = 0; i < 5; i++) {
+        char a[128], b[128];
+        json_get(f->unbroken, keys[i], a, sizeof a);
+        json_get(out, keys[i], b, sizeof b);
+        CHECKF(t, a[0] && strcmp(a, b) == 0, "%s: %s unbroken, %s resumed", keys[i], a, b);
+    }
+    char rec[32];
+    json_get(out, "reconnects", rec, sizeof rec);
+    CHECKF(t, atoi(rec) >= 1, "reconnects: '%s'", rec);
+    json_get(f->unbroken, "reconnects", rec, sizeof rec);
+    CHECK(t, strcmp(rec, "0") == 0);
+    /* fewer bytes than twice the stream: the second connection did not
+     * start over */
+    char b1[32], b2[32];
+    json_get(f->unbroken, "bytes", b1, sizeof b1);
+    json_get(out, "bytes", b2, sizeof b2);
+    CHECKF(t, atol(b2) < atol(b1) + (long)f->cut / 2, "bytes %s, unbroken %s", b2, b1);
+    if (getenv("MTS_TEST_VERBOSE"))
+        fprintf(stderr, "  resumed %.2f s after the cut:\n%s", secs, out);
+}
+
+static void test_server_never_back(mts_test *t)
+{
+    if (!have_programs(t))
+        return;
+    fixture *f;
+    pid_t server = -1;
+    if (!(f = get_fixture(t, &server))) {
+        stop_pid(server, SIGTERM);
+        return;
+    }
+    char out[16384];
+    double secs;
+    /* 3 tries: waits of 0.1, 0.2, 0.4 s, each at least half that (jitter) */
+    int rc = broken_run(t, f, &server, AFTER_CUT_NOTHING, "--retries 3", out, sizeof out, &secs);
+    stop_pid(server, SIGTERM);
+    CHECKF(t, rc == 1, "exit %d: %s", rc, out);
+    CHECKF(t, strstr(out, "gave up after 3 tries") && strstr(out, "refused") &&
+                  strstr(out, "(try 3/3)") && !strstr(out, "(try 4/"),
+           "%s", out);
+    CHECKF(t, strstr(out, "\"complete\":false") && strstr(out, "\"batches\":10,"), "%s", out);
+    if (getenv("MTS_TEST_VERBOSE"))
+        fprintf(stderr, "  gave up %.2f s after the cut:\n%s", secs, out);
+    CHECKF(t, secs >= 0.35 && secs < 5, "gave up %.2f s after the cut (want 0.35 .. 0.7 s and "
+                                        "the client's own start and exit)", secs);
+}
+
+static void test_stale_stream_not_retried(mts_test *t)
+{
+    if (!have_programs(t))
+        return;
+    fixture *f;
+    pid_t server = -1;
+    if (!(f = get_fixture(t, &server))) {
+        stop_pid(server, SIGTERM);
+        return;
+    }
+    char out[16384];
+    double secs;
+    int rc = broken_run(t, f, &server, AFTER_CUT_OTHER_MODEL, "", out, sizeof out, &secs);
+    stop_pid(server, SIGTERM);
+    CHECKF(t, rc == 1, "exit %d: %s", rc, out);
+    CHECKF(t, strstr(out, "stale") && strstr(out, "cannot resume at batch 10"), "%s", out);
+    CHECKF(t, strstr(out, "\"complete\":false") && strstr(out, "\"batches\":10,"), "%s", out);
+    /* the answer ends it: no try after the one that got ERROR stale */
+    const char *stale = strstr(out, "stale");
+    CHECKF(t, stale && !strstr(stale, "retrying in"), "%s", out);
+    CHECKF(t, secs < 5, "ended %.2f s after the cut", secs);
+    if (getenv("MTS_TEST_VERBOSE"))
+        fprintf(stderr, "  ended %.2f s after the cut:\n%s", secs, out);
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    char self[400];
+    snprintf(self, sizeof self, "%s", argv[0]);
+    snprintf(bin_dir, sizeof bin_dir, "%s/../bin", dirname(self));
+    snprintf(tmp_dir, sizeof tmp_dir, "%s", mts_test_tmpdir());
+    signal(SIGPIPE, SIG_IGN);
+    mts_test t = {0};
+    RUN(&t, test_cut_anywhere_then_resume);
+    RUN(&t, test_other_stream_refused);
+    RUN(&t, test_server_killed_and_restarted);
+    RUN(&t, test_server_never_back);
+    RUN(&t, test_stale_stream_not_retried);
+    if (cow_state > 0)
+        mts_model_free(&cow);
+    return mts_test_end(&t);
+}
