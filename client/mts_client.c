@@ -285,7 +285,7 @@ int main(int argc, char **argv)
     mts_render_options_default(&rn.ro);
     mts_session_options so = {0};
     so.hello.stop_kind = MTS_STOP_FULL;
-    int stops = 0;
+    int stops = 0, stop;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -313,24 +313,12 @@ int main(int argc, char **argv)
             i++;
         } else if (!strcmp(a, "--color-strips")) {
             rn.ro.style.color_by_strip = 1;
-        } else if (!strcmp(a, "--level") || !strcmp(a, "--triangles")) {
-            uint32_t x;
-            if (!v || !cli_parse_u32(v, &x)) {
-                fprintf(stderr, "mts-client: %s needs a whole number\n", a);
+        } else if ((stop = cli_parse_stop(a, v, &so.hello.stop_kind, &so.hello.stop_value))) {
+            if (stop < 0) {
+                fprintf(stderr, "mts-client: %s needs %s\n", a,
+                        strcmp(a, "--fraction") ? "a whole number" : "a number from 0 to 1");
                 return CLI_EXIT_USAGE;
             }
-            so.hello.stop_kind = !strcmp(a, "--level") ? MTS_STOP_LEVEL : MTS_STOP_TRIANGLES;
-            so.hello.stop_value = x;
-            stops++;
-            i++;
-        } else if (!strcmp(a, "--fraction")) {
-            double f;
-            if (!v || !cli_parse_double(v, &f) || f < 0 || f > 1) {
-                fprintf(stderr, "mts-client: --fraction needs a number from 0 to 1\n");
-                return CLI_EXIT_USAGE;
-            }
-            so.hello.stop_kind = MTS_STOP_FRACTION;
-            so.hello.stop_value = (uint32_t)(f * 1e6 + 0.5);
             stops++;
             i++;
         } else if (!strcmp(a, "--png") || !strcmp(a, "--model-file")) {
@@ -402,26 +390,9 @@ int main(int argc, char **argv)
         snprintf(so.hello.model, sizeof so.hello.model, "%s", rn.model);
     }
     char host[256] = "127.0.0.1", port[16] = "7447";
-    if (server) {
-        const char *colon = strrchr(server, ':');
-        if (server[0] == '[') { /* [v6]:port */
-            const char *close = strchr(server, ']');
-            if (!close) {
-                fprintf(stderr, "mts-client: bad address %s\n", server);
-                return CLI_EXIT_USAGE;
-            }
-            snprintf(host, sizeof host, "%.*s", (int)(close - server - 1), server + 1);
-            if (close[1] == ':')
-                snprintf(port, sizeof port, "%s", close + 2);
-        } else if (colon && strchr(server, ':') != colon) {
-            /* more than one ':' without brackets: a bare IPv6 address */
-            snprintf(host, sizeof host, "%s", server);
-        } else if (colon) {
-            snprintf(host, sizeof host, "%.*s", (int)(colon - server), server);
-            snprintf(port, sizeof port, "%s", colon + 1);
-        } else {
-            snprintf(host, sizeof host, "%s", server);
-        }
+    if (server && !cli_parse_server(server, host, sizeof host, port, sizeof port)) {
+        fprintf(stderr, "mts-client: bad address %s (HOST[:PORT])\n", server);
+        return CLI_EXIT_USAGE;
     }
     so.host = host;
     so.port = port;

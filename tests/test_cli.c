@@ -68,6 +68,36 @@ static void test_stem(mts_test *t)
     CHECK(t, out[0] == 'x');
 }
 
+static void test_parse_server(mts_test *t)
+{
+    char host[64] = "127.0.0.1", port[16] = "7447";
+    CHECK(t, cli_parse_server("example.org", host, sizeof host, port, sizeof port));
+    CHECK(t, !strcmp(host, "example.org") && !strcmp(port, "7447"));
+    CHECK(t, cli_parse_server("10.0.0.1:9000", host, sizeof host, port, sizeof port));
+    CHECK(t, !strcmp(host, "10.0.0.1") && !strcmp(port, "9000"));
+    CHECK(t, cli_parse_server("[::1]:8000", host, sizeof host, port, sizeof port));
+    CHECK(t, !strcmp(host, "::1") && !strcmp(port, "8000"));
+    CHECK(t, cli_parse_server("fe80::1", host, sizeof host, port, sizeof port));
+    CHECK(t, !strcmp(host, "fe80::1"));
+    CHECK(t, !cli_parse_server("[::1", host, sizeof host, port, sizeof port));
+    CHECK(t, !cli_parse_server(":7447", host, sizeof host, port, sizeof port));
+    CHECK(t, !cli_parse_server("[::1]x", host, sizeof host, port, sizeof port));
+}
+
+static void test_parse_stop(mts_test *t)
+{
+    uint8_t kind = 0;
+    uint32_t value = 0;
+    CHECK(t, cli_parse_stop("--level", "12", &kind, &value) == 1 && kind == 1 && value == 12);
+    CHECK(t, cli_parse_stop("--triangles", "500", &kind, &value) == 1 && kind == 2 && value == 500);
+    CHECK(t, cli_parse_stop("--fraction", "0.25", &kind, &value) == 1 && kind == 3 &&
+                 value == 250000);
+    CHECK(t, cli_parse_stop("--fraction", "1.5", &kind, &value) == -1);
+    CHECK(t, cli_parse_stop("--level", "-1", &kind, &value) == -1);
+    CHECK(t, cli_parse_stop("--level", NULL, &kind, &value) == -1);
+    CHECK(t, cli_parse_stop("--png", "x.png", &kind, &value) == 0);
+}
+
 int main(void)
 {
     mts_test t = {0};
@@ -75,5 +105,7 @@ int main(void)
     RUN(&t, test_parse_double);
     RUN(&t, test_json_line);
     RUN(&t, test_stem);
+    RUN(&t, test_parse_server);
+    RUN(&t, test_parse_stop);
     return mts_test_end(&t);
 }
