@@ -13,6 +13,8 @@ packages=(
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri  # headless EGL rendering
   libpng-dev
   libmeshoptimizer-dev   # benchmark anchor (meshopt_stripify)
+  clang libclang-rt-14-dev  # `make fuzz`: libFuzzer + ASan/UBSan runtimes (the -rt package is only recommended by clang)
+  nginx libnginx-mod-stream  # the TCP balancer of tests/test_scaleout.c (docker/nginx-stream.conf)
 )
 
 missing=()
@@ -33,6 +35,18 @@ if [ "$(id -u)" -ne 0 ]; then
   sudo="sudo"
 fi
 export DEBIAN_FRONTEND=noninteractive
+# Debian's nginx package starts the system nginx when installed, and its
+# install fails when that start fails (say, no IPv6 for the default site).
+# The tests run their own nginx on a loopback port and want no system one:
+# while installing, a policy-rc.d denies service starts, unless the machine
+# already has one (containers do), which is then left as it is.
+policy=/usr/sbin/policy-rc.d
+if [ ! -e "$policy" ]; then
+  printf '#!/bin/sh\n# mtstream deps.sh: no service starts while installing\nexit 101\n' |
+    $sudo tee "$policy" >/dev/null
+  $sudo chmod 755 "$policy"
+  trap '$sudo rm -f "$policy"' EXIT
+fi
 $sudo apt-get update -qq
 $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 echo "deps: done"
