@@ -18,7 +18,8 @@ static void usage(FILE *f)
     fputs("usage: mts-server [--models DIR] [--model NAME=PATH|URL]... [--listen ADDR:PORT]\n"
           "                  [--max-clients N] [--idle-timeout S] [--handshake-timeout S]\n"
           "                  [--grace S] [--max-download BYTES] [--workers N]\n"
-          "                  [--rate-limit BYTES/S] [--stats-interval S] [--quiet]\n"
+          "                  [--rate-limit BYTES/S] [--sndbuf BYTES] [--stats-interval S]\n"
+          "                  [--quiet]\n"
           "\n"
           "Serves every .mtsm in DIR and every mesh there (built once and cached), each\n"
           "named by its file stem, plus models given one by one (a file, or an http(s)\n"
@@ -37,6 +38,8 @@ static void usage(FILE *f)
           "  --workers N            N event loops on N threads sharing the port through\n"
           "                         SO_REUSEPORT and the streams in memory (default 1)\n"
           "  --rate-limit BYTES/S   pace each connection (a realistic preview); default none\n"
+          "  --sndbuf BYTES         each connection's kernel send buffer (default: autotuned,\n"
+          "                         up to 4 MiB each on Linux); bounds kernel memory\n"
           "  --stats-interval S     a 'stats:' log line every S s per worker: connections,\n"
           "                         peak, outcomes, MB/s out, resident memory\n"
           "  -q, --quiet            no per-connection log lines\n"
@@ -168,6 +171,13 @@ int main(int argc, char **argv)
                 fprintf(stderr, "mts-server: --rate-limit needs bytes per second (>= 1)\n");
                 return CLI_EXIT_USAGE;
             }
+        } else if (!strcmp(a, "--sndbuf")) {
+            uint32_t b;
+            if (!cli_parse_u32(v, &b) || b < 4096 || b > (1u << 30)) {
+                fprintf(stderr, "mts-server: --sndbuf needs bytes from 4096 to 2^30\n");
+                return CLI_EXIT_USAGE;
+            }
+            so.sndbuf = (int)b;
         } else if (!strcmp(a, "--stats-interval")) {
             if (!parse_seconds(v, &so.stats_interval)) {
                 fprintf(stderr, "mts-server: --stats-interval needs a positive number of seconds\n");

@@ -594,6 +594,8 @@ static void accept_all(mts_server *s)
         }
         int one = 1;
         setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        if (s->opts.sndbuf > 0) /* fixed, not autotuned: bounds kernel memory per client */
+            setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &s->opts.sndbuf, sizeof s->opts.sndbuf);
         c->fd = fd;
         c->events = EPOLLIN | EPOLLRDHUP;
         c->started = c->last_progress = now_s();

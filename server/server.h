@@ -28,6 +28,8 @@ typedef struct mts_server_options {
     double rate_limit;        /* bytes/s per connection (previews at a realistic pace); 0: none */
     double stats_interval;    /* seconds between "stats:" log lines; 0: none */
     int reuse_port;           /* SO_REUSEPORT: several servers (workers) share the port */
+    int sndbuf;               /* SO_SNDBUF of each connection, bytes; 0: the kernel's autotuning
+                                 (Linux: up to tcp_wmem's max, 4 MiB, per connection) */
     void (*log)(void *user, const char *line);
     void *log_user;
 } mts_server_options;

@@ -13,10 +13,12 @@
  *     --stats-interval writes stats lines. */
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
 #include <stdint.h>
 
 #include "test.h"
 #include "test_proc.h"
+#include "wire.h"
 
 static char bin_dir[512], tmp_dir[512], models_dir[600];
 
@@ -64,6 +66,16 @@ static long json_num(const char *json, const char *key)
     snprintf(pat, sizeof pat, "\"%s\":", key);
     const char *p = strstr(json, pat);
     return p ? strtol(p + strlen(pat), NULL, 10) : -1;
+}
+
+/* A HELLO for the whole stream of model, as any client sends it. */
+static void put_hello(mts_buf *b, const char *model)
+{
+    mts_wire_hello h = {0};
+    h.major = MTS_WIRE_MAJOR;
+    h.minor = MTS_WIRE_MINOR;
+    snprintf(h.model, sizeof h.model, "%s", model);
+    mts_wire_put_hello(b, &h);
 }
 
 static int count_lines(const char *text, const char *needle)
@@ -178,34 +190,13 @@ static void test_resets_mid_stream(mts_test *t)
     const char *extra[] = {"--rate-limit", "200000", NULL};
     server sv;
     CHECK(t, server_start(&sv, "resets", extra));
-    uint8_t hello[128];
-    /* a HELLO for cow, as mts-stress would send it */
-    size_t hn = 0;
-    {
-        const char model[] = "cow";
-        uint8_t body[96];
-        size_t b = 0;
-        body[b++] = 1; /* HELLO */
-        memcpy(body + b, "MTSH", 4);
-        b += 4;
-        body[b++] = 1, body[b++] = 0; /* major 1 */
-        body[b++] = 0, body[b++] = 0; /* minor 0 */
-        body[b++] = (uint8_t)strlen(model);
-        memcpy(body + b, model, strlen(model));
-        b += strlen(model);
-        body[b++] = 0; /* stop: full */
-        body[b++] = 0; /* stop value */
-        body[b++] = 0; /* resume batch */
-        memset(body + b, 0, 8); /* stream id */
-        b += 8;
-        body[b++] = 0; /* flags */
-        hello[0] = (uint8_t)b, hello[1] = hello[2] = hello[3] = 0;
-        memcpy(hello + 4, body, b);
-        hn = 4 + b;
-    }
+    mts_buf hello = {0};
+    put_hello(&hello, "cow");
+    const uint8_t *hp = hello.data;
+    size_t hn = hello.size;
     for (int i = 0; i < 40; i++) {
         int fd = mts_test_connect(sv.port);
-        CHECK(t, fd >= 0 && send(fd, hello, hn, MSG_NOSIGNAL) == (ssize_t)hn);
+        CHECK(t, fd >= 0 && send(fd, hp, hn, MSG_NOSIGNAL) == (ssize_t)hn);
         char buf[2048];
         CHECK(t, recv(fd, buf, sizeof buf, MSG_WAITALL) > 0);
         if (i % 2 == 0) { /* reset: linger 0 makes close send RST */
@@ -214,6 +205,7 @@ static void test_resets_mid_stream(mts_test *t)
         }
         close(fd);
     }
+    mts_buf_free(&hello);
     char out[4096];
     int rc = stress(&sv, "cow --clients 20 --no-apply --json", out, sizeof out);
     CHECKF(t, rc == 0 && json_num(out, "succeeded") == 20, "exit %d: %s", rc, out);
@@ -225,6 +217,67 @@ static void test_resets_mid_stream(mts_test *t)
     CHECKF(t, gone == 40, "%d of 40 broken clients logged as such", gone);
     CHECKF(t, !strstr(logtext, "Sanitizer"), "%s", logtext);
     CHECK(t, strstr(logtext, "mts-server: stopped:") != NULL);
+}
+
+/* A height field of n x n vertices as an OFF file: a stream bigger than the
+ * kernel's socket buffers (cow's fits in them), so a reader can stall it. */
+static int write_grid(const char *path, int n)
+{
+    FILE *f = fopen(path, "w");
+    if (!f)
+        return 0;
+    fprintf(f, "OFF\n%d %d 0\n", n * n, 2 * (n - 1) * (n - 1));
+    for (int y = 0; y < n; y++)
+        for (int x = 0; x < n; x++)
+            fprintf(f, "%d %d %.4f\n", x, y, 3.0 * sin(x * 0.21) * cos(y * 0.17));
+    for (int y = 0; y + 1 < n; y++)
+        for (int x = 0; x + 1 < n; x++) {
+            int a = y * n + x;
+            fprintf(f, "3 %d %d %d\n3 %d %d %d\n", a, a + 1, a + n + 1, a, a + n + 1, a + n);
+        }
+    return fclose(f) == 0;
+}
+
+/* A client that asks for a stream and never reads: the server keeps serving
+ * everyone else at full speed and drops it at the idle timeout. */
+static void test_slow_reader(mts_test *t)
+{
+    char grid[700], cmd[4096], out[8192];
+    snprintf(grid, sizeof grid, "%s/grid.off", models_dir);
+    CHECK(t, write_grid(grid, 160));
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s/grid.mtsm --quiet && rm %s", bin_dir, grid,
+             models_dir, grid);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    /* a small fixed send buffer: with the kernel's autotuning (up to 4 MiB)
+     * the whole stream would fit in it and nothing could stall */
+    const char *extra[] = {"--idle-timeout", "1", "--sndbuf", "16384", NULL};
+    server sv;
+    CHECK(t, server_start(&sv, "slow", extra));
+    int fd = socket(AF_INET, SOCK_STREAM, 0), small = 4096;
+    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+    struct sockaddr_in a = {0};
+    a.sin_family = AF_INET;
+    a.sin_port = htons((uint16_t)sv.port);
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    CHECK(t, connect(fd, (struct sockaddr *)&a, sizeof a) == 0);
+    mts_buf hello = {0};
+    put_hello(&hello, "grid");
+    CHECK(t, send(fd, hello.data, hello.size, MSG_NOSIGNAL) == (ssize_t)hello.size);
+    mts_buf_free(&hello);
+    int rc = stress(&sv, "grid --clients 20 --no-apply --json", out, sizeof out);
+    CHECKF(t, rc == 0 && json_num(out, "succeeded") == 20, "exit %d: %s", rc, out);
+    CHECKF(t, json_num(out, "bytes") > 20 * 500000L, "the grid stream is too small: %s", out);
+    struct timespec ts = {2, 0};
+    nanosleep(&ts, NULL);
+    CHECK(t, server_stop(&sv) == 0);
+    close(fd);
+    char logtext[1 << 16];
+    mts_test_read_file(sv.log, logtext, sizeof logtext);
+    CHECKF(t, count_lines(logtext, "model=grid") == 21 &&
+                  count_lines(logtext, "outcome=error: idle timeout") == 1,
+           "%s", logtext);
+    snprintf(cmd, sizeof cmd, "rm -f %s/grid.mtsm", models_dir);
+    mts_test_run(cmd, out, sizeof out);
 }
 
 static void test_workers_rate_stats(mts_test *t)
@@ -291,6 +344,7 @@ int main(int argc, char **argv)
     RUN(&t, test_busy);
     RUN(&t, test_hostile_handshakes);
     RUN(&t, test_resets_mid_stream);
+    RUN(&t, test_slow_reader);
     RUN(&t, test_workers_rate_stats);
     return mts_test_end(&t);
 }
