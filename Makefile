@@ -23,9 +23,10 @@ CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(WARN) 
 # NDEBUG: OpenMesh asserts on property type names with string compares in
 # every point() access, a fifth of the decimation time.
 CXXFLAGS += -std=c++17 $(OPT) -DNDEBUG -Wall -Werror -Wno-maybe-uninitialized -Icommon -Iprotocol
-# Draco, EGL, GLES, libpng and libcurl ship pkg-config files; OpenMesh and meshoptimizer
-# do not. --as-needed keeps each program linked only to what it uses.
-PKGS     := draco egl glesv2 libpng libcurl
+# Draco, EGL, GLES, libpng, libcurl and X11 (mts-client --window) ship pkg-config
+# files; OpenMesh and meshoptimizer do not. --as-needed keeps each program linked
+# only to what it uses.
+PKGS     := draco egl glesv2 libpng libcurl x11
 PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
 CFLAGS   += $(filter-out -I/usr/include/draco%,$(PKG_CFLAGS))
@@ -93,6 +94,10 @@ $(BUILD)/bin/mts-bench-stream: $(BUILD)/obj/bench/mts_bench_stream.o $(CLI_OBJ) 
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -lmeshoptimizer -o $@
 
+$(BUILD)/bin/mts-bench-walk: $(BUILD)/obj/bench/mts_bench_walk.o $(CLI_OBJ) $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
 deps:
 	@scripts/deps.sh
 
@@ -111,7 +116,7 @@ test-asan:
 	@tests/run.sh build/asan
 
 bench: deps
-	@$(MAKE) --no-print-directory programs $(BENCH) $(BUILD)/bin/mts-bench-stream
+	@$(MAKE) --no-print-directory programs $(BENCH) $(BUILD)/bin/mts-bench-stream $(BUILD)/bin/mts-bench-walk
 	@bench/run.sh
 
 demo: deps
@@ -130,38 +135,43 @@ clean:
 # ---- fuzzing (issue 4, "Hostile input") ----
 # `make fuzz` builds the libFuzzer targets of tests/fuzz/ with clang (ASan +
 # UBSan + coverage) into build/fuzz/, writes their seed corpora from real
-# streams and files (tests/fuzz/fuzz_seeds.h, from a small torus and
-# tests/data/cow.off), and runs each target for FUZZ_SECONDS on its corpus
-# (build/fuzz/corpus/<target>, kept between runs) plus the seeds and the kept
-# regression inputs (tests/fuzz/regressions/<target>). It prints executions per
-# target and fails when a target found a crash, a hang (-timeout) or an
-# out-of-memory (-rss_limit_mb, -malloc_limit_mb): the input is then in
-# build/fuzz/artifacts/<target>/, reproduce it with
-# `build/fuzz/bin/fuzz_<target> FILE`. tests/test_fuzz_regressions.c runs the
-# same entry code in the ordinary builds.
-FUZZ_SECONDS ?= 60
-FUZZ_CC      ?= clang
-FUZZ_CXX     ?= clang++
-FUZZ_DIR     := build/fuzz
-FUZZ_TARGETS := stream_client request modelfile draco
-# -max_len per target: a server frame is at most 512 bytes; cow's seeds are
-# the largest streams, files and Draco meshes (tens of KiB)
-FUZZ_MAX_LEN_stream_client := 65536
-FUZZ_MAX_LEN_request       := 1024
-FUZZ_MAX_LEN_modelfile     := 65536
-FUZZ_MAX_LEN_draco         := 32768
-FUZZ_SAN     := -fsanitize=address,undefined -fno-sanitize-recover=undefined
-FUZZ_OPT     := -O1 -g -fno-omit-frame-pointer -fsanitize=fuzzer-no-link $(FUZZ_SAN)
-FUZZ_CFLAGS  := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(FUZZ_OPT) $(WARN) \
-                -Icommon -Iprotocol $(filter-out -I/usr/include/draco%,$(PKG_CFLAGS))
+# streams and files (tests/fuzz/fuzz_seeds.h: a small torus and
+# tests/data/cow.off), and runs each target (scripts/fuzz.sh) for FUZZ_SECONDS,
+# then up to FUZZ_SECONDS more while it has run fewer than FUZZ_MIN_RUNS
+# executions, on build/fuzz/corpus/<target> (kept between runs), the seeds and
+# the kept regression inputs (tests/fuzz/regressions/<target>). It prints the
+# executions per target and fails when a target found a crash, a hang or an
+# out-of-memory; the input is then in build/fuzz/artifacts/<target>/:
+# reproduce with `build/fuzz/bin/fuzz_<target> FILE`. The ordinary builds run
+# the same entry code on the seeds and regressions (tests/test_fuzz_regressions.c).
+FUZZ_SECONDS  ?= 60
+FUZZ_MIN_RUNS ?= 1000000
+FUZZ_CC       ?= clang
+FUZZ_CXX      ?= clang++
+FUZZ_DIR      := build/fuzz
+# target:-max_len. A server reads a first frame of at most 512 bytes; the
+# other targets' largest seeds are 1 to 9 KiB (cow's streams, the torus's
+# model file), and room to grow a few times that.
+FUZZ_TARGETS  := stream_client:32768 request:1024 modelfile:16384 draco:8192
+FUZZ_NAMES    := $(foreach t,$(FUZZ_TARGETS),$(firstword $(subst :, ,$(t))))
+FUZZ_SAN      := -fsanitize=address,undefined -fno-sanitize-recover=undefined
+FUZZ_OPT      := -O1 -g -fno-omit-frame-pointer -fsanitize=fuzzer-no-link $(FUZZ_SAN)
+FUZZ_CFLAGS   := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(FUZZ_OPT) $(WARN) \
+                 -Icommon -Iprotocol $(filter-out -I/usr/include/draco%,$(PKG_CFLAGS))
 FUZZ_CXXFLAGS := -std=c++17 $(FUZZ_OPT) -DNDEBUG -Wall -Werror -Icommon -Iprotocol
 # the library modules the targets reach: common/ and protocol/
-FUZZ_LIB_OBJ := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(wildcard common/*.c protocol/*.c)) \
-                $(patsubst %.cpp,$(FUZZ_DIR)/obj/%.o,$(wildcard common/*.cpp protocol/*.cpp))
-FUZZ_BINS    := $(patsubst %,$(FUZZ_DIR)/bin/fuzz_%,$(FUZZ_TARGETS))
-FUZZ_LDLIBS  := -Wl,--as-needed $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
+FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(wildcard common/*.c protocol/*.c)) \
+                 $(patsubst %.cpp,$(FUZZ_DIR)/obj/%.o,$(wildcard common/*.cpp protocol/*.cpp))
+FUZZ_BINS     := $(patsubst %,$(FUZZ_DIR)/bin/fuzz_%,$(FUZZ_NAMES))
+FUZZ_LDLIBS   := -Wl,--as-needed $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
 
 .PHONY: fuzz fuzz-build
+
+fuzz: deps
+	@$(MAKE) --no-print-directory fuzz-build
+	@rm -rf $(FUZZ_DIR)/seeds
+	@$(FUZZ_DIR)/bin/fuzz-seeds $(FUZZ_DIR)/seeds tests/data/cow.off
+	@scripts/fuzz.sh $(FUZZ_DIR) $(FUZZ_SECONDS) $(FUZZ_MIN_RUNS) $(FUZZ_TARGETS)
 
 fuzz-build: $(FUZZ_BINS) $(FUZZ_DIR)/bin/fuzz-seeds
 
@@ -181,27 +191,5 @@ $(FUZZ_DIR)/bin/fuzz_%: $(FUZZ_DIR)/obj/tests/fuzz/fuzz_%.o $(FUZZ_LIB_OBJ)
 $(FUZZ_DIR)/bin/fuzz-seeds: $(FUZZ_DIR)/obj/tests/fuzz/fuzz_seeds.o $(FUZZ_LIB_OBJ)
 	@mkdir -p $(dir $@)
 	$(FUZZ_CXX) $(FUZZ_SAN) $^ $(FUZZ_LDLIBS) -o $@
-
-fuzz: fuzz-build
-	@rm -rf $(FUZZ_DIR)/seeds
-	@$(FUZZ_DIR)/bin/fuzz-seeds $(FUZZ_DIR)/seeds tests/data/cow.off
-	@mkdir -p $(FUZZ_DIR)/logs; failed=""; summary=""; \
-	for t in $(FUZZ_TARGETS); do \
-	  mkdir -p $(FUZZ_DIR)/corpus/$$t $(FUZZ_DIR)/artifacts/$$t; \
-	  dirs="$(FUZZ_DIR)/corpus/$$t $(FUZZ_DIR)/seeds/$$t"; \
-	  [ -d tests/fuzz/regressions/$$t ] && dirs="$$dirs tests/fuzz/regressions/$$t"; \
-	  echo "fuzz: $$t for $(FUZZ_SECONDS) s (log: $(FUZZ_DIR)/logs/$$t.log)"; \
-	  if $(FUZZ_DIR)/bin/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) \
-	       -max_len=$(FUZZ_MAX_LEN_$$t) -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048 \
-	       -print_final_stats=1 -artifact_prefix=$(FUZZ_DIR)/artifacts/$$t/ \
-	       $$dirs > $(FUZZ_DIR)/logs/$$t.log 2>&1; then result=ok; \
-	  else result="FAILED"; failed="$$failed $$t"; tail -n 40 $(FUZZ_DIR)/logs/$$t.log; fi; \
-	  execs=$$(sed -n 's/^stat::number_of_executed_units: *//p' $(FUZZ_DIR)/logs/$$t.log); \
-	  rate=$$(sed -n 's/^stat::average_exec_per_sec: *//p' $(FUZZ_DIR)/logs/$$t.log); \
-	  summary="$$summary$$(printf '%-14s %12s executions %8s/s  %s' $$t "$${execs:-?}" "$${rate:-?}" $$result)\n"; \
-	done; \
-	printf "fuzz: %s s per target\n$$summary" $(FUZZ_SECONDS); \
-	if [ -n "$$failed" ]; then \
-	  echo "fuzz: failed:$$failed (inputs in $(FUZZ_DIR)/artifacts/)"; exit 1; fi
 
 -include $(shell find $(FUZZ_DIR)/obj -name '*.d' 2>/dev/null)

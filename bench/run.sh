@@ -125,6 +125,21 @@ else
   fi
 fi
 
+# --- walkthrough, rate-distortion and plots (issue 5) ---------------------------
+# mts-bench-walk: the walkthrough of papers 000/002 (model moving away, linear
+# and exponential, 20 s at 60 Hz, distance LOD policy; strips coherent / from
+# the base / triangle list) and each stream's rate-distortion series beside
+# Draco single-rate; bench/plot.py draws bench/plots/*.png. matplotlib is
+# Debian's python3-matplotlib, in /usr/bin/python3 (which a python3 earlier on
+# PATH, e.g. pyenv's, may not see).
+rm -f "$out/walk.json" "$out/rd.json"
+build/bin/mts-bench-walk "${models[@]}" --json "$out/walk.json" --rd-json "$out/rd.json" || status=1
+plot_py=python3
+if ! python3 -c 'import matplotlib' 2>/dev/null && [ -x /usr/bin/python3 ]; then
+  plot_py=/usr/bin/python3
+fi
+"$plot_py" bench/plot.py "$out" bench/plots || status=1
+
 # --- merge, print, write -----------------------------------------------------
 python3 - "$out" bench/results.json <<'PY' || status=1
 import json, os, platform, sys, time
@@ -269,6 +284,55 @@ else:
               f"{c['failed']} failed, server RSS {c['server_idle_rss_mb']} -> "
               f"{c['server_peak_rss_mb']} MB = {c['bytes_per_connection']} B per connection")
 res["stress"] = stress
+
+def load_out(name):
+    try:
+        with open(os.path.join(out, name)) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return None
+
+walk = load_out("walk.json")
+if walk and walk.get("models"):
+    wsum = {k: walk[k] for k in ("renderer", "seconds", "hz", "far", "width", "height", "policy")}
+    wsum["models"] = {}
+    print(f"\nWalkthrough (papers 000/002; {walk['seconds']:g} s at {walk['hz']:g} Hz, moving away "
+          f"to {walk['far']:g}x, {walk['width']}x{walk['height']}, distance policy; "
+          f"bench/plots/walkthrough.png)")
+    print(f"{'model':<14} {'schedule':<12} {'mode':<13} {'mean fps':>9} {'extr ms':>9} "
+          f"{'max extr':>9} {'triangles':>10}")
+    print("-" * 82)
+    for name, mod in walk["models"].items():
+        wsum["models"][name] = {}
+        for sched, runs in mod["runs"].items():
+            wsum["models"][name][sched] = {k: r["summary"] for k, r in runs.items()}
+            for mode, r in runs.items():
+                s = r["summary"]
+                print(f"{name:<14} {sched:<12} {mode:<13} {s['mean_fps']:>9.1f} "
+                      f"{s['mean_extract_ms']:>9.3f} {s['max_extract_ms']:>9.3f} "
+                      f"{s['mean_triangles']:>10.0f}")
+    res["walkthrough"] = wsum
+elif walk:
+    res["walkthrough"] = {"skipped": walk.get("skipped", "no models")}
+    print(f"\nWalkthrough: skipped: {res['walkthrough']['skipped']}")
+
+rd = load_out("rd.json")
+if rd and rd.get("models"):
+    rsum = {}
+    print("\nRate-distortion (symmetric RMS / bbox diagonal; bench/plots/rd_<model>.png)")
+    for name, m in rd["models"].items():
+        pts = m["points"]
+        def at(frac):
+            want = frac * m["full_triangles"]
+            return next((p for p in pts if p["triangles"] >= want), pts[-1])
+        d = m["draco"]
+        rsum[name] = {"points": len(pts), "base": pts[0], "half_triangles": at(0.5),
+                      "full": pts[-1], "draco": d}
+        print(f"  {name}: base {pts[0]['bytes']} B rms {pts[0]['rms']:.2e}; "
+              f"50% triangles {at(0.5)['bytes']} B rms {at(0.5)['rms']:.2e}; "
+              f"full {pts[-1]['bytes']} B rms {pts[-1]['rms']:.2e}; "
+              f"Draco {d['bytes']} B rms {d['rms']:.2e}")
+    res["rate_distortion"] = rsum
 
 with open(dest + ".tmp", "w") as f:
     json.dump(res, f, indent=2)

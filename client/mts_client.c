@@ -1,23 +1,36 @@
 /* mts-client: streams a model from an mts-server, applies every batch as it
- * arrives and renders headless (EGL) at the level received. */
+ * arrives and renders headless (EGL) at the level received -- or, with
+ * --window, shows it in an X11 window the user can turn, zoom and move
+ * through the levels of, while the stream goes on. */
 #include <errno.h>
+#include <math.h>
+#include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
 #include "cli.h"
+#include "hud.h"
+#include "lodpolicy.h"
 #include "modelfile.h"
 #include "render.h"
+#include "script.h"
 #include "session.h"
 #include "stream.h"
+#include "strips.h"
+#include "window.h"
 
 static void usage(FILE *f)
 {
     fputs("usage: mts-client [HOST[:PORT]] MODEL [--level L | --triangles N | --fraction F]\n"
           "                  [--png FILE] [--png-levels L1,L2,...] [--size WxH] [--color-strips]\n"
           "                  [--verify] [--model-file M.mtsm] [--no-render] [--resume]\n"
-          "                  [--retries N] [--json] [--quiet]\n"
+          "                  [--retries N] [--lod-policy P [--fps N] [--distance D]]\n"
+          "                  [--json] [--quiet]\n"
+          "       mts-client [HOST[:PORT]] MODEL --window [--size WxH] [--script FILE]\n"
+          "                  [--color-strips] [--level L | ...] [--lod-policy P] [--resume]\n"
+          "                  [--json]\n"
           "       mts-client [HOST[:PORT]] --list\n"
           "\n"
           "Streams MODEL from an mts-server (default 127.0.0.1:7447): a Draco base mesh,\n"
@@ -29,6 +42,11 @@ static void usage(FILE *f)
           "                      (MODEL_L<level>.png without --png)\n"
           "  --size WxH          frame size (default 512x512)\n"
           "  --color-strips      each strip in its own colour\n"
+          "  --lod-policy P      the level drawn at the end: received (default: all that\n"
+          "                      came), distance or area (from the camera), budget (the\n"
+          "                      largest level that draws within 1000/--fps ms)\n"
+          "  --fps N             budget's target frames per second (default 60)\n"
+          "  --distance D        camera at D times the framing distance (default 1)\n"
           "  --verify            check every batch's CRC and the final checksum (always\n"
           "                      done) and, with --model-file, that the final strips and\n"
           "                      positions equal that model's stream at the same level\n"
@@ -38,6 +56,17 @@ static void usage(FILE *f)
           "                      from the last batch applied; the final mesh is the same\n"
           "  --retries N         with --resume: give up after N tries in a row without\n"
           "                      progress (default 8)\n"
+          "  --window            show the model in a window (X11, $DISPLAY) as it streams:\n"
+          "                      left-drag turns it, the wheel zooms; keys: + / - one\n"
+          "                      batch of levels, PgUp / PgDn 10%, Home the base, End the\n"
+          "                      newest level (and follow the stream, or --lod-policy,\n"
+          "                      again), w wireframe,\n"
+          "                      c colour per strip, s screenshot (MODEL_L<level>.png here),\n"
+          "                      q or Escape quit. A HUD shows level, triangles, strips,\n"
+          "                      indices per triangle, frames/s, bytes and MB/s\n"
+          "  --script FILE       with --window: input from FILE, one event a line, seconds\n"
+          "                      after the first frame first: '0.5 key End', '1.2 drag 40\n"
+          "                      -10', '1.4 scroll -2', '2.0 key q'\n"
           "  --list              print the server's models\n"
           "  --json              one line of JSON with the figures\n"
           "  -q, --quiet         no progress, no summary\n"
@@ -274,11 +303,581 @@ static int compare_with_file(const char *path, mts_stream_client *c, mts_error *
     return same;
 }
 
+/* --lod-policy: moves the runtime to the policy's level (at most the level
+ * received) before the final frame. budget draws frames, each timed from the
+ * level change to glFinish, until the level has held for 10 frames (at most
+ * 120). Only changed strips are re-uploaded (the coherent runtime). */
+static int apply_policy(run *rn, mts_stream_client *c, const mts_lod_policy_options *po,
+                        double distance)
+{
+    mts_lod_policy p;
+    mts_lod_policy_init(&p, po, &c->model);
+    mts_strip_stats base = {0};
+    mts_strips_stats(&c->model.base, &base);
+    mts_lod_policy_set_counts(&p, (uint32_t)base.triangles, c->info.triangles);
+    uint32_t received = c->lod.level;
+    mts_lod_view view = {1, rn->ro.camera.fov_y_deg * 3.14159265f / 180.0f, (int)rn->ro.width,
+                         (int)rn->ro.height};
+    view.distance = (float)(distance * mts_lod_policy_frame_distance(&p, &view));
+    double last_ms = 0;
+    for (int frame = 0, held = 0; frame < 120 && held < 10; frame++) {
+        uint32_t l = mts_lod_policy_choose(&p, received, &view, last_ms);
+        held = l == c->lod.level ? held + 1 : 0;
+        double t = now_ms();
+        if (mts_lod_set_level(&c->lod, l, &rn->err) != MTS_OK)
+            return 0;
+        if (po->kind != MTS_LOD_POLICY_BUDGET)
+            return 1;
+        if (!draw(rn, c))
+            return 0;
+        last_ms = now_ms() - t;
+    }
+    return 1;
+}
+
+/* ---- --window ------------------------------------------------------------
+ * The window loop: one thread, never blocked by the network. Each turn takes
+ * the window's and the script's input, brings the display up to date, draws
+ * a frame (offscreen, blitted to the window, HUD on top) and then gives the
+ * session the time left until the next frame (mts_session_poll waits on the
+ * socket with that timeout and applies at most a slice of frames), so
+ * batches keep arriving between frames and frames keep coming while they do.
+ *
+ * Two LOD runtimes: the stream client's own (c->lod) follows the stream, as
+ * the stream's checks need (END is checked at the stop level), and a second
+ * one on the same model (`view`) is what is drawn: it moves to the level the
+ * user picks with mts_lod_set_level, touching only the strips that change,
+ * and the renderer re-uploads just those. */
+
+#define WIN_SHOTS 32
+
+typedef struct win_shot {
+    char file[300];
+    uint32_t level, triangles, strips;
+    char hud[512];
+} win_shot;
+
+typedef struct win {
+    run *rn;
+    mts_stream_client *c;
+    mts_session_stats *st;
+    mts_window *w;
+    mts_hud *hud;
+    mts_script script;
+    int have_script;
+    mts_lod view;
+    int have_view;
+    int manual;            /* a level key was pressed: stay at manual_level */
+    uint32_t manual_level;
+    int want_shot, quit, streaming, failed_stream;
+    uint32_t width, height;
+    double t_start, t_model; /* ms: loop start, first frame of the model (script clock) */
+    /* figures of the view's level, for the HUD */
+    uint32_t shown_level, triangles, strips;
+    uint64_t indices;
+    int stats_valid;
+    /* frames per second over the last half second */
+    uint64_t frames;
+    uint32_t fps_frames;
+    double fps_t, fps;
+    win_shot shots[WIN_SHOTS];
+    uint32_t shot_count;
+    char hud_text[512];
+    char status[200];
+    int quit_early;        /* q before the stream ended */
+    /* --lod-policy other than received: what "following" means */
+    const mts_lod_policy_options *po;
+    mts_lod_policy policy;
+    int use_policy;
+    double last_frame_ms;
+} win;
+
+/* The level the view shows: the policy's choice -- by default "received",
+ * the newest level the stream has brought -- until a level key fixes one;
+ * End goes back to the policy. */
+static uint32_t win_choose_level(win *wn)
+{
+    uint32_t available = wn->c->lod.level;
+    if (wn->manual)
+        return wn->manual_level < available ? wn->manual_level : available;
+    if (!wn->use_policy || !wn->rn->r)
+        return available;
+    const mts_render_options *ro = &wn->rn->ro;
+    float eye[3], dir[3], d = 0;
+    mts_render_eye(wn->rn->r, eye, dir);
+    for (int i = 0; i < 3; i++) {
+        float cen = 0.5f * (wn->c->model.bbox_min[i] + wn->c->model.bbox_max[i]);
+        d += (eye[i] - cen) * (eye[i] - cen);
+    }
+    mts_lod_view view = {sqrtf(d), ro->camera.fov_y_deg * 3.14159265f / 180.0f,
+                         (int)ro->width, (int)ro->height};
+    return mts_lod_policy_choose(&wn->policy, available, &view, wn->last_frame_ms);
+}
+
+/* Batch boundaries: the levels after each whole batch (MODEL_INFO). */
+static uint32_t win_batch_step(const win *wn, uint32_t level, int up)
+{
+    const mts_wire_model_info *in = &wn->c->info;
+    uint32_t at = 0, best = up ? UINT32_MAX : 0;
+    for (uint32_t b = 0; b <= in->batch_count; b++) {
+        if (up && at > level) {
+            best = at;
+            break;
+        }
+        if (!up && at < level)
+            best = at;
+        if (b < in->batch_count)
+            at += in->batch_splits[b];
+    }
+    return up && best == UINT32_MAX ? level : best;
+}
+
+static void win_key(win *wn, mts_key key)
+{
+    uint32_t cur = wn->have_view ? wn->view.level : 0;
+    uint32_t levels = wn->c->info.levels, avail = wn->c->lod.level;
+    uint32_t tenth = levels / 10 ? levels / 10 : 1;
+    switch (key) {
+    case MTS_KEY_PLUS:
+    case MTS_KEY_MINUS:
+        wn->manual = 1;
+        wn->manual_level = win_batch_step(wn, cur, key == MTS_KEY_PLUS);
+        break;
+    case MTS_KEY_PAGE_UP:
+        wn->manual = 1;
+        wn->manual_level = cur + tenth < avail ? cur + tenth : avail;
+        break;
+    case MTS_KEY_PAGE_DOWN:
+        wn->manual = 1;
+        wn->manual_level = cur > tenth ? cur - tenth : 0;
+        break;
+    case MTS_KEY_HOME:
+        wn->manual = 1;
+        wn->manual_level = 0;
+        break;
+    case MTS_KEY_END:
+        wn->manual = 0; /* the highest level received, and on as more arrive */
+        break;
+    case MTS_KEY_W:
+        wn->rn->ro.style.wireframe = !wn->rn->ro.style.wireframe;
+        wn->stats_valid = 0; /* rebuild the edges at the next sync */
+        break;
+    case MTS_KEY_C:
+        wn->rn->ro.style.color_by_strip = !wn->rn->ro.style.color_by_strip;
+        break;
+    case MTS_KEY_S:
+        wn->want_shot = 1;
+        break;
+    case MTS_KEY_Q:
+        wn->quit = 1;
+        break;
+    default:
+        break;
+    }
+    if (wn->manual && wn->manual_level > avail)
+        wn->manual_level = avail;
+}
+
+static int win_input(win *wn, const mts_input *ev)
+{
+    mts_render_camera *cam = &wn->rn->ro.camera;
+    switch (ev->type) {
+    case MTS_INPUT_KEY:
+        win_key(wn, ev->key);
+        break;
+    case MTS_INPUT_DRAG: /* a window's width of drag turns the model about once */
+        cam->yaw_deg -= (float)ev->dx * 0.5f;
+        cam->pitch_deg += (float)ev->dy * 0.5f;
+        if (cam->pitch_deg > 89)
+            cam->pitch_deg = 89;
+        if (cam->pitch_deg < -89)
+            cam->pitch_deg = -89;
+        break;
+    case MTS_INPUT_SCROLL:
+        cam->zoom *= powf(1.15f, (float)ev->steps);
+        if (cam->zoom < 0.1f)
+            cam->zoom = 0.1f;
+        if (cam->zoom > 50)
+            cam->zoom = 50;
+        break;
+    case MTS_INPUT_RESIZE:
+        if (ev->width < 1 || ev->height < 1)
+            break;
+        wn->width = ev->width;
+        wn->height = ev->height;
+        wn->rn->ro.width = ev->width;
+        wn->rn->ro.height = ev->height;
+        if (wn->rn->r && mts_render_resize(wn->rn->r, ev->width, ev->height, &wn->rn->err))
+            return 0;
+        break;
+    case MTS_INPUT_CLOSE:
+        wn->quit = 1;
+        break;
+    default:
+        break;
+    }
+    return 1;
+}
+
+static int win_on_event(void *user, mts_stream_event ev, mts_stream_client *c)
+{
+    win *wn = user;
+    run *rn = wn->rn;
+    if (ev == MTS_EV_RESUMED && !rn->quiet)
+        fprintf(stderr, "mts-client: reconnected; resuming at batch %u of %u\n", c->batches,
+                c->info.batch_count);
+    if (ev == MTS_EV_BASE && !rn->r) {
+        mts_render_layout layout;
+        mts_render_layout_from_lod(&c->lod, &layout);
+        if (mts_renderer_create(rn->ctx, &rn->ro, &layout, &rn->r, &rn->err) != MTS_OK ||
+            mts_lod_init(&wn->view, &c->model, MTS_LOD_AT_BASE, &rn->err) != MTS_OK) {
+            rn->failed = 1;
+            return 1;
+        }
+        wn->have_view = 1;
+        if (wn->po->kind != MTS_LOD_POLICY_RECEIVED) { /* it frames the model's box */
+            mts_lod_policy_init(&wn->policy, wn->po, &c->model);
+            mts_strip_stats base = {0};
+            mts_strips_stats(&c->model.base, &base);
+            mts_lod_policy_set_counts(&wn->policy, (uint32_t)base.triangles, c->info.triangles);
+            wn->use_policy = 1;
+        }
+    }
+    return 0;
+}
+
+/* Brings the renderer up to the stream and the view up to the chosen level. */
+static int win_sync(win *wn)
+{
+    run *rn = wn->rn;
+    mts_stream_client *c = wn->c;
+    if (!rn->r || !wn->have_view)
+        return 1;
+    uint32_t have = c->model.base_vertex_count + c->splits;
+    if (have > rn->uploaded) {
+        if (mts_render_append_vertices(rn->r, rn->uploaded, have - rn->uploaded,
+                                       c->model.positions + 3 * (size_t)rn->uploaded,
+                                       c->model.normals + 3 * (size_t)rn->uploaded,
+                                       &rn->err) != MTS_OK)
+            return 0;
+        rn->uploaded = have;
+    }
+    mts_lod_set_available(&wn->view, c->lod.level);
+    uint32_t target = win_choose_level(wn);
+    if (target != wn->view.level && mts_lod_set_level(&wn->view, target, &rn->err) != MTS_OK)
+        return 0;
+    uint32_t changed;
+    mts_lod_changed(&wn->view, &changed);
+    if (changed || !wn->stats_valid) {
+        if (mts_render_update_strips(rn->r, &wn->view, &rn->err) != MTS_OK)
+            return 0;
+        mts_lod_clear_changed(&wn->view);
+        if (rn->ro.style.wireframe &&
+            mts_render_update_wireframe(rn->r, &wn->view, &rn->err) != MTS_OK)
+            return 0;
+        mts_strip_stats ss = {0};
+        for (uint32_t s = 0; s < wn->view.strip_count; s++) {
+            uint32_t len;
+            const uint32_t *str = mts_lod_strip(&wn->view, s, &len);
+            mts_strip_stats_add(&ss, str, len);
+        }
+        wn->shown_level = wn->view.level;
+        wn->triangles = (uint32_t)ss.triangles;
+        wn->strips = ss.strips;
+        wn->indices = ss.indices;
+        wn->stats_valid = 1;
+    }
+    return 1;
+}
+
+static void win_hud_text(win *wn, double now)
+{
+    const mts_stream_client *c = wn->c;
+    const mts_session_stats *st = wn->st;
+    double secs = st->ms_final > 0 ? st->ms_final / 1e3 : (now - wn->t_start) / 1e3;
+    double mbs = secs > 0 ? (double)st->bytes / secs / 1e6 : 0;
+    const char *state = wn->failed_stream ? wn->status
+                        : wn->streaming   ? "streaming"
+                                          : "complete";
+    if (!wn->stats_valid) {
+        snprintf(wn->hud_text, sizeof wn->hud_text,
+                 "%s  waiting for the base mesh\n%.1f frames/s  %llu bytes  %.2f MB/s  %s",
+                 wn->rn->model, wn->fps, (unsigned long long)st->bytes, mbs, state);
+        return;
+    }
+    snprintf(wn->hud_text, sizeof wn->hud_text,
+             "%s  level %u of %u (received %u, %s)\n"
+             "triangles %u  strips %u  indices/triangle %.2f\n"
+             "%.1f frames/s  %llu bytes  %.2f MB/s  %s\n"
+             "+/- batch  PgUp/PgDn 10%%  Home/End  w wire  c colour  s shot  q quit",
+             wn->rn->model, wn->shown_level, c->info.levels, c->lod.level,
+             wn->manual ? "fixed" : "following", wn->triangles, wn->strips,
+             wn->triangles ? (double)wn->indices / wn->triangles : 0.0, wn->fps,
+             (unsigned long long)st->bytes, mbs, state);
+}
+
+static int win_frame(win *wn, double now)
+{
+    run *rn = wn->rn;
+    win_hud_text(wn, now);
+    int scale = wn->width >= 1000 ? 2 : 1;
+    if (rn->r && wn->stats_valid) {
+        double t = now_ms();
+        mts_render_set_camera(rn->r, &rn->ro.camera);
+        mts_render_set_style(rn->r, &rn->ro.style);
+        if (mts_render_draw(rn->r, &rn->err) != MTS_OK || mts_render_blit(rn->r, &rn->err))
+            return 0;
+        wn->last_frame_ms = now_ms() - t;
+        rn->ms_render += wn->last_frame_ms;
+        if (wn->t_model == 0)
+            wn->t_model = now_ms(); /* the script's clock starts at the first picture */
+    } else {
+        if (mts_hud_clear(wn->hud, rn->ro.style.background, wn->width, wn->height, &rn->err))
+            return 0;
+    }
+    if (mts_hud_draw(wn->hud, wn->hud_text, wn->width, wn->height, scale, &rn->err) != MTS_OK ||
+        mts_render_context_swap(rn->ctx, &rn->err) != MTS_OK)
+        return 0;
+    wn->frames++;
+    wn->fps_frames++;
+    if (now - wn->fps_t >= 500) {
+        wn->fps = wn->fps_frames * 1e3 / (now - wn->fps_t);
+        wn->fps_frames = 0;
+        wn->fps_t = now;
+    }
+    if (wn->want_shot && rn->r && wn->stats_valid) {
+        wn->want_shot = 0;
+        char path[300];
+        snprintf(path, sizeof path, "%s_L%u.png", rn->model, wn->shown_level);
+        if (mts_render_write_png(rn->r, path, &rn->err) != MTS_OK)
+            return 0;
+        if (wn->shot_count < WIN_SHOTS) {
+            win_shot *s = &wn->shots[wn->shot_count++];
+            snprintf(s->file, sizeof s->file, "%s", path);
+            s->level = wn->shown_level;
+            s->triangles = wn->triangles;
+            s->strips = wn->strips;
+            snprintf(s->hud, sizeof s->hud, "%s", wn->hud_text);
+        }
+        if (!rn->quiet)
+            fprintf(stderr, "mts-client: wrote %s (level %u, %u triangles)\n", path,
+                    wn->shown_level, wn->triangles);
+    }
+    return 1;
+}
+
+/* JSON string body: quotes, backslashes and control bytes escaped. */
+static void json_text(FILE *f, const char *s)
+{
+    for (; *s; s++) {
+        unsigned char ch = (unsigned char)*s;
+        if (ch == '"' || ch == '\\')
+            fprintf(f, "\\%c", ch);
+        else if (ch == '\n')
+            fputs("\\n", f);
+        else if (ch < 0x20)
+            fprintf(f, "\\u%04x", ch);
+        else
+            fputc(ch, f);
+    }
+}
+
+/* Runs the window until q (or the close button). Returns the session's
+ * result; *wn keeps what the summary needs. */
+static mts_result win_run(win *wn, mts_session_options *so, const char *script_path,
+                          const mts_lod_policy_options *po, mts_error *err)
+{
+    run *rn = wn->rn;
+    mts_result rc = MTS_OK;
+    wn->po = po;
+    if (script_path) {
+        if ((rc = mts_script_load(script_path, &wn->script, err)) != MTS_OK)
+            return rc;
+        wn->have_script = 1;
+    }
+    wn->width = rn->ro.width;
+    wn->height = rn->ro.height;
+    char title[200];
+    snprintf(title, sizeof title, "mts-client: %s", rn->model);
+    if ((rc = mts_window_create(title, wn->width, wn->height, &wn->w, err)) != MTS_OK ||
+        (rc = mts_render_context_create_window(mts_window_native_display(wn->w),
+                                               mts_window_native_window(wn->w), &rn->ctx,
+                                               err)) != MTS_OK ||
+        (rc = mts_hud_create(rn->ctx, &wn->hud, err)) != MTS_OK)
+        return rc;
+    if (!warm_up(rn)) {
+        *err = rn->err;
+        return err->code ? err->code : MTS_ERR_INTERNAL;
+    }
+    so->on_event = win_on_event;
+    so->user = wn;
+    mts_session *sess;
+    if ((rc = mts_session_begin(so, wn->c, wn->st, &sess, err)) != MTS_OK)
+        return rc;
+    wn->streaming = 1;
+    wn->t_start = wn->fps_t = now_ms();
+    const double frame_ms = 1000.0 / 60;
+    double next_frame = now_ms();
+    while (!wn->quit) {
+        double now = now_ms();
+        mts_input ev;
+        int ok = 1;
+        while (ok && mts_window_poll(wn->w, &ev))
+            ok = win_input(wn, &ev);
+        while (ok && wn->have_script && wn->t_model > 0 &&
+               mts_script_next(&wn->script, (now - wn->t_model) / 1e3, &ev))
+            ok = win_input(wn, &ev);
+        if (ok && !win_sync(wn))
+            ok = 0;
+        if (ok && !win_frame(wn, now))
+            ok = 0;
+        if (!ok || rn->failed) { /* GL or the display runtime: nothing more to show */
+            if (wn->streaming)
+                mts_session_end(sess, NULL);
+            wn->streaming = 0;
+            *err = rn->err;
+            return err->code ? err->code : MTS_ERR_INTERNAL;
+        }
+        /* the network gets the time until the next frame */
+        next_frame += frame_ms;
+        if (next_frame < now_ms())
+            next_frame = now_ms();
+        for (;;) {
+            double left = next_frame - now_ms();
+            if (!wn->streaming) {
+                if (left > 0) {
+                    struct pollfd pf = {mts_window_fd(wn->w), POLLIN, 0};
+                    poll(&pf, 1, (int)left);
+                }
+                break;
+            }
+            wn->streaming = mts_session_poll(sess, left > 0 ? (int)left : 0);
+            if (!wn->streaming) {
+                rc = mts_session_end(sess, err);
+                if (rc != MTS_OK) {
+                    /* the window stays up with the last whole batch; q ends it */
+                    wn->failed_stream = 1;
+                    snprintf(wn->status, sizeof wn->status, "stopped: %.180s", err->msg);
+                    if (!rn->quiet)
+                        fprintf(stderr, "mts-client: %s\n", err->msg);
+                }
+            }
+            if (left <= 0 || rn->failed)
+                break;
+        }
+    }
+    if (wn->streaming) { /* quit before the end: the user's choice, not a failure */
+        mts_session_end(sess, NULL);
+        wn->streaming = 0;
+        wn->quit_early = 1;
+    }
+    return rc;
+}
+
+static void win_free(win *wn)
+{
+    if (wn->have_view)
+        mts_lod_free(&wn->view);
+    mts_hud_destroy(wn->hud);
+    mts_script_free(&wn->script);
+}
+
+/* --window from start to exit status. */
+static int win_main(run *rn, mts_session_options *so, const char *script_path, int json,
+                    const mts_lod_policy_options *po)
+{
+    win wn;
+    memset(&wn, 0, sizeof wn);
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_session_stats st;
+    memset(&st, 0, sizeof st);
+    wn.rn = rn;
+    wn.c = &c;
+    wn.st = &st;
+    mts_error err = {0};
+    mts_result rc = win_run(&wn, so, script_path, po, &err);
+    if (rn->failed && rc == MTS_OK) {
+        rc = rn->err.code ? rn->err.code : MTS_ERR_INTERNAL;
+        err = rn->err;
+    }
+    uint32_t triangles = 0;
+    if (c.have_lod) {
+        mts_strip_stats ss = {0};
+        for (uint32_t s = 0; s < c.lod.strip_count; s++) {
+            uint32_t len;
+            const uint32_t *str = mts_lod_strip(&c.lod, s, &len);
+            mts_strip_stats_add(&ss, str, len);
+        }
+        triangles = (uint32_t)ss.triangles;
+    }
+    int complete = rc == MTS_OK && !wn.quit_early;
+    if (json) {
+        cli_json j;
+        cli_json_begin(&j, stdout);
+        cli_json_str(&j, "model", rn->model);
+        cli_json_bool(&j, "complete", complete);
+        cli_json_u64(&j, "bytes", st.bytes);
+        cli_json_u64(&j, "batches", c.batches);
+        cli_json_u64(&j, "level", c.have_lod ? c.lod.level : 0);
+        cli_json_u64(&j, "levels", c.info.levels);
+        cli_json_u64(&j, "triangles", triangles);
+        if (c.end_checksum) {
+            char hex[17];
+            snprintf(hex, sizeof hex, "%016llx", (unsigned long long)c.checksum);
+            cli_json_str(&j, "checksum", hex);
+        }
+        cli_json_u64(&j, "reconnects", st.reconnects);
+        cli_json_num(&j, "ms_connect", st.ms_connect, 3);
+        cli_json_num(&j, "ms_base", st.ms_base, 3);
+        cli_json_num(&j, "ms_final", st.ms_final, 3);
+        cli_json_num(&j, "ms_apply", st.ms_apply, 3);
+        cli_json_num(&j, "ms_render", rn->ms_render, 3);
+        cli_json_u64(&j, "frames", wn.frames);
+        if (po->kind != MTS_LOD_POLICY_RECEIVED)
+            cli_json_str(&j, "lod_policy", mts_lod_policy_name(po->kind));
+        cli_json_u64(&j, "level_shown", wn.shown_level);
+        /* each screenshot with the figures its frame's HUD showed, and the HUD text */
+        cli_json_key(&j, "screenshots");
+        fputc('[', stdout);
+        for (uint32_t i = 0; i < wn.shot_count; i++) {
+            const win_shot *s = &wn.shots[i];
+            fprintf(stdout, "%s{\"file\":\"", i ? "," : "");
+            json_text(stdout, s->file);
+            fprintf(stdout, "\",\"level\":%u,\"triangles\":%u,\"strips\":%u,\"hud\":\"",
+                    s->level, s->triangles, s->strips);
+            json_text(stdout, s->hud);
+            fputs("\"}", stdout);
+        }
+        fputc(']', stdout);
+        if (rc != MTS_OK)
+            cli_json_str(&j, "error", err.msg);
+        cli_json_end(&j);
+    } else if (!rn->quiet && c.have_lod) {
+        printf("%s: level %u of %u received, %u triangles, %u batches, %llu bytes; %llu frames "
+               "shown%s\n",
+               rn->model, c.lod.level, c.info.levels, triangles, c.batches,
+               (unsigned long long)st.bytes, (unsigned long long)wn.frames,
+               wn.quit_early ? " (quit before the end of the stream)" : "");
+        for (uint32_t i = 0; i < wn.shot_count; i++)
+            printf("  wrote %s\n", wn.shots[i].file);
+    }
+    /* a stream error was said as it happened; the rest now */
+    if (rc != MTS_OK && !wn.failed_stream)
+        fprintf(stderr, "mts-client: %s\n", err.msg);
+    win_free(&wn);
+    mts_renderer_destroy(rn->r);
+    mts_render_context_destroy(rn->ctx); /* its EGL surface before the window under it */
+    mts_window_destroy(wn.w);
+    mts_stream_client_free(&c);
+    return rc == MTS_OK ? CLI_EXIT_OK : CLI_EXIT_FAIL;
+}
+
 int main(int argc, char **argv)
 {
     const char *pos[2];
-    int npos = 0, json = 0, verify = 0, list = 0;
-    const char *model_file = NULL;
+    int npos = 0, json = 0, verify = 0, list = 0, window = 0, size_given = 0;
+    const char *model_file = NULL, *script = NULL;
     run rn;
     memset(&rn, 0, sizeof rn);
     rn.render = 1;
@@ -286,6 +885,8 @@ int main(int argc, char **argv)
     mts_session_options so = {0};
     so.hello.stop_kind = MTS_STOP_FULL;
     int stops = 0, stop;
+    mts_lod_policy_options po = {0};
+    double distance = 1;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -302,6 +903,15 @@ int main(int argc, char **argv)
             list = 1;
         } else if (!strcmp(a, "--no-render")) {
             rn.render = 0;
+        } else if (!strcmp(a, "--window")) {
+            window = 1;
+        } else if (!strcmp(a, "--script")) {
+            if (!v) {
+                fprintf(stderr, "mts-client: --script needs a file name\n");
+                return CLI_EXIT_USAGE;
+            }
+            script = v;
+            i++;
         } else if (!strcmp(a, "--resume")) {
             so.resume = 1;
         } else if (!strcmp(a, "--retries")) {
@@ -313,6 +923,22 @@ int main(int argc, char **argv)
             i++;
         } else if (!strcmp(a, "--color-strips")) {
             rn.ro.style.color_by_strip = 1;
+        } else if (!strcmp(a, "--lod-policy")) {
+            if (!v || !mts_lod_policy_parse(v, &po.kind)) {
+                fprintf(stderr, "mts-client: --lod-policy needs received, distance, area or "
+                                "budget\n");
+                return CLI_EXIT_USAGE;
+            }
+            i++;
+        } else if (!strcmp(a, "--fps") || !strcmp(a, "--distance")) {
+            char *end;
+            double x = v ? strtod(v, &end) : 0;
+            if (!v || *end || !(x > 0) || x > 1e6) {
+                fprintf(stderr, "mts-client: %s needs a positive number\n", a);
+                return CLI_EXIT_USAGE;
+            }
+            *(!strcmp(a, "--fps") ? &po.fps : &distance) = x;
+            i++;
         } else if ((stop = cli_parse_stop(a, v, &so.hello.stop_kind, &so.hello.stop_value))) {
             if (stop < 0) {
                 fprintf(stderr, "mts-client: %s needs %s\n", a,
@@ -353,6 +979,7 @@ int main(int argc, char **argv)
                 fprintf(stderr, "mts-client: --size needs WxH, each 16..8192\n");
                 return CLI_EXIT_USAGE;
             }
+            size_given = 1;
             i++;
         } else if (a[0] == '-' && a[1]) {
             fprintf(stderr, "mts-client: unknown option %s (see --help)\n", a);
@@ -364,9 +991,27 @@ int main(int argc, char **argv)
             return CLI_EXIT_USAGE;
         }
     }
+    if (po.kind != MTS_LOD_POLICY_RECEIVED && !rn.render) {
+        fprintf(stderr, "mts-client: --lod-policy draws: it cannot go with --no-render\n");
+        return CLI_EXIT_USAGE;
+    }
+    rn.ro.camera.zoom = (float)(1 / distance);
     if (stops > 1) {
         fprintf(stderr, "mts-client: give one of --level, --triangles, --fraction\n");
         return CLI_EXIT_USAGE;
+    }
+    if (script && !window) {
+        fprintf(stderr, "mts-client: --script drives the window: it needs --window\n");
+        return CLI_EXIT_USAGE;
+    }
+    if (window && (list || !rn.render || rn.png || rn.png_level_count || verify)) {
+        fprintf(stderr, "mts-client: --window does not go with --list, --no-render, --png, "
+                        "--png-levels or --verify (press s in the window for a picture)\n");
+        return CLI_EXIT_USAGE;
+    }
+    if (window && !size_given) {
+        rn.ro.width = 800;
+        rn.ro.height = 600;
     }
     const char *server = NULL;
     if (list) {
@@ -401,6 +1046,8 @@ int main(int argc, char **argv)
     so.on_retry = on_retry;
     so.user = &rn;
     cli_bar_init(&rn.bar, rn.quiet || json || list);
+    if (window)
+        return win_main(&rn, &so, script, json, &po);
 
     /* EGL comes up, and draws once, before connecting: the first frame of
      * the model should wait for the network, not for the driver (llvmpipe
@@ -433,9 +1080,15 @@ int main(int argc, char **argv)
     /* whatever happened, the last whole batch is drawn and written -- unless a
      * record failed while a batch was being applied: the runtime is then
      * broken part-way through a split and there is no whole level to draw */
+    uint32_t received = c.have_lod ? c.lod.level : 0;
     if (rn.r && c.have_lod && !c.lod.broken) {
         if (rc == MTS_OK)
             level_pngs(&rn, &c, 1);
+        if (po.kind != MTS_LOD_POLICY_RECEIVED && !apply_policy(&rn, &c, &po, distance) &&
+            rc == MTS_OK) {
+            rc = rn.err.code ? rn.err.code : MTS_ERR_INTERNAL;
+            err = rn.err;
+        }
         if (draw(&rn, &c) && rn.png)
             write_png(&rn, rn.png);
     }
@@ -468,6 +1121,10 @@ int main(int argc, char **argv)
         cli_json_u64(&j, "batches", c.batches);
         cli_json_u64(&j, "level", c.have_lod ? c.lod.level : 0);
         cli_json_u64(&j, "levels", c.info.levels);
+        if (po.kind != MTS_LOD_POLICY_RECEIVED) {
+            cli_json_str(&j, "lod_policy", mts_lod_policy_name(po.kind));
+            cli_json_u64(&j, "level_received", received);
+        }
         cli_json_u64(&j, "triangles", triangles);
         if (c.end_checksum) { /* END came: the mesh checksum at the final level */
             char hex[17];
@@ -491,6 +1148,9 @@ int main(int argc, char **argv)
                rn.model, c.have_lod ? c.lod.level : 0, c.info.levels, triangles, c.batches,
                (unsigned long long)st.bytes, st.ms_final ? st.ms_final : 0, st.ms_base,
                st.ms_apply, rn.ms_render);
+        if (po.kind != MTS_LOD_POLICY_RECEIVED)
+            printf("  lod policy %s: level %u of %u received\n", mts_lod_policy_name(po.kind),
+                   c.lod.level, received);
         for (uint32_t i = 0; i < rn.pngs_written && i < 8; i++)
             printf("  wrote %s\n", rn.png_paths[i]);
         if (verified == 1)

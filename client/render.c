@@ -18,6 +18,9 @@
 #ifndef EGL_PLATFORM_SURFACELESS_MESA
 #define EGL_PLATFORM_SURFACELESS_MESA 0x31DD
 #endif
+#ifndef EGL_PLATFORM_X11_EXT
+#define EGL_PLATFORM_X11_EXT 0x31D5
+#endif
 
 #define PI_F 3.14159265358979f
 
@@ -154,6 +157,119 @@ fail:
     return rc;
 }
 
+mts_result mts_render_context_create_window(void *native_display, unsigned long native_window,
+                                            mts_render_context **out, mts_error *err)
+{
+    if (!out || !native_display)
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to create_window");
+    *out = NULL;
+    const char *client_ext = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+    if (!client_ext)
+        return egl_fail(err, "eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS)");
+    if (!has_extension(client_ext, "EGL_EXT_platform_x11"))
+        return mts_error_set(err, MTS_ERR_IO, "EGL: no EGL_EXT_platform_x11 (client extensions: "
+                                              "%.300s)",
+                             *client_ext ? client_ext : "none");
+    PFNEGLGETPLATFORMDISPLAYEXTPROC get_platform_display =
+        (PFNEGLGETPLATFORMDISPLAYEXTPROC)eglGetProcAddress("eglGetPlatformDisplayEXT");
+    PFNEGLCREATEPLATFORMWINDOWSURFACEEXTPROC create_window_surface =
+        (PFNEGLCREATEPLATFORMWINDOWSURFACEEXTPROC)eglGetProcAddress(
+            "eglCreatePlatformWindowSurfaceEXT");
+    if (!get_platform_display || !create_window_surface)
+        return mts_error_set(err, MTS_ERR_IO, "EGL: no eglGetPlatformDisplayEXT or "
+                                              "eglCreatePlatformWindowSurfaceEXT");
+    mts_render_context *c = calloc(1, sizeof *c);
+    if (!c)
+        return mts_error_set(err, MTS_ERR_NOMEM, "render: context");
+    c->surface = EGL_NO_SURFACE;
+    c->context = EGL_NO_CONTEXT;
+    mts_result rc;
+    c->display = get_platform_display(EGL_PLATFORM_X11_EXT, native_display, NULL);
+    if (c->display == EGL_NO_DISPLAY) {
+        rc = egl_fail(err, "eglGetPlatformDisplayEXT(EGL_PLATFORM_X11_EXT)");
+        free(c);
+        return rc;
+    }
+    EGLint major = 0, minor = 0;
+    if (!eglInitialize(c->display, &major, &minor)) {
+        rc = egl_fail(err, "eglInitialize (X11 platform)");
+        free(c);
+        return rc;
+    }
+    /* 8-bit RGB: the window shows the renderer's RGBA8 frame as it is; no
+     * depth here, the renderer's framebuffer has its own */
+    const EGLint config_attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_ES3_BIT,
+                                     EGL_SURFACE_TYPE, EGL_WINDOW_BIT,
+                                     EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8,
+                                     EGL_NONE};
+    EGLConfig config;
+    EGLint configs = 0;
+    if (!eglChooseConfig(c->display, config_attribs, &config, 1, &configs)) {
+        rc = egl_fail(err, "eglChooseConfig (window)");
+        goto fail;
+    }
+    if (configs < 1) {
+        rc = mts_error_set(err, MTS_ERR_IO, "EGL: no window config with EGL_OPENGL_ES3_BIT");
+        goto fail;
+    }
+    if (!eglBindAPI(EGL_OPENGL_ES_API)) {
+        rc = egl_fail(err, "eglBindAPI(EGL_OPENGL_ES_API)");
+        goto fail;
+    }
+    /* EGL_EXT_platform_x11: the native window is passed as a Window* */
+    unsigned long xid = native_window;
+    c->surface = create_window_surface(c->display, config, &xid, NULL);
+    if (c->surface == EGL_NO_SURFACE) {
+        rc = egl_fail(err, "eglCreatePlatformWindowSurfaceEXT");
+        goto fail;
+    }
+    const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION,
+                                      0, EGL_NONE};
+    c->context = eglCreateContext(c->display, config, EGL_NO_CONTEXT, context_attribs);
+    if (c->context == EGL_NO_CONTEXT) {
+        rc = egl_fail(err, "eglCreateContext (GLES 3.0)");
+        goto fail;
+    }
+    if (!eglMakeCurrent(c->display, c->surface, c->surface, c->context)) {
+        rc = egl_fail(err, "eglMakeCurrent (window)");
+        goto fail;
+    }
+    eglSwapInterval(c->display, 1); /* a hint: servers without vblank ignore it */
+    const char *renderer = (const char *)glGetString(GL_RENDERER);
+    const char *version = (const char *)glGetString(GL_VERSION);
+    snprintf(c->description, sizeof c->description, "%s | %s", renderer ? renderer : "?",
+             version ? version : "?");
+    *out = c;
+    return MTS_OK;
+fail:
+    mts_render_context_destroy(c);
+    return rc;
+}
+
+void mts_render_context_surface_size(const mts_render_context *c, uint32_t *width,
+                                     uint32_t *height)
+{
+    EGLint w = 0, h = 0;
+    if (c && c->surface != EGL_NO_SURFACE) {
+        eglQuerySurface(c->display, c->surface, EGL_WIDTH, &w);
+        eglQuerySurface(c->display, c->surface, EGL_HEIGHT, &h);
+    }
+    *width = w > 0 ? (uint32_t)w : 0;
+    *height = h > 0 ? (uint32_t)h : 0;
+}
+
+mts_result mts_render_context_swap(mts_render_context *c, mts_error *err)
+{
+    if (!c || c->surface == EGL_NO_SURFACE)
+        return mts_error_set(err, MTS_ERR_ARG, "render: swap on a context without a window");
+    mts_result rc = mts_render_context_make_current(c, err);
+    if (rc != MTS_OK)
+        return rc;
+    if (!eglSwapBuffers(c->display, c->surface))
+        return egl_fail(err, "eglSwapBuffers");
+    return MTS_OK;
+}
+
 void mts_render_context_destroy(mts_render_context *c)
 {
     if (!c)
@@ -208,6 +324,8 @@ struct mts_renderer {
     GLuint program, vao, vbo, ibo, fbo, color_rb, depth_rb;
     GLuint list_ibo; /* MTS_RENDER_DRAW_LIST only */
     uint32_t list_count;
+    GLuint wire_ibo; /* style.wireframe: GL_LINES over the triangles' edges */
+    uint64_t wire_count;
     GLint u_mvp, u_normal, u_color, u_light, u_ambient;
 
     uint32_t *staging; /* max_capacity + 1 */
@@ -265,6 +383,10 @@ void mts_render_options_default(mts_render_options *o)
     o->style.color_by_strip = 0;
     o->style.cull_back_faces = 1;
     o->style.draw_mode = MTS_RENDER_DRAW_RESTART;
+    o->style.wireframe = 0;
+    o->style.wire_color[0] = 0.08f;
+    o->style.wire_color[1] = 0.09f;
+    o->style.wire_color[2] = 0.12f;
 }
 
 void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *l)
@@ -519,8 +641,8 @@ void mts_renderer_destroy(mts_renderer *r)
             glDeleteFramebuffers(1, &r->fbo);
         GLuint rbs[2] = {r->color_rb, r->depth_rb};
         glDeleteRenderbuffers(2, rbs);
-        GLuint bufs[3] = {r->vbo, r->ibo, r->list_ibo};
-        glDeleteBuffers(3, bufs);
+        GLuint bufs[4] = {r->vbo, r->ibo, r->list_ibo, r->wire_ibo};
+        glDeleteBuffers(4, bufs);
         if (r->vao)
             glDeleteVertexArrays(1, &r->vao);
         if (r->program)
@@ -943,6 +1065,13 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
     else
         glDisable(GL_CULL_FACE);
     glEnable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
+    int wire = st->wireframe && r->wire_count && st->draw_mode != MTS_RENDER_DRAW_LIST;
+    if (wire) { /* the surface a little behind its edges */
+        glEnable(GL_POLYGON_OFFSET_FILL);
+        glPolygonOffset(1.0f, 1.0f);
+    } else {
+        glDisable(GL_POLYGON_OFFSET_FILL);
+    }
 
     glUseProgram(r->program);
     glUniformMatrix4fv(r->u_mvp, 1, GL_FALSE, r->mvp);
@@ -1002,6 +1131,18 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
         calls = 1;
         indices = r->index_count;
     }
+    if (wire) {
+        glDisable(GL_POLYGON_OFFSET_FILL);
+        glDepthFunc(GL_LEQUAL);
+        glUniform1f(r->u_ambient, 1.0f); /* flat: the edge colour as it is */
+        glUniform3fv(r->u_color, 1, st->wire_color);
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->wire_ibo);
+        glDrawElements(GL_LINES, (GLsizei)r->wire_count, GL_UNSIGNED_INT, (const void *)0);
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
+        glDepthFunc(GL_LESS);
+        calls++;
+        indices += r->wire_count;
+    }
     glBindVertexArray(0);
     glFinish();
     double t1 = now_seconds();
@@ -1012,6 +1153,115 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
     r->stats.last_draw_calls = calls;
     r->stats.last_draw_indices = indices;
     return MTS_OK;
+}
+
+mts_result mts_render_update_wireframe(mts_renderer *r, const mts_lod *lod, mts_error *err)
+{
+    if (!r || !lod)
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to update_wireframe");
+    if (lod->strip_count != r->strip_count)
+        return mts_error_set(err, MTS_ERR_ARG, "render: runtime has %u strips, renderer %u",
+                             lod->strip_count, r->strip_count);
+    uint64_t windows = 0;
+    for (uint32_t s = 0; s < lod->strip_count; s++)
+        windows += lod->length[s] >= 3 ? lod->length[s] - 2 : 0;
+    if (windows * 6u > (uint64_t)INT32_MAX)
+        return mts_error_set(err, MTS_ERR_LIMIT, "render: %llu wireframe indices",
+                             (unsigned long long)windows * 6u);
+    uint32_t *lines = malloc((size_t)(windows ? windows : 1) * 6u * sizeof *lines);
+    if (!lines)
+        return mts_error_set(err, MTS_ERR_NOMEM, "render: %llu wireframe indices",
+                             (unsigned long long)windows * 6u);
+    uint64_t n = 0;
+    uint32_t nv = r->stats.vertices;
+    for (uint32_t s = 0; s < lod->strip_count; s++) {
+        uint32_t len;
+        const uint32_t *idx = mts_lod_strip(lod, s, &len);
+        for (uint32_t k = 0; k + 2 < len; k++) {
+            uint32_t a = idx[k], b = idx[k + 1], c = idx[k + 2];
+            if (a == b || b == c || a == c) /* a swap or a collapse leftover */
+                continue;
+            if (a >= nv || b >= nv || c >= nv) {
+                free(lines);
+                return mts_error_set(err, MTS_ERR_RANGE,
+                                     "render: strip %u uses vertex %u of %u uploaded", s,
+                                     a >= nv ? a : b >= nv ? b : c, nv);
+            }
+            uint32_t *o = lines + n;
+            o[0] = a, o[1] = b, o[2] = b, o[3] = c, o[4] = c, o[5] = a;
+            n += 6;
+        }
+    }
+    mts_result rc = mts_render_context_make_current(r->ctx, err);
+    if (rc == MTS_OK) {
+        if (!r->wire_ibo)
+            glGenBuffers(1, &r->wire_ibo);
+        glBindVertexArray(0);
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->wire_ibo);
+        glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(n * 4u), n ? lines : NULL,
+                     GL_DYNAMIC_DRAW);
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, 0);
+        r->wire_count = n;
+        rc = gl_check(err, "uploading the wireframe");
+    }
+    free(lines);
+    return rc;
+}
+
+mts_result mts_render_resize(mts_renderer *r, uint32_t width, uint32_t height, mts_error *err)
+{
+    if (!r || width == 0 || height == 0)
+        return mts_error_set(err, MTS_ERR_ARG, "render: resize to %ux%u", width, height);
+    mts_result rc = mts_render_context_make_current(r->ctx, err);
+    if (rc != MTS_OK)
+        return rc;
+    GLint max_rb = 0;
+    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+    if (width > (uint32_t)max_rb || height > (uint32_t)max_rb)
+        return mts_error_set(err, MTS_ERR_LIMIT, "render: size %ux%u above GL's %d", width,
+                             height, max_rb);
+    glBindRenderbuffer(GL_RENDERBUFFER, r->color_rb);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, (GLsizei)width, (GLsizei)height);
+    glBindRenderbuffer(GL_RENDERBUFFER, r->depth_rb);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, (GLsizei)width,
+                          (GLsizei)height);
+    glBindRenderbuffer(GL_RENDERBUFFER, 0);
+    rc = gl_check(err, "resizing the framebuffer");
+    if (rc != MTS_OK)
+        return rc;
+    r->opts.width = r->stats.width = width;
+    r->opts.height = r->stats.height = height;
+    update_camera(r);
+    return MTS_OK;
+}
+
+mts_result mts_render_blit(mts_renderer *r, mts_error *err)
+{
+    if (!r)
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL renderer");
+    if (r->ctx->surface == EGL_NO_SURFACE)
+        return mts_error_set(err, MTS_ERR_ARG, "render: blit on a context without a window");
+    mts_result rc = mts_render_context_make_current(r->ctx, err);
+    if (rc != MTS_OK)
+        return rc;
+    uint32_t ww, wh;
+    mts_render_context_surface_size(r->ctx, &ww, &wh);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->fbo);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+    GLenum back = GL_BACK;
+    glDrawBuffers(1, &back);
+    int same = ww == r->opts.width && wh == r->opts.height;
+    glBlitFramebuffer(0, 0, (GLint)r->opts.width, (GLint)r->opts.height, 0, 0, (GLint)ww,
+                      (GLint)wh, GL_COLOR_BUFFER_BIT, same ? GL_NEAREST : GL_LINEAR);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glViewport(0, 0, (GLsizei)ww, (GLsizei)wh);
+    return gl_check(err, "blitting the frame to the window");
+}
+
+mts_result mts_render_present(mts_renderer *r, mts_error *err)
+{
+    mts_result rc = mts_render_blit(r, err);
+    return rc != MTS_OK ? rc : mts_render_context_swap(r->ctx, err);
 }
 
 /* glReadPixels of the framebuffer: GL's row order, bottom row first. */

@@ -3,12 +3,14 @@
  *
  * Two parts, kept apart so that a windowed client reuses the same renderer:
  *
- *   mts_render_context  the EGL display + GLES 3 context (+ surface). Today:
+ *   mts_render_context  the EGL display + GLES 3 context (+ surface): either
  *                       headless, on Mesa's surfaceless platform, current with
- *                       no surface (EGL_KHR_surfaceless_context). A windowed
- *                       variant (EGL window surface) comes later and adds a
- *                       present step (blit the renderer's frame to the window,
- *                       swap); nothing below changes.
+ *                       no surface (EGL_KHR_surfaceless_context), or on a
+ *                       native X11 window (EGL window surface), which adds a
+ *                       present step: blit the renderer's frame to the window,
+ *                       draw any overlay (a HUD) there, swap. Nothing below
+ *                       changes: the frame is still drawn offscreen, so a
+ *                       window's screenshot is the same picture as headless.
  *   mts_renderer        GL state only: buffers, shader, an offscreen
  *                       framebuffer (RGBA8 colour + 24-bit depth) of the
  *                       requested size. Every frame is drawn there, so it can
@@ -94,6 +96,22 @@ mts_result mts_render_context_create_headless(mts_render_context **ctx, mts_erro
  * repeatedly is fine and reuses the display. */
 void mts_render_context_destroy(mts_render_context *ctx);
 
+/* EGL on an X11 window (EGL_EXT_platform_x11): native_display is the
+ * window's Display*, native_window its Window (window.h gives both). A GLES
+ * 3 context current with a window surface; swaps wait for vertical blank
+ * where the server has one (swap interval 1). MTS_ERR_IO (the EGL call
+ * named) when EGL has no X11 platform or no matching config. */
+mts_result mts_render_context_create_window(void *native_display, unsigned long native_window,
+                                            mts_render_context **ctx, mts_error *err);
+
+/* The window surface's size in pixels (0 x 0 when headless). */
+void mts_render_context_surface_size(const mts_render_context *ctx, uint32_t *width,
+                                     uint32_t *height);
+
+/* Shows what was drawn to the window surface (eglSwapBuffers). MTS_ERR_ARG
+ * for a headless context. */
+mts_result mts_render_context_swap(mts_render_context *ctx, mts_error *err);
+
 mts_result mts_render_context_make_current(mts_render_context *ctx, mts_error *err);
 
 /* "GL_RENDERER | GL_VERSION", e.g. "llvmpipe (LLVM 15.0.6, 256 bits) |
@@ -135,6 +153,13 @@ typedef struct mts_render_style {
     int color_by_strip;  /* each strip its own colour (draws strip by strip) */
     int cull_back_faces; /* 1 by default */
     mts_render_draw_mode draw_mode;
+    /* Draw the triangles' edges over the surface (hidden-line wireframe):
+     * the edges given by mts_render_update_wireframe as GL_LINES, the
+     * surface pushed back with polygon offset so that visible edges win the
+     * depth test. GLES has no polygon mode, and a barycentric shader needs
+     * per-corner attributes that shared strip vertices cannot carry. */
+    int wireframe;
+    float wire_color[3];
 } mts_render_style;
 
 typedef struct mts_render_options {
@@ -144,7 +169,8 @@ typedef struct mts_render_options {
 } mts_render_options;
 
 /* 512x512, yaw 30, pitch 20, zoom 1, fov 35, dark blue-grey background,
- * light grey surface, ambient 0.25, culling on, RESTART. */
+ * light grey surface, ambient 0.25, culling on, RESTART, no wireframe
+ * (dark edges when turned on). */
 void mts_render_options_default(mts_render_options *opts);
 
 typedef struct mts_renderer mts_renderer;
@@ -195,6 +221,25 @@ void mts_render_eye(const mts_renderer *r, float eye[3], float dir[3]);
 /* Draws a frame into the framebuffer and waits for it (glFinish), so
  * stats.last_draw_seconds is the frame's time, clear to finish. */
 mts_result mts_render_draw(mts_renderer *r, mts_error *err);
+
+/* Windowed contexts: copies the last frame to the window surface (scaled
+ * when the sizes differ) and leaves the window's framebuffer bound with a
+ * viewport over all of it, for an overlay; then mts_render_context_swap.
+ * MTS_ERR_ARG for a headless context. */
+mts_result mts_render_blit(mts_renderer *r, mts_error *err);
+
+/* blit + swap, for callers with no overlay. */
+mts_result mts_render_present(mts_renderer *r, mts_error *err);
+
+/* New framebuffer size (a window was resized): the renderbuffers are
+ * reallocated and the camera's aspect follows; geometry stays. */
+mts_result mts_render_resize(mts_renderer *r, uint32_t width, uint32_t height, mts_error *err);
+
+/* Rebuilds the wireframe's edges from the runtime's current strips: three
+ * edges per non-degenerate triangle (shared edges twice: simpler than a
+ * hash, and GL_LINES draws a repeat at the same depth). Call after the
+ * strips changed while style.wireframe is on. */
+mts_result mts_render_update_wireframe(mts_renderer *r, const mts_lod *lod, mts_error *err);
 
 /* Reads the last frame, RGBA8, width*height*4 bytes, top row first. */
 mts_result mts_render_read_rgba(mts_renderer *r, uint8_t *rgba, mts_error *err);

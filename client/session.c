@@ -19,52 +19,108 @@ static double now_ms(void)
     return (double)ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
-/* Non-blocking connect bounded by a timeout, over every address the name has. */
+/* Connecting runs as steps so that a window loop never waits on it: the
+ * name is resolved (getaddrinfo blocks, but a numeric address or
+ * /etc/hosts answers at once), then each address gets a non-blocking
+ * connect that poll watches, bounded by the connect timeout. */
+typedef struct connector {
+    struct addrinfo *res, *cur;
+    int fd;           /* the socket connecting now, or -1 */
+    double deadline;  /* ms: when this address gives up */
+    int last;         /* errno of the last failed address */
+} connector;
+
+static void connector_close(connector *k)
+{
+    if (k->fd >= 0)
+        close(k->fd);
+    k->fd = -1;
+    if (k->res)
+        freeaddrinfo(k->res);
+    k->res = k->cur = NULL;
+}
+
 /* *transient: whether trying again later can help (a name that does not
  * resolve will not, unless the resolver itself failed for now). */
-static int connect_bounded(const char *host, const char *port, double timeout, int *transient,
-                           mts_error *err)
+static mts_result connector_start(connector *k, const char *host, const char *port,
+                                  int *transient, mts_error *err)
 {
-    struct addrinfo hints = {0}, *res = NULL;
+    struct addrinfo hints = {0};
     hints.ai_family = AF_UNSPEC;
     hints.ai_socktype = SOCK_STREAM;
-    int gai = getaddrinfo(host, port, &hints, &res);
+    k->fd = -1;
+    k->last = 0;
+    k->res = k->cur = NULL;
+    int gai = getaddrinfo(host, port, &hints, &k->res);
     if (gai != 0) {
+        k->res = NULL;
         *transient = gai == EAI_AGAIN;
-        mts_error_set(err, MTS_ERR_IO, "%s:%s: %s", host, port, gai_strerror(gai));
-        return -1;
+        return mts_error_set(err, MTS_ERR_IO, "%s:%s: %s", host, port, gai_strerror(gai));
     }
     *transient = 1;
-    int fd = -1, last = 0;
-    for (struct addrinfo *a = res; a; a = a->ai_next) {
-        fd = socket(a->ai_family, a->ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-        if (fd < 0) {
-            last = errno;
-            continue;
+    k->cur = k->res;
+    return MTS_OK;
+}
+
+/* Moves the connect on: 1 connected (k->fd is the socket, owned by the
+ * caller from then on), 0 still connecting, -1 every address failed (err
+ * set). Waits at most timeout_ms (-1: until this address is decided). */
+static int connector_step(connector *k, const char *host, const char *port, double cto,
+                          int timeout_ms, mts_error *err)
+{
+    for (;;) {
+        if (k->fd < 0) {
+            if (!k->cur) {
+                mts_error_set(err, MTS_ERR_IO, "cannot connect to %s:%s: %s", host, port,
+                              strerror(k->last));
+                connector_close(k);
+                return -1;
+            }
+            struct addrinfo *a = k->cur;
+            k->cur = a->ai_next;
+            k->fd = socket(a->ai_family, a->ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+            if (k->fd < 0) {
+                k->last = errno;
+                continue;
+            }
+            if (connect(k->fd, a->ai_addr, a->ai_addrlen) == 0)
+                goto connected;
+            if (errno != EINPROGRESS) {
+                k->last = errno;
+                close(k->fd);
+                k->fd = -1;
+                continue;
+            }
+            k->deadline = now_ms() + cto * 1000;
         }
-        if (connect(fd, a->ai_addr, a->ai_addrlen) == 0)
-            break;
-        if (errno == EINPROGRESS) {
-            struct pollfd pf = {fd, POLLOUT, 0};
+        double left = k->deadline - now_ms();
+        int wait = left > 0 ? (int)left + 1 : 0;
+        if (timeout_ms >= 0 && timeout_ms < wait)
+            wait = timeout_ms;
+        struct pollfd pf = {k->fd, POLLOUT, 0};
+        int pr = poll(&pf, 1, wait);
+        if (pr < 0 && errno == EINTR)
+            return 0;
+        if (pr == 1) {
             int soerr = 0;
             socklen_t sl = sizeof soerr;
-            int pr;
-            do
-                pr = poll(&pf, 1, (int)(timeout * 1000));
-            while (pr < 0 && errno == EINTR);
-            if (pr == 1 && getsockopt(fd, SOL_SOCKET, SO_ERROR, &soerr, &sl) == 0 && soerr == 0)
-                break;
-            last = soerr ? soerr : ETIMEDOUT;
+            if (getsockopt(k->fd, SOL_SOCKET, SO_ERROR, &soerr, &sl) == 0 && soerr == 0)
+                goto connected;
+            k->last = soerr ? soerr : errno;
+        } else if (now_ms() < k->deadline) {
+            return 0; /* the caller's wait ran out first */
         } else {
-            last = errno;
+            k->last = ETIMEDOUT;
         }
-        close(fd);
-        fd = -1;
+        close(k->fd);
+        k->fd = -1;
     }
-    freeaddrinfo(res);
-    if (fd < 0)
-        mts_error_set(err, MTS_ERR_IO, "cannot connect to %s:%s: %s", host, port, strerror(last));
-    return fd;
+connected:;
+    int fd = k->fd;
+    k->fd = -1;
+    connector_close(k);
+    k->fd = fd;
+    return 1;
 }
 
 static mts_result send_all(int fd, const uint8_t *p, size_t n, double timeout, mts_error *err)
@@ -89,143 +145,6 @@ static mts_result send_all(int fd, const uint8_t *p, size_t n, double timeout, m
     return MTS_OK;
 }
 
-/* Where a session stands between conversations. */
-typedef struct session {
-    const mts_session_options *o;
-    const char *host, *port;
-    double cto, ito;
-    double t0;
-    mts_stream_client *c;
-    mts_session_stats *st;
-    uint32_t connections; /* made so far */
-} session;
-
-/* One connection: connect, send the request, take frames until END, an
- * ERROR, or a failure. *transient says whether a failure is the
- * connection's (worth a new one); *progress whether anything was applied. */
-static mts_result converse(session *s, const mts_wire_hello *hello, int *transient,
-                           int *progress, mts_error *err)
-{
-    const mts_session_options *o = s->o;
-    mts_stream_client *c = s->c;
-    mts_session_stats *st = s->st;
-    *transient = 0;
-    *progress = 0;
-    int fd = connect_bounded(s->host, s->port, s->cto, transient, err);
-    if (fd < 0)
-        return err->code;
-    int one = 1;
-    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    if (s->connections++ == 0)
-        st->ms_connect = now_ms() - s->t0;
-    else
-        st->reconnects++;
-
-    mts_buf req = {0};
-    if (o->list)
-        mts_wire_put_list(&req);
-    else
-        mts_wire_put_hello(&req, hello);
-    mts_result rc = req.failed ? mts_error_set(err, MTS_ERR_NOMEM, "out of memory")
-                               : send_all(fd, req.data, req.size, s->ito, err);
-    mts_buf_free(&req);
-    *transient = rc == MTS_ERR_IO;
-    /* a reader per connection: a frame cut by the break is dropped with it */
-    mts_wire_reader r = {0};
-    static const size_t chunk = 1 << 16;
-    uint8_t *buf = rc == MTS_OK ? malloc(chunk) : NULL;
-    if (rc == MTS_OK && !buf)
-        rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
-    int done = 0;
-    while (rc == MTS_OK && !done) {
-        struct pollfd pf = {fd, POLLIN, 0};
-        int pr = poll(&pf, 1, (int)(s->ito * 1000));
-        if (pr == 0) {
-            rc = mts_error_set(err, MTS_ERR_IO, "no data from the server for %.0f s", s->ito);
-            *transient = 1;
-            break;
-        }
-        if (pr < 0) {
-            if (errno == EINTR)
-                continue;
-            rc = mts_error_set(err, MTS_ERR_IO, "poll: %s", strerror(errno));
-            break;
-        }
-        ssize_t got = recv(fd, buf, chunk, 0);
-        if (got == 0) {
-            rc = mts_error_set(err, MTS_ERR_IO,
-                               "the server closed the connection mid-stream (after %llu bytes, "
-                               "%u batches applied)",
-                               (unsigned long long)st->bytes, c->batches);
-            *transient = 1;
-            break;
-        }
-        if (got < 0) {
-            if (errno == EINTR || errno == EAGAIN || errno == EWOULDBLOCK)
-                continue;
-            rc = mts_error_set(err, MTS_ERR_IO, "connection lost after %llu bytes (%s)",
-                               (unsigned long long)st->bytes, strerror(errno));
-            *transient = 1;
-            break;
-        }
-        st->bytes += (uint64_t)got;
-        if ((rc = mts_wire_reader_feed(&r, buf, (size_t)got, err)) != MTS_OK)
-            break;
-        uint8_t type;
-        const uint8_t *p;
-        size_t n;
-        int next;
-        while (rc == MTS_OK && !done && (next = mts_wire_reader_next(&r, &type, &p, &n, err)) != 0) {
-            if (next < 0) {
-                rc = err->code;
-                break;
-            }
-            double a = now_ms();
-            mts_stream_event ev;
-            rc = mts_stream_client_frame(c, type, p, n, &ev, err);
-            st->ms_apply += now_ms() - a;
-            st->frames++;
-            if (rc != MTS_OK)
-                break;
-            if (ev == MTS_EV_BASE || ev == MTS_EV_BATCH || ev == MTS_EV_END)
-                *progress = 1;
-            if (o->on_event && o->on_event(o->user, ev, c)) {
-                rc = mts_error_set(err, MTS_ERR_ARG, "stopped by the caller");
-                break;
-            }
-            double t = now_ms() - s->t0;
-            if (ev == MTS_EV_INFO)
-                st->ms_info = t;
-            else if (ev == MTS_EV_BASE)
-                st->ms_base = t;
-            else if (ev == MTS_EV_END || ev == MTS_EV_MODELS) {
-                st->ms_final = t;
-                done = 1;
-            } else if (ev == MTS_EV_ERROR) {
-                rc = mts_error_set(err, MTS_ERR_FORMAT, "the server said: %s (%s)", c->error_text,
-                                   mts_wire_error_name(c->error_code));
-                if (c->error_code == MTS_WERR_STALE)
-                    mts_error_prefix(err, "cannot resume at batch %u: the server's stream "
-                                          "changed since",
-                                     c->batches);
-                done = 1;
-            }
-        }
-    }
-    free(buf);
-    mts_wire_reader_free(&r);
-    close(fd);
-    return rc;
-}
-
-/* A sleep that signals do not cut short. */
-static void sleep_s(double seconds)
-{
-    struct timespec ts = {(time_t)seconds, (long)((seconds - (double)(time_t)seconds) * 1e9)};
-    while (nanosleep(&ts, &ts) != 0 && errno == EINTR)
-        ;
-}
-
 /* xorshift64*: jitter needs no quality, only clients that do not all come
  * back at the same moment after a server restart */
 static double next_unit(uint64_t *state)
@@ -238,62 +157,381 @@ static double next_unit(uint64_t *state)
     return (double)((x * 0x2545f4914f6cdd1dull) >> 11) / 9007199254740992.0;
 }
 
+/* Where a session stands: one conversation at a time, or the wait before
+ * the next one. Every step below returns to the caller within the poll's
+ * timeout plus one bounded slice of work, so a window loop can draw between
+ * steps; mts_session_run simply polls until the end. */
+typedef enum phase {
+    PH_CONNECT,    /* resolve and start connecting */
+    PH_CONNECTING, /* a non-blocking connect under way */
+    PH_STREAM,     /* connected, request sent: frames coming */
+    PH_WAIT,       /* resume: backing off before the next try */
+    PH_DONE
+} phase;
+
+struct mts_session {
+    const mts_session_options *o;
+    const char *host, *port;
+    double cto, ito;
+    double t0;
+    mts_stream_client *c;
+    mts_session_stats *st;
+    uint32_t connections; /* made so far */
+    mts_wire_hello hello;
+    uint32_t max_tries, tries; /* tries: failed tries since the last progress */
+    double b0, bmax;
+    uint64_t rng;
+    phase ph;
+    connector k;
+    int fd;               /* the connection in PH_STREAM */
+    mts_wire_reader r;    /* a reader per connection: a frame cut by a break is dropped with it */
+    uint8_t *buf;
+    double last_data;     /* ms: the last byte (or the connect), for io_timeout */
+    int progress;         /* this conversation applied something */
+    double retry_at;      /* ms, PH_WAIT */
+    mts_result result;    /* PH_DONE */
+    mts_error err;
+};
+
+#define SESSION_CHUNK (1 << 16)
+/* ms of decoding and applying per poll before the caller gets control back */
+#define SESSION_SLICE_MS 8.0
+
+static void close_conversation(mts_session *s)
+{
+    connector_close(&s->k);
+    if (s->fd >= 0)
+        close(s->fd);
+    s->fd = -1;
+    free(s->buf);
+    s->buf = NULL;
+    mts_wire_reader_free(&s->r);
+    memset(&s->r, 0, sizeof s->r);
+}
+
+static void finish(mts_session *s, mts_result rc)
+{
+    close_conversation(s);
+    s->result = rc;
+    s->ph = PH_DONE;
+}
+
+/* A conversation ended with rc (not MTS_OK): give up, or wait and resume.
+ * transient says whether the failure is the connection's (worth a new one). */
+static void conversation_failed(mts_session *s, mts_result rc, int transient)
+{
+    const mts_session_options *o = s->o;
+    mts_stream_client *c = s->c;
+    mts_error *err = &s->err;
+    close_conversation(s);
+    if (!o->resume || !transient) {
+        finish(s, rc);
+        return;
+    }
+    uint32_t batch;
+    uint64_t id;
+    if (!mts_stream_client_resume_point(c, &batch, &id)) {
+        finish(s, rc);
+        return;
+    }
+    if (s->progress)
+        s->tries = 0;
+    if (s->tries >= s->max_tries) {
+        finish(s, mts_error_prefix(err, "gave up after %u %s (%u batches applied); the last "
+                                        "error",
+                                   s->max_tries, s->max_tries == 1 ? "try" : "tries",
+                                   c->batches));
+        return;
+    }
+    s->tries++;
+    double d = s->b0;
+    for (uint32_t k = 1; k < s->tries && d < s->bmax; k++)
+        d *= 2;
+    if (d > s->bmax)
+        d = s->bmax;
+    /* "equal jitter": at least half the step, so the backoff still grows */
+    d *= 0.5 + 0.5 * next_unit(&s->rng);
+    mts_session_retry r = {err->msg, c->have_lod, c->batches, s->tries, s->max_tries, d};
+    if (o->on_retry && o->on_retry(o->user, &r)) {
+        finish(s, mts_error_prefix(err, "stopped by the caller while retrying"));
+        return;
+    }
+    s->retry_at = now_ms() + d * 1000;
+    s->ph = PH_WAIT;
+}
+
+/* Connected: send the request, get ready for frames. */
+static void connected(mts_session *s, int fd)
+{
+    const mts_session_options *o = s->o;
+    mts_error *err = &s->err;
+    s->fd = fd;
+    s->k.fd = -1;
+    int one = 1;
+    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    if (s->connections++ == 0)
+        s->st->ms_connect = now_ms() - s->t0;
+    else
+        s->st->reconnects++;
+    mts_buf req = {0};
+    if (o->list)
+        mts_wire_put_list(&req);
+    else
+        mts_wire_put_hello(&req, &s->hello);
+    /* a request is a few hundred bytes: the socket buffer takes it at once */
+    mts_result rc = req.failed ? mts_error_set(err, MTS_ERR_NOMEM, "out of memory")
+                               : send_all(fd, req.data, req.size, s->ito, err);
+    mts_buf_free(&req);
+    if (rc == MTS_OK && !(s->buf = malloc(SESSION_CHUNK)))
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
+    if (rc != MTS_OK) {
+        conversation_failed(s, rc, rc == MTS_ERR_IO);
+        return;
+    }
+    s->last_data = now_ms();
+    s->ph = PH_STREAM;
+}
+
+/* Hands every whole frame the reader holds to the stream client. 1: go on,
+ * 0: the conversation ended (s->ph moved on). */
+static int take_frames(mts_session *s)
+{
+    const mts_session_options *o = s->o;
+    mts_stream_client *c = s->c;
+    mts_session_stats *st = s->st;
+    mts_error *err = &s->err;
+    uint8_t type;
+    const uint8_t *p;
+    size_t n;
+    int next;
+    while ((next = mts_wire_reader_next(&s->r, &type, &p, &n, err)) != 0) {
+        if (next < 0) {
+            conversation_failed(s, err->code, 0);
+            return 0;
+        }
+        double a = now_ms();
+        mts_stream_event ev;
+        mts_result rc = mts_stream_client_frame(c, type, p, n, &ev, err);
+        st->ms_apply += now_ms() - a;
+        st->frames++;
+        if (rc != MTS_OK) {
+            conversation_failed(s, rc, 0);
+            return 0;
+        }
+        if (ev == MTS_EV_BASE || ev == MTS_EV_BATCH || ev == MTS_EV_END)
+            s->progress = 1;
+        if (o->on_event && o->on_event(o->user, ev, c)) {
+            conversation_failed(s, mts_error_set(err, MTS_ERR_ARG, "stopped by the caller"), 0);
+            return 0;
+        }
+        double t = now_ms() - s->t0;
+        if (ev == MTS_EV_INFO) {
+            st->ms_info = t;
+        } else if (ev == MTS_EV_BASE) {
+            st->ms_base = t;
+        } else if (ev == MTS_EV_END || ev == MTS_EV_MODELS) {
+            st->ms_final = t;
+            finish(s, MTS_OK);
+            return 0;
+        } else if (ev == MTS_EV_ERROR) {
+            rc = mts_error_set(err, MTS_ERR_FORMAT, "the server said: %s (%s)", c->error_text,
+                               mts_wire_error_name(c->error_code));
+            if (c->error_code == MTS_WERR_STALE)
+                mts_error_prefix(err, "cannot resume at batch %u: the server's stream "
+                                      "changed since",
+                                 c->batches);
+            conversation_failed(s, rc, 0);
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Waits up to timeout_ms for bytes (never past io_timeout), then reads and
+ * applies what is there for at most one slice. */
+static void stream_step(mts_session *s, int timeout_ms)
+{
+    mts_session_stats *st = s->st;
+    mts_error *err = &s->err;
+    double idle_left = s->last_data + s->ito * 1000 - now_ms();
+    int wait = idle_left > 0 ? (int)idle_left + 1 : 0;
+    if (timeout_ms >= 0 && timeout_ms < wait)
+        wait = timeout_ms;
+    struct pollfd pf = {s->fd, POLLIN, 0};
+    int pr = poll(&pf, 1, wait);
+    if (pr < 0) {
+        if (errno != EINTR)
+            conversation_failed(s, mts_error_set(err, MTS_ERR_IO, "poll: %s", strerror(errno)),
+                                0);
+        return;
+    }
+    if (pr == 0) {
+        if (now_ms() - s->last_data >= s->ito * 1000)
+            conversation_failed(s,
+                                mts_error_set(err, MTS_ERR_IO,
+                                              "no data from the server for %.0f s", s->ito),
+                                1);
+        return;
+    }
+    double t0 = now_ms();
+    do {
+        ssize_t got = recv(s->fd, s->buf, SESSION_CHUNK, 0);
+        if (got == 0) {
+            conversation_failed(
+                s,
+                mts_error_set(err, MTS_ERR_IO,
+                              "the server closed the connection mid-stream (after %llu bytes, "
+                              "%u batches applied)",
+                              (unsigned long long)st->bytes, s->c->batches),
+                1);
+            return;
+        }
+        if (got < 0) {
+            if (errno == EINTR)
+                continue;
+            if (errno == EAGAIN || errno == EWOULDBLOCK)
+                return;
+            conversation_failed(s,
+                                mts_error_set(err, MTS_ERR_IO,
+                                              "connection lost after %llu bytes (%s)",
+                                              (unsigned long long)st->bytes, strerror(errno)),
+                                1);
+            return;
+        }
+        s->last_data = now_ms();
+        st->bytes += (uint64_t)got;
+        mts_result rc = mts_wire_reader_feed(&s->r, s->buf, (size_t)got, err);
+        if (rc != MTS_OK) {
+            conversation_failed(s, rc, 0);
+            return;
+        }
+        if (!take_frames(s))
+            return;
+    } while (now_ms() - t0 < SESSION_SLICE_MS);
+}
+
+mts_result mts_session_begin(const mts_session_options *o, mts_stream_client *c,
+                             mts_session_stats *st, mts_session **out, mts_error *err)
+{
+    *out = NULL;
+    mts_session *s = calloc(1, sizeof *s);
+    if (!s)
+        return mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
+    memset(st, 0, sizeof *st);
+    s->o = o;
+    s->host = o->host ? o->host : "127.0.0.1";
+    s->port = o->port ? o->port : "7447";
+    s->cto = o->connect_timeout > 0 ? o->connect_timeout : 5;
+    s->ito = o->io_timeout > 0 ? o->io_timeout : 30;
+    s->t0 = now_ms();
+    s->c = c;
+    s->st = st;
+    s->max_tries = o->max_tries ? o->max_tries : 8;
+    s->b0 = o->backoff_initial > 0 ? o->backoff_initial : 0.1;
+    s->bmax = o->backoff_max > 0 ? o->backoff_max : 2;
+    struct timespec seed_ts;
+    clock_gettime(CLOCK_REALTIME, &seed_ts);
+    s->rng = ((uint64_t)seed_ts.tv_nsec << 20) ^ (uint64_t)seed_ts.tv_sec ^
+             ((uint64_t)getpid() << 40) ^ (uint64_t)(uintptr_t)c;
+    if (s->rng == 0)
+        s->rng = 1;
+    s->hello = o->hello;
+    if (s->hello.major == 0) {
+        s->hello.major = MTS_WIRE_MAJOR;
+        s->hello.minor = MTS_WIRE_MINOR;
+    }
+    s->fd = -1;
+    s->k.fd = -1;
+    s->ph = PH_CONNECT;
+    *out = s;
+    return MTS_OK;
+}
+
+int mts_session_poll(mts_session *s, int timeout_ms)
+{
+    if (s->ph == PH_CONNECT) { /* then on to connecting at once */
+        int transient;
+        s->progress = 0;
+        mts_result rc = connector_start(&s->k, s->host, s->port, &transient, &s->err);
+        if (rc != MTS_OK)
+            conversation_failed(s, rc, transient);
+        else
+            s->ph = PH_CONNECTING;
+    }
+    switch (s->ph) {
+    case PH_CONNECT:
+        break;
+    case PH_CONNECTING: {
+        int k = connector_step(&s->k, s->host, s->port, s->cto, timeout_ms, &s->err);
+        if (k > 0)
+            connected(s, s->k.fd);
+        else if (k < 0)
+            conversation_failed(s, s->err.code, 1);
+        break;
+    }
+    case PH_STREAM:
+        stream_step(s, timeout_ms);
+        break;
+    case PH_WAIT: {
+        double left = s->retry_at - now_ms();
+        if (left > 0) {
+            int wait = (int)left + 1;
+            if (timeout_ms >= 0 && timeout_ms < wait)
+                wait = timeout_ms;
+            poll(NULL, 0, wait);
+            if (now_ms() < s->retry_at)
+                break;
+        }
+        mts_result rc = mts_stream_client_reconnected(s->c, &s->err);
+        if (rc != MTS_OK) {
+            finish(s, rc);
+            break;
+        }
+        uint32_t batch;
+        uint64_t id;
+        /* resume_point held when the wait began and nothing changed since */
+        mts_stream_client_resume_point(s->c, &batch, &id);
+        s->hello.resume_batch = batch;
+        s->hello.stream_id = id;
+        s->ph = PH_CONNECT;
+        break;
+    }
+    case PH_DONE:
+        break;
+    }
+    return s->ph != PH_DONE;
+}
+
+int mts_session_fd(const mts_session *s)
+{
+    return s->ph == PH_STREAM ? s->fd : s->ph == PH_CONNECTING ? s->k.fd : -1;
+}
+
+mts_result mts_session_end(mts_session *s, mts_error *err)
+{
+    if (!s)
+        return MTS_OK;
+    mts_result rc;
+    if (s->ph == PH_DONE) {
+        rc = s->result;
+    } else {
+        close_conversation(s);
+        rc = mts_error_set(&s->err, MTS_ERR_ARG, "stopped by the caller");
+    }
+    if (err && rc != MTS_OK)
+        *err = s->err;
+    free(s);
+    return rc;
+}
+
 mts_result mts_session_run(const mts_session_options *o, mts_stream_client *c,
                            mts_session_stats *st, mts_error *err)
 {
-    mts_error local = {0};
-    if (!err) /* the retry logic reads the message */
-        err = &local;
-    memset(st, 0, sizeof *st);
-    session s = {o, o->host ? o->host : "127.0.0.1", o->port ? o->port : "7447",
-                 o->connect_timeout > 0 ? o->connect_timeout : 5,
-                 o->io_timeout > 0 ? o->io_timeout : 30, now_ms(), c, st, 0};
-    const uint32_t max_tries = o->max_tries ? o->max_tries : 8;
-    const double b0 = o->backoff_initial > 0 ? o->backoff_initial : 0.1;
-    const double bmax = o->backoff_max > 0 ? o->backoff_max : 2;
-    struct timespec seed_ts;
-    clock_gettime(CLOCK_REALTIME, &seed_ts);
-    uint64_t rng = ((uint64_t)seed_ts.tv_nsec << 20) ^ (uint64_t)seed_ts.tv_sec ^
-                   ((uint64_t)getpid() << 40) ^ (uint64_t)(uintptr_t)c;
-    if (rng == 0)
-        rng = 1;
-
-    mts_wire_hello hello = o->hello;
-    if (hello.major == 0) {
-        hello.major = MTS_WIRE_MAJOR;
-        hello.minor = MTS_WIRE_MINOR;
-    }
-    uint32_t tries = 0; /* failed tries since the last progress */
-    for (;;) {
-        int transient, progress;
-        mts_result rc = converse(&s, &hello, &transient, &progress, err);
-        if (rc == MTS_OK || !o->resume || !transient)
-            return rc;
-        uint32_t batch;
-        uint64_t id;
-        if (!mts_stream_client_resume_point(c, &batch, &id))
-            return rc;
-        if (progress)
-            tries = 0;
-        if (tries >= max_tries)
-            return mts_error_prefix(err, "gave up after %u %s (%u batches applied); the last "
-                                         "error",
-                                    max_tries, max_tries == 1 ? "try" : "tries", c->batches);
-        tries++;
-        double d = b0;
-        for (uint32_t k = 1; k < tries && d < bmax; k++)
-            d *= 2;
-        if (d > bmax)
-            d = bmax;
-        /* "equal jitter": at least half the step, so the backoff still grows */
-        d *= 0.5 + 0.5 * next_unit(&rng);
-        mts_session_retry r = {err->msg, c->have_lod, c->batches, tries, max_tries, d};
-        if (o->on_retry && o->on_retry(o->user, &r))
-            return mts_error_prefix(err, "stopped by the caller while retrying");
-        sleep_s(d);
-        if ((rc = mts_stream_client_reconnected(c, err)) != MTS_OK)
-            return rc;
-        hello.resume_batch = batch;
-        hello.stream_id = id;
-    }
+    mts_session *s;
+    mts_result rc = mts_session_begin(o, c, st, &s, err);
+    if (rc != MTS_OK)
+        return rc;
+    while (mts_session_poll(s, -1))
+        ;
+    return mts_session_end(s, err);
 }

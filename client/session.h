@@ -70,4 +70,29 @@ typedef struct mts_session_stats {
 mts_result mts_session_run(const mts_session_options *opts, mts_stream_client *c,
                            mts_session_stats *stats, mts_error *err);
 
+/* The same session in steps, for a caller that must not block (a window
+ * loop draws between steps): begin, then poll until it returns 0, then end.
+ * mts_session_run is exactly this with an unbounded wait per poll.
+ *
+ * mts_session_poll waits at most timeout_ms for the network (0: not at all;
+ * -1: until something happens or a timeout of the options runs out), then
+ * does at most a few milliseconds of decoding and applying (whole frames;
+ * on_event runs from here, on the caller's thread) and returns: 1 while the
+ * session goes on, 0 once it has ended. Connecting and the resume backoff
+ * are steps too (only resolving a host name may block: give an address).
+ * mts_session_fd is the socket being waited on (-1 between connections),
+ * for a caller that polls it with other descriptors.
+ *
+ * mts_session_end returns what mts_session_run would have (err filled on a
+ * failure) and frees the session; before poll returned 0 it closes the
+ * connection and returns MTS_ERR_ARG ("stopped by the caller"). The options
+ * must stay valid until then. begin fails only when out of memory. */
+typedef struct mts_session mts_session;
+
+mts_result mts_session_begin(const mts_session_options *opts, mts_stream_client *c,
+                             mts_session_stats *stats, mts_session **session, mts_error *err);
+int mts_session_poll(mts_session *session, int timeout_ms);
+int mts_session_fd(const mts_session *session);
+mts_result mts_session_end(mts_session *session, mts_error *err);
+
 #endif

@@ -11,10 +11,13 @@ packages=(
   libdraco-dev           # base-mesh compression
   libcurl4-openssl-dev   # models from http(s) URLs
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri  # headless EGL rendering
+  libx11-dev             # mts-client --window: the X11 window EGL draws on
+  xvfb xauth             # tests/test_window.c: a virtual X server for the windowed client
   libpng-dev
   libmeshoptimizer-dev   # benchmark anchor (meshopt_stripify)
   clang libclang-rt-14-dev  # `make fuzz`: libFuzzer + ASan/UBSan runtimes (the -rt package is only recommended by clang)
   nginx libnginx-mod-stream  # the TCP balancer of tests/test_scaleout.c (docker/nginx-stream.conf)
+  python3-matplotlib     # `make bench`'s plots (bench/plot.py; it skips without)
 )
 
 missing=()

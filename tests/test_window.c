@@ -1,0 +1,293 @@
+/* mts-client --window under Xvfb, driven by --script:
+ *   - screenshots at three levels (Home, three batches up, End) exist, are
+ *     not blank, and differ pairwise;
+ *   - the HUD's figures for each screenshot (the --json "screenshots" array
+ *     carries the HUD text of the frame it was taken from) agree with the
+ *     level and triangles reported for it, and the last one -- End, the full
+ *     stream -- with the client's own "level" and "triangles";
+ *   - a malformed script line is refused with the file and line named.
+ * Skips with the reason when Xvfb is not installed, unless
+ * MTS_TEST_REQUIRE_EGL is set (CI: deps.sh installs it). */
+#include <fcntl.h>
+#include <limits.h>
+#include <png.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+#include "test.h"
+#include "test_proc.h"
+
+static char bin_dir[512], tmp_dir[600];
+
+static int have_program(const char *name)
+{
+    char cmd[300], out[512];
+    snprintf(cmd, sizeof cmd, "command -v %s", name);
+    return mts_test_run(cmd, out, sizeof out) == 0;
+}
+
+/* An Xvfb on a display number nobody uses; 0 when it did not come up. */
+static pid_t start_xvfb(int *display, const char *log)
+{
+    for (int n = 90 + (int)(getpid() % 400), tries = 0; tries < 50; n++, tries++) {
+        char lock[64], sock[64];
+        snprintf(lock, sizeof lock, "/tmp/.X%d-lock", n);
+        snprintf(sock, sizeof sock, "/tmp/.X11-unix/X%d", n);
+        if (access(lock, F_OK) == 0 || access(sock, F_OK) == 0)
+            continue;
+        char disp[16];
+        snprintf(disp, sizeof disp, ":%d", n);
+        char *argv[] = {"Xvfb", disp, "-screen", "0", "1024x768x24", "-nolisten", "tcp", NULL};
+        pid_t pid = mts_test_spawn(argv, log);
+        for (int i = 0; i < 100; i++) { /* up to 10 s for its socket */
+            if (access(sock, F_OK) == 0) {
+                *display = n;
+                return pid;
+            }
+            int st;
+            if (waitpid(pid, &st, WNOHANG) == pid)
+                break; /* it died: the number was taken after all */
+            struct timespec ts = {0, 100 * 1000 * 1000};
+            nanosleep(&ts, NULL);
+        }
+        mts_test_stop(pid);
+    }
+    return 0;
+}
+
+/* Pixels that differ from the corner pixel (the background); -1 when the
+ * file is not a PNG. */
+static long foreground_pixels(const char *path)
+{
+    png_image im;
+    memset(&im, 0, sizeof im);
+    im.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_file(&im, path))
+        return -1;
+    im.format = PNG_FORMAT_RGBA;
+    size_t n = PNG_IMAGE_SIZE(im);
+    uint8_t *px = malloc(n);
+    if (!px || !png_image_finish_read(&im, NULL, px, 0, NULL)) {
+        free(px);
+        png_image_free(&im);
+        return -1;
+    }
+    long fg = 0;
+    for (size_t i = 0; i < n; i += 4)
+        if (abs(px[i] - px[0]) + abs(px[i + 1] - px[1]) + abs(px[i + 2] - px[2]) > 24)
+            fg++;
+    free(px);
+    return fg;
+}
+
+static int read_whole(const char *path, unsigned char **data, long *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return 0;
+    fseek(f, 0, SEEK_END);
+    *size = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    *data = malloc((size_t)(*size > 0 ? *size : 1));
+    int ok = *data && fread(*data, 1, (size_t)*size, f) == (size_t)*size;
+    fclose(f);
+    return ok;
+}
+
+/* The unsigned number after "key": in s, or -1. */
+static long json_u(const char *s, const char *key)
+{
+    char k[64];
+    snprintf(k, sizeof k, "\"%s\":", key);
+    const char *p = strstr(s, k);
+    return p ? strtol(p + strlen(k), NULL, 10) : -1;
+}
+
+/* Copies the string value of "key" in s (escapes kept as written). */
+static void json_s(const char *s, const char *key, char *out, size_t size)
+{
+    char k[64];
+    snprintf(k, sizeof k, "\"%s\":\"", key);
+    out[0] = 0;
+    const char *p = strstr(s, k);
+    if (!p)
+        return;
+    p += strlen(k);
+    size_t i = 0;
+    while (*p && i + 1 < size && !(*p == '"' && p[-1] != '\\'))
+        out[i++] = *p++;
+    out[i] = 0;
+}
+
+static void test_window_screenshots(mts_test *t)
+{
+    if (!have_program("Xvfb")) {
+        CHECKF(t, !getenv("MTS_TEST_REQUIRE_EGL"),
+               "Xvfb is not installed (scripts/deps.sh installs xvfb)");
+        SKIP(t, "Xvfb is not installed (Debian: xvfb)");
+    }
+    char dir[700], cmd[8192], out[16384], log[800];
+    snprintf(dir, sizeof dir, "%s/window_%d", tmp_dir, (int)getpid());
+    snprintf(cmd, sizeof cmd, "rm -rf %s && mkdir -p %s/models && cp tests/data/cow.off %s/models/",
+             dir, dir, dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
+
+    int display = 0;
+    snprintf(log, sizeof log, "%s/xvfb.log", dir);
+    pid_t xpid = start_xvfb(&display, log);
+    CHECKF(t, xpid > 0, "Xvfb did not start (log %s)", log);
+    if (xpid <= 0)
+        return;
+
+    int port = mts_test_free_port();
+    char listen[64], server_bin[600], models[800], slog[800];
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
+    snprintf(server_bin, sizeof server_bin, "%s/mts-server", bin_dir);
+    snprintf(models, sizeof models, "%s/models", dir);
+    snprintf(slog, sizeof slog, "%s/server.log", dir);
+    char *sargv[] = {server_bin, "--models", models, "--listen", listen, "--quiet", NULL};
+    pid_t spid = mts_test_spawn(sargv, slog);
+    /* the server builds cow first (slow under ASan): wait until it lists it */
+    snprintf(cmd, sizeof cmd,
+             "for i in $(seq 1 300); do %s/mts-client %s --list 2>/dev/null | grep -q cow && "
+             "exit 0; sleep 0.1; done; exit 1",
+             bin_dir, listen);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "server did not come up: %s", out);
+
+    /* times count from the first frame of the model; by 1.5 s a loopback
+     * stream of cow has long ended, so End is the full level */
+    char script[800];
+    snprintf(script, sizeof script, "%s/input.txt", dir);
+    FILE *f = fopen(script, "w");
+    CHECK(t, f != NULL);
+    if (f) {
+        fputs("# three levels, the keys between them\n"
+              "0.2 key Home\n"
+              "0.4 key s\n"
+              "0.5 key +\n0.6 key +\n0.7 key +\n"
+              "0.8 key PgUp\n0.9 key PgDn\n"
+              "1.0 key s\n"
+              "1.1 key w\n1.2 key c\n1.3 key w\n1.3 key c\n"
+              "1.5 key End\n"
+              "1.6 drag 40 -10\n"
+              "1.7 scroll -2\n"
+              "2.0 key s\n"
+              "2.3 key q\n",
+              f);
+        fclose(f);
+    }
+    /* detect_leaks=0: llvmpipe's threads upset LeakSanitizer (see test_e2e) */
+    snprintf(cmd, sizeof cmd,
+             "cd %s && DISPLAY=:%d ASAN_OPTIONS=detect_leaks=0 timeout 120 %s/mts-client %s cow "
+             "--window --size 640x480 --script %s --json 2>client.log",
+             dir, display, bin_dir, listen, script);
+    int rc = mts_test_run(cmd, out, sizeof out);
+    char clog[800], logtext[4096];
+    snprintf(clog, sizeof clog, "%s/client.log", dir);
+    mts_test_read_file(clog, logtext, sizeof logtext);
+    mts_test_stop(spid);
+    mts_test_stop(xpid);
+    CHECKF(t, rc == 0, "exit %d: %s %s", rc, out, logtext);
+    CHECKF(t, strstr(out, "\"complete\":true") != NULL, "%s", out);
+
+    long level = json_u(out, "level"), levels = json_u(out, "levels"),
+         triangles = json_u(out, "triangles");
+    const char *shots = strstr(out, "\"screenshots\":[");
+    CHECKF(t, shots != NULL, "no screenshots in %s", out);
+    if (!shots)
+        return;
+    /* the three entries */
+    const char *e[3];
+    const char *p = shots;
+    int n = 0;
+    while (n < 3 && (p = strstr(p, "{\"file\":")) != NULL)
+        e[n++] = p++;
+    CHECKF(t, n == 3, "%d screenshots: %s", n, shots);
+    if (n != 3)
+        return;
+    CHECKF(t, strstr(e[2], "{\"file\":") == e[2] && !strstr(e[2] + 1, "{\"file\":"),
+           "more than three screenshots: %s", shots);
+    long lv[3], tri[3];
+    unsigned char *data[3] = {0};
+    long size[3] = {0};
+    for (int i = 0; i < 3; i++) {
+        char file[300], hud[1024], path[1100], want[80];
+        json_s(e[i], "file", file, sizeof file);
+        json_s(e[i], "hud", hud, sizeof hud);
+        lv[i] = json_u(e[i], "level");
+        tri[i] = json_u(e[i], "triangles");
+        char name[64];
+        snprintf(name, sizeof name, "cow_L%ld.png", lv[i]);
+        CHECKF(t, !strcmp(file, name), "screenshot %d is %s, want %s", i, file, name);
+        /* the HUD of that frame showed these very figures */
+        snprintf(want, sizeof want, "level %ld of %ld", lv[i], levels);
+        CHECKF(t, strstr(hud, want) != NULL, "HUD '%s' lacks '%s'", hud, want);
+        snprintf(want, sizeof want, "triangles %ld ", tri[i]);
+        CHECKF(t, strstr(hud, want) != NULL, "HUD '%s' lacks '%s'", hud, want);
+        snprintf(path, sizeof path, "%s/%s", dir, file);
+        CHECKF(t, read_whole(path, &data[i], &size[i]), "%s is missing", path);
+        long fg = foreground_pixels(path);
+        /* the cow covers a good part of a 640x480 frame; blank would be 0 */
+        CHECKF(t, fg > 640 * 480 / 50, "%s looks blank: %ld foreground pixels", path, fg);
+    }
+    CHECKF(t, lv[0] == 0 && lv[0] < lv[1] && lv[1] < lv[2], "levels %ld %ld %ld", lv[0], lv[1],
+           lv[2]);
+    CHECKF(t, tri[0] < tri[1] && tri[1] < tri[2], "triangles %ld %ld %ld", tri[0], tri[1],
+           tri[2]);
+    /* End: the HUD agrees with what the client reports for the stream */
+    CHECKF(t, lv[2] == level && level == levels, "last screenshot at %ld, client at %ld of %ld",
+           lv[2], level, levels);
+    CHECKF(t, tri[2] == triangles, "last screenshot %ld triangles, client %ld", tri[2],
+           triangles);
+    for (int i = 0; i < 3; i++)
+        for (int j = i + 1; j < 3; j++)
+            CHECKF(t, !(data[i] && data[j] && size[i] == size[j] &&
+                        !memcmp(data[i], data[j], (size_t)size[i])),
+                   "screenshots %d and %d are the same", i, j);
+    for (int i = 0; i < 3; i++)
+        free(data[i]);
+}
+
+/* A bad line is named before any window or connection is needed. */
+static void test_script_errors(mts_test *t)
+{
+    char path[700], cmd[4096], out[4096];
+    snprintf(path, sizeof path, "%s/window_bad_%d.txt", tmp_dir, (int)getpid());
+    const char *bad[] = {"0.5 key Foo\n", "abc key s\n", "1 drag 4\n", "2 key s\n1 key q\n",
+                         "0.5 jump 3\n"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        FILE *f = fopen(path, "w");
+        CHECK(t, f != NULL);
+        if (!f)
+            return;
+        fprintf(f, "# a comment\n\n%s", bad[i]);
+        fclose(f);
+        snprintf(cmd, sizeof cmd,
+                 "DISPLAY=:9999 ASAN_OPTIONS=detect_leaks=0 %s/mts-client 127.0.0.1:1 cow "
+                 "--window --script %s",
+                 bin_dir, path);
+        int rc = mts_test_run(cmd, out, sizeof out);
+        char want[800];
+        snprintf(want, sizeof want, "%s:%d:", path, strchr(bad[i], '\n')[1] ? 4 : 3);
+        CHECKF(t, rc == 1 && strstr(out, want), "'%s': exit %d, want '%s' in: %s", bad[i], rc,
+               want, out);
+    }
+    remove(path);
+    snprintf(cmd, sizeof cmd, "%s/mts-client cow --script x.txt", bin_dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 2 && strstr(out, "--window"));
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    char rel[512], abs_dir[PATH_MAX];
+    mts_test_bin_dir(argv[0], rel, sizeof rel);
+    /* absolute: the client runs in a scratch directory (screenshots go to the cwd) */
+    snprintf(bin_dir, sizeof bin_dir, "%.500s", realpath(rel, abs_dir) ? abs_dir : rel);
+    snprintf(tmp_dir, sizeof tmp_dir, "%s", mts_test_tmpdir());
+    signal(SIGPIPE, SIG_IGN);
+    mts_test t = {0};
+    RUN(&t, test_script_errors);
+    RUN(&t, test_window_screenshots);
+    return mts_test_end(&t);
+}
