@@ -45,7 +45,7 @@ PROGRAMS := $(BUILD)/bin/mts-build $(BUILD)/bin/mts-inspect $(BUILD)/bin/mts-ser
 TESTS    := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 BENCH    := $(BUILD)/bin/mts-bench
 
-.PHONY: all programs tests test test-release test-asan bench demo deps install clean
+.PHONY: all programs tests test test-release test-asan bench demo demo-serve deps install clean
 # keep object files of programs and tests between builds
 .SECONDARY:
 all: programs tests
@@ -122,6 +122,11 @@ bench: deps
 demo: deps
 	@$(MAKE) --no-print-directory programs
 	@scripts/demo.sh
+
+# the demo, then the server stays up for `mts-client cow --window` (Ctrl-C ends it)
+demo-serve: deps
+	@$(MAKE) --no-print-directory programs
+	@MTS_DEMO_SERVE=1 scripts/demo.sh
 
 install: programs
 	install -d $(DESTDIR)$(PREFIX)/bin
