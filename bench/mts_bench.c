@@ -117,7 +117,7 @@ static void fifo_feed(fifo_cache *c, const uint32_t *idx, size_t n)
 /* ---- results ---------------------------------------------------------- */
 
 typedef struct build_times {
-    double load, stripify, simplify, records, write, total;
+    double load, stripify, tunnel, simplify, records, write, total;
 } build_times;
 
 typedef struct level_row {
@@ -132,6 +132,7 @@ typedef struct level_row {
 
 typedef struct strip_figures {
     uint32_t strips;
+    uint64_t swaps, restarts; /* degenerate windows; one restart between strips */
     uint64_t draw_indices; /* with restarts */
     double indices_per_triangle, acmr16, acmr32;
 } strip_figures;
@@ -148,6 +149,8 @@ typedef struct model_result {
     mts_stripify_stats stripify;
 
     strip_figures ours, meshopt;
+    strip_figures greedy;   /* mts_stripify alone, before tunnelling */
+    int tunnel_length;      /* the build's (0: off) */
     double meshopt_seconds;         /* optimizeVertexCache + stripify */
     double list_acmr16, list_acmr32; /* meshopt-optimized triangle list */
     double list_acmr16_analyzer;     /* meshopt_analyzeVertexCache, to check our FIFO */
@@ -206,7 +209,7 @@ static void fail(model_result *r, const char *what, const mts_error *err)
 static int bench_build(model_result *r, const bench_options *o, mts_mesh *mesh,
                        mts_model *model)
 {
-    double t[6][MAX_RUNS];
+    double t[7][MAX_RUNS];
     mts_error err = {0};
     for (int i = 0; i < o->runs; i++) {
         mts_mesh_free(mesh);
@@ -238,7 +241,9 @@ static int bench_build(model_result *r, const bench_options *o, mts_mesh *mesh,
         t[4][i] = t3 - t2;
         /* the stages plus what build does between them (copies, frees) */
         t[5][i] = t3 - t0;
+        t[6][i] = rep.seconds_tunnel;
         r->stripify = rep.stripify;
+        r->tunnel_length = rep.tunnel_length;
         r->file_bytes = size;
     }
     r->runs = o->runs;
@@ -248,6 +253,7 @@ static int bench_build(model_result *r, const bench_options *o, mts_mesh *mesh,
     r->build.records = median(t[3], o->runs);
     r->build.write = median(t[4], o->runs);
     r->build.total = median(t[5], o->runs);
+    r->build.tunnel = median(t[6], o->runs);
 
     /* Validation is untimed: it tells a broken library from slow figures. */
     if (mts_model_validate(model, &err) != MTS_OK) {
@@ -268,8 +274,42 @@ static double ratio(uint64_t num, uint64_t den)
     return den ? (double)num / (double)den : NAN;
 }
 
-/* Our full strips, joined by restarts, against meshoptimizer's strips and
- * its cache-optimized triangle list. */
+/* Figures of strips joined by restarts, per triangle of the mesh. */
+static void strips_figures(const mts_strips *full, uint32_t triangle_count, fifo_cache *c16,
+                           fifo_cache *c32, strip_figures *f)
+{
+    mts_strip_stats st;
+    mts_strips_stats(full, &st);
+    const uint32_t restart = RESTART;
+    int first = 1;
+    fifo_reset(c16);
+    fifo_reset(c32);
+    for (uint32_t s = 0; s < full->strip_count; s++) {
+        uint32_t len = full->offsets[s + 1] - full->offsets[s];
+        if (!len)
+            continue;
+        if (!first) { /* a restart between strips matters to nothing but the count */
+            fifo_feed(c16, &restart, 1);
+            fifo_feed(c32, &restart, 1);
+        }
+        first = 0;
+        fifo_feed(c16, full->indices + full->offsets[s], len);
+        fifo_feed(c32, full->indices + full->offsets[s], len);
+    }
+    /* per triangle of the mesh: were the strips to draw extra (bad)
+     * triangles, they would not make the figures look better */
+    f->strips = st.strips;
+    f->swaps = st.degenerate;
+    f->restarts = st.strips ? st.strips - 1 : 0;
+    f->draw_indices = mts_strip_stats_draw_indices(&st);
+    f->indices_per_triangle = ratio(f->draw_indices, triangle_count);
+    f->acmr16 = ratio(c16->misses, triangle_count);
+    f->acmr32 = ratio(c32->misses, triangle_count);
+}
+
+/* Our full strips, joined by restarts, against the greedy stripifier's
+ * alone (before tunnelling), meshoptimizer's strips and its cache-optimized
+ * triangle list. */
 static int bench_full(model_result *r, const mts_mesh *mesh, const mts_model *model)
 {
     int ok = 0;
@@ -284,30 +324,18 @@ static int bench_full(model_result *r, const mts_mesh *mesh, const mts_model *mo
         goto done;
     }
 
-    mts_strip_stats st;
-    mts_strips_stats(&model->full, &st);
-    const mts_strips *full = &model->full;
-    const uint32_t restart = RESTART;
-    int first = 1;
-    for (uint32_t s = 0; s < full->strip_count; s++) {
-        uint32_t len = full->offsets[s + 1] - full->offsets[s];
-        if (!len)
-            continue;
-        if (!first) { /* a restart between strips matters to nothing but the count */
-            fifo_feed(&c16, &restart, 1);
-            fifo_feed(&c32, &restart, 1);
+    strips_figures(&model->full, mesh->triangle_count, &c16, &c32, &r->ours);
+    {
+        mts_strips greedy = {0};
+        mts_error err = {0};
+        if (mts_stripify(mesh->triangles, mesh->triangle_count, mesh->vertex_count, &greedy, NULL,
+                         &err) != MTS_OK) {
+            fail(r, "stripify", &err);
+            goto done;
         }
-        first = 0;
-        fifo_feed(&c16, full->indices + full->offsets[s], len);
-        fifo_feed(&c32, full->indices + full->offsets[s], len);
+        strips_figures(&greedy, mesh->triangle_count, &c16, &c32, &r->greedy);
+        mts_strips_free(&greedy);
     }
-    /* per triangle of the mesh: were the strips to draw extra (bad)
-     * triangles, they would not make the figures look better */
-    r->ours.strips = st.strips;
-    r->ours.draw_indices = mts_strip_stats_draw_indices(&st);
-    r->ours.indices_per_triangle = ratio(r->ours.draw_indices, mesh->triangle_count);
-    r->ours.acmr16 = ratio(c16.misses, mesh->triangle_count);
-    r->ours.acmr32 = ratio(c32.misses, mesh->triangle_count);
 
     /* meshoptimizer: its stripifier wants a cache-optimized list first */
     double t0 = cli_now();
@@ -322,6 +350,7 @@ static int bench_full(model_result *r, const mts_mesh *mesh, const mts_model *mo
     fifo_feed(&c16, strip, sn);
     fifo_feed(&c32, strip, sn);
     r->meshopt.strips = sn ? restarts + 1 : 0;
+    r->meshopt.restarts = restarts;
     r->meshopt.draw_indices = sn;
     r->meshopt.indices_per_triangle = ratio(sn, mesh->triangle_count);
     r->meshopt.acmr16 = ratio(c16.misses, mesh->triangle_count);
@@ -601,15 +630,16 @@ static void print_tables(const model_result *res, int count, const bench_options
 
     printf("\nBuild, seconds per stage (median of %d runs; write = encode to memory)\n",
            o->runs);
-    printf("%-14s %9s %9s %8s %8s %8s %8s %8s %8s %8s\n", "model", "vertices", "triangles",
-           "load s", "strip s", "simpl s", "recs s", "write s", "total s", "levels");
-    rule(14 + 10 * 2 + 9 * 7);
+    printf("%-14s %9s %9s %8s %8s %8s %8s %8s %8s %8s %8s\n", "model", "vertices", "triangles",
+           "load s", "strip s", "tunnel s", "simpl s", "recs s", "write s", "total s", "levels");
+    rule(14 + 10 * 2 + 9 * 8);
     for (int i = 0; i < count; i++) {
         const model_result *r = &res[i];
         if (r->missing || r->failed)
             continue;
-        printf("%-14s %9u %9u %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f %8u\n", r->name, r->vertices,
-               r->triangles, r->build.load, r->build.stripify, r->build.simplify,
+        printf("%-14s %9u %9u %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f %8u\n", r->name,
+               r->vertices, r->triangles, r->build.load, r->build.stripify, r->build.tunnel,
+               r->build.simplify,
                r->build.records, r->build.write, r->build.total, r->levels);
     }
 
@@ -622,16 +652,25 @@ static void print_tables(const model_result *res, int count, const bench_options
         const model_result *r = &res[i];
         if (r->missing || r->failed)
             continue;
-        printf("%-14s %-22s %7u %7u %9.3f %8.3f %8.3f %9.2f\n", r->name, "mts strips", r->ours.strips,
-               r->stripify.swaps, r->ours.indices_per_triangle, r->ours.acmr16, r->ours.acmr32,
+        printf("%-14s %-22s %7u %7llu %9.3f %8.3f %8.3f %9.2f\n", r->name, "mts greedy",
+               r->greedy.strips, (unsigned long long)r->greedy.swaps,
+               r->greedy.indices_per_triangle, r->greedy.acmr16, r->greedy.acmr32,
                r->build.stripify * 1e3);
+        char label[32];
+        snprintf(label, sizeof label, "mts tunnel K=%d", r->tunnel_length);
+        printf("%-14s %-22s %7u %7llu %9.3f %8.3f %8.3f %9.2f\n", "",
+               r->tunnel_length > 0 ? label : "mts (tunnel off)", r->ours.strips,
+               (unsigned long long)r->ours.swaps, r->ours.indices_per_triangle, r->ours.acmr16,
+               r->ours.acmr32, r->build.tunnel * 1e3);
         printf("%-14s %-22s %7u %7s %9.3f %8.3f %8.3f %9.2f\n", "", "meshopt strips",
                r->meshopt.strips, "-", r->meshopt.indices_per_triangle, r->meshopt.acmr16,
                r->meshopt.acmr32, r->meshopt_seconds * 1e3);
         printf("%-14s %-22s %7s %7s %9.3f %8.3f %8.3f %9s\n", "", "meshopt optimized list", "-",
                "-", 3.0, r->list_acmr16, r->list_acmr32, "-");
     }
-    printf("(mts time: our stripify; meshopt time: optimizeVertexCache + stripify, one run)\n");
+    printf("(restarts = strips - 1, counted in idx/tri; mts greedy time: our stripify; tunnel "
+           "time: the tunnelling pass on top, median; meshopt time: optimizeVertexCache + "
+           "stripify, one run)\n");
 
     printf("\nLevels by fraction of the full vertex count (runtime strips)\n");
     printf("%-14s %7s %8s %9s %9s %7s %13s %8s %8s  %s\n", "model", "target", "level",
@@ -721,6 +760,8 @@ static void json_strip_figures(cli_json *j, const char *key, const strip_figures
 {
     cli_json_object_begin(j, key);
     cli_json_u64(j, "strips", f->strips);
+    cli_json_u64(j, "swaps", f->swaps);
+    cli_json_u64(j, "restarts", f->restarts);
     cli_json_u64(j, "draw_indices", f->draw_indices);
     cli_json_num(j, "indices_per_triangle", f->indices_per_triangle, 4);
     cli_json_num(j, "acmr16", f->acmr16, 4);
@@ -750,6 +791,7 @@ static void json_model(cli_json *j, const model_result *r)
     cli_json_u64(j, "runs", (uint64_t)r->runs);
     cli_json_num(j, "load", r->build.load, 5);
     cli_json_num(j, "stripify", r->build.stripify, 5);
+    cli_json_num(j, "tunnel", r->build.tunnel, 5);
     cli_json_num(j, "simplify", r->build.simplify, 5);
     cli_json_num(j, "records", r->build.records, 5);
     cli_json_num(j, "write", r->build.write, 5);
@@ -757,9 +799,12 @@ static void json_model(cli_json *j, const model_result *r)
     cli_json_object_end(j);
 
     cli_json_object_begin(j, "full");
-    cli_json_u64(j, "swaps", r->stripify.swaps);
-    cli_json_u64(j, "singletons", r->stripify.singletons);
+    cli_json_u64(j, "swaps", r->ours.swaps);
+    cli_json_u64(j, "singletons", r->stripify.singletons); /* the greedy strips' */
+    cli_json_u64(j, "tunnel_length", (uint64_t)r->tunnel_length);
+    cli_json_num(j, "tunnel_seconds", r->build.tunnel, 5);
     json_strip_figures(j, "mts", &r->ours);
+    json_strip_figures(j, "greedy", &r->greedy);
     json_strip_figures(j, "meshopt", &r->meshopt);
     cli_json_num(j, "meshopt_seconds", r->meshopt_seconds, 5);
     cli_json_object_begin(j, "list");

@@ -12,16 +12,23 @@
 #include "model.h"
 #include "progress.h"
 #include "stripify.h"
+#include "tunnel.h"
 
 /* Zero-initialised means the defaults. */
 typedef struct mts_build_options {
     uint32_t base_vertices; /* 0: max(4, 1% of the vertices) */
+    int tunnel_length;      /* longest tunnel (tunnel.h) run on the full strips:
+                             * 0: MTS_TUNNEL_DEFAULT_LENGTH; < 0: no tunnelling
+                             * pass (nor its cache order) */
     mts_progress progress;
 } mts_build_options;
 
 typedef struct mts_build_report {
-    double seconds_stripify, seconds_simplify, seconds_records;
-    mts_stripify_stats stripify;
+    double seconds_stripify, seconds_tunnel, seconds_simplify, seconds_records;
+    mts_stripify_stats stripify; /* the greedy stripifier's own figures */
+    int tunnel_length;           /* the length used, 0 when the pass was off */
+    mts_tunnel_stats tunnel;     /* strips/swaps/draw indices before and after
+                                  * (after == before when the pass is off) */
     mts_lodbuild_stats records;
 } mts_build_report;
 

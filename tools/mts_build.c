@@ -11,7 +11,8 @@
 
 static void usage(FILE *f)
 {
-    fputs("usage: mts-build MESH [-o MODEL.mtsm] [--base-vertices N] [--json] [--quiet]\n"
+    fputs("usage: mts-build MESH [-o MODEL.mtsm] [--base-vertices N] [--tunnel-length K]\n"
+          "                 [--json] [--quiet]\n"
           "\n"
           "Builds a multiresolution triangle-strip model from a mesh (OFF, OBJ, PLY, STL):\n"
           "strips at full resolution, a quadric edge-collapse sequence down to a base mesh,\n"
@@ -20,6 +21,11 @@ static void usage(FILE *f)
           "  -o, --output FILE     model file to write (default: MESH's name with .mtsm,\n"
           "                        in the current directory)\n"
           "  --base-vertices N     stop simplifying at N vertices (default: max(4, 1%))\n"
+          "  --tunnel-length K     after the greedy strips, complement alternating tunnels\n"
+          "                        of up to K dual-graph edges (paper 004) and order the\n"
+          "                        strips for the vertex cache; 0: off (default: "
+          MTS_TUNNEL_DEFAULT_LENGTH_STR ", most "
+          MTS_TUNNEL_MAX_LENGTH_STR ")\n"
           "  --json                print one line of JSON with the figures\n"
           "  -q, --quiet           no progress bar, no summary\n"
           "  -h, --help            this help\n"
@@ -31,7 +37,7 @@ static void usage(FILE *f)
 int main(int argc, char **argv)
 {
     const char *input = NULL, *output = NULL;
-    uint32_t base_vertices = 0;
+    uint32_t base_vertices = 0, tunnel_length = MTS_TUNNEL_DEFAULT_LENGTH;
     int json = 0, quiet = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -47,6 +53,13 @@ int main(int argc, char **argv)
         } else if (!strcmp(a, "--base-vertices")) {
             if (++i >= argc || !cli_parse_u32(argv[i], &base_vertices) || base_vertices == 0) {
                 fprintf(stderr, "mts-build: --base-vertices needs a positive whole number\n");
+                return CLI_EXIT_USAGE;
+            }
+        } else if (!strcmp(a, "--tunnel-length")) {
+            if (++i >= argc || !cli_parse_u32(argv[i], &tunnel_length) ||
+                tunnel_length > MTS_TUNNEL_MAX_LENGTH) {
+                fprintf(stderr, "mts-build: --tunnel-length needs a whole number from 0 to %d\n",
+                        MTS_TUNNEL_MAX_LENGTH);
                 return CLI_EXIT_USAGE;
             }
         } else if (!strcmp(a, "--json")) {
@@ -92,6 +105,7 @@ int main(int argc, char **argv)
     double t1 = cli_now();
     mts_build_options bo = {0};
     bo.base_vertices = base_vertices;
+    bo.tunnel_length = tunnel_length == 0 ? -1 : (int)tunnel_length;
     bo.progress = cli_bar_progress(&bar);
     if (mts_build_model(&mesh, input, &bo, &model, &rep, &err) != MTS_OK)
         goto fail;
@@ -119,7 +133,16 @@ int main(int argc, char **argv)
         cli_json_u64(&j, "strips_full", model.level_strips[n]);
         cli_json_u64(&j, "indices_full", model.level_indices[n]);
         cli_json_num(&j, "indices_per_triangle_full", ipt_full, 4);
-        cli_json_u64(&j, "swaps", rep.stripify.swaps);
+        cli_json_u64(&j, "swaps", rep.tunnel.swaps_after);
+        cli_json_u64(&j, "tunnel_length", (uint64_t)rep.tunnel_length);
+        cli_json_object_begin(&j, "greedy");
+        cli_json_u64(&j, "strips", rep.tunnel.strips_before);
+        cli_json_u64(&j, "swaps", rep.tunnel.swaps_before);
+        cli_json_u64(&j, "restarts", rep.tunnel.strips_before ? rep.tunnel.strips_before - 1 : 0);
+        cli_json_num(&j, "indices_per_triangle",
+                     (double)rep.tunnel.draw_indices_before / model.level_triangles[n], 4);
+        cli_json_object_end(&j);
+        cli_json_u64(&j, "restarts_full", model.level_strips[n] ? model.level_strips[n] - 1 : 0);
         cli_json_u64(&j, "file_bytes", file_bytes);
         cli_json_object_begin(&j, "dropped");
         cli_json_u64(&j, "degenerate_faces", ms.degenerate_faces);
@@ -130,6 +153,7 @@ int main(int argc, char **argv)
         cli_json_object_begin(&j, "seconds");
         cli_json_num(&j, "load", t1 - t0, 4);
         cli_json_num(&j, "stripify", rep.seconds_stripify, 4);
+        cli_json_num(&j, "tunnel", rep.seconds_tunnel, 4);
         cli_json_num(&j, "simplify", rep.seconds_simplify, 4);
         cli_json_num(&j, "records", rep.seconds_records, 4);
         cli_json_num(&j, "write", t3 - t2, 4);
@@ -147,12 +171,20 @@ int main(int argc, char **argv)
                    ms.nonmanifold_faces, ms.unreferenced_vertices);
         printf("  strips: %u at full resolution, %u indices, %.3f indices/triangle with "
                "restarts (%u swaps)\n",
-               model.level_strips[n], model.level_indices[n], ipt_full, rep.stripify.swaps);
+               model.level_strips[n], model.level_indices[n], ipt_full, (unsigned)rep.tunnel.swaps_after);
+        if (rep.tunnel_length > 0)
+            printf("  tunnelling (length %d): %u strips, %llu swaps, %.3f indices/triangle "
+                   "before; %u changes kept\n",
+                   rep.tunnel_length, rep.tunnel.strips_before,
+                   (unsigned long long)rep.tunnel.swaps_before,
+                   (double)rep.tunnel.draw_indices_before / model.level_triangles[n],
+                   rep.tunnel.changes);
         printf("  levels: %u splits from a base of %u vertices / %u triangles\n", n,
                model.base_vertex_count, model.level_triangles[0]);
-        printf("  wrote %s: %llu bytes in %.2f s (load %.2f, stripify %.2f, simplify %.2f, "
-               "records %.2f, write %.2f)\n",
+        printf("  wrote %s: %llu bytes in %.2f s (load %.2f, stripify %.2f, tunnel %.2f, "
+               "simplify %.2f, records %.2f, write %.2f)\n",
                output, (unsigned long long)file_bytes, t3 - t0, t1 - t0, rep.seconds_stripify,
+               rep.seconds_tunnel,
                rep.seconds_simplify, rep.seconds_records, t3 - t2);
     }
     status = CLI_EXIT_OK;
