@@ -3,8 +3,12 @@
  * on the same grid (encoded here, in the same process), the raw file and the
  * .mtsm; bytes a client needs for 10%, 50% and 100% of the triangles; the
  * client's apply throughput (splits/s) decoding in memory, without GL upload
- * and, where EGL works, with it. Time to first frame over loopback is
- * measured by bench/run.sh with the real server and client. */
+ * and, where EGL works, with it; and the draw-path table (issue 6, part 5:
+ * every draw mode against the meshopt-optimized list at 100/50/25/10/5/1 % of
+ * the vertices, under "draw_path" in the JSON). Time to first frame over
+ * loopback is measured by bench/run.sh with the real server and client.
+ * Options for the table alone: --draw-only, --fractions F1,F2,..., --rounds N,
+ * --side PIXELS. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -161,14 +165,194 @@ done:
     return ok;
 }
 
+/* ---- the draw path (issue 6, part 5) ------------------------------------
+ * Every draw mode of the renderer and the meshopt-optimized triangle list of
+ * the same triangles, at several levels: same renderer (1024x1024, shader,
+ * camera, culling, depth), glFinish per frame (mts_render_draw). The modes
+ * are measured in rounds, each round drawing every mode in turn (3 warm-up
+ * frames, then the median of 11), so a slow spell of the shared machine hits
+ * all modes alike; the figure is the median over the rounds and `noise` the
+ * largest (max - min) / median of a mode over the rounds. */
+
+#define DT_MAX_ROUNDS 31
+static int dt_rounds = 7;
+#define DT_FRAMES 11
+
+enum { DT_RESTART, DT_MULTI, DT_PER_STRIP, DT_COMPACT, DT_JOINED, DT_LIST, DT_LIST_OPT, DT_MODES };
+static const char *const dt_names[DT_MODES] = {"restart", "multi",  "per_strip", "compact",
+                                               "joined",  "list", "list_opt"};
+static const mts_render_draw_mode dt_mode[DT_MODES] = {
+    MTS_RENDER_DRAW_RESTART, MTS_RENDER_DRAW_MULTI, MTS_RENDER_DRAW_PER_STRIP,
+    MTS_RENDER_DRAW_COMPACT, MTS_RENDER_DRAW_JOINED, MTS_RENDER_DRAW_LIST,
+    MTS_RENDER_DRAW_LIST};
+
+static double cpu_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+/* Median frame ms of DT_FRAMES draws after 3 warm-up draws; the process's
+ * CPU ms per frame over them (llvmpipe's threads included: the work done,
+ * which other load on a shared machine disturbs far less than the wall
+ * time); index bytes read. */
+static double dt_frames(mts_renderer *r, double *cpu_ms, uint64_t *index_bytes, mts_error *err)
+{
+    double t[DT_FRAMES];
+    mts_render_stats st;
+    for (int i = 0; i < 3; i++)
+        if (mts_render_draw(r, err) != MTS_OK)
+            return -1;
+    double c0 = cpu_s();
+    for (int i = 0; i < DT_FRAMES; i++) {
+        if (mts_render_draw(r, err) != MTS_OK)
+            return -1;
+        mts_render_get_stats(r, &st);
+        t[i] = st.last_draw_seconds * 1e3;
+    }
+    *cpu_ms = (cpu_s() - c0) * 1e3 / DT_FRAMES;
+    *index_bytes = st.last_draw_index_bytes;
+    qsort(t, DT_FRAMES, sizeof(double), cmp_double);
+    return t[DT_FRAMES / 2];
+}
+
+static double dt_fractions[16] = {1.0, 0.5, 0.25, 0.1, 0.05, 0.01};
+static int dt_nf = 6;
+static uint32_t dt_side = 1024;
+
+static int draw_table(mts_render_context *ctx, const mts_model *m, const char *name, FILE *jf,
+                      int *first_json, mts_error *err)
+{
+    const double *fractions = dt_fractions;
+    const int nf = dt_nf;
+    mts_lod lod;
+    mts_renderer *r = NULL;
+    uint32_t *list = NULL, *opt = NULL;
+    int ok = 0;
+    if (mts_lod_init(&lod, m, MTS_LOD_AT_FULL, err) != MTS_OK)
+        return 0;
+    mts_render_options ro;
+    mts_render_options_default(&ro);
+    ro.width = ro.height = dt_side;
+    mts_render_layout layout;
+    mts_render_layout_from_lod(&lod, &layout);
+    size_t cap = ((size_t)m->level_triangles[m->level_count] + 1) * 3;
+    list = malloc(cap * sizeof *list);
+    opt = malloc(cap * sizeof *opt);
+    if (!list || !opt ||
+        mts_renderer_create(ctx, &ro, &layout, &r, err) != MTS_OK ||
+        mts_render_append_vertices(r, 0, m->vertex_count, m->positions, m->normals, err) !=
+            MTS_OK)
+        goto done;
+    printf("%-14s %5s %7s %8s", name, "vert%", "tris", "");
+    for (int k = 0; k < DT_MODES; k++)
+        printf(" %9s", dt_names[k]);
+    printf("  %6s %7s %7s\n", "noise", "j/lopt", "j idx");
+    for (int fi = 0; fi < nf; fi++) {
+        uint32_t level = mts_model_level_for_fraction(m, fractions[fi]);
+        if (mts_lod_set_level(&lod, level, err) != MTS_OK ||
+            mts_render_update_strips(r, &lod, err) != MTS_OK)
+            goto done;
+        mts_lod_clear_changed(&lod);
+        size_t n = 0;
+        for (uint32_t s = 0; s < lod.strip_count; s++) {
+            uint32_t len;
+            const uint32_t *str = mts_lod_strip(&lod, s, &len);
+            for (uint32_t k = 0; k + 2 < len; k++)
+                n += 3 * (size_t)mts_strip_window(str, k, list + n);
+        }
+        uint32_t nv = m->base_vertex_count + level;
+        meshopt_optimizeVertexCache(opt, list, n, nv);
+        double ms[DT_MODES][DT_MAX_ROUNDS], cpu[DT_MODES][DT_MAX_ROUNDS];
+        uint64_t bytes[DT_MODES] = {0};
+        for (int round = 0; round < dt_rounds; round++)
+            for (int k = 0; k < DT_MODES; k++) {
+                mts_render_style style = ro.style;
+                style.draw_mode = dt_mode[k];
+                mts_render_set_style(r, &style);
+                if ((k == DT_LIST || k == DT_LIST_OPT) &&
+                    mts_render_set_list(r, k == DT_LIST ? list : opt, (uint32_t)n, err) != MTS_OK)
+                    goto done;
+                ms[k][round] = dt_frames(r, &cpu[k][round], &bytes[k], err);
+                if (ms[k][round] < 0)
+                    goto done;
+            }
+        double med[DT_MODES], cmed[DT_MODES], noise = 0, cnoise = 0;
+        for (int k = 0; k < DT_MODES; k++) {
+            qsort(ms[k], dt_rounds, sizeof(double), cmp_double);
+            qsort(cpu[k], dt_rounds, sizeof(double), cmp_double);
+            med[k] = ms[k][dt_rounds / 2];
+            cmed[k] = cpu[k][dt_rounds / 2];
+            double cspread = cmed[k] > 0 ? (cpu[k][dt_rounds - 1] - cpu[k][0]) / cmed[k] : 0;
+            if (cspread > cnoise)
+                cnoise = cspread;
+            double spread = med[k] > 0 ? (ms[k][dt_rounds - 1] - ms[k][0]) / med[k] : 0;
+            if (spread > noise)
+                noise = spread;
+        }
+        uint64_t tris = n / 3;
+        printf("%-14s %5.0f %7llu %8s", "", fractions[fi] * 100, (unsigned long long)tris, "ms");
+        for (int k = 0; k < DT_MODES; k++)
+            printf(" %9.3f", med[k]);
+        /* joined's index count against the list's (the same index type) */
+        mts_render_stats st;
+        mts_render_get_stats(r, &st);
+        double jidx = (double)bytes[DT_JOINED] / (nv <= 0xFFFFu ? 2.0 : 4.0);
+        printf("  %5.0f%% %7.3f %7.3f\n", noise * 100, med[DT_JOINED] / med[DT_LIST_OPT],
+               tris ? jidx / (double)tris : 0);
+        printf("%-14s %5s %7s %8s", "", "", "", "cpu ms");
+        for (int k = 0; k < DT_MODES; k++)
+            printf(" %9.3f", cmed[k]);
+        printf("  %5.0f%% %7.3f\n", cnoise * 100, cmed[DT_JOINED] / cmed[DT_LIST_OPT]);
+        printf("%-14s %5s %7s %8s", "", "", "", "idx B");
+        for (int k = 0; k < DT_MODES; k++)
+            printf(" %9llu", (unsigned long long)bytes[k]);
+        printf("  %6s %7s %7.3f\n", "", "", n ? jidx / (double)n : 0);
+        if (jf) {
+            fprintf(jf, "%s\"%s@%g\":{\"level\":%u,\"triangles\":%llu,\"noise\":%.3f,"
+                    "\"cpu_noise\":%.3f",
+                    *first_json ? "" : ",", name, fractions[fi], level,
+                    (unsigned long long)tris, noise, cnoise);
+            for (int k = 0; k < DT_MODES; k++)
+                fprintf(jf, ",\"%s_ms\":%.4f,\"%s_cpu_ms\":%.4f,\"%s_index_bytes\":%llu",
+                        dt_names[k], med[k], dt_names[k], cmed[k], dt_names[k],
+                        (unsigned long long)bytes[k]);
+            fputs("}", jf);
+            *first_json = 0;
+        }
+    }
+    ok = 1;
+done:
+    free(list);
+    free(opt);
+    mts_renderer_destroy(r);
+    mts_lod_free(&lod);
+    return ok;
+}
+
 int main(int argc, char **argv)
 {
     const char *json_path = NULL;
     const char *paths[16];
-    int np = 0;
+    int np = 0, draw_only = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--json") && i + 1 < argc)
             json_path = argv[++i];
+        else if (!strcmp(argv[i], "--draw-only")) /* the draw-path table alone */
+            draw_only = 1;
+        else if (!strcmp(argv[i], "--fractions") && i + 1 < argc) { /* its levels, e.g. 1,0.1 */
+            char *p = argv[++i];
+            for (dt_nf = 0; dt_nf < 16 && *p; dt_nf++) {
+                dt_fractions[dt_nf] = strtod(p, &p);
+                if (*p == ',')
+                    p++;
+            }
+        } else if (!strcmp(argv[i], "--rounds") && i + 1 < argc) { /* its rounds, 1..31 */
+            dt_rounds = atoi(argv[++i]);
+            dt_rounds = dt_rounds < 1 ? 1 : dt_rounds > DT_MAX_ROUNDS ? DT_MAX_ROUNDS : dt_rounds;
+        } else if (!strcmp(argv[i], "--side") && i + 1 < argc) /* its framebuffer side */
+            dt_side = (uint32_t)strtoul(argv[++i], NULL, 10);
         else if (np < 16)
             paths[np++] = argv[i];
     }
@@ -178,6 +362,13 @@ int main(int argc, char **argv)
     mts_render_context *ctx = NULL;
     mts_error cerr = {0};
     int have_gl = mts_render_context_create_headless(&ctx, &cerr) == MTS_OK;
+    /* the draw-path table's JSON, written under "draw_path" at the end */
+    char *dj_text = NULL;
+    size_t dj_size = 0;
+    FILE *dj = jf ? open_memstream(&dj_text, &dj_size) : NULL;
+    int first_dj = 1, first_json = 1;
+    if (draw_only)
+        goto draw_path;
 
     printf("\nStreaming (issue 3): bytes on the wire beside Draco single-rate on the same 14-bit grid\n");
     printf("%-14s %10s %10s %10s %10s %10s %10s %8s %10s %10s %10s\n", "model", "stream B",
@@ -185,7 +376,6 @@ int main(int argc, char **argv)
            "50% tri B", "100% B");
     printf("%s\n", "---------------------------------------------------------------------------"
                    "-------------------------------------------");
-    int first_json = 1;
     for (int i = 0; i < np; i++) {
         struct stat st;
         char name[64];
@@ -310,6 +500,38 @@ int main(int argc, char **argv)
         printf("(no EGL here: %s; GL upload not measured)\n", cerr.msg);
     printf("(stream B: MODEL_INFO + BASE + every BATCH + END for the full level; x draco7: stream / "
            "Draco edgebreaker cl 7, positions only)\n");
+draw_path:
+    if (have_gl) {
+        printf("\nDraw path (issue 6, part 5): frame ms at %ux%u on %s, median of %d rounds "
+               "(each the median of %d frames); index bytes read per frame\n",
+               dt_side, dt_side, mts_render_context_description(ctx), dt_rounds, DT_FRAMES);
+        printf("(list: the strips' triangles in strip order; list_opt: after "
+               "meshopt_optimizeVertexCache; noise: the largest (max-min)/median over rounds; "
+               "j/lopt: joined ms / list_opt ms; j idx: joined's indices per triangle, then per "
+               "list index)\n");
+        for (int i = 0; i < np; i++) {
+            char name[64];
+            cli_stem(paths[i], name, sizeof name);
+            mts_error err = {0};
+            mts_mesh mesh = {0};
+            mts_model m;
+            if (mts_mesh_load(paths[i], NULL, &mesh, NULL, &err) != MTS_OK ||
+                mts_build_model(&mesh, paths[i], NULL, &m, NULL, &err) != MTS_OK) {
+                printf("%-14s skipped: %s\n", name, err.msg);
+                mts_mesh_free(&mesh);
+                continue;
+            }
+            if (!draw_table(ctx, &m, name, dj, &first_dj, &err))
+                printf("%-14s draw table FAILED: %s\n", name, err.msg);
+            mts_model_free(&m);
+            mts_mesh_free(&mesh);
+        }
+    }
+    if (dj) {
+        fclose(dj);
+        fprintf(jf, "%s\"draw_path\":{%s}", first_json ? "" : ",", dj_text ? dj_text : "");
+        free(dj_text);
+    }
     if (jf) {
         fputs("}\n", jf);
         fclose(jf);

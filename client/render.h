@@ -28,7 +28,7 @@
  *     rest of its range is the restart index 0xFFFFFFFF, so the last entry is
  *     always a restart and a strip that shrank leaves no stale triangles (a
  *     run of restarts draws nothing: each one only ends the current
- *     primitive). One glDrawElements(GL_TRIANGLE_STRIP) with
+ *     primitive). In RESTART mode one glDrawElements(GL_TRIANGLE_STRIP) with
  *     GL_PRIMITIVE_RESTART_FIXED_INDEX draws the whole model.
  *   - mts_render_update_strips re-uploads only the strips the runtime lists as
  *     changed, one glBufferSubData per strip covering max(old, new) length,
@@ -36,11 +36,30 @@
  *     (the first upload after mts_lod_init, which marks every strip changed).
  *     The caller clears the runtime's changed list afterwards.
  *
- * Draw modes: RESTART (the default, one call) and two that draw strip by strip
- * with their current lengths and no restarts: PER_STRIP (a glDrawElements per
- * non-empty strip) and MULTI (glMultiDrawElementsEXT from
+ * Draw modes: RESTART (one call over the slot buffer) and two that draw strip
+ * by strip with their current lengths and no restarts: PER_STRIP (a
+ * glDrawElements per non-empty strip) and MULTI (glMultiDrawElementsEXT from
  * GL_EXT_multi_draw_arrays where the driver has it, Mesa does; else the same
  * loop as PER_STRIP). GLES 3.2 core has no glMultiDrawElements.
+ * Two more draw a packed buffer of their own, rebuilt from a host copy of the
+ * strips at the first draw after they changed (O(indices drawn), one
+ * glBufferData), holding only the strips of 3 or more indices, with 16-bit
+ * indices when vertex_capacity <= 65535: COMPACT (one restart between two
+ * strips) and JOINED, the default (each strip joined to the one before by
+ * repeating the previous strip's last index and its own first, once more
+ * when that leaves it at an odd position: every strip starts at an even
+ * position as after a restart, so keeps its winding, and each window across
+ * a joint repeats an index, so draws nothing: 2 or 3 indices a joint, no
+ * restart). Why JOINED (measured with mts-bench-stream --draw-only on Mesa
+ * 22.3 llvmpipe): Mesa's draw module runs its vertex pipeline once per
+ * restart-delimited piece (and once per draw of a multi-draw), restarting its
+ * small vertex cache each time, and RESTART also walks the slots' padding,
+ * which at coarse levels is most of the buffer (bunny00 at 10% of its
+ * vertices: 92k entries for 23.6k live indices); one joined strip is one
+ * pipeline run whose cache spans strips. At the full level it drew bunny00
+ * in 0.94-1.0x the time of the meshopt-optimized triangle list from 0.425x
+ * its indices. The stored and streamed form stays the strips and their
+ * slots; the packed buffer is the client's own.
  *
  * Colour by strip: a per-vertex attribute cannot carry a strip id (strips
  * share vertices), and gl_PrimitiveID (fragment shaders, GLES 3.2) numbers
@@ -136,8 +155,12 @@ typedef enum mts_render_draw_mode {
     MTS_RENDER_DRAW_RESTART = 0,
     MTS_RENDER_DRAW_PER_STRIP,
     MTS_RENDER_DRAW_MULTI,
-    MTS_RENDER_DRAW_LIST /* the triangle list given to mts_render_set_list, not the strips:
-                            for measuring strips against lists on the same vertices */
+    MTS_RENDER_DRAW_LIST, /* the triangle list given to mts_render_set_list, not the strips:
+                             for measuring strips against lists on the same vertices */
+    MTS_RENDER_DRAW_COMPACT, /* the live strips packed end to end, one restart between
+                                two, in a buffer of their own (no slot padding) */
+    MTS_RENDER_DRAW_JOINED   /* the live strips joined into one strip by repeated
+                                indices (degenerate windows), no restarts */
 } mts_render_draw_mode;
 
 typedef struct mts_render_camera {
@@ -169,7 +192,7 @@ typedef struct mts_render_options {
 } mts_render_options;
 
 /* 512x512, yaw 30, pitch 20, zoom 1, fov 35, dark blue-grey background,
- * light grey surface, ambient 0.25, culling on, RESTART, no wireframe
+ * light grey surface, ambient 0.25, culling on, JOINED, no wireframe
  * (dark edges when turned on). */
 void mts_render_options_default(mts_render_options *opts);
 
@@ -264,6 +287,7 @@ typedef struct mts_render_stats {
     double last_draw_seconds; /* CPU time clear .. glFinish (CLOCK_MONOTONIC) */
     uint32_t last_draw_calls;
     uint64_t last_draw_indices; /* indices submitted, restarts included */
+    uint64_t last_draw_index_bytes; /* their bytes (COMPACT and JOINED may use 16 bits) */
     int multi_draw_available;   /* GL_EXT_multi_draw_arrays */
 } mts_render_stats;
 

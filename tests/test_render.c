@@ -19,6 +19,7 @@
 #include "model.h"
 #include "pngwrite.h"
 #include "render.h"
+#include "strips.h"
 #include "test.h"
 
 #define SIDE 256u
@@ -542,6 +543,92 @@ done:
     mts_lod_free(&lod);
 }
 
+/* Every draw mode draws the same picture, pixel for pixel, at several levels
+ * of the cow reached by incremental updates (down, then back up to the full
+ * level, so a packed buffer left stale by an update would show): restart,
+ * per strip, multi-draw, the packed modes (COMPACT, JOINED) with 16-bit
+ * indices and, in a renderer whose layout claims more than 65535 vertices,
+ * with 32-bit ones; and the strips' own triangles as a list. A faster mode
+ * cannot be a wrong one. */
+static void test_all_modes_same_picture(mts_test *t)
+{
+    NEED_CONTEXT(t);
+    mts_error err = {0};
+    mts_lod lod;
+    CHECK(t, mts_lod_init(&lod, &g_cow, MTS_LOD_AT_FULL, &err) == MTS_OK);
+    mts_render_options o;
+    options(&o);
+    mts_renderer *r[2] = {renderer_for(t, &lod, &o), NULL};
+    mts_render_layout layout;
+    mts_render_layout_from_lod(&lod, &layout);
+    layout.vertex_capacity = 70000; /* 32-bit packed indices */
+    CHECKF(t, mts_renderer_create(g_ctx, &o, &layout, &r[1], &err) == MTS_OK, "%s", err.msg);
+    frame *f = calloc(2, sizeof *f);
+    uint32_t *list = malloc(((size_t)g_cow.level_triangles[g_cow.level_count] + 1) * 12);
+    if (!r[0] || !r[1] || !f || !list || t->case_failed)
+        goto done;
+    CHECK(t, mts_render_append_vertices(r[1], 0, g_cow.vertex_count, g_cow.positions,
+                                        g_cow.normals, &err) == MTS_OK);
+    for (uint32_t s = 0; s < lod.strip_count; s++) { /* renderer_for cleared the changes */
+        uint32_t len;
+        const uint32_t *str = mts_lod_strip(&lod, s, &len);
+        CHECK(t, mts_render_set_strip(r[1], s, str, len, &err) == MTS_OK);
+    }
+    const uint32_t n = g_cow.level_count;
+    const uint32_t levels[] = {n, n / 2, n / 10, n / 50, 0, n / 3, n};
+    const mts_render_draw_mode modes[] = {MTS_RENDER_DRAW_PER_STRIP, MTS_RENDER_DRAW_MULTI,
+                                          MTS_RENDER_DRAW_COMPACT, MTS_RENDER_DRAW_JOINED,
+                                          MTS_RENDER_DRAW_LIST};
+    for (size_t li = 0; li < sizeof levels / sizeof levels[0]; li++) {
+        CHECK(t, mts_lod_set_level(&lod, levels[li], &err) == MTS_OK);
+        for (int k = 0; k < 2; k++)
+            CHECKF(t, mts_render_update_strips(r[k], &lod, &err) == MTS_OK, "%s", err.msg);
+        mts_lod_clear_changed(&lod);
+        size_t nl = 0;
+        for (uint32_t s = 0; s < lod.strip_count; s++) {
+            uint32_t len;
+            const uint32_t *str = mts_lod_strip(&lod, s, &len);
+            for (uint32_t k = 0; k + 2 < len; k++)
+                nl += 3 * (size_t)mts_strip_window(str, k, list + nl);
+        }
+        CHECK(t, mts_render_set_list(r[0], list, (uint32_t)nl, &err) == MTS_OK);
+        mts_render_style s = o.style;
+        s.draw_mode = MTS_RENDER_DRAW_RESTART;
+        mts_render_set_style(r[0], &s);
+        if (!draw_and_read(t, r[0], &f[0], NULL))
+            goto done;
+        CHECK(t, foreground(&f[0]) > 100);
+        for (int k = 0; k < 2; k++)
+            for (size_t mi = 0; mi < sizeof modes / sizeof modes[0]; mi++) {
+                if (k == 1 && modes[mi] != MTS_RENDER_DRAW_COMPACT &&
+                    modes[mi] != MTS_RENDER_DRAW_JOINED)
+                    continue;
+                s.draw_mode = modes[mi];
+                mts_render_set_style(r[k], &s);
+                if (!draw_and_read(t, r[k], &f[1], NULL))
+                    goto done;
+                mts_render_stats st;
+                mts_render_get_stats(r[k], &st);
+                uint32_t d = pixels_differing(&f[0], &f[1], 0);
+                CHECKF(t, d == 0, "level %u, mode %d (%u-bit): %u pixels differ from restart",
+                       levels[li], (int)modes[mi], k ? 32 : 16, d);
+                if (modes[mi] == MTS_RENDER_DRAW_COMPACT || modes[mi] == MTS_RENDER_DRAW_JOINED) {
+                    CHECK(t, st.last_draw_calls == 1);
+                    CHECK(t, st.last_draw_index_bytes == st.last_draw_indices * (k ? 4u : 2u));
+                    /* no slot padding: at most 3 joining indices a strip */
+                    CHECK(t, st.last_draw_indices <=
+                                 g_cow.level_indices[lod.level] + 3ull * lod.strip_count);
+                }
+            }
+    }
+done:
+    free(list);
+    free(f);
+    mts_renderer_destroy(r[0]);
+    mts_renderer_destroy(r[1]);
+    mts_lod_free(&lod);
+}
+
 /* Orbiting and zooming move the picture. */
 static void test_camera(mts_test *t)
 {
@@ -731,6 +818,7 @@ int main(void)
     RUN(&t, test_restart_runs_draw_nothing);
     RUN(&t, test_small_move_uploads_changed_strips);
     RUN(&t, test_draw_modes);
+    RUN(&t, test_all_modes_same_picture);
     RUN(&t, test_camera);
     RUN(&t, test_errors);
 
