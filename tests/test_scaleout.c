@@ -448,6 +448,20 @@ static void test_two_servers_behind_nginx(mts_test *t)
     }
 }
 
+/* The Docker and Kubernetes files cannot run here (no engine, no cluster),
+ * but they can be linted: yamllint (deps.sh installs it) on both YAML files,
+ * strict, so a warning fails too. */
+static void test_docker_files_lint(mts_test *t)
+{
+    char out[8192];
+    if (mts_test_run("command -v yamllint", out, sizeof out) != 0) {
+        CHECKF(t, !getenv("MTS_TEST_REQUIRE_NGINX"), "yamllint is not installed");
+        SKIP(t, "yamllint is not installed (scripts/deps.sh installs it)");
+    }
+    int rc = mts_test_run("yamllint -s docker/compose.yaml docker/k8s.yaml", out, sizeof out);
+    CHECKF(t, rc == 0, "yamllint: %s", out);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -466,5 +480,6 @@ int main(int argc, char **argv)
     }
     mts_test t = {0};
     RUN(&t, test_two_servers_behind_nginx);
+    RUN(&t, test_docker_files_lint);
     return mts_test_end(&t);
 }
