@@ -259,6 +259,83 @@ void out_free(mts_draco_mesh_out *m)
     std::memset(m, 0, sizeof *m);
 }
 
+// Draco trusts the counts at the head of a buffer: its Edgebreaker decoder
+// reserves and fills arrays for the declared faces and vertices before it
+// reads a single symbol, and the sequential one sizes its attributes by the
+// declared points. A 100-byte buffer declaring a billion faces made it ask for
+// 5 GB (found by tests/fuzz/fuzz_draco.c; the input is kept in
+// tests/fuzz/regressions/draco/). So the head is read here first and the
+// counts bounded before Draco sees them (DESIGN.md invariant 4).
+//
+// What is accepted is what mts_draco_encode writes: the bitstream version this
+// Draco writes (2.2 for 1.5.5; the head's layout below is 2.2's), a triangle
+// mesh, sequential or Edgebreaker, no metadata.
+// The bound: at most kDeclaredPerByte faces (and as many vertices) per byte of
+// the buffer, and never less than kDeclaredFloor. Real encodings hold far
+// fewer: a 300 x 300 perfectly regular grid, the most compressible mesh
+// there is, is 12 faces a byte (sequential; Edgebreaker under 1).
+constexpr uint64_t kDeclaredPerByte = 256;
+constexpr uint64_t kDeclaredFloor = 1u << 16;
+
+// Draco's DecodeVarint<uint32_t>: at most 5 bytes, low bits first, wrapping
+// to 32 bits as Draco's does, so that this reads the value Draco will read.
+bool head_varint(const uint8_t *&p, const uint8_t *end, uint64_t *v)
+{
+    uint32_t x = 0;
+    for (int i = 0; i < 5 && p < end; ++i) {
+        const uint8_t b = *p++;
+        x |= static_cast<uint32_t>(b & 0x7f) << (7 * i);
+        if (!(b & 0x80)) {
+            *v = x;
+            return true;
+        }
+    }
+    return false;
+}
+
+mts_result check_head(const uint8_t *data, size_t size, mts_error *err)
+{
+    const uint8_t *p = data, *end = data + size;
+    // "DRACO", major, minor, geometry type, method, u16 flags
+    if (size < 11 || std::memcmp(p, "DRACO", 5) != 0)
+        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: not a Draco buffer");
+    if (p[5] != draco::kDracoMeshBitstreamVersionMajor || p[6] != draco::kDracoMeshBitstreamVersionMinor)
+        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: bitstream version %u.%u (this reads %u.%u)",
+                             p[5], p[6], draco::kDracoMeshBitstreamVersionMajor,
+                             draco::kDracoMeshBitstreamVersionMinor);
+    if (p[7] != draco::TRIANGULAR_MESH)
+        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: not a triangle mesh (geometry type %u)", p[7]);
+    const uint16_t flags = static_cast<uint16_t>(p[9] | p[10] << 8);
+    if (flags != 0)
+        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: header flags %#x (metadata is not read)",
+                             static_cast<unsigned>(flags));
+    const uint8_t method = p[8];
+    p += 11;
+    uint64_t faces = 0, vertices = 0, split = 0, unused;
+    bool ok;
+    if (method == draco::MESH_SEQUENTIAL_ENCODING) {
+        ok = head_varint(p, end, &faces) && head_varint(p, end, &vertices);
+    } else if (method == draco::MESH_EDGEBREAKER_ENCODING) {
+        // traversal decoder type, encoded vertices, faces, attribute data
+        // count, symbols, split symbols (each split symbol may add a vertex)
+        ok = p++ < end && head_varint(p, end, &vertices) && head_varint(p, end, &faces) && p++ < end &&
+             head_varint(p, end, &unused) && head_varint(p, end, &split);
+    } else {
+        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: unknown mesh method %u", method);
+    }
+    if (!ok)
+        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: buffer ends inside its header");
+    const uint64_t limit = std::max<uint64_t>(kDeclaredFloor, kDeclaredPerByte * size);
+    if (faces > std::min<uint64_t>(limit, kMaxTriangles) ||
+        vertices + split > std::min<uint64_t>(limit, kMaxVertices))
+        return mts_error_set(err, MTS_ERR_LIMIT,
+                             "draco decode: %llu faces and %llu vertices declared in %zu bytes "
+                             "(at most %llu of each)",
+                             (unsigned long long)faces, (unsigned long long)(vertices + split), size,
+                             (unsigned long long)std::min<uint64_t>(limit, kMaxVertices));
+    return MTS_OK;
+}
+
 mts_result decode_impl(const uint8_t *data, size_t size, mts_draco_mesh_out *out, mts_error *err)
 {
     if (!out)
@@ -266,6 +343,8 @@ mts_result decode_impl(const uint8_t *data, size_t size, mts_draco_mesh_out *out
     std::memset(out, 0, sizeof *out);
     if (!data || size == 0)
         return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: empty buffer");
+    if (const mts_result rc = check_head(data, size, err))
+        return rc;
 
     draco::DecoderBuffer db;
     db.Init(reinterpret_cast<const char *>(data), size);

@@ -110,7 +110,11 @@ mts_result mts_draco_encode(const mts_draco_mesh *in, const mts_draco_options *o
 /* Decodes a buffer made by mts_draco_encode. Nothing in it is trusted: a
  * truncated or corrupt buffer gives MTS_ERR_FORMAT (Draco refused it) or
  * MTS_ERR_RANGE (counts, indices or quantized values out of bounds), never a
- * crash. *out is zeroed first and left empty on failure. */
+ * crash. Since Draco allocates for the counts a buffer declares before it
+ * reads them, the head is checked first: another bitstream version, geometry
+ * or metadata is MTS_ERR_FORMAT, more faces or vertices than 256 a byte of
+ * the buffer (65,536 at least) MTS_ERR_LIMIT. *out is zeroed first and left
+ * empty on failure. */
 mts_result mts_draco_decode(const uint8_t *data, size_t size, mts_draco_mesh_out *out,
                             mts_error *err);
 

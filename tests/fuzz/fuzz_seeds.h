@@ -1,0 +1,342 @@
+/* The fuzz targets' seed corpora, made from real streams and files so the
+ * fuzzer starts deep: a small torus model (fast to decode, every code path)
+ * and tests/data/cow.off's model (the real thing), cut at a few stop levels.
+ * `make fuzz` writes them with tests/fuzz/fuzz_seeds.c; the regression test
+ * runs them through the targets in memory. Seeds stay small (the biggest are
+ * cow's streams, under 10 KiB) so that each execution stays fast.
+ *
+ * Targets: "stream_client", "request", "modelfile", "draco" (the fuzz_*.c
+ * files say what their input is; two of them start with a mode byte). */
+#ifndef MTS_FUZZ_SEEDS_H
+#define MTS_FUZZ_SEEDS_H
+
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "draco.h"
+#include "fuzz_util.h"
+#include "modelfile.h"
+#include "stream.h"
+#include "wire.h"
+
+typedef void (*mts_fuzz_emit_fn)(void *user, const char *target, const char *name,
+                                 const uint8_t *data, size_t size);
+
+typedef struct mts_fuzz_seeder {
+    mts_fuzz_emit_fn emit;
+    void *user;
+    int failed; /* an allocation failed */
+} mts_fuzz_seeder;
+
+/* Emits data with a mode byte in front (the stream_client and modelfile inputs). */
+static inline void mts_fuzz_emit_mode(mts_fuzz_seeder *sd, const char *target, const char *name,
+                                      uint8_t mode, const uint8_t *data, size_t size)
+{
+    uint8_t *b = malloc(size + 1);
+    if (!b) {
+        sd->failed = 1;
+        return;
+    }
+    b[0] = mode;
+    if (size)
+        memcpy(b + 1, data, size);
+    sd->emit(sd->user, target, name, b, size + 1);
+    free(b);
+}
+
+/* The Draco buffer inside a stream's BASE frame (its first frame). */
+static inline const uint8_t *mts_fuzz_base_draco(const mts_stream *s, size_t *size)
+{
+    mts_cursor c = mts_cursor_make(s->bytes + MTS_WIRE_HEADER, s->size - MTS_WIRE_HEADER);
+    uint32_t n = mts_cursor_varint(&c);
+    *size = n;
+    return mts_cursor_bytes(&c, n);
+}
+
+/* Stream seeds of one model: each stop level from the start, plus variants. */
+static inline void mts_fuzz_stream_seeds(mts_fuzz_seeder *sd, const char *tag, const mts_stream *s,
+                                         const uint32_t *stops, size_t nstops, int variants)
+{
+    char name[96];
+    for (size_t i = 0; i < nstops; i++) {
+        mts_buf b = {0};
+        mts_fuzz_conversation(s, 0, stops[i], SIZE_MAX, &b);
+        if (b.failed) {
+            sd->failed = 1;
+            mts_buf_free(&b);
+            return;
+        }
+        snprintf(name, sizeof name, "%s-level%u", tag, stops[i]);
+        mts_fuzz_emit_mode(sd, "stream_client", name, 0, b.data, b.size);
+        if (variants && i + 1 == nstops) {
+            /* the CRCs as sent (mode bit 0), split into small pieces, and cut short */
+            snprintf(name, sizeof name, "%s-level%u-crc-kept", tag, stops[i]);
+            mts_fuzz_emit_mode(sd, "stream_client", name, 1, b.data, b.size);
+            snprintf(name, sizeof name, "%s-level%u-pieces", tag, stops[i]);
+            mts_fuzz_emit_mode(sd, "stream_client", name, 2 * 5, b.data, b.size);
+            snprintf(name, sizeof name, "%s-level%u-cut-half", tag, stops[i]);
+            mts_fuzz_emit_mode(sd, "stream_client", name, 0, b.data, b.size / 2);
+            snprintf(name, sizeof name, "%s-level%u-cut-before-end", tag, stops[i]);
+            mts_fuzz_emit_mode(sd, "stream_client", name, 0, b.data, b.size - 3);
+        }
+        mts_buf_free(&b);
+    }
+}
+
+/* Streams broken and resumed (MTS_FUZZ_CUT between the connections). */
+static inline void mts_fuzz_resume_seeds(mts_fuzz_seeder *sd, const mts_stream *s)
+{
+    const uint32_t n = s->model.level_count;
+    if (s->batch_count < 5)
+        return;
+    /* bytes of a connection's stream up to a point in s->bytes: MODEL_INFO's
+     * size, then the stream from its start */
+    mts_buf info = {0};
+    mts_stream_put_model_info(s, n, &info);
+    const size_t head = info.size, base_end = s->batch_offset[0];
+    mts_buf_free(&info);
+    struct {
+        const char *name;
+        size_t keep[2];      /* what the first two connections got before the break */
+        uint32_t resume[3];  /* the batch each connection resumes from */
+    } cases[] = {
+        /* cut inside BASE: nothing applied, the second connection starts over */
+        {"torus-cut-in-base", {head + base_end / 2, 0}, {0, 0, 0}},
+        /* cut inside batch 0: the base is in, the server sends it again */
+        {"torus-cut-in-batch0", {head + s->batch_offset[0] + 9, 0}, {0, 0, 0}},
+        /* cut inside batch 2: resumes from batch 2 */
+        {"torus-cut-in-batch2", {head + s->batch_offset[2] + 7, 0}, {0, 2, 0}},
+        /* two breaks: inside batch 1, then inside batch 4 of the resumed stream */
+        {"torus-cut-twice",
+         {head + s->batch_offset[1] + 3, head + s->batch_offset[4] - s->batch_offset[1] + 5},
+         {0, 1, 4}},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        mts_buf b = {0};
+        int conns = cases[i].keep[1] ? 3 : 2;
+        for (int k = 0; k < conns; k++) {
+            if (k > 0)
+                mts_buf_put(&b, MTS_FUZZ_CUT, MTS_FUZZ_CUT_SIZE);
+            mts_fuzz_conversation(s, cases[i].resume[k], n, k + 1 < conns ? cases[i].keep[k] : SIZE_MAX,
+                                  &b);
+        }
+        if (b.failed)
+            sd->failed = 1;
+        else
+            mts_fuzz_emit_mode(sd, "stream_client", cases[i].name, 0, b.data, b.size);
+        mts_buf_free(&b);
+    }
+}
+
+static inline void mts_fuzz_request_seeds(mts_fuzz_seeder *sd, const mts_stream *s)
+{
+    struct {
+        const char *name, *model;
+        uint16_t major;
+        uint8_t kind;
+        uint32_t value, resume;
+        int right_id;
+    } hellos[] = {
+        {"hello-full", "fuzz", 1, MTS_STOP_FULL, 0, 0, 0},
+        {"hello-level", "fuzz", 1, MTS_STOP_LEVEL, 10, 0, 0},
+        {"hello-level-past", "fuzz", 1, MTS_STOP_LEVEL, 1000000, 0, 0},
+        {"hello-triangles", "fuzz", 1, MTS_STOP_TRIANGLES, 100, 0, 0},
+        {"hello-fraction", "fuzz", 1, MTS_STOP_FRACTION, 500000, 0, 0},
+        {"hello-resume", "fuzz", 1, MTS_STOP_LEVEL, 40, 2, 1},
+        {"hello-resume-stale", "fuzz", 1, MTS_STOP_FULL, 0, 1, 0},
+        {"hello-resume-past", "fuzz", 1, MTS_STOP_LEVEL, 10, 5, 1},
+        {"hello-unknown-model", "cow", 1, MTS_STOP_FULL, 0, 0, 0},
+        {"hello-version-2", "fuzz", 2, MTS_STOP_FULL, 0, 0, 0},
+    };
+    for (size_t i = 0; i < sizeof hellos / sizeof hellos[0]; i++) {
+        mts_wire_hello h = {0};
+        h.major = hellos[i].major;
+        h.minor = MTS_WIRE_MINOR;
+        snprintf(h.model, sizeof h.model, "%s", hellos[i].model);
+        h.stop_kind = hellos[i].kind;
+        h.stop_value = hellos[i].value;
+        h.resume_batch = hellos[i].resume;
+        h.stream_id = hellos[i].right_id ? s->stream_id : 12345;
+        mts_buf b = {0};
+        mts_wire_put_hello(&b, &h);
+        if (b.failed)
+            sd->failed = 1;
+        else
+            sd->emit(sd->user, "request", hellos[i].name, b.data, b.size);
+        mts_buf_free(&b);
+    }
+    mts_buf b = {0};
+    mts_wire_put_list(&b);
+    if (b.failed)
+        sd->failed = 1;
+    else
+        sd->emit(sd->user, "request", "list", b.data, b.size);
+    mts_buf_free(&b);
+}
+
+static inline void mts_fuzz_modelfile_seed(mts_fuzz_seeder *sd, const char *name, uint8_t mode,
+                                           const mts_model *m)
+{
+    uint8_t *data = NULL;
+    size_t size = 0;
+    mts_error err = {0};
+    if (mts_modelfile_encode(m, &data, &size, &err) != MTS_OK) {
+        sd->failed = 1;
+        return;
+    }
+    mts_fuzz_emit_mode(sd, "modelfile", name, mode, data, size);
+    free(data);
+}
+
+static inline void mts_fuzz_draco_seed(mts_fuzz_seeder *sd, const char *name,
+                                       const mts_stream *s, int method, int normals)
+{
+    /* the stream's own model at the full level, on the stream's grid */
+    const mts_model *m = &s->model;
+    uint32_t *tris = malloc(((size_t)m->full.index_count + 1) * 12);
+    if (!tris) {
+        sd->failed = 1;
+        return;
+    }
+    uint32_t nt = 0;
+    for (uint32_t st = 0; st < m->strip_count; st++) {
+        const uint32_t *str = m->full.indices + m->full.offsets[st];
+        uint32_t len = m->full.offsets[st + 1] - m->full.offsets[st];
+        for (uint32_t k = 0; k + 2 < len; k++)
+            nt += (uint32_t)mts_strip_window(str, k, tris + 3 * (size_t)nt);
+    }
+    mts_draco_mesh in = {m->vertex_count, nt, m->positions, normals ? m->normals : NULL, tris};
+    mts_draco_options o = {0};
+    o.grid = s->grid;
+    o.method = method;
+    o.normal_bits = normals ? 0 : -1;
+    uint8_t *data = NULL;
+    size_t size = 0;
+    mts_error err = {0};
+    if (mts_draco_encode(&in, &o, &data, &size, &err) == MTS_OK)
+        sd->emit(sd->user, "draco", name, data, size);
+    else
+        sd->failed = 1;
+    free(data);
+    free(tris);
+}
+
+/* Makes every seed; cow_path is tests/data/cow.off (NULL: torus seeds only).
+ * slow: also cow's whole model file (160 KiB), which takes a fuzz target some
+ * 100 ms an execution (it is validated, walked and written again): the
+ * regression test runs it, the fuzzer's corpus does without (it would spend
+ * its time there, and the torus files reach the same code).
+ * Returns MTS_OK, or the first error (err says what). */
+static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts_fuzz_emit_fn emit,
+                                             void *user, mts_error *err)
+{
+    mts_fuzz_seeder sd = {emit, user, 0};
+    mts_stream torus, small, seq;
+    mts_result rc;
+    if ((rc = mts_fuzz_torus_stream(8, 10, 8, &torus, err)) != MTS_OK)
+        return mts_error_prefix(err, "torus");
+    if ((rc = mts_fuzz_torus_stream(5, 6, 4, &small, err)) != MTS_OK) {
+        mts_stream_free(&torus);
+        return mts_error_prefix(err, "small torus");
+    }
+    /* the same small torus, its base mesh Draco-encoded with the sequential method */
+    {
+        size_t size = 0;
+        char *off = mts_fuzz_torus_off(5, 6, &size);
+        mts_model m;
+        rc = off ? mts_fuzz_build_model("torus.off", off, size, 0, &m, err)
+                 : mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
+        free(off);
+        if (rc == MTS_OK) {
+            mts_stream_options o = {0};
+            o.batch_splits = 4;
+            o.draco_method = MTS_DRACO_SEQUENTIAL;
+            rc = mts_stream_build(&m, "fuzz", &o, &seq, err);
+            mts_model_free(&m);
+        }
+        if (rc != MTS_OK) {
+            mts_stream_free(&torus);
+            mts_stream_free(&small);
+            return mts_error_prefix(err, "sequential torus");
+        }
+    }
+
+    /* stream_client */
+    const uint32_t n = torus.model.level_count;
+    const uint32_t torus_stops[] = {0, 9, n / 2, n};
+    mts_fuzz_stream_seeds(&sd, "torus", &torus, torus_stops, 4, 1);
+    mts_fuzz_resume_seeds(&sd, &torus);
+    const uint32_t small_stops[] = {small.model.level_count};
+    mts_fuzz_stream_seeds(&sd, "small", &small, small_stops, 1, 0);
+    mts_fuzz_stream_seeds(&sd, "sequential", &seq, small_stops, 1, 0);
+    {
+        mts_buf b = {0};
+        mts_wire_model_entry e[2] = {{"fuzz", 80, 160, 76, 4000}, {"cow.v2", 2904, 5804, 2875, 90000}};
+        mts_wire_put_models(&b, e, 2);
+        mts_wire_put_error(&b, MTS_WERR_BUSY, "never read: MODELS ends the conversation");
+        if (!b.failed)
+            mts_fuzz_emit_mode(&sd, "stream_client", "models", 0, b.data, b.size);
+        b.size = 0;
+        mts_wire_put_error(&b, MTS_WERR_UNKNOWN_MODEL, "no model named 'x' (LIST shows the models)");
+        if (!b.failed)
+            mts_fuzz_emit_mode(&sd, "stream_client", "error", 0, b.data, b.size);
+        sd.failed |= b.failed;
+        mts_buf_free(&b);
+    }
+
+    /* request */
+    mts_fuzz_request_seeds(&sd, &torus);
+
+    /* modelfile: the models as mts-build would write them (the streams'
+     * models are snapped to the grid, which a model file does not mind) */
+    mts_fuzz_modelfile_seed(&sd, "torus", 0, &torus.model);
+    mts_fuzz_modelfile_seed(&sd, "torus-crc-kept", 1, &torus.model);
+    mts_fuzz_modelfile_seed(&sd, "small", 0, &small.model);
+
+    /* draco: what BASE frames carry, and whole meshes with and without normals */
+    size_t dsize = 0;
+    const uint8_t *d = mts_fuzz_base_draco(&torus, &dsize);
+    if (d)
+        sd.emit(sd.user, "draco", "torus-base-edgebreaker", d, dsize);
+    if ((d = mts_fuzz_base_draco(&seq, &dsize)) != NULL)
+        sd.emit(sd.user, "draco", "small-base-sequential", d, dsize);
+    mts_fuzz_draco_seed(&sd, "torus-edgebreaker", &torus, MTS_DRACO_EDGEBREAKER, 1);
+    mts_fuzz_draco_seed(&sd, "torus-sequential", &torus, MTS_DRACO_SEQUENTIAL, 1);
+    mts_fuzz_draco_seed(&sd, "small-edgebreaker-no-normals", &small, MTS_DRACO_EDGEBREAKER, 0);
+    mts_fuzz_draco_seed(&sd, "small-sequential-no-normals", &small, MTS_DRACO_SEQUENTIAL, 0);
+    mts_stream_free(&torus);
+    mts_stream_free(&small);
+    mts_stream_free(&seq);
+
+    /* cow: the real model, cut at its first batches (its full stream and
+     * file are a few hundred KiB: too slow an input to mutate) */
+    if (cow_path) {
+        mts_model m;
+        if ((rc = mts_fuzz_build_model(cow_path, NULL, 0, 0, &m, err)) != MTS_OK)
+            return rc;
+        mts_stream cow;
+        rc = mts_stream_build(&m, "cow", NULL, &cow, err);
+        if (rc == MTS_OK) {
+            uint32_t cow_stops[3] = {0, 0, 0};
+            size_t nstops = 1;
+            for (uint32_t k = 1; k <= 3 && k < cow.batch_count; k += 2)
+                cow_stops[nstops++] = cow.batch_first[k];
+            mts_fuzz_stream_seeds(&sd, "cow", &cow, cow_stops, nstops, 0);
+            if ((d = mts_fuzz_base_draco(&cow, &dsize)) != NULL)
+                sd.emit(sd.user, "draco", "cow-base-edgebreaker", d, dsize);
+            mts_stream_free(&cow);
+        }
+        if (slow)
+            mts_fuzz_modelfile_seed(&sd, "cow", 0, &m);
+        mts_model_free(&m);
+        if (rc != MTS_OK)
+            return rc;
+    }
+    if (sd.failed)
+        return mts_error_set(err, MTS_ERR_NOMEM, "fuzz seeds: out of memory");
+    return MTS_OK;
+}
+
+#endif
