@@ -19,7 +19,8 @@
  * search may take any step, and a candidate is kept only when the links
  * after the change still form paths (no cycle, none longer than the cap),
  * which a union-find over the cut pieces of the paths answers exactly (see
- * paths_ok), so every tunnel the rules allow is still found.
+ * mts__links_paths_ok in striplinks.h, shared with stripify.c), so every
+ * tunnel the rules allow is still found.
  *
  * Strips are generalized, so a path of the dual graph costs, as strips.h
  * encodes it, triangles + 2 + its swaps indices, plus one restart between
@@ -71,12 +72,12 @@
 #include <string.h>
 
 #include "stripify.h"
+#include "striplinks.h"
 
-#define NONE UINT32_MAX
+#define NONE MTS__NONE
 
 enum {
     MAX_DEPTH = (MTS_TUNNEL_MAX_LENGTH - 1) / 2,
-    UNDO_MAX = 2 * MAX_DEPTH + 4,
     VISIT_MAX = 2 * MAX_DEPTH + 4,
     /* a partial tunnel may cost this much (3 S + W) before it pays back:
      * more finds a little more for much more time */
@@ -94,311 +95,23 @@ enum {
  * starts (2.0, 1.5) lose (1.238 / 1.236), a colder end (0.05) too (1.2229). */
 #define ANNEAL_T0 0.8
 #define ANNEAL_T1 0.1
+_Static_assert((int)MAX_DEPTH <= (int)MTS__LINKS_MAX_DEPTH, "the undo log must hold a search");
+/* the pass is kept in a byte next to each triangle (striplinks.h) */
+_Static_assert(MAX_PASSES <= 255, "a pass must fit mts__links.pass");
 
-typedef struct undo_op {
-    uint32_t t, u; /* linked or unlinked across edge et of t, eu of u */
-    uint8_t et, eu;
-    uint8_t added; /* 1: the link was added, 0: removed */
-} undo_op;
-
+/* The cover, its labels, the undo log and the moves are striplinks.h's,
+ * shared with stripify.c; what is this file's own is the search (the best
+ * of all tunnels up to the bound) and the annealing. */
 typedef struct tun {
-    uint32_t n;
-    uint32_t *tri;  /* 3n, oriented as drawn */
-    uint32_t *nb;   /* 3n: neighbour across edge (v_i, v_i+1), NONE at a border */
-    uint8_t *mask;  /* bit e: linked across edge e */
-    /* Labels valid whenever a search starts: the path of t is named by its
-     * first triangle pid[t]; t lies at pos[t]; plen[pid] is its length. */
-    uint32_t *pid, *pos, *plen, *lab;
-    uint32_t lab_stamp;
-    uint32_t *touched; /* the last pass that changed links near t */
-    uint32_t pass;
-    uint32_t max_path;
+    mts__links L;
     int depth, cut_depth;
     uint32_t changes;
     /* the search in progress */
-    int nundo;
-    undo_op undo[UNDO_MAX];
     int nvisit;
     uint32_t visit[VISIT_MAX];
     int best_d, nbest;
-    undo_op best[UNDO_MAX];
+    mts__link_op best[MTS__LINKS_UNDO_MAX];
 } tun;
-
-static const uint8_t link_count[8] = {0, 1, 1, 2, 1, 2, 2, 3};
-/* the vertex the two edges of a 2-bit mask share: edges e and e+1 share
- * vertex e+1 */
-static const uint8_t pivot_local[8] = {0, 0, 0, 1, 0, 0, 2, 0};
-
-static inline unsigned nlinks(const tun *o, uint32_t t)
-{
-    return link_count[o->mask[t]];
-}
-
-static inline uint32_t pivot(const tun *o, uint32_t t)
-{
-    uint8_t m = o->mask[t];
-    return link_count[m] == 2 ? o->tri[3 * (size_t)t + pivot_local[m]] : NONE;
-}
-
-static inline unsigned local_of(const tun *o, uint32_t t, uint32_t v)
-{
-    const uint32_t *tv = o->tri + 3 * (size_t)t;
-    return tv[0] == v ? 0u : tv[1] == v ? 1u : 2u;
-}
-
-/* Local edge index of the edge between local vertices i and j. */
-static inline unsigned edge_of(unsigned i, unsigned j)
-{
-    return (i + 1) % 3 == j ? i : j;
-}
-
-/* The edge of u = nb[3t + e] that is edge e of t, run the other way. */
-static inline unsigned twin_edge(const tun *o, uint32_t t, unsigned e)
-{
-    uint32_t u = o->nb[3 * (size_t)t + e];
-    return local_of(o, u, o->tri[3 * (size_t)t + (e + 1) % 3]);
-}
-
-/* The neighbour along the path from cur that is not prev (NONE: an end). */
-static inline uint32_t step(const tun *o, uint32_t prev, uint32_t cur)
-{
-    const uint32_t *n3 = o->nb + 3 * (size_t)cur;
-    uint8_t m = o->mask[cur];
-    for (int e = 0; e < 3; e++) {
-        if ((m >> e & 1) && n3[e] != prev)
-            return n3[e];
-    }
-    return NONE;
-}
-
-/* ---- adjacency ---------------------------------------------------------- */
-
-static inline uint32_t next_h(uint32_t h)
-{
-    return h % 3 == 2 ? h - 2 : h + 1;
-}
-
-/* Half-edges bucketed by their lower end (a counting sort over the vertex
- * range, which the caller bounds), each bucket sorted by the higher end:
- * runs of equal edges are then adjacent. O(n + V), deterministic. */
-static mts_result build_adjacency(tun *o, uint32_t vertex_count, mts_error *err)
-{
-    uint32_t n3 = 3 * o->n;
-    uint32_t *start = calloc((size_t)vertex_count + 1, sizeof *start);
-    uint32_t *order = malloc((size_t)n3 * sizeof *order + 1);
-    if (!start || !order) {
-        free(start);
-        free(order);
-        return mts_error_set(err, MTS_ERR_NOMEM,
-                             "tunnel: out of memory for the adjacency of %u triangles", o->n);
-    }
-    const uint32_t *tri = o->tri;
-    for (uint32_t h = 0; h < n3; h++) {
-        uint32_t a = tri[h], b = tri[next_h(h)];
-        start[(a < b ? a : b) + 1]++;
-    }
-    for (uint32_t v = 0; v < vertex_count; v++)
-        start[v + 1] += start[v];
-    for (uint32_t h = 0; h < n3; h++) {
-        uint32_t a = tri[h], b = tri[next_h(h)];
-        order[start[a < b ? a : b]++] = h;
-    }
-    /* start[v] is now the end of bucket v, the start of bucket v + 1 */
-    for (uint32_t h = 0; h < n3; h++)
-        o->nb[h] = NONE;
-    uint32_t lo = 0;
-    for (uint32_t v = 0; v < vertex_count; v++) {
-        uint32_t hi = start[v];
-        /* insertion sort by (higher end, half-edge id): buckets hold a
-         * vertex's valence or so */
-        for (uint32_t i = lo + 1; i < hi; i++) {
-            uint32_t h = order[i], j = i;
-            uint32_t kh = tri[h] > tri[next_h(h)] ? tri[h] : tri[next_h(h)];
-            while (j > lo) {
-                uint32_t g = order[j - 1];
-                uint32_t kg = tri[g] > tri[next_h(g)] ? tri[g] : tri[next_h(g)];
-                if (kg < kh || (kg == kh && g < h))
-                    break;
-                order[j] = g;
-                j--;
-            }
-            order[j] = h;
-        }
-        for (uint32_t i = lo; i < hi;) {
-            uint32_t h = order[i];
-            uint32_t kh = tri[h] > tri[next_h(h)] ? tri[h] : tri[next_h(h)];
-            uint32_t e = i + 1;
-            while (e < hi) {
-                uint32_t g = order[e];
-                uint32_t kg = tri[g] > tri[next_h(g)] ? tri[g] : tri[next_h(g)];
-                if (kg != kh)
-                    break;
-                e++;
-            }
-            /* exactly two faces, through the edge in opposite directions */
-            if (e - i == 2 && tri[order[i]] != tri[order[i + 1]]) {
-                o->nb[order[i]] = order[i + 1] / 3;
-                o->nb[order[i + 1]] = order[i] / 3;
-            }
-            i = e;
-        }
-        lo = hi;
-    }
-    free(start);
-    free(order);
-    return MTS_OK;
-}
-
-/* ---- changes with undo -------------------------------------------------- */
-
-static void op_link(tun *o, uint32_t t, unsigned et)
-{
-    uint32_t u = o->nb[3 * (size_t)t + et];
-    unsigned eu = twin_edge(o, t, et);
-    o->mask[t] |= (uint8_t)(1u << et);
-    o->mask[u] |= (uint8_t)(1u << eu);
-    o->undo[o->nundo++] = (undo_op){t, u, (uint8_t)et, (uint8_t)eu, 1};
-}
-
-static void op_unlink(tun *o, uint32_t t, unsigned et)
-{
-    uint32_t u = o->nb[3 * (size_t)t + et];
-    unsigned eu = twin_edge(o, t, et);
-    o->mask[t] &= (uint8_t)~(1u << et);
-    o->mask[u] &= (uint8_t)~(1u << eu);
-    o->undo[o->nundo++] = (undo_op){t, u, (uint8_t)et, (uint8_t)eu, 0};
-}
-
-static void apply_op(tun *o, const undo_op *op, int forward)
-{
-    int set = forward ? op->added : !op->added;
-    if (set) {
-        o->mask[op->t] |= (uint8_t)(1u << op->et);
-        o->mask[op->u] |= (uint8_t)(1u << op->eu);
-    } else {
-        o->mask[op->t] &= (uint8_t)~(1u << op->et);
-        o->mask[op->u] &= (uint8_t)~(1u << op->eu);
-    }
-}
-
-static void undo_to(tun *o, int mark)
-{
-    while (o->nundo > mark)
-        apply_op(o, &o->undo[--o->nundo], 0);
-}
-
-/* Swaps on the links that touch the k distinct triangles T. */
-static int local_swaps(const tun *o, const uint32_t *T, int k)
-{
-    int w = 0;
-    for (int i = 0; i < k; i++) {
-        uint32_t t = T[i], pt = pivot(o, t);
-        if (pt == NONE)
-            continue;
-        for (unsigned e = 0; e < 3; e++) {
-            if (!(o->mask[t] >> e & 1))
-                continue;
-            uint32_t u = o->nb[3 * (size_t)t + e];
-            int seen = 0;
-            for (int j = 0; j < i; j++)
-                seen |= T[j] == u;
-            w += !seen && pivot(o, u) == pt;
-        }
-    }
-    return w;
-}
-
-/* The no-loop rules, checked: do the links as the search has changed them
- * still form paths of at most max_path triangles? The labels were valid when
- * the search started; the links it removed cut those paths into pieces and
- * the links it added join piece ends, so a union-find over the pieces (with
- * their lengths) answers it without walking: a link between two ends of one
- * piece closes a loop (rule 1; rule 2 is the same loop seen one step
- * earlier). */
-static int paths_ok(const tun *o)
-{
-    uint32_t cut_pid[UNDO_MAX], cut_at[UNDO_MAX];
-    uint32_t seg_pid[2 * UNDO_MAX], seg_k[2 * UNDO_MAX], size[2 * UNDO_MAX];
-    int parent[2 * UNDO_MAX];
-    int ncut = 0, nseg = 0;
-    for (int i = 0; i < o->nundo; i++) {
-        if (!o->undo[i].added) {
-            uint32_t a = o->undo[i].t, b = o->undo[i].u;
-            cut_pid[ncut] = o->pid[a];
-            cut_at[ncut++] = o->pos[a] < o->pos[b] ? o->pos[a] : o->pos[b];
-        }
-    }
-    for (int i = 0; i < o->nundo; i++) {
-        if (!o->undo[i].added)
-            continue;
-        int r[2];
-        for (int e = 0; e < 2; e++) {
-            uint32_t x = e ? o->undo[i].u : o->undo[i].t;
-            uint32_t px = o->pid[x], k = 0, lo = 0, hi = o->plen[px];
-            for (int j = 0; j < ncut; j++) {
-                if (cut_pid[j] != px)
-                    continue;
-                if (cut_at[j] < o->pos[x]) {
-                    k++;
-                    if (cut_at[j] + 1 > lo)
-                        lo = cut_at[j] + 1;
-                } else if (cut_at[j] + 1 < hi) {
-                    hi = cut_at[j] + 1;
-                }
-            }
-            int s = 0;
-            while (s < nseg && !(seg_pid[s] == px && seg_k[s] == k))
-                s++;
-            if (s == nseg) {
-                seg_pid[s] = px;
-                seg_k[s] = k;
-                size[s] = hi - lo;
-                parent[s] = s;
-                nseg++;
-            }
-            while (parent[s] != s)
-                s = parent[s];
-            r[e] = s;
-        }
-        if (r[0] == r[1] || size[r[0]] + size[r[1]] > o->max_path)
-            return 0;
-        parent[r[0]] = r[1];
-        size[r[1]] += size[r[0]];
-    }
-    return 1;
-}
-
-/* One end of the path through t; NONE on a cycle (cannot happen: every
- * change passed paths_ok; the read-out reports it rather than loop). */
-static uint32_t path_end(const tun *o, uint32_t t)
-{
-    uint32_t prev = NONE, cur = t;
-    for (uint32_t k = 0; k <= o->n; k++) {
-        uint32_t nx = step(o, prev, cur);
-        if (nx == NONE)
-            return cur;
-        prev = cur;
-        cur = nx;
-    }
-    return NONE;
-}
-
-static void label_path(tun *o, uint32_t t)
-{
-    uint32_t first = path_end(o, t), k = 0;
-    if (first == NONE)
-        return;
-    uint32_t prev = NONE, cur = first;
-    while (cur != NONE) {
-        o->pid[cur] = first;
-        o->pos[cur] = k++;
-        o->lab[cur] = o->lab_stamp;
-        uint32_t nx = step(o, prev, cur);
-        prev = cur;
-        cur = nx;
-    }
-    o->plen[first] = k;
-}
 
 /* ---- the search ---------------------------------------------------------- */
 
@@ -414,8 +127,8 @@ static inline int visited(const tun *o, uint32_t t)
 static void record(tun *o, int d)
 {
     o->best_d = d;
-    o->nbest = o->nundo;
-    memcpy(o->best, o->undo, (size_t)o->nundo * sizeof *o->undo);
+    o->nbest = o->L.nundo;
+    memcpy(o->best, o->L.undo, (size_t)o->L.nundo * sizeof *o->L.undo);
 }
 
 /* Depth-first search of the alternating paths from the end z: dashed edge
@@ -428,43 +141,37 @@ static void record(tun *o, int d)
  * PARTIAL_BOUND are not followed. */
 static void search(tun *o, uint32_t z, int depth, int cum)
 {
+    mts__links *L = &o->L;
     for (unsigned i = 0; i < 3; i++) {
-        uint32_t y = o->nb[3 * (size_t)z + i];
-        if (y == NONE || (o->mask[z] >> i & 1) || visited(o, y))
+        uint32_t y = L->nb[3 * (size_t)z + i];
+        if (y == NONE || (L->mask[z] >> i & 1) || visited(o, y))
             continue;
-        int here = o->nundo;
-        if (nlinks(o, y) < 2) {
-            uint32_t T[2] = {z, y};
-            int before = local_swaps(o, T, 2);
-            op_link(o, z, i);
-            int d = cum + local_swaps(o, T, 2) - before - 3;
-            if (d < o->best_d && paths_ok(o))
+        int here = L->nundo;
+        if (mts__links_count(L, y) < 2) {
+            int d = cum + mts__move_join(L, z, i);
+            if (d < o->best_d && mts__links_paths_ok(L))
                 record(o, d);
-            undo_to(o, here);
+            mts__links_undo_to(L, here);
             continue;
         }
         if (depth == 0)
             continue;
         o->visit[o->nvisit++] = y;
         for (unsigned e = 0; e < 3; e++) {
-            if (!(o->mask[y] >> e & 1))
+            if (!(L->mask[y] >> e & 1))
                 continue;
-            uint32_t yi = o->nb[3 * (size_t)y + e];
+            uint32_t yi = L->nb[3 * (size_t)y + e];
             if (visited(o, yi))
                 continue;
-            uint32_t T[3] = {z, y, yi};
-            int before = local_swaps(o, T, 3);
-            op_unlink(o, y, e);
-            op_link(o, z, i);
-            int d = cum + local_swaps(o, T, 3) - before;
-            if (d < o->best_d && paths_ok(o))
+            int d = cum + mts__move_shift(L, z, i, e);
+            if (d < o->best_d && mts__links_paths_ok(L))
                 record(o, d);
             if (d <= PARTIAL_BOUND) {
                 o->visit[o->nvisit++] = yi;
                 search(o, yi, depth - 1, d);
                 o->nvisit--;
             }
-            undo_to(o, here);
+            mts__links_undo_to(L, here);
         }
         o->nvisit--;
     }
@@ -476,49 +183,26 @@ static void search(tun *o, uint32_t z, int depth, int cum)
 static void accept_best(tun *o)
 {
     for (int i = 0; i < o->nbest; i++)
-        apply_op(o, &o->best[i], 1);
-    if (++o->lab_stamp == 0) {
-        memset(o->lab, 0, (size_t)o->n * sizeof *o->lab);
-        o->lab_stamp = 1;
-    }
-    for (int i = 0; i < o->nbest; i++) {
-        uint32_t ends[2] = {o->best[i].t, o->best[i].u};
-        for (int e = 0; e < 2; e++) {
-            o->touched[ends[e]] = o->pass;
-            for (unsigned k = 0; k < 3; k++) {
-                uint32_t w = o->nb[3 * (size_t)ends[e] + k];
-                if (w != NONE)
-                    o->touched[w] = o->pass;
-            }
-        }
-    }
-    for (int i = 0; i < o->nbest; i++) {
-        if (o->lab[o->best[i].t] != o->lab_stamp)
-            label_path(o, o->best[i].t);
-        if (o->lab[o->best[i].u] != o->lab_stamp)
-            label_path(o, o->best[i].u);
-    }
+        mts__links_apply(&o->L, &o->best[i], 1);
+    mts__links_relabel(&o->L, o->best, o->nbest);
     o->changes++;
 }
 
 static uint32_t improve(tun *o)
 {
-    uint32_t n = o->n, pass;
-    o->lab_stamp = 1;
-    for (uint32_t t = 0; t < n; t++) {
-        if (o->lab[t] != 1)
-            label_path(o, t);
-    }
+    mts__links *L = &o->L;
+    uint32_t n = L->n, pass;
+    mts__links_label_all(L);
     for (pass = 1; pass <= MAX_PASSES; pass++) {
         int changed = 0;
-        o->pass = pass;
+        L->pass = (uint8_t)pass;
         for (uint32_t t = 0; t < n; t++) {
             /* after the first pass, only near the last pass's changes:
              * elsewhere every search would fail again */
-            if (pass > 1 && o->touched[t] + 1 < pass)
+            if (pass > 1 && L->touched[t] + 1u < pass)
                 continue;
-            if (nlinks(o, t) < 2) {
-                o->nundo = 0;
+            if (mts__links_count(L, t) < 2) {
+                L->nundo = 0;
                 o->nvisit = 1;
                 o->visit[0] = t;
                 o->best_d = 0;
@@ -527,7 +211,7 @@ static uint32_t improve(tun *o)
                 if (o->nbest > 0) {
                     accept_best(o);
                     changed = 1;
-                    if (nlinks(o, t) < 2)
+                    if (mts__links_count(L, t) < 2)
                         t--; /* still an end: it may tunnel again */
                 }
                 continue;
@@ -537,16 +221,13 @@ static uint32_t improve(tun *o)
             /* A swap between t and a later neighbour u: cut it (+3 for the
              * new strip, -1 swap, and whatever the new ends lose) and look
              * for a tunnel from either new end that rejoins for less. */
-            uint32_t pt = pivot(o, t);
+            uint32_t pt = mts__links_pivot(L, t);
             for (unsigned e = 0; e < 3; e++) {
-                uint32_t u = o->nb[3 * (size_t)t + e];
-                if (!(o->mask[t] >> e & 1) || u < t || pivot(o, u) != pt)
+                uint32_t u = mts__links_swap_at(L, t, e, pt);
+                if (u == NONE)
                     continue;
-                uint32_t T[2] = {t, u};
-                o->nundo = 0;
-                int before = local_swaps(o, T, 2);
-                op_unlink(o, t, e);
-                int d = local_swaps(o, T, 2) - before + 3;
+                L->nundo = 0;
+                int d = mts__move_cut(L, t, e);
                 o->best_d = 0;
                 o->nbest = 0;
                 o->nvisit = 2;
@@ -554,7 +235,7 @@ static uint32_t improve(tun *o)
                 o->visit[1] = u;
                 search(o, t, o->cut_depth, d);
                 search(o, u, o->cut_depth, d);
-                undo_to(o, 0);
+                mts__links_undo_to(L, 0);
                 if (o->nbest > 0) {
                     accept_best(o);
                     changed = 1;
@@ -585,40 +266,33 @@ static inline uint64_t rnd_next(uint64_t *state)
  * when the walk found no step. */
 static int random_walk(tun *o, uint32_t z, int depth, int cum, uint64_t *rs)
 {
+    mts__links *L = &o->L;
     for (;;) {
         unsigned cand[3], nc = 0;
         for (unsigned i = 0; i < 3; i++) {
-            uint32_t y = o->nb[3 * (size_t)z + i];
-            if (y != NONE && !(o->mask[z] >> i & 1) && !visited(o, y))
+            uint32_t y = L->nb[3 * (size_t)z + i];
+            if (y != NONE && !(L->mask[z] >> i & 1) && !visited(o, y))
                 cand[nc++] = i;
         }
         if (nc == 0)
             return INT32_MIN;
         uint64_t r = rnd_next(rs);
         unsigned i = cand[r % nc];
-        uint32_t y = o->nb[3 * (size_t)z + i];
-        if (nlinks(o, y) < 2) {
-            uint32_t T[2] = {z, y};
-            int before = local_swaps(o, T, 2);
-            op_link(o, z, i);
-            return cum + local_swaps(o, T, 2) - before - 3;
-        }
+        uint32_t y = L->nb[3 * (size_t)z + i];
+        if (mts__links_count(L, y) < 2)
+            return cum + mts__move_join(L, z, i);
         if (depth == 0)
             return INT32_MIN;
         unsigned ce[2], ne = 0;
         for (unsigned e = 0; e < 3; e++) {
-            if ((o->mask[y] >> e & 1) && !visited(o, o->nb[3 * (size_t)y + e]))
+            if ((L->mask[y] >> e & 1) && !visited(o, L->nb[3 * (size_t)y + e]))
                 ce[ne++] = e;
         }
         if (ne == 0)
             return INT32_MIN;
         unsigned e = ce[(r >> 8) % ne];
-        uint32_t yi = o->nb[3 * (size_t)y + e];
-        uint32_t T[3] = {z, y, yi};
-        int before = local_swaps(o, T, 3);
-        op_unlink(o, y, e);
-        op_link(o, z, i);
-        cum += local_swaps(o, T, 3) - before;
+        uint32_t yi = L->nb[3 * (size_t)y + e];
+        cum += mts__move_shift(L, z, i, e);
         o->visit[o->nvisit++] = y;
         o->visit[o->nvisit++] = yi;
         if ((r >> 16) & 1)
@@ -633,11 +307,12 @@ static int random_walk(tun *o, uint32_t z, int depth, int cum, uint64_t *rs)
  * in a local minimum, a walk through slightly worse states gets out of it. */
 static void anneal(tun *o, uint64_t moves, double t0, double t1, int depth)
 {
+    mts__links *L = &o->L;
     uint64_t rs = 0x6d74732d74756eull; /* "mts-tun" */
-    uint32_t n = o->n;
+    uint32_t n = L->n;
     enum { STAGES = 64 };
     uint32_t thresh[8]; /* accept a cost of +d when a 32-bit draw is below thresh[d] */
-    o->pass = 1;
+    L->pass = 1;
     for (int stage = 0; stage < STAGES; stage++) {
         double temp = t0 * pow(t1 / t0, (double)stage / (STAGES - 1));
         for (int d = 0; d < 8; d++)
@@ -648,103 +323,38 @@ static void anneal(tun *o, uint64_t moves, double t0, double t1, int depth)
              * quality, and on a mesh much larger than the CPU caches
              * several times faster (the ids are roughly spatial) */
             uint32_t t = (uint32_t)(k % n);
-            o->nundo = 0;
+            L->nundo = 0;
             o->nvisit = 1;
             o->visit[0] = t;
             int d;
-            if (nlinks(o, t) < 2) {
+            if (mts__links_count(L, t) < 2) {
                 d = random_walk(o, t, depth, 0, &rs);
             } else {
                 unsigned ce[2], ne = 0;
                 for (unsigned e = 0; e < 3; e++) {
-                    if (o->mask[t] >> e & 1)
+                    if (L->mask[t] >> e & 1)
                         ce[ne++] = e;
                 }
                 unsigned e = ce[(r >> 4) & 1];
-                uint32_t u = o->nb[3 * (size_t)t + e];
-
-                uint32_t T[2] = {t, u};
-                int before = local_swaps(o, T, 2);
-                op_unlink(o, t, e);
-                d = local_swaps(o, T, 2) - before + 3;
+                uint32_t u = L->nb[3 * (size_t)t + e];
+                d = mts__move_cut(L, t, e);
                 o->visit[o->nvisit++] = u;
                 if ((r >> 5) & 3) /* mostly: rejoin somewhere */
                     d = random_walk(o, (r >> 7) & 1 ? t : u, depth, d, &rs);
             }
             int ok = d != INT32_MIN &&
                      (d <= 0 || (d < 8 && (uint32_t)(r & 0xffffffffu) < thresh[d])) &&
-                     paths_ok(o);
+                     mts__links_paths_ok(L);
             if (!ok) {
-                undo_to(o, 0);
+                mts__links_undo_to(L, 0);
                 continue;
             }
-            o->nbest = o->nundo;
-            memcpy(o->best, o->undo, (size_t)o->nundo * sizeof *o->undo);
-            undo_to(o, 0);
+            o->nbest = L->nundo;
+            memcpy(o->best, L->undo, (size_t)L->nundo * sizeof *L->undo);
+            mts__links_undo_to(L, 0);
             accept_best(o);
         }
     }
-}
-
-/* ---- encoding ------------------------------------------------------------ */
-
-/* Writes the strip of path[0..m) to out (when not NULL) and returns its
- * length; *swaps gets its swaps. The first triangle is rotated so that the
- * strip leaves it without a swap. Consecutive triangles are neighbours (the
- * links say so); 0 if not (a bug). */
-static uint32_t encode(const tun *o, const uint32_t *path, uint32_t m, uint32_t *out,
-                       uint32_t *swaps)
-{
-    const uint32_t *tri = o->tri;
-    uint32_t t = path[0];
-    *swaps = 0;
-    if (m == 1) {
-        if (out)
-            memcpy(out, tri + 3 * (size_t)t, 3 * sizeof *out);
-        return 3;
-    }
-    unsigned e = 0;
-    while (e < 3 && o->nb[3 * (size_t)t + e] != path[1])
-        e++;
-    if (e == 3)
-        return 0;
-    /* window 0 = (v_e+2, v_e, v_e+1), a rotation of t, leaving by (v_e, v_e+1) */
-    unsigned lq = e, lr = (e + 1) % 3;
-    if (out) {
-        out[0] = tri[3 * (size_t)t + (e + 2) % 3];
-        out[1] = tri[3 * (size_t)t + lq];
-        out[2] = tri[3 * (size_t)t + lr];
-    }
-    uint32_t len = 3;
-    for (uint32_t k = 1; k < m; k++) {
-        uint32_t u = path[k];
-        unsigned lp = 3 - lq - lr, la;
-        if (o->nb[3 * (size_t)t + edge_of(lq, lr)] == u) {
-            la = lq;
-        } else if (o->nb[3 * (size_t)t + edge_of(lp, lr)] == u) {
-            /* "... p q r" becomes "... p q p r": (q p r) at the next parity
-             * is still t, and (p r x) is u */
-            la = lp;
-            if (out) {
-                out[len] = out[len - 1];
-                out[len - 1] = tri[3 * (size_t)t + lp];
-            }
-            len++;
-            (*swaps)++;
-        } else {
-            return 0;
-        }
-        uint32_t va = tri[3 * (size_t)t + la], vr = tri[3 * (size_t)t + lr];
-        unsigned ur = local_of(o, u, vr), ua = local_of(o, u, va);
-        unsigned ux = 3 - ur - ua;
-        if (out)
-            out[len] = tri[3 * (size_t)u + ux];
-        len++;
-        t = u;
-        lq = ur;
-        lr = ux;
-    }
-    return len;
 }
 
 /* ---- cache order --------------------------------------------------------- */
@@ -813,7 +423,7 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
     static const mts_tunnel_options defaults = {0};
     mts_result rc = MTS_OK;
     tun o = {0};
-    uint32_t *prev = NULL, *order = NULL, *starts = NULL, *rev = NULL, *buf = NULL;
+    uint32_t *tri = NULL, *nb = NULL, *prev = NULL, *order = NULL, *starts = NULL, *rev = NULL, *buf = NULL;
     uint32_t *vstart = NULL, *vpaths = NULL, *vlast = NULL, *cand = NULL, *savev = NULL;
     uint32_t *emit = NULL;
     uint8_t *used = NULL, *emit_dir = NULL;
@@ -845,31 +455,33 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
     int length = opts->length == 0 ? MTS_TUNNEL_DEFAULT_LENGTH : opts->length;
     if (length > MTS_TUNNEL_MAX_LENGTH)
         length = MTS_TUNNEL_MAX_LENGTH;
-    o.max_path = opts->max_strip ? opts->max_strip : MTS_STRIPIFY_MAX_STRIP;
+    o.L.max_path = opts->max_strip ? opts->max_strip : MTS_STRIPIFY_MAX_STRIP;
     uint32_t csize = opts->cache_size ? opts->cache_size : DEFAULT_CACHE;
     int effort = opts->anneal == 0 ? DEFAULT_ANNEAL : opts->anneal;
 
     /* The drawn triangles, numbered in drawing order, and which one each
      * follows in its strip. */
-    o.n = n;
-    o.tri = malloc((size_t)n * 3 * sizeof *o.tri + 1);
-    o.nb = malloc((size_t)n * 3 * sizeof *o.nb + 1);
-    o.mask = calloc((size_t)n + 1, 1);
+    tri = malloc((size_t)n * 3 * sizeof *tri + 1);
+    nb = malloc((size_t)n * 3 * sizeof *nb + 1);
+    o.L.n = n;
+    o.L.tri = tri;
+    o.L.nb = nb;
+    o.L.mask = calloc((size_t)n + 1, 1);
     prev = malloc((size_t)n * sizeof *prev + 1);
-    if (!o.tri || !o.nb || !o.mask || !prev)
+    if (!tri || !nb || !o.L.mask || !prev)
         goto nomem;
     uint32_t t = 0;
     for (uint32_t s = 0; s < in->strip_count; s++) {
         const uint32_t *p = in->indices + in->offsets[s];
         uint32_t len = in->offsets[s + 1] - in->offsets[s], last = NONE;
         for (uint32_t w = 0; w + 2 < len; w++) {
-            if (!mts_strip_window(p, w, o.tri + 3 * (size_t)t))
+            if (!mts_strip_window(p, w, tri + 3 * (size_t)t))
                 continue;
             prev[t] = last;
             last = t++;
         }
     }
-    rc = build_adjacency(&o, vertex_count, err);
+    rc = mts__links_adjacency(tri, n, vertex_count, nb, "tunnel", err);
     if (rc != MTS_OK)
         goto cleanup;
     /* Links from the input: consecutive drawn triangles of a strip that are
@@ -879,14 +491,10 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
         for (t = 0; t < n; t++) {
             uint32_t p = prev[t];
             unsigned e = 3;
-            if (p != NONE && run < o.max_path && nlinks(&o, p) < 2) {
-                e = 0;
-                while (e < 3 && (o.nb[3 * (size_t)p + e] != t || (o.mask[p] >> e & 1)))
-                    e++;
-            }
+            if (p != NONE && run < o.L.max_path && mts__links_count(&o.L, p) < 2)
+                e = mts__links_free_edge(&o.L, p, t);
             if (e < 3) {
-                o.mask[p] |= (uint8_t)(1u << e);
-                o.mask[t] |= (uint8_t)(1u << twin_edge(&o, p, e));
+                mts__links_set(&o.L, p, e);
                 run++;
             } else {
                 run = 1;
@@ -897,18 +505,18 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
     if (length >= 1 && n > 0) {
         o.depth = (length - 1) / 2;
         o.cut_depth = o.depth;
-        o.pid = malloc((size_t)n * sizeof *o.pid);
-        o.pos = malloc((size_t)n * sizeof *o.pos);
-        o.plen = malloc((size_t)n * sizeof *o.plen);
-        o.lab = calloc(n, sizeof *o.lab);
-        o.touched = calloc(n, sizeof *o.touched);
-        if (!o.pid || !o.pos || !o.plen || !o.lab || !o.touched)
+        o.L.pid = malloc((size_t)n * sizeof *o.L.pid);
+        o.L.pos = malloc((size_t)n * sizeof *o.L.pos);
+        o.L.plen = malloc((size_t)n * sizeof *o.L.plen);
+        o.L.lab = calloc(n, sizeof *o.L.lab);
+        o.L.touched = calloc(n, sizeof *o.L.touched);
+        if (!o.L.pid || !o.L.pos || !o.L.plen || !o.L.lab || !o.L.touched)
             goto nomem;
         st.passes = improve(&o);
         if (effort > 0) {
             anneal(&o, (uint64_t)effort * n, ANNEAL_T0, ANNEAL_T1, o.depth);
             /* and down to a local minimum again, exhaustively */
-            memset(o.touched, 0, (size_t)n * sizeof *o.touched);
+            memset(o.L.touched, 0, (size_t)n * sizeof *o.L.touched);
             st.passes += improve(&o);
         }
         st.changes = o.changes;
@@ -925,7 +533,7 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
     for (t = 0; t < n; t++) {
         if (used[t])
             continue;
-        uint32_t e0 = path_end(&o, t);
+        uint32_t e0 = mts__links_path_end(&o.L, t);
         if (e0 == NONE) {
             rc = mts_error_set(err, MTS_ERR_INTERNAL, "tunnel: triangle %u is on a cycle", t);
             goto cleanup;
@@ -933,14 +541,14 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
         uint32_t pv = NONE, cur = e0, run = 0;
         starts[paths++] = placed;
         while (cur != NONE && placed < n) {
-            if (run == o.max_path) {
+            if (run == o.L.max_path) {
                 starts[paths++] = placed;
                 run = 0;
             }
             used[cur] = 1;
             order[placed++] = cur;
             run++;
-            uint32_t nx = step(&o, pv, cur);
+            uint32_t nx = mts__links_step(&o.L, pv, cur);
             pv = cur;
             cur = nx;
         }
@@ -954,7 +562,7 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
 
     /* Both directions of every path, encoded. */
     encs = calloc((size_t)paths + 1, sizeof *encs);
-    rev = malloc((size_t)o.max_path * sizeof *rev + 1);
+    rev = malloc((size_t)o.L.max_path * sizeof *rev + 1);
     if (!encs || !rev)
         goto nomem;
     uint64_t total = 0;
@@ -962,8 +570,8 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
         uint32_t m = starts[p + 1] - starts[p], sw;
         for (uint32_t k = 0; k < m; k++)
             rev[k] = order[starts[p] + m - 1 - k];
-        encs[p].len[0] = encode(&o, order + starts[p], m, NULL, &sw);
-        encs[p].len[1] = encode(&o, rev, m, NULL, &sw);
+        encs[p].len[0] = mts__links_encode(tri, nb, order + starts[p], m, NULL, &sw);
+        encs[p].len[1] = mts__links_encode(tri, nb, rev, m, NULL, &sw);
         if (encs[p].len[0] == 0 || encs[p].len[1] == 0) {
             rc = mts_error_set(err, MTS_ERR_INTERNAL, "tunnel: path %u is broken", p);
             goto cleanup;
@@ -988,8 +596,8 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
         uint32_t m = starts[p + 1] - starts[p], sw;
         for (uint32_t k = 0; k < m; k++)
             rev[k] = order[starts[p] + m - 1 - k];
-        encode(&o, order + starts[p], m, buf + encs[p].at[0], &sw);
-        encode(&o, rev, m, buf + encs[p].at[1], &sw);
+        mts__links_encode(tri, nb, order + starts[p], m, buf + encs[p].at[0], &sw);
+        mts__links_encode(tri, nb, rev, m, buf + encs[p].at[1], &sw);
     }
 
     /* The order: greedy for the cache (see the top of the file). */
@@ -1013,8 +621,8 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
         f.stamp = calloc((size_t)vertex_count + 1, sizeof *f.stamp);
         f.ring = calloc(csize, sizeof *f.ring);
         cand = malloc((size_t)paths * sizeof *cand + 1);
-        save = malloc(((size_t)o.max_path * 2 + 3) * sizeof *save);
-        savev = malloc(((size_t)o.max_path * 2 + 3) * sizeof *savev);
+        save = malloc(((size_t)o.L.max_path * 2 + 3) * sizeof *save);
+        savev = malloc(((size_t)o.L.max_path * 2 + 3) * sizeof *savev);
         if (!vstart || !vlast || !f.stamp || !f.ring || !cand || !save || !savev)
             goto nomem;
         for (uint32_t v = 0; v < vertex_count; v++)
@@ -1112,7 +720,7 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
             mts_strip_stats one = {0};
             mts_strip_stats_add(&one, in->indices + in->offsets[s],
                                 in->offsets[s + 1] - in->offsets[s]);
-            over = one.triangles > o.max_path;
+            over = one.triangles > o.L.max_path;
         }
         if (!over) {
             rc = mts_strips_alloc(out, in->strip_count, in->index_count, err);
@@ -1152,14 +760,14 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
 nomem:
     rc = mts_error_set(err, MTS_ERR_NOMEM, "tunnel: out of memory for %u triangles", n);
 cleanup:
-    free(o.tri);
-    free(o.nb);
-    free(o.mask);
-    free(o.pid);
-    free(o.pos);
-    free(o.plen);
-    free(o.lab);
-    free(o.touched);
+    free(tri);
+    free(nb);
+    free(o.L.mask);
+    free(o.L.pid);
+    free(o.L.pos);
+    free(o.L.plen);
+    free(o.L.lab);
+    free(o.L.touched);
     free(prev);
     free(order);
     free(starts);
