@@ -17,6 +17,7 @@
 #include "mesh.h"
 #include "stream.h"
 #include "test.h"
+#include "test_proc.h"
 
 static char bin_dir[512], tmp_dir[512];
 
@@ -254,9 +255,7 @@ static void test_pngs_at_three_levels(mts_test *t)
 int main(int argc, char **argv)
 {
     (void)argc;
-    char self[400];
-    snprintf(self, sizeof self, "%s", argv[0]);
-    snprintf(bin_dir, sizeof bin_dir, "%s/../bin", dirname(self));
+    mts_test_bin_dir(argv[0], bin_dir, sizeof bin_dir);
     snprintf(tmp_dir, sizeof tmp_dir, "%s", mts_test_tmpdir());
     signal(SIGPIPE, SIG_IGN);
     mts_test t = {0};

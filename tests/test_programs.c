@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 
 #include "test.h"
+#include "test_proc.h"
 
 static char bin_dir[512];
 static char tmp_dir[512];
@@ -134,9 +135,7 @@ static void test_build_inspect_verify(mts_test *t)
 int main(int argc, char **argv)
 {
     (void)argc;
-    char self[400];
-    snprintf(self, sizeof self, "%s", argv[0]);
-    snprintf(bin_dir, sizeof bin_dir, "%s/../bin", dirname(self));
+    mts_test_bin_dir(argv[0], bin_dir, sizeof bin_dir);
     snprintf(tmp_dir, sizeof tmp_dir, "%s", mts_test_tmpdir());
     mts_test t = {0};
     RUN(&t, test_help_and_usage);

@@ -26,6 +26,7 @@
 #include <unistd.h>
 
 #include "test.h"
+#include "test_proc.h"
 
 #if defined(__SANITIZE_ADDRESS__)
 #define MTS_ASAN 1
@@ -465,9 +466,7 @@ static void test_docker_files_lint(mts_test *t)
 int main(int argc, char **argv)
 {
     (void)argc;
-    char self[400];
-    snprintf(self, sizeof self, "%s", argv[0]);
-    snprintf(bin_dir, sizeof bin_dir, "%s/../bin", dirname(self));
+    mts_test_bin_dir(argv[0], bin_dir, sizeof bin_dir);
     snprintf(tmp_dir, sizeof tmp_dir, "%s", mts_test_tmpdir());
     signal(SIGPIPE, SIG_IGN);
     /* 1,000 clients hold 1,000 descriptors in mts-stress, 2,000 in nginx
