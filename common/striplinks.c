@@ -202,6 +202,8 @@ static void label_path(mts__links *L, uint32_t t)
         cur = nx;
     }
     L->plen[first] = k;
+    if (L->pend)
+        L->pend[first] = prev;
 }
 
 void mts__links_label_all(mts__links *L)

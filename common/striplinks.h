@@ -21,6 +21,8 @@
  * swaps indices, a swap sitting where two consecutive triangles turn around
  * the same vertex (their "pivot"); a cover with S paths and W swaps costs
  * T + 3 S + W - 1 with the restarts. The moves return their change of 3 S + W.
+ * (A path whose two ends both need a swap at the start, mts__links_bad_end,
+ * costs one more; the moves leave that out, tunnel.c adds it.)
  *
  * The small, hot helpers are static inline here so that each search inlines
  * them as it did when they were its own; the rest is in striplinks.c. */
@@ -57,6 +59,7 @@ typedef struct mts__links {
      * pos[t] on it, and plen[pid] is its length. lab[t] == lab_stamp:
      * labelled since the last accepted change. */
     uint32_t *pid, *pos, *plen, *lab;
+    uint32_t *pend; /* pend[pid]: the path's other end; NULL: not kept */
     uint32_t lab_stamp;
     uint32_t max_path; /* most triangles in one path */
     uint8_t *touched;  /* the last pass that changed links near the triangle */
@@ -293,6 +296,23 @@ static inline int mts__links_paths_ok(const mts__links *L)
         size[r[1]] += size[r[0]];
     }
     return 1;
+}
+
+/* ---- the start of a strip ------------------------------------------------ */
+
+/* 1 when a strip read from the end t (one link, to u) needs a swap at u: a
+ * strip starts at even parity, so t is drawn (v_e+2, v_e, v_e+1) with e
+ * its linked edge, and u goes on without a swap only when it turns around
+ * v_e+1. A path with both ends bad costs one swap more than its pivots say
+ * (about a quarter of the strips, unsteered). */
+static inline int mts__links_bad_end(const mts__links *L, uint32_t t)
+{
+    uint8_t m = L->mask[t];
+    if (m != 1 && m != 2 && m != 4)
+        return 0;
+    unsigned e = m >> 1 & 3u; /* 1, 2, 4 -> 0, 1, 2 */
+    uint32_t u = L->nb[3 * (size_t)t + e];
+    return mts__links_pivot(L, u) == L->tri[3 * (size_t)t + e];
 }
 
 /* ---- the moves, logged, each returning its change of 3 S + W ------------- */

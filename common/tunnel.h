@@ -2,8 +2,9 @@
  * dual graph of the triangles they draw. An alternating tunnel from a strip
  * end (non-strip edge, strip edge, ..., non-strip edge) is complemented when
  * that makes the strips cheaper (fewer strips, fewer swaps) without closing
- * a loop or making a strip longer than the cap; the strips are then ordered,
- * and each read in the direction, that suits a FIFO vertex cache.
+ * a loop or making a strip longer than the cap (a swap the start of a strip
+ * needs counts like any other); the strips are then ordered, and each read
+ * in the direction, that suits a FIFO vertex cache.
  * Strips are generalized (swaps, see strips.h). Deterministic for the same
  * input and options. */
 #ifndef MTS_TUNNEL_H
@@ -32,7 +33,7 @@ typedef struct mts_tunnel_options {
                           * order of the input */
     int anneal;          /* simulated-annealing moves per triangle after the
                           * exhaustive search (then searched again); 0: the
-                          * default (64); < 0: none */
+                          * default (96); < 0: none */
 } mts_tunnel_options;
 
 /* Figures before (the input) and after, counted the way the benchmarks count:
