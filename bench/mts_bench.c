@@ -156,6 +156,9 @@ typedef struct model_result {
     double list_acmr16_analyzer;     /* meshopt_analyzeVertexCache, to check our FIFO */
 
     level_row level[LEVEL_ROWS];
+    /* over every level, from the model's level table */
+    uint32_t worst_level, key_levels, worst_triangles, worst_strips;
+    double worst_ipt, worst_degenerate_share;
 
     double sweep_ms, up_ms, down_ms; /* medians */
     int sweep_reps;
@@ -244,6 +247,7 @@ static int bench_build(model_result *r, const bench_options *o, mts_mesh *mesh,
         t[6][i] = rep.seconds_tunnel;
         r->stripify = rep.stripify;
         r->tunnel_length = rep.tunnel_length;
+        r->key_levels = rep.records.key_levels;
         r->file_bytes = size;
     }
     r->runs = o->runs;
@@ -409,6 +413,25 @@ static int bench_levels(model_result *r, const mts_model *model)
         fail(r, "lod init", &err);
         fifo_free(&c16);
         return 0;
+    }
+    /* The worst level of all, where a client drawing it pays most per
+     * triangle: every strip's indices plus one restart between strips;
+     * degenerate windows = indices - 2 per strip - drawn triangles. */
+    r->worst_ipt = 0;
+    for (uint32_t l = 0; l <= model->level_count; l++) {
+        uint32_t tris = model->level_triangles[l], strips = model->level_strips[l];
+        uint64_t idx = model->level_indices[l];
+        if (!tris || !strips)
+            continue;
+        double ipt = (double)(idx + strips - 1) / tris;
+        if (ipt > r->worst_ipt) {
+            r->worst_ipt = ipt;
+            r->worst_level = l;
+            r->worst_triangles = tris;
+            r->worst_strips = strips;
+            r->worst_degenerate_share =
+                ratio(idx - 2 * (uint64_t)strips - tris, idx - 2 * (uint64_t)strips);
+        }
     }
     int ok = 1;
     for (size_t i = 0; i < LEVEL_ROWS && ok; i++) {
@@ -691,6 +714,10 @@ static void print_tables(const model_result *res, int count, const bench_options
                    (unsigned long long)l->stats.triangles, l->stats.strips,
                    l->indices_per_triangle, l->degenerate_share * 100, l->acmr16, note);
         }
+        printf("%-14s %7s %8u %9u %9u %7u %13.3f %8.2f %8s  worst of all %u levels (%u key)\n",
+               "", "worst", r->worst_level, r->base_vertices + r->worst_level,
+               r->worst_triangles, r->worst_strips, r->worst_ipt, r->worst_degenerate_share * 100, "-", r->levels + 1,
+               r->key_levels);
     }
 
     printf("\nRuntime: sweep base -> full -> base (median of %d) and memory against the "
@@ -815,6 +842,13 @@ static void json_model(cli_json *j, const model_result *r)
     cli_json_object_end(j);
     cli_json_object_end(j);
 
+    cli_json_object_begin(j, "worst_level");
+    cli_json_u64(j, "level", r->worst_level);
+    cli_json_u64(j, "levels", (uint64_t)r->levels + 1);
+    cli_json_u64(j, "key_levels", r->key_levels);
+    cli_json_num(j, "indices_per_drawn_triangle", r->worst_ipt, 4);
+    cli_json_num(j, "degenerate_share", r->worst_degenerate_share, 4);
+    cli_json_object_end(j);
     cli_json_object_begin(j, "levels_by_fraction");
     for (size_t k = 0; k < LEVEL_ROWS; k++) {
         const level_row *l = &r->level[k];

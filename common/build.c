@@ -73,7 +73,9 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
         goto done;
     double t2 = seconds_now();
 
-    rc = mts_lodbuild(mesh, &strips, &simp, &opts->progress, model, &report->records, err);
+    mts_lodbuild_options lo = {0};
+    lo.key_ratio = opts->key_ratio;
+    rc = mts_lodbuild(mesh, &strips, &simp, &lo, &opts->progress, model, &report->records, err);
     if (rc != MTS_OK)
         goto done;
     /* The same checks a loaded model passes (under 1% of the build): a

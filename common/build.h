@@ -20,6 +20,8 @@ typedef struct mts_build_options {
     int tunnel_length;      /* longest tunnel (tunnel.h) run on the full strips:
                              * 0: MTS_TUNNEL_DEFAULT_LENGTH; < 0: no tunnelling
                              * pass (nor its cache order) */
+    double key_ratio;       /* key levels (lodbuild.h): 0: the default; < 0: only
+                             * the base and the full level */
     mts_progress progress;
 } mts_build_options;
 

@@ -12,9 +12,11 @@ static void lod_mark(mts_lod *lod, uint32_t s)
 }
 
 /* Records are laid out for the split; a collapse walks them backwards, so it
- * first notes where each edit of the record and each insert of the edit being
- * undone starts. Edits take 3 words and inserts 2 at least, so a record of w
- * words needs at most w / 2 + 1 entries. */
+ * first notes where each edit of the record starts, then where each erase
+ * and each insert of the edit being undone starts. An edit takes 4 words at
+ * least (strip and three counts) and an erase or insert run 2 (position,
+ * length), so for a record of w words 4 E + 2 (R + I) <= w - 1 and the
+ * E + R + I entries never pass w / 2 + 1. */
 static int lod_reserve_scratch(mts_lod *lod, uint32_t record_words)
 {
     uint32_t need = record_words / 2 + 1;
@@ -40,27 +42,39 @@ mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start star
     uint32_t n = model->strip_count;
     if (model->full.strip_count != n || model->base.strip_count != n)
         return mts_error_set(err, MTS_ERR_INTERNAL, "lod: strip sets disagree on the strip count");
+    if (n > 0 && !model->capacity)
+        return mts_error_set(err, MTS_ERR_INTERNAL, "lod: the model has no strip capacities");
+    /* slot offsets are 32-bit: the slots together must fit them */
+    uint64_t total = 0;
+    for (uint32_t s = 0; s < n; s++)
+        total += model->capacity[s];
+    if (total >= UINT32_MAX)
+        return mts_error_set(err, MTS_ERR_LIMIT, "lod: strip capacities add up to %llu indices",
+                             (unsigned long long)total);
     lod->model = model;
     lod->strip_count = n;
     lod->available = model->level_count;
     lod->level = start == MTS_LOD_AT_FULL ? model->level_count : 0;
     lod->slot = malloc(((size_t)n + 1) * sizeof *lod->slot);
     lod->length = malloc(((size_t)n + 1) * sizeof *lod->length);
-    lod->data = malloc(((size_t)model->full.index_count + 1) * sizeof *lod->data);
+    lod->data = malloc(((size_t)total + 1) * sizeof *lod->data);
     lod->changed = calloc((size_t)n + 1, 1);
     lod->changed_list = malloc(((size_t)n + 1) * sizeof *lod->changed_list);
     if (!lod->slot || !lod->length || !lod->data || !lod->changed || !lod->changed_list) {
         mts_lod_free(lod);
         return mts_error_set(err, MTS_ERR_NOMEM, "lod: out of memory for %u strips", n);
     }
-    memcpy(lod->slot, model->full.offsets, ((size_t)n + 1) * sizeof *lod->slot);
+    lod->slot[0] = 0;
+    for (uint32_t s = 0; s < n; s++)
+        lod->slot[s + 1] = lod->slot[s] + model->capacity[s];
     for (uint32_t s = 0; s < n; s++) {
         uint32_t len = from->offsets[s + 1] - from->offsets[s];
-        if (len > lod->slot[s + 1] - lod->slot[s]) {
+        if (len > model->capacity[s]) {
             mts_lod_free(lod);
             return mts_error_set(err, MTS_ERR_RANGE,
-                                 "lod: base strip %u is longer (%u) than at the full level (%u)", s,
-                                 len, lod->slot[s + 1] - lod->slot[s]);
+                                 "lod: %s strip %u is longer (%u) than its capacity (%u)",
+                                 start == MTS_LOD_AT_FULL ? "full" : "base", s, len,
+                                 model->capacity[s]);
         }
         lod->length[s] = len;
         memcpy(lod->data + lod->slot[s], from->indices + from->offsets[s], (size_t)len * 4);
@@ -106,7 +120,7 @@ void mts_lod_clear_changed(mts_lod *lod)
 uint64_t mts_lod_memory_bytes(const mts_lod *lod)
 {
     uint64_t n = lod->strip_count + 1;
-    return n * (4 + 4 + 1 + 4) + (uint64_t)lod->model->full.index_count * 4 +
+    return n * (4 + 4 + 1 + 4) + (uint64_t)lod->slot[lod->strip_count] * 4 +
            (uint64_t)lod->scratch_size * sizeof *lod->scratch;
 }
 
@@ -139,23 +153,48 @@ mts_result mts_lod_split(mts_lod *lod, mts_error *err)
         SPLIT_FAIL("split %u: empty record", j);
     uint32_t edits = *p++;
     for (uint32_t e = 0; e < edits; e++) {
-        if (end - p < 3)
+        if (end - p < 4)
             SPLIT_FAIL("split %u: record ends inside edit %u", j, e);
-        uint32_t s = p[0], inserts = p[1], substs = p[2];
-        p += 3;
+        uint32_t s = p[0], erases = p[1], inserts = p[2], substs = p[3];
+        p += 4;
         if (s >= lod->strip_count)
             SPLIT_FAIL("split %u: strip %u out of range (%u strips)", j, s, lod->strip_count);
         uint32_t *str = lod->data + lod->slot[s];
         uint32_t cap = lod->slot[s + 1] - lod->slot[s];
         uint32_t len = lod->length[s];
+        /* Erased runs are kept in the record so the collapse can put them
+         * back: they must be what the strip holds, or the collapse would
+         * restore other indices than the split removed. */
+        for (uint32_t k = 0; k < erases; k++) {
+            if (end - p < 2)
+                SPLIT_FAIL("split %u: record ends inside an erase from strip %u", j, s);
+            uint32_t pos = p[0], run = p[1];
+            p += 2;
+            if (pos > len || run > len - pos)
+                SPLIT_FAIL("split %u: erase of %u at %u does not fit strip %u (length %u)", j,
+                           run, pos, s, len);
+            if ((uint32_t)(end - p) < run)
+                SPLIT_FAIL("split %u: record ends inside an erase from strip %u", j, s);
+            for (uint32_t r = 0; r < run; r++) {
+                if (str[pos + r] != p[r])
+                    SPLIT_FAIL("split %u: strip %u position %u holds %u, the record erases %u", j,
+                               s, pos + r, str[pos + r], p[r]);
+            }
+            memmove(str + pos, str + pos + run, (size_t)(len - pos - run) * 4);
+            len -= run;
+            p += run;
+        }
         for (uint32_t k = 0; k < inserts; k++) {
             if (end - p < 2)
                 SPLIT_FAIL("split %u: record ends inside an insert into strip %u", j, s);
             uint32_t pos = p[0], run = p[1];
             p += 2;
-            if (pos > len || run > cap - len || (uint32_t)(end - p) < run)
-                SPLIT_FAIL("split %u: insert of %u at %u does not fit strip %u (length %u of %u)",
+            if (pos > len || run > cap - len)
+                SPLIT_FAIL("split %u: insert of %u at %u does not fit strip %u (length %u of "
+                           "capacity %u)",
                            j, run, pos, s, len, cap);
+            if ((uint32_t)(end - p) < run)
+                SPLIT_FAIL("split %u: record ends inside an insert into strip %u", j, s);
             for (uint32_t r = 0; r < run; r++) {
                 if (p[r] >= v)
                     SPLIT_FAIL("split %u: strip %u gets vertex %u, not yet split (%u exist)", j, s,
@@ -195,36 +234,47 @@ void mts_lod_collapse(mts_lod *lod)
     const uint32_t u = m->parents[j];
     /* Undo the edits last to first: two edits may name the same strip, and
      * then the later one's positions are in the strip as the earlier one
-     * left it. The record was checked when it was split (or by
-     * mts_model_validate), and mts_lod_init or that split reserved the
-     * scratch, so this walk cannot fail. */
+     * left it. Within an edit likewise: positions back to u, the inserted
+     * runs out last to first, then the erased runs back in last to first,
+     * each at the position it had when the split took it out. The record
+     * was checked when it was split (or by mts_model_validate), so every
+     * length stays within the slot (the split passed through the same
+     * lengths), and mts_lod_init or that split reserved the scratch, so
+     * this walk cannot fail. */
     const uint32_t **edit_at = lod->scratch;
     uint32_t edits = *p++;
     for (uint32_t e = 0; e < edits; e++) {
         edit_at[e] = p;
-        uint32_t inserts = p[1], substs = p[2];
-        p += 3;
-        for (uint32_t k = 0; k < inserts; k++)
+        uint32_t runs = p[1] + p[2], substs = p[3];
+        p += 4;
+        for (uint32_t k = 0; k < runs; k++)
             p += 2 + p[1];
         p += substs;
     }
-    const uint32_t **insert_at = lod->scratch + edits;
     for (uint32_t e = edits; e-- > 0;) {
         const uint32_t *q = edit_at[e];
-        uint32_t s = q[0], inserts = q[1], substs = q[2];
-        q += 3;
-        for (uint32_t k = 0; k < inserts; k++) {
-            insert_at[k] = q;
+        uint32_t s = q[0], erases = q[1], inserts = q[2], substs = q[3];
+        q += 4;
+        /* erase runs, then insert runs, in record order */
+        const uint32_t **run_at = lod->scratch + edits;
+        for (uint32_t k = 0; k < erases + inserts; k++) {
+            run_at[k] = q;
             q += 2 + q[1];
         }
         uint32_t *str = lod->data + lod->slot[s];
         uint32_t len = lod->length[s];
         for (uint32_t k = 0; k < substs; k++)
             str[q[k]] = u;
-        for (uint32_t k = inserts; k-- > 0;) {
-            uint32_t pos = insert_at[k][0], run = insert_at[k][1];
+        for (uint32_t k = erases + inserts; k-- > erases;) {
+            uint32_t pos = run_at[k][0], run = run_at[k][1];
             memmove(str + pos, str + pos + run, (size_t)(len - pos - run) * 4);
             len -= run;
+        }
+        for (uint32_t k = erases; k-- > 0;) {
+            uint32_t pos = run_at[k][0], run = run_at[k][1];
+            memmove(str + pos + run, str + pos, (size_t)(len - pos) * 4);
+            memcpy(str + pos, run_at[k] + 2, (size_t)run * 4);
+            len += run;
         }
         lod->length[s] = len;
         lod_mark(lod, s);

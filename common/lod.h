@@ -3,9 +3,10 @@
  * strips a record names and remembering which changed so a renderer can
  * re-upload just those (paper 001, algorithms 1 and 3).
  *
- * Each strip owns a fixed slot as long as its full-level length, and
- * mts_lod_init reserves the scratch for the longest record, so no move
- * allocates. Splits are checked as they are applied, so a runtime can
+ * Each strip owns a fixed slot as long as its capacity (model->capacity: the
+ * longest it is at any level; strip lengths are not monotone in the level,
+ * so the full level's lengths will not do), and mts_lod_init reserves the
+ * scratch for the longest record, so no move allocates. Splits are checked as they are applied, so a runtime can
  * follow records arriving from a socket: a record that does not fit the
  * current strips is an error naming the record and strip, and leaves the
  * runtime broken (every later move fails) since the record may have been
@@ -27,7 +28,8 @@ typedef struct mts_lod {
     /* levels up to here may be used: records of splits < available are present */
     uint32_t available;
     uint32_t strip_count;
-    uint32_t *slot;   /* strip s lives at data + slot[s], capacity slot[s+1]-slot[s] */
+    uint32_t *slot;   /* strip s lives at data + slot[s], capacity slot[s+1]-slot[s]
+                         (== model->capacity[s]); slot[strip_count] is the data size */
     uint32_t *length; /* current length of each strip */
     uint32_t *data;
     uint8_t *changed; /* per strip: changed since mts_lod_clear_changed */
@@ -44,8 +46,10 @@ typedef enum mts_lod_start {
     MTS_LOD_AT_FULL = 1 /* needs all records, validated (see above) */
 } mts_lod_start;
 
-/* model->base (or ->full) is copied into the slots; model must outlive lod.
- * All strips start marked changed (a renderer uploads everything once). */
+/* Slots are laid out from model->capacity (which must be there when the model
+ * has strips) and model->base (or ->full) is copied into them, each strip
+ * checked to fit its slot; model must outlive lod. All strips start marked
+ * changed (a renderer uploads everything once). */
 mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start start, mts_error *err);
 void mts_lod_free(mts_lod *lod);
 
@@ -60,7 +64,10 @@ static inline void mts_lod_set_available(mts_lod *lod, uint32_t available)
     lod->available = available < lod->model->level_count ? available : lod->model->level_count;
 }
 
-/* One split (level -> level + 1), checked; one collapse (level -> level - 1). */
+/* One split (level -> level + 1), checked: every erased run must be inside
+ * its strip and hold exactly the indices the record lists, every inserted run
+ * must fit the slot's capacity, every substituted position must hold the
+ * parent. One collapse (level -> level - 1), its exact inverse, unchecked. */
 mts_result mts_lod_split(mts_lod *lod, mts_error *err);
 void mts_lod_collapse(mts_lod *lod);
 

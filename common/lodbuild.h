@@ -1,18 +1,30 @@
-/* LOD builder: replays a collapse sequence over the full-resolution strips
- * and records, for every collapse, which strips change, where the removed
- * vertex becomes the kept one, and which runs of indices it leaves
- * degenerate and removes -- in the hStrips/LodStrips style of paper 001
- * (Ramos, Gumbau, Chover, "An efficient approach to render 3D meshes by
- * managing multiresolution triangle strips"), stored inverted as splits in
- * stream order (see model.h).
+/* LOD builder: turns a collapse sequence and the full-resolution strips into
+ * the per-split strip records of a model (see model.h), building the strips
+ * from the base upward.
  *
- * Run removal keeps every triangle and its winding (DESIGN.md invariant 1): a
- * run is removed only when the strip's oriented non-degenerate triangles are
- * the same multiset before and after, which an exact local test decides
- * (the windows the run touches against the windows that span the join, and
- * no parity flip of non-degenerate triangles after it). Paper 001's aa(a)+ and
- * ab(ab)+ patterns are special cases; its aaa -> aa would flip the winding of
- * the rest of the strip, so it is not done. */
+ * Replaying collapses downward over the full-level strips (paper 001's
+ * hStrips) leaves them fragmented and full of degenerate triangles as the
+ * mesh coarsens: 1.8 indices per drawn triangle at half the vertices and 4
+ * at the base on bunny00. Upward, a split only ever opens the two edges it
+ * brings back triangles on, and a strip that crossed such an edge still runs
+ * on through the new triangle: each new triangle is inserted into the strip
+ * that crossed its edge, appended to a strip that ends next to it (joining
+ * two strips when it sits between two ends), or starts a strip of its own.
+ * Strips so grown stay long, but every inserted triangle usually costs a
+ * swap, so at key levels -- where the triangle count has grown by the key
+ * ratio since the last -- the mesh is stripified afresh (the greedy
+ * stripifier; at the base also tunnelling, and at the full level the
+ * caller's strips, typically tunnelled). A key level is a record like any
+ * other: it erases the old strips and inserts the new ones, so the same
+ * records still move both ways and a client needs no stripifier.
+ *
+ * A strip is kept as a path of triangles on the dual graph; its indices are
+ * derived from the path alone (the first triangle's third vertex and the
+ * edge it shares with the second, then one index per triangle, plus a swap
+ * where the path turns the same way twice), and a split's record for a slot
+ * is the smallest erase + insert that turns the old indices into the new,
+ * with the new vertex brought in by substitution (so inserted runs only name
+ * vertices that exist before the split). */
 #ifndef MTS_LODBUILD_H
 #define MTS_LODBUILD_H
 
@@ -25,19 +37,38 @@
 #include "simplify.h"
 #include "strips.h"
 
+/* Growth between key levels of this ratio of triangles: chosen by
+ * measurement on cow, bunny00 and fandisk_large (see lodbuild.c). */
+#define MTS_LODBUILD_DEFAULT_KEY_RATIO 1.5
+#define MTS_LODBUILD_DEFAULT_KEY_RATIO_STR "1.5"
+
+/* Zero-initialised means the defaults. */
+typedef struct mts_lodbuild_options {
+    double key_ratio; /* 0: the default; > 1: a key level each time the
+                       * triangles grow by this factor; < 0 (or in (0, 1]):
+                       * only the base and the full level are keys */
+} mts_lodbuild_options;
+
 typedef struct mts_lodbuild_stats {
-    uint64_t edits;           /* (record, strip) pairs */
-    uint64_t substitutions;   /* positions where a vertex changes */
-    uint64_t removed_runs;    /* degenerate runs removed over all collapses */
-    uint64_t removed_indices; /* indices in those runs */
-    uint64_t emptied_strips;  /* strips that vanish on the way to the base */
+    uint64_t edits;            /* (record, strip) pairs */
+    uint64_t substitutions;    /* positions where the parent becomes the new vertex */
+    uint64_t erased_indices;   /* over all records */
+    uint64_t inserted_indices; /* over all records */
+    uint32_t key_levels;       /* restripified levels, the base and the full level included */
+    uint64_t grown_inserted;   /* new triangles inserted into a strip crossing their edge */
+    uint64_t grown_appended;   /* ... appended at a strip's end */
+    uint64_t grown_joined;     /* ... joining two strips */
+    uint64_t grown_alone;      /* ... starting a strip of their own */
+    uint64_t strips_cut;       /* strips a split broke without a triangle to mend them */
 } mts_lodbuild_stats;
 
 /* mesh: the full mesh the strips and collapses refer to (original ids);
  * strips: its full-resolution strips; simp: its collapse sequence. The model
- * gets stream-ordered copies of everything; stats and progress may be NULL. */
+ * gets stream-ordered copies of everything; opts, stats and progress may be
+ * NULL. */
 mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
-                        const mts_simplify_result *simp, const mts_progress *progress,
-                        mts_model *model, mts_lodbuild_stats *stats, mts_error *err);
+                        const mts_simplify_result *simp, const mts_lodbuild_options *opts,
+                        const mts_progress *progress, mts_model *model,
+                        mts_lodbuild_stats *stats, mts_error *err);
 
 #endif

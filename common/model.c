@@ -10,6 +10,7 @@ void mts_model_free(mts_model *m)
 {
     if (!m)
         return;
+    free(m->capacity);
     free(m->positions);
     free(m->normals);
     free(m->parents);
@@ -86,6 +87,31 @@ mts_result mts_model_validate(const mts_model *m, mts_error *err)
         return rc;
     if ((rc = check_strips(&m->base, "base", m->strip_count, m->base_vertex_count, err)) != MTS_OK)
         return rc;
+    /* Capacities are the slots a runtime reserves. The replay below checks
+     * that no split grows a strip past its capacity; here, that both ends
+     * fit, and that the slots together are no bigger than a strip set can
+     * ever be: a slot grows only by what records insert, so the base
+     * indices plus every record word bound them (and keep a runtime's
+     * allocation as small as the model). */
+    if (m->strip_count > 0 && !m->capacity)
+        return mts_error_set(err, MTS_ERR_FORMAT, "model: the strip capacities are missing");
+    uint64_t capacity_total = 0;
+    for (uint32_t s = 0; s < m->strip_count; s++) {
+        uint32_t blen = m->base.offsets[s + 1] - m->base.offsets[s];
+        uint32_t flen = m->full.offsets[s + 1] - m->full.offsets[s];
+        if (blen > m->capacity[s] || flen > m->capacity[s])
+            return mts_error_set(err, MTS_ERR_RANGE,
+                                 "model: strip %u is %u long at the base and %u at the full "
+                                 "level, past its capacity %u",
+                                 s, blen, flen, m->capacity[s]);
+        capacity_total += m->capacity[s];
+    }
+    if (capacity_total > (uint64_t)m->base.index_count + m->record_word_count)
+        return mts_error_set(err, MTS_ERR_RANGE,
+                             "model: strip capacities add up to %llu, more than the %u base "
+                             "indices and %u record words could ever fill",
+                             (unsigned long long)capacity_total, m->base.index_count,
+                             m->record_word_count);
     for (uint32_t j = 0; j < n; j++) {
         if (m->parents[j] >= m->base_vertex_count + j)
             return mts_error_set(err, MTS_ERR_RANGE,
@@ -202,6 +228,7 @@ uint64_t mts_model_memory_bytes(const mts_model *m)
 {
     uint64_t n = m->level_count;
     return (uint64_t)m->vertex_count * 24 + n * 4 + (n + 1) * 4 * 4 +
+           (uint64_t)m->strip_count * 4 +
            (uint64_t)m->record_word_count * 4 + ((uint64_t)m->strip_count + 1) * 8 +
            ((uint64_t)m->full.index_count + m->base.index_count) * 4;
 }

@@ -3,26 +3,33 @@
  * and vertex order"): base vertices 0..nb-1, then vertex nb+j is the one split
  * j brings back next to its parent parents[j] (< nb+j).
  *
- * Strip slots are stable: strip s exists at every level, possibly empty. Its
- * content at the full level (full) is its longest, so full's lengths are the
- * capacity a runtime reserves per strip.
+ * Strip slots are stable ids: slot s exists at every level, possibly empty.
+ * capacity[s] is the longest slot s is at any level, the room a runtime
+ * reserves for it (so no split ever moves a strip).
  *
- * Records, one per split j, live in record_data[record_offsets[j] ..
- * record_offsets[j+1]) as 32-bit words, in the order a split applies them:
+ * Strips are built upward (see lodbuild.h): key levels are stripified
+ * afresh, and between them each split grows the strips by the triangles it
+ * brings back. Records, one per split j, live in record_data[record_offsets[j]
+ * .. record_offsets[j+1]) as 32-bit words, in the order a split applies them:
  *
  *   edit_count
  *   edit_count times:
- *     strip, insert_count, subst_count,
+ *     strip, erase_count, insert_count, subst_count,
+ *     erase_count  times: position, length, length indices  -- runs to erase
  *     insert_count times: position, length, length indices  -- runs to insert
  *     subst_count  times: position                          -- u becomes v here
  *
- * A split inserts each run (positions are in the strip as it is at that
- * moment), then sets the listed positions (which hold the parent u) to the new
- * vertex v = nb + j. The collapse back reverses it, edit by edit from the
- * last (a record may name a strip in more than one edit): positions become u,
- * then the runs are erased last to first. These are the hStrips records of
- * paper 001 (hRecordsLOD + hInterLeavedData) inverted, with parity-keeping
- * run removal. */
+ * A split applies the edits in order; in each it erases each run (its
+ * position is in the strip as it is at that moment, and the strip must hold
+ * exactly those indices there), then inserts each run (positions likewise),
+ * then sets the listed positions (which hold the parent u) to the new vertex
+ * v = nb + j. The collapse back reverses it, edit by edit from the last (a
+ * record may name a strip in more than one edit): positions become u, the
+ * inserted runs are erased last to first, then the erased runs are put back
+ * last to first. Keeping the erased indices in the record is what lets a
+ * collapse restore them, so the same records move both ways (paper 001's
+ * hRecordsLOD + hInterLeavedData, generalised from "runs a collapse drops" to
+ * "any change a level makes"). */
 #ifndef MTS_MODEL_H
 #define MTS_MODEL_H
 
@@ -36,6 +43,7 @@ typedef struct mts_model {
     uint32_t base_vertex_count; /* nb */
     uint32_t level_count;       /* n = vertex_count - nb; levels are 0..n */
     uint32_t strip_count;       /* slots, same at every level */
+    uint32_t *capacity;         /* strip_count: longest length of each slot at any level */
 
     float *positions; /* 3 per vertex, stream order */
     float *normals;   /* 3 per vertex, stream order */
@@ -62,9 +70,10 @@ void mts_model_free(mts_model *model);
 
 /* Checks every count, index and record of a model against the others: record
  * offsets in order, each record parses exactly, every strip id, position and
- * vertex id in range at the level it is used, every substituted position
- * holds the parent, replaying all splits from the base strips gives exactly
- * the full strips, and the per-level counts match the replay. After this, a
+ * vertex id in range at the level it is used, every erased run holds what the
+ * record says, every substituted position holds the parent, no slot ever
+ * grows past its capacity, replaying all splits from the base strips gives
+ * exactly the full strips, and the per-level counts match the replay. After this, a
  * runtime may apply the records without checks. */
 mts_result mts_model_validate(const mts_model *model, mts_error *err);
 

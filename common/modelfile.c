@@ -21,13 +21,14 @@ enum {
     SEC_SPLITS,
     SEC_LEVELS,
     SEC_SOURCE,
-    SEC_LAST = SEC_SOURCE
+    SEC_CAPACITY, /* version 2 */
+    SEC_LAST = SEC_CAPACITY
 };
 
 static const char *const section_names[] = {"?",           "info",   "positions",
                                             "normals",     "full strips",
                                             "base strips", "splits", "levels",
-                                            "source"};
+                                            "source",      "capacity"};
 
 #define HEADER_SIZE 16u
 #define ENTRY_SIZE 24u
@@ -114,7 +115,8 @@ static uint64_t align8(uint64_t x)
  * overflow); the varint sections (splits, levels) and source are whatever
  * they are, and their parse must end exactly at their end. */
 typedef struct layout {
-    uint32_t vertices, base_vertices, levels, strips, full_indices, base_indices, record_words;
+    uint32_t vertices, base_vertices, levels, strips, full_indices, base_indices, record_words,
+        capacity_total;
     uint64_t size[SEC_LAST + 1];
 } layout;
 
@@ -125,6 +127,7 @@ static void layout_sizes(layout *l)
     l->size[SEC_NORMALS] = 12ull * l->vertices;
     l->size[SEC_STRIPS_FULL] = 4ull * l->strips + 4ull * l->full_indices;
     l->size[SEC_STRIPS_BASE] = 4ull * l->strips + 4ull * l->base_indices;
+    l->size[SEC_CAPACITY] = 4ull * l->strips;
 }
 
 static int fixed_size(uint32_t id)
@@ -176,8 +179,17 @@ static void put_strips(uint8_t *p, const mts_strips *st)
 mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_size,
                                 mts_error *err)
 {
+    if (m->strip_count > 0 && !m->capacity)
+        return mts_error_set(err, MTS_ERR_ARG, "the model has no strip capacities");
+    uint64_t capacity_total = 0;
+    for (uint32_t s = 0; s < m->strip_count; s++)
+        capacity_total += m->capacity[s];
+    if (capacity_total > UINT32_MAX)
+        return mts_error_set(err, MTS_ERR_LIMIT, "strip capacities add up to %llu indices",
+                             (unsigned long long)capacity_total);
     layout l = {m->vertex_count, m->base_vertex_count, m->level_count, m->strip_count,
-                m->full.index_count, m->base.index_count, m->record_word_count, {0}};
+                m->full.index_count, m->base.index_count, m->record_word_count,
+                (uint32_t)capacity_total, {0}};
     layout_sizes(&l);
     size_t source_len = strnlen(m->source, sizeof m->source);
     size_t splits_cap = mts_reccodec_bound(m, 0, m->level_count);
@@ -216,8 +228,9 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
     }
 
     uint8_t *p = buf + offset[SEC_INFO];
-    const uint32_t info[8] = {l.vertices, l.base_vertices, l.levels, l.strips,
-                              l.full_indices, l.base_indices, l.record_words, 0};
+    const uint32_t info[8] = {l.vertices,     l.base_vertices, l.levels,
+                              l.strips,       l.full_indices,  l.base_indices,
+                              l.record_words, l.capacity_total};
     put_u32s(p, info, 8);
     put_f32s(p + 32, m->bbox_min, 3);
     put_f32s(p + 44, m->bbox_max, 3);
@@ -225,6 +238,8 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
     put_f32s(buf + offset[SEC_NORMALS], m->normals, 3 * (size_t)l.vertices);
     put_strips(buf + offset[SEC_STRIPS_FULL], &m->full);
     put_strips(buf + offset[SEC_STRIPS_BASE], &m->base);
+    if (l.strips) /* capacity may be NULL without strips */
+        put_u32s(buf + offset[SEC_CAPACITY], m->capacity, l.strips);
     memcpy(buf + offset[SEC_SPLITS], splits, splits_len);
     memcpy(buf + offset[SEC_LEVELS], levels, (size_t)l.size[SEC_LEVELS]);
     free(splits);
@@ -288,6 +303,13 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     if (memcmp(buf, "MTSM", 4) != 0)
         return mts_error_set(err, MTS_ERR_FORMAT, "%s: not an mtstream model (bad magic)", name);
     uint16_t major = get_u16(buf + 4), minor = get_u16(buf + 6);
+    /* version 1's records have no erase runs and its strips no capacities:
+     * nothing here can read them, but mts-build makes the same model anew */
+    if (major == 1)
+        return mts_error_set(err, MTS_ERR_VERSION,
+                             "%s: model file version 1 is from an older mtstream; rebuild it "
+                             "with mts-build",
+                             name);
     if (major != MTS_MODELFILE_MAJOR)
         return mts_error_set(err, MTS_ERR_VERSION,
                              "%s: model file version %u.%u; this build reads version %u.x", name,
@@ -333,8 +355,8 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
         sec[id] = buf + off;
         sec_size[id] = len;
     }
-    for (uint32_t id = 1; id < SEC_SOURCE; id++) {
-        if (!sec[id])
+    for (uint32_t id = 1; id <= SEC_LAST; id++) {
+        if (!sec[id] && id != SEC_SOURCE)
             return mts_error_set(err, MTS_ERR_FORMAT, "%s: section '%s' is missing", name,
                                  section_names[id]);
     }
@@ -350,6 +372,7 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     l.full_indices = get_u32(info + 16);
     l.base_indices = get_u32(info + 20);
     l.record_words = get_u32(info + 24);
+    l.capacity_total = get_u32(info + 28);
     size_t source_len = sec[SEC_SOURCE] ? (size_t)sec_size[SEC_SOURCE] : 0;
     layout_sizes(&l);
     for (uint32_t id = 2; id <= SEC_LAST; id++) {
@@ -370,6 +393,13 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
                              "%s: %u splits of %u words cannot fit the %llu bytes of 'splits'",
                              name, l.levels, l.record_words,
                              (unsigned long long)sec_size[SEC_SPLITS]);
+    /* capacities could otherwise ask a runtime for slots of any size: they
+     * are bounded by what could ever fill them (see the top of modelfile.h) */
+    if (l.capacity_total > (uint64_t)l.base_indices + l.record_words)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: %u indices of strip capacity, more than the %u base indices "
+                             "and %u record words could ever fill",
+                             name, l.capacity_total, l.base_indices, l.record_words);
     if (3 * ((uint64_t)l.levels + 1) > sec_size[SEC_LEVELS])
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "%s: %u levels cannot fit the %llu bytes of 'levels'", name,
@@ -382,6 +412,7 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     m->level_count = l.levels;
     m->strip_count = l.strips;
     m->record_word_count = l.record_words;
+    m->capacity = malloc(((size_t)l.strips + 1) * 4);
     m->positions = malloc(nv3 * 4);
     m->normals = malloc(nv3 * 4);
     m->parents = malloc(n1 * 4);
@@ -390,8 +421,8 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     m->level_triangles = malloc(n1 * 4);
     m->level_strips = malloc(n1 * 4);
     m->level_indices = malloc(n1 * 4);
-    if (!m->positions || !m->normals || !m->parents || !m->record_offsets || !m->record_data ||
-        !m->level_triangles || !m->level_strips || !m->level_indices) {
+    if (!m->capacity || !m->positions || !m->normals || !m->parents || !m->record_offsets ||
+        !m->record_data || !m->level_triangles || !m->level_strips || !m->level_indices) {
         rc = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory", name);
         goto fail;
     }
@@ -405,6 +436,16 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     if ((rc = get_strips(sec[SEC_STRIPS_BASE], l.strips, l.base_indices, name, "base strips",
                          &m->base, err)) != MTS_OK)
         goto fail;
+    get_u32s(m->capacity, sec[SEC_CAPACITY], l.strips);
+    uint64_t capacity_sum = 0;
+    for (uint32_t s = 0; s < l.strips; s++)
+        capacity_sum += m->capacity[s];
+    if (capacity_sum != l.capacity_total) {
+        rc = mts_error_set(err, MTS_ERR_FORMAT,
+                           "%s: strip capacities add up to %llu, 'info' declares %u", name,
+                           (unsigned long long)capacity_sum, l.capacity_total);
+        goto fail;
+    }
     mts_reccodec_out ro = {m->parents, m->record_offsets, m->record_data, l.record_words, 0};
     size_t consumed = 0, words = 0;
     if ((rc = mts_reccodec_decode(sec[SEC_SPLITS], (size_t)sec_size[SEC_SPLITS],

@@ -2,7 +2,7 @@
  * table and a CRC-32C per section.
  *
  *   0   "MTSM"                     magic
- *   4   u16 major = 1, u16 minor   a reader accepts its own major version only
+ *   4   u16 major = 2, u16 minor   a reader accepts its own major version only
  *   8   u32 section_count          at most 64
  *   12  u32 header_crc             CRC-32C of bytes 0..11 and the table
  *   16  section_count x { u32 id, u32 crc32c, u64 offset, u64 size }
@@ -10,7 +10,8 @@
  *
  * Sections (all required but SOURCE; unknown ids are skipped):
  *   1 INFO        u32 vertices, base_vertices, levels, strips, full_indices,
- *                 base_indices, record_words, 0; f32 bbox_min[3], bbox_max[3]
+ *                 base_indices, record_words, capacity_total;
+ *                 f32 bbox_min[3], bbox_max[3]
  *   2 POSITIONS   f32 x 3 per vertex, stream order
  *   3 NORMALS     f32 x 3 per vertex
  *   4 STRIPS_FULL u32 length per strip, then the indices
@@ -19,9 +20,17 @@
  *   7 LEVELS      per level 0..levels: zigzag varint deltas of triangles,
  *                 strips, indices
  *   8 SOURCE      UTF-8 text: what the model was built from
+ *   9 CAPACITY    u32 per strip: its capacity (model.h), adding up to
+ *                 capacity_total
  * Fixed-size sections must have exactly the size INFO's counts give; the
  * varint sections must parse to exactly their end, and INFO's counts must
  * fit their sizes (a varint is a byte at least) before anything is allocated.
+ * capacity_total may not pass base_indices + record_words: a slot grows only
+ * by the indices records insert, so no real model needs more, and a runtime's
+ * slots stay as small as the file.
+ *
+ * Version 2 (this one) added erase runs to the records and the CAPACITY
+ * section; a version-1 file is refused with a message to rebuild it.
  *
  * Loading checks the header, the table, every section's bounds, size and
  * checksum, then the whole model (mts_model_validate), so each kind of damage
@@ -36,7 +45,7 @@
 #include "error.h"
 #include "model.h"
 
-#define MTS_MODELFILE_MAJOR 1
+#define MTS_MODELFILE_MAJOR 2
 #define MTS_MODELFILE_MINOR 0
 
 /* Serialises a model into a new buffer (free with free()). */

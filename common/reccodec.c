@@ -25,13 +25,15 @@ mts_result mts_reccodec_encode(const mts_model *m, uint32_t first, uint32_t coun
         o += mts_varint_put(o, edits);
         uint32_t prev_strip = 0;
         for (uint32_t e = 0; e < edits; e++) {
-            uint32_t strip = p[0], inserts = p[1], substs = p[2];
-            p += 3;
+            uint32_t strip = p[0], erases = p[1], inserts = p[2], substs = p[3];
+            p += 4;
             o += mts_varint_put(o, mts_zigzag_u32(strip - prev_strip));
             prev_strip = strip;
+            o += mts_varint_put(o, erases);
             o += mts_varint_put(o, inserts);
             o += mts_varint_put(o, substs);
-            for (uint32_t k = 0; k < inserts; k++) {
+            /* erase runs, then insert runs: the same shape */
+            for (uint32_t k = 0; k < erases + inserts; k++) {
                 uint32_t run = p[1];
                 o += mts_varint_put(o, p[0]);
                 o += mts_varint_put(o, run);
@@ -90,15 +92,19 @@ mts_result mts_reccodec_decode(const uint8_t *in, size_t size, uint32_t nb, uint
         PUT(edits);
         uint32_t strip = 0;
         for (uint32_t e = 0; e < edits; e++) {
-            uint32_t ds, inserts, substs;
+            uint32_t ds, erases, inserts, substs;
             GET(ds);
+            GET(erases);
             GET(inserts);
             GET(substs);
             strip += mts_unzigzag_u32(ds);
             PUT(strip);
+            PUT(erases);
             PUT(inserts);
             PUT(substs);
-            for (uint32_t i = 0; i < inserts; i++) {
+            /* erase runs, then insert runs; 64-bit so a hostile pair of
+             * counts cannot wrap (the input ends long before either) */
+            for (uint64_t i = 0; i < (uint64_t)erases + inserts; i++) {
                 uint32_t pos, run;
                 GET(pos);
                 GET(run);

@@ -5,13 +5,17 @@
  *   split j (its vertex v = nb + j):
  *     v - 1 - parent
  *     edit_count
- *     per edit: zigzag(strip - previous edit's strip), insert_count, subst_count,
+ *     per edit: zigzag(strip - previous edit's strip), erase_count,
+ *               insert_count, subst_count,
+ *               per erase:  position, length, zigzag(index - parent) per index
  *               per insert: position, length, zigzag(index - parent) per index
  *               per position: zigzag(position - previous position)
  *
- * Inserted runs are mostly the parent itself (the two ends of a collapsed
- * edge), strips in a record are near each other and substituted positions
- * ascend, so most values take one byte: about 2.5x smaller than 32-bit words.
+ * Runs, erased or inserted, are mostly the parent and its neighbours (the
+ * triangles around the split edge), strips in a record are near each other
+ * and substituted positions ascend, so most values take one byte: about 2.5x
+ * smaller than 32-bit words. Every record word is one varint, and a split
+ * adds one (its parent), so a split's words never outnumber its bytes.
  * Decoding checks only what it must to stay in bounds (the end of the input,
  * the room for words); the records' meaning is checked where they are applied
  * (mts_lod_split). */

@@ -69,20 +69,24 @@ static mts_result verifier_init(verifier *v, const mts_model *m, mts_error *err)
     memset(v, 0, sizeof *v);
     v->m = m;
     v->packed = m->vertex_count < (1u << 21);
-    size_t windows = 0;
+    /* The reference holds at most the full strips' windows; the strips at a
+     * level at most their slots' windows. Strip lengths are not monotone in
+     * the level (model.h), so the latter are counted from the capacities (the
+     * longest each slot is at any level), never from the full lengths. */
+    size_t windows = 0, slot_windows = 0;
     for (uint32_t s = 0; s < m->strip_count; s++) {
-        uint32_t len = m->full.offsets[s + 1] - m->full.offsets[s];
+        uint32_t len = m->full.offsets[s + 1] - m->full.offsets[s], cap = m->capacity[s];
         windows += len >= 3 ? len - 2 : 0;
+        slot_windows += cap >= 3 ? cap - 2 : 0;
     }
-    /* a runtime strip never has more windows than at the full level */
     v->full_tris = malloc((windows + 1) * 12);
     v->rep = malloc(((size_t)m->vertex_count + 1) * 4);
     if (v->packed) {
         v->ref.keys = malloc((windows + 1) * 8);
-        v->got.keys = malloc((windows + 1) * 8);
+        v->got.keys = malloc((slot_windows + 1) * 8);
     } else {
         v->ref.wide = malloc((windows + 1) * 12);
-        v->got.wide = malloc((windows + 1) * 12);
+        v->got.wide = malloc((slot_windows + 1) * 12);
     }
     if (!v->full_tris || !v->rep || !(v->packed ? v->ref.keys && v->got.keys
                                                 : v->ref.wide && v->got.wide)) {
@@ -529,9 +533,12 @@ mts_result mts_verify_model(const mts_model *m, const mts_verify_options *opts,
         uint32_t edits = *p++, named = 0;
         w.now++;
         for (uint32_t e = 0; e < edits; e++) {
-            uint32_t s = p[0], ins = p[1], sub = p[2];
-            p += 3;
-            for (uint32_t k = 0; k < ins; k++)
+            /* strip, erase_count, insert_count, subst_count, then the erased
+             * and the inserted runs (position, length, indices), then the
+             * positions (model.h) */
+            uint32_t s = p[0], runs = p[1] + p[2], sub = p[3];
+            p += 4;
+            for (uint32_t k = 0; k < runs; k++)
                 p += 2 + p[1];
             p += sub;
             if (s < m->strip_count && w.strip_stamp[s] != w.now) {

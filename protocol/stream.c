@@ -107,11 +107,12 @@ static mts_result copy_model(const mts_model *src, mts_model *dst, mts_error *er
     dst->level_triangles = malloc(n1 * 4);
     dst->level_strips = malloc(n1 * 4);
     dst->level_indices = malloc(n1 * 4);
+    dst->capacity = malloc(((size_t)src->strip_count + 1) * 4);
     memset(&dst->full, 0, sizeof dst->full);
     memset(&dst->base, 0, sizeof dst->base);
     if (!dst->positions || !dst->normals || !dst->parents || !dst->record_offsets ||
         !dst->record_data || !dst->level_triangles || !dst->level_strips ||
-        !dst->level_indices ||
+        !dst->level_indices || !dst->capacity ||
         mts_strips_alloc(&dst->full, src->strip_count, src->full.index_count, err) != MTS_OK ||
         mts_strips_alloc(&dst->base, src->strip_count, src->base.index_count, err) != MTS_OK) {
         mts_model_free(dst);
@@ -125,6 +126,8 @@ static mts_result copy_model(const mts_model *src, mts_model *dst, mts_error *er
     memcpy(dst->level_triangles, src->level_triangles, n1 * 4);
     memcpy(dst->level_strips, src->level_strips, n1 * 4);
     memcpy(dst->level_indices, src->level_indices, n1 * 4);
+    if (src->strip_count)
+        memcpy(dst->capacity, src->capacity, (size_t)src->strip_count * 4);
     memcpy(dst->full.offsets, src->full.offsets, ((size_t)src->strip_count + 1) * 4);
     memcpy(dst->full.indices, src->full.indices, (size_t)src->full.index_count * 4);
     memcpy(dst->base.offsets, src->base.offsets, ((size_t)src->strip_count + 1) * 4);
@@ -132,7 +135,10 @@ static mts_result copy_model(const mts_model *src, mts_model *dst, mts_error *er
     return MTS_OK;
 }
 
-/* Renames base vertex x to map[x] everywhere a vertex id appears. */
+/* Renames base vertex x to map[x] everywhere a vertex id appears: the full
+ * and base strips, the parents, and in every record (model.h) the indices of
+ * its erased runs as well as of its inserted runs -- an erased run must hold
+ * exactly the strip's indices when it applies, so it is renamed with them. */
 static int renumber_base(mts_model *m, uint32_t *quantized, const uint32_t *map)
 {
     const uint32_t nb = m->base_vertex_count;
@@ -147,9 +153,11 @@ static int renumber_base(mts_model *m, uint32_t *quantized, const uint32_t *map)
         uint32_t *p = m->record_data + m->record_offsets[j];
         uint32_t edits = *p++;
         for (uint32_t e = 0; e < edits; e++) {
-            uint32_t inserts = p[1], substs = p[2];
-            p += 3;
-            for (uint32_t k = 0; k < inserts; k++) {
+            /* strip, erase_count, insert_count, subst_count; erased runs, then
+             * inserted runs, each (position, length, indices); positions */
+            uint32_t runs = p[1] + p[2], substs = p[3];
+            p += 4;
+            for (uint32_t k = 0; k < runs; k++) {
                 uint32_t run = p[1];
                 p += 2;
                 for (uint32_t r = 0; r < run; r++, p++)
@@ -513,8 +521,8 @@ static mts_result build_info_tail(mts_stream *s)
     if (sizes && caps) {
         for (uint32_t k = 0; k < s->batch_count; k++)
             sizes[k] = s->batch_first[k + 1] - s->batch_first[k];
-        for (uint32_t st = 0; st < m->strip_count; st++)
-            caps[st] = m->full.offsets[st + 1] - m->full.offsets[st];
+        /* the longest each slot is at any level, not its full length */
+        memcpy(caps, m->capacity, (size_t)m->strip_count * 4);
         mi.batch_splits = sizes;
         mi.capacities = caps;
         mts_wire_put_model_info_tail(&tail, &mi);
@@ -612,9 +620,15 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     uint64_t cap = 0;
     for (uint32_t s = 0; s < mi->strips; s++)
         cap += mi->capacities[s];
-    /* strips at the full level hold at most a few indices per triangle, and a
-     * manifold mesh has under twice as many triangles as vertices */
-    if (cap > 8ull * mi->vertices + 2ull * mi->strips || cap > UINT32_MAX)
+    /* A capacity is the longest its slot is at any level, so the slots add
+     * up to more than any one level's strips: those hold a few indices per
+     * triangle (a manifold mesh has under twice as many triangles as
+     * vertices), but strips rebuilt at key levels leave slots long at one
+     * level and empty at another. Built models hold 5.5 to 5.7 capacity per
+     * vertex (cow, bunny00, fandisk; 2.4 indices per vertex at the full
+     * level); 16 per vertex leaves room for that to grow and still bounds
+     * what a client allocates for its runtime before any strip arrives. */
+    if (cap > 16ull * mi->vertices + 2ull * mi->strips || cap > UINT32_MAX)
         return mts_error_set(err, MTS_ERR_LIMIT,
                              "MODEL_INFO: strip capacities add up to %llu for %u vertices",
                              (unsigned long long)cap, mi->vertices);
@@ -632,21 +646,17 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     c->quantized = calloc(nv, 12);
     m->parents = calloc(n1, 4);
     m->record_offsets = calloc(n1, 4);
+    m->capacity = malloc(((size_t)mi->strips + 1) * 4);
     if (!m->positions || !m->normals || !c->quantized || !m->parents || !m->record_offsets ||
-        mts_strips_alloc(&m->full, mi->strips, 0, err) != MTS_OK)
+        !m->capacity || mts_strips_alloc(&m->full, mi->strips, 0, err) != MTS_OK)
         return mts_error_set(err, MTS_ERR_NOMEM, "MODEL_INFO: out of memory for %u vertices",
                              mi->vertices);
-    /* The full strips' lengths are the slots; their indices never travel, so
-     * this model's full.indices is empty (index_count counts the slots' room
-     * only): it may start runtimes at the base, never at the full level,
-     * and is not for mts_model_validate or mts_verify_model. */
-    uint32_t o = 0;
-    for (uint32_t s = 0; s < mi->strips; s++) {
-        m->full.offsets[s] = o;
-        o += mi->capacities[s];
-    }
-    m->full.offsets[mi->strips] = o;
-    m->full.index_count = o;
+    /* The slots' room is MODEL_INFO's capacities (the longest each slot is at
+     * any level). The full strips never travel: this model's full strips are
+     * strip_count empty ones, so it may start runtimes at the base (which
+     * reads base and capacity), never at the full level, and is not for
+     * mts_model_validate or mts_verify_model. */
+    memcpy(m->capacity, mi->capacities, (size_t)mi->strips * 4);
     c->grid.bits = mi->quant_bits;
     memcpy(c->grid.origin, mi->grid_origin, 12);
     c->grid.range = mi->grid_range;
@@ -726,7 +736,7 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     memcpy(c->quantized, dec.quantized, (size_t)nb * 12);
     mts_draco_mesh_out_free(&dec);
 
-    /* base strip lengths, each within its slot; then the indices */
+    /* base strip lengths, each within its slot's capacity; then the indices */
     uint64_t total = 0;
     if (m->strip_count > mts_cursor_left(&cur))
         return mts_error_set(err, MTS_ERR_FORMAT, "BASE: %u strip lengths cannot fit", m->strip_count);
@@ -736,9 +746,12 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     for (uint32_t s = 0; s < m->strip_count; s++) {
         lens[s] = mts_cursor_varint(&cur);
         total += lens[s];
-        if (lens[s] > m->full.offsets[s + 1] - m->full.offsets[s]) {
+        if (lens[s] > m->capacity[s]) {
+            uint32_t len = lens[s];
             free(lens);
-            return mts_error_set(err, MTS_ERR_RANGE, "BASE: strip %u is longer than its slot", s);
+            return mts_error_set(err, MTS_ERR_RANGE,
+                                 "BASE: strip %u has %u indices, more than its slot's capacity %u",
+                                 s, len, m->capacity[s]);
         }
     }
     if (!cur.ok || total > mts_cursor_left(&cur)) {

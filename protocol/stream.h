@@ -92,8 +92,9 @@ typedef enum mts_stream_event {
 typedef struct mts_stream_client {
     int state;
     mts_wire_model_info info;
-    mts_model model;       /* filled as the stream arrives; it has no full-level
-                              strip indices (only their lengths), see take_info */
+    mts_model model;       /* filled as the stream arrives; its slot capacities
+                              are MODEL_INFO's, its full strips are empty (they
+                              never travel), see take_info */
     uint32_t *quantized;
     size_t record_capacity;
     mts_lod lod;

@@ -153,8 +153,11 @@ mts_result mts_wire_parse_hello(const uint8_t *payload, size_t size, mts_wire_he
         return mts_error_set(err, MTS_ERR_FORMAT, "HELLO: truncated before the version");
     if (h->major != MTS_WIRE_MAJOR)
         return mts_error_set(err, MTS_ERR_VERSION,
-                             "HELLO: protocol version %u.%u; this server speaks %u.x", h->major,
-                             h->minor, MTS_WIRE_MAJOR);
+                             "HELLO: protocol version %u.%u; this server speaks %u.x%s", h->major,
+                             h->minor, MTS_WIRE_MAJOR,
+                             h->major < MTS_WIRE_MAJOR
+                                 ? " (an older client: update it)"
+                                 : "");
     mts_result rc = parse_name(&c, h->model, "HELLO", err);
     if (rc != MTS_OK)
         return rc;

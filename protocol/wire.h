@@ -12,7 +12,9 @@
 #include "bytes.h"
 #include "error.h"
 
-#define MTS_WIRE_MAJOR 1
+/* 2.0: records carry erased runs (PROTOCOL.md, "Changes"); a peer of another
+ * major version is refused at HELLO with ERROR version. */
+#define MTS_WIRE_MAJOR 2
 #define MTS_WIRE_MINOR 0
 #define MTS_WIRE_MAX_FRAME (16u << 20) /* type + payload */
 #define MTS_WIRE_MAX_NAME 64
@@ -67,7 +69,7 @@ typedef struct mts_wire_model_info {
     float grid_origin[3], grid_range;
     uint32_t batch_count;
     uint32_t *batch_splits; /* batch_count */
-    uint32_t *capacities;   /* strips */
+    uint32_t *capacities;   /* strips: the longest each slot is at any level */
 } mts_wire_model_info;
 
 typedef struct mts_wire_end {

@@ -21,6 +21,7 @@
 
 #include "build.h"
 #include "catalog.h"
+#include "crc32c.h"
 #include "fetch.h"
 #include "mesh.h"
 #include "modelfile.h"
@@ -393,6 +394,46 @@ static void test_cache_reuse_and_rebuild(mts_test *t)
     CHECK(t, e && e->origin == MTS_CATALOG_BUILT);
     l = find_report(&rep, MTS_CATALOG_NOTE, "/cow.off");
     CHECKF(t, l && strstr(l->msg, "does not load"), "note: %s", l ? l->msg : "(none)");
+    mts_catalog_free(cat);
+
+    /* a cache of an older model file version (its header says 1.0, with a
+     * checksum that matches: what an older build left behind): rebuilt,
+     * with a note naming the version, never served, never a failure; the
+     * rebuilt cache is then served */
+    {
+        FILE *f = fopen(cache, "r+b");
+        uint8_t head[16 + 24 * 64];
+        size_t got = f ? fread(head, 1, sizeof head, f) : 0;
+        uint32_t count = got >= 16 ? (uint32_t)head[8] | (uint32_t)head[9] << 8 |
+                                         (uint32_t)head[10] << 16 | (uint32_t)head[11] << 24
+                                   : 0;
+        CHECK(t, f && got >= 16 && count >= 1 && count <= 64 && got >= 16 + 24 * (size_t)count);
+        if (f && count >= 1 && count <= 64 && got >= 16 + 24 * (size_t)count) {
+            head[4] = 1; /* u16 major = 1, minor = 0 */
+            head[5] = head[6] = head[7] = 0;
+            uint32_t crc = mts_crc32c(0, head, 12);
+            crc = mts_crc32c(crc, head + 16, 24 * (size_t)count);
+            for (int i = 0; i < 4; i++)
+                head[12 + i] = (uint8_t)(crc >> (8 * i));
+            CHECK(t, fseek(f, 0, SEEK_SET) == 0 && fwrite(head, 1, 16, f) == 16);
+        }
+        CHECK(t, f && fclose(f) == 0);
+    }
+    CHECK(t, set_mtime(cache, time(NULL) + 100));
+    cat = open_dir(t, models, &o, &rep, NULL);
+    if (!cat)
+        return;
+    e = mts_catalog_find(cat, "cow");
+    CHECK(t, e && e->origin == MTS_CATALOG_BUILT);
+    l = find_report(&rep, MTS_CATALOG_NOTE, "/cow.off");
+    CHECKF(t, l && strstr(l->msg, "does not load") && strstr(l->msg, "version 1"), "note: %s",
+           l ? l->msg : "(none)");
+    mts_catalog_free(cat);
+    cat = open_dir(t, models, &o, &rep, NULL);
+    if (!cat)
+        return;
+    e = mts_catalog_find(cat, "cow");
+    CHECK(t, e && e->origin == MTS_CATALOG_CACHED);
     mts_catalog_free(cat);
 
     /* no_cache: built, nothing read or written */

@@ -1,11 +1,14 @@
 /* The LOD builder and runtime on real meshes: DESIGN.md invariants 1 and 2 at
  * every level of cow and at 500 sampled levels of bunny00 and fandisk_large,
  * coherence (only the strips a record names change, and they are reported),
- * and random walks in both directions. */
+ * and random walks in both directions; and the runtime on hand-made records
+ * (tests/hand_model.h): erase runs, capacities, and every check a split
+ * makes. */
 #include <math.h>
 #include <stdint.h>
 
 #include "build.h"
+#include "hand_model.h"
 #include "lod.h"
 #include "mesh.h"
 #include "model.h"
@@ -189,13 +192,15 @@ static void test_cow_random_walk_coherence(mts_test *t)
     mts_error err = {0};
     mts_lod walk, fresh;
     CHECK(t, mts_lod_init(&walk, &m, MTS_LOD_AT_BASE, &err) == MTS_OK);
-    uint32_t *snap = malloc(((size_t)m.full.index_count + 1) * 4);
+    /* the slots, as long as the capacities (not the full strips) */
+    const uint32_t slots = walk.slot[m.strip_count];
+    uint32_t *snap = malloc(((size_t)slots + 1) * 4);
     uint32_t *snap_len = malloc(((size_t)m.strip_count + 1) * 4);
     uint8_t *named = malloc((size_t)m.strip_count + 1);
     uint64_t seed = 12345;
     for (int step = 0; step < 60 && !t->case_failed; step++) {
         uint32_t target = rng_next(&seed) % (m.level_count + 1);
-        memcpy(snap, walk.data, (size_t)m.full.index_count * 4);
+        memcpy(snap, walk.data, (size_t)slots * 4);
         memcpy(snap_len, walk.length, (size_t)m.strip_count * 4);
         uint32_t from = walk.level;
         mts_lod_clear_changed(&walk);
@@ -209,9 +214,9 @@ static void test_cow_random_walk_coherence(mts_test *t)
             uint32_t edits = *p++;
             for (uint32_t e = 0; e < edits; e++) {
                 named[p[0]] = 1;
-                uint32_t ins = p[1], sub = p[2];
-                p += 3;
-                for (uint32_t k = 0; k < ins; k++)
+                uint32_t runs = p[1] + p[2], sub = p[3];
+                p += 4;
+                for (uint32_t k = 0; k < runs; k++)
                     p += 2 + p[1];
                 p += sub;
             }
@@ -264,16 +269,26 @@ static void test_runtime_rejects_bad_record(mts_test *t)
     mts_error err = {0};
     mts_lod lod;
     CHECK(t, mts_lod_init(&lod, &m, MTS_LOD_AT_BASE, &err) == MTS_OK);
-    /* find a record with a substitution and point it past its strip */
-    uint32_t j = m.level_count / 2;
-    uint32_t *p = m.record_data + m.record_offsets[j];
-    uint32_t *sub = p + 1 + 3;
-    for (uint32_t k = 0; k < p[2]; k++)
-        sub += 2 + sub[1];
-    /* layout: edit_count, then strip, insert_count, subst_count, ... */
-    CHECK(t, p[0] >= 1);
-    CHECK(t, p[3] >= 1);
-    if (p[3] > 0) {
+    /* find a record from the middle on with a substitution, and point it
+     * past its strip (layout: edit_count, then strip, erase_count,
+     * insert_count, subst_count, the runs, the positions) */
+    uint32_t j = m.level_count / 2, *sub = NULL;
+    for (; j < m.level_count && !sub; j++) {
+        uint32_t *p = m.record_data + m.record_offsets[j];
+        uint32_t edits = *p++;
+        for (uint32_t e = 0; e < edits && !sub; e++) {
+            uint32_t runs = p[1] + p[2], substs = p[3];
+            p += 4;
+            for (uint32_t k = 0; k < runs; k++)
+                p += 2 + p[1];
+            if (substs > 0)
+                sub = p;
+            p += substs;
+        }
+    }
+    CHECK(t, sub != NULL);
+    if (sub) {
+        j--;
         uint32_t saved = *sub;
         *sub = 0xFFFFFFF0u;
         CHECK(t, mts_lod_set_level(&lod, m.level_count, &err) == MTS_ERR_RANGE);
@@ -288,58 +303,6 @@ static void test_runtime_rejects_bad_record(mts_test *t)
     mts_model_free(&m);
 }
 
-/* A model written out by hand: 4 vertices (3 base), one strip, one split
- * whose record is given; the level table is filled from the strips. */
-static uint32_t *copy_words(const uint32_t *w, size_t n)
-{
-    uint32_t *c = malloc((n + 1) * sizeof *c);
-    if (c && n)
-        memcpy(c, w, n * sizeof *c);
-    return c;
-}
-
-static uint32_t count_triangles(const uint32_t *s, uint32_t n)
-{
-    uint32_t t = 0;
-    for (uint32_t k = 0; k + 2 < n; k++)
-        t += s[k] != s[k + 1] && s[k + 1] != s[k + 2] && s[k] != s[k + 2];
-    return t;
-}
-
-static void hand_model(mts_model *m, const uint32_t *base, uint32_t base_len,
-                       const uint32_t *full, uint32_t full_len, const uint32_t *rec,
-                       uint32_t rec_len)
-{
-    memset(m, 0, sizeof *m);
-    m->vertex_count = 4;
-    m->base_vertex_count = 3;
-    m->level_count = 1;
-    m->strip_count = 1;
-    m->positions = calloc(12, sizeof(float));
-    m->normals = calloc(12, sizeof(float));
-    for (int i = 0; i < 4; i++)
-        m->positions[3 * i + (i % 3)] = 1.0f;
-    const uint32_t parent = 0;
-    m->parents = copy_words(&parent, 1);
-    mts_strips_alloc(&m->base, 1, base_len, NULL);
-    m->base.offsets[1] = base_len;
-    memcpy(m->base.indices, base, base_len * 4);
-    mts_strips_alloc(&m->full, 1, full_len, NULL);
-    m->full.offsets[1] = full_len;
-    memcpy(m->full.indices, full, full_len * 4);
-    const uint32_t offsets[2] = {0, rec_len};
-    m->record_offsets = copy_words(offsets, 2);
-    m->record_data = copy_words(rec, rec_len);
-    m->record_word_count = rec_len;
-    const uint32_t tris[2] = {count_triangles(base, base_len), count_triangles(full, full_len)};
-    const uint32_t strips[2] = {base_len > 0, full_len > 0};
-    const uint32_t indices[2] = {base_len, full_len};
-    m->level_triangles = copy_words(tris, 2);
-    m->level_strips = copy_words(strips, 2);
-    m->level_indices = copy_words(indices, 2);
-    m->bbox_max[0] = m->bbox_max[1] = m->bbox_max[2] = 1.0f;
-}
-
 /* A record may name one strip in two edits: the second edit's positions are
  * in the strip as the first left it, so a collapse must undo the edits last
  * to first. (Undone first to last, the second run was removed from the
@@ -348,11 +311,11 @@ static void test_collapse_undoes_edits_in_reverse(mts_test *t)
 {
     const uint32_t base[] = {0, 1, 2};
     const uint32_t full[] = {0, 1, 2, 1, 2, 0, 1};
-    const uint32_t rec[] = {2,                      /* edits */
-                            0, 1, 0, 3, 2, 1, 2,    /* strip 0: insert (1 2) at 3 */
-                            0, 1, 0, 5, 2, 0, 1};   /* strip 0: insert (0 1) at 5 */
+    const uint32_t rec[] = {2,                         /* edits */
+                            0, 0, 1, 0, 3, 2, 1, 2,    /* strip 0: insert (1 2) at 3 */
+                            0, 0, 1, 0, 5, 2, 0, 1};   /* strip 0: insert (0 1) at 5 */
     mts_model m;
-    hand_model(&m, base, 3, full, 7, rec, 15);
+    hand_model_one_split(&m, base, 3, full, 7, rec, 17);
     mts_error err = {0};
     CHECKF(t, mts_model_validate(&m, &err) == MTS_OK, "validate: %s", err.msg);
     for (int start = 0; start < 2; start++) {
@@ -380,9 +343,9 @@ static void test_validate_checks_bbox(mts_test *t)
     const uint32_t base[] = {0, 1, 2};
     const uint32_t full[] = {0, 1, 2, 3};
     /* strip 0: insert (0) at 3, then position 3 becomes vertex 3 */
-    const uint32_t rec[] = {1, 0, 1, 1, 3, 1, 0, 3};
+    const uint32_t rec[] = {1, 0, 0, 1, 1, 3, 1, 0, 3};
     mts_model m;
-    hand_model(&m, base, 3, full, 4, rec, 8);
+    hand_model_one_split(&m, base, 3, full, 4, rec, 9);
     mts_error err = {0};
     CHECKF(t, mts_model_validate(&m, &err) == MTS_OK, "validate: %s", err.msg);
     m.bbox_max[1] = 0.5f;
@@ -395,135 +358,270 @@ static void test_validate_checks_bbox(mts_test *t)
     mts_model_free(&m);
 }
 
-/* Any record set that mts_model_validate accepts, the runtime must walk both
- * ways: small random models (random base strips, random records applied by a
- * naive reference, which also gives the full strips and the level table),
- * then random walks from either end compared with the reference at every
- * level reached. Records here name a strip in several edits, insert empty
- * runs and substitute inside inserted runs, which the builder never does. */
-enum { PROP_STRIPS = 4, PROP_LEN = 64 };
-typedef struct prop_state {
-    uint32_t len[PROP_STRIPS];
-    uint32_t d[PROP_STRIPS][PROP_LEN];
-} prop_state;
+/* Walks the runtime over a model whose strips at every level are known, from
+ * either end, to random levels and back, comparing every strip each time;
+ * and checks the slots are the capacities. */
+static void walk_against_states(mts_test *t, const mts_model *m, const hand_state *snap,
+                                uint64_t *seed, int steps, const char *what)
+{
+    mts_error err = {0};
+    for (int start = 0; start < 2 && !t->case_failed; start++) {
+        mts_lod lod;
+        CHECKF(t, mts_lod_init(&lod, m, start ? MTS_LOD_AT_FULL : MTS_LOD_AT_BASE, &err) == MTS_OK,
+               "%s: init: %s", what, err.msg);
+        if (t->case_failed)
+            return;
+        for (uint32_t s = 0; s < m->strip_count; s++)
+            CHECK(t, lod.slot[s + 1] - lod.slot[s] == m->capacity[s]);
+        for (int step = 0; step < steps && !t->case_failed; step++) {
+            /* every other step to an end, so each end is reached often */
+            uint32_t target = step % 2 ? hand_rng(seed) % (m->level_count + 1)
+                                       : (step / 2) % 2 ? m->level_count : 0;
+            CHECKF(t, mts_lod_set_level(&lod, target, &err) == MTS_OK, "%s: %s", what, err.msg);
+            for (uint32_t s = 0; s < m->strip_count && !t->case_failed; s++) {
+                uint32_t len;
+                const uint32_t *x = mts_lod_strip(&lod, s, &len);
+                CHECKF(t, len == snap[target].len[s] &&
+                              memcmp(x, snap[target].d[s], (size_t)len * 4) == 0,
+                       "%s, level %u, strip %u differs (from the %s)", what, target, s,
+                       start ? "full level" : "base");
+            }
+        }
+        mts_lod_free(&lod);
+    }
+}
 
+/* Any record set that mts_model_validate accepts, the runtime must walk both
+ * ways: small random models (tests/hand_model.h: records applied by a naive
+ * reference, which also gives the strips at every level), then random walks
+ * from either end compared with the reference at every level reached. */
 static void test_random_records_walk_both_ways(mts_test *t)
 {
     uint64_t seed = 99;
     for (int it = 0; it < 3000 && !t->case_failed; it++) {
-        uint32_t nb = 2 + rng_next(&seed) % 3, n = 1 + rng_next(&seed) % 6;
-        uint32_t ns = 1 + rng_next(&seed) % PROP_STRIPS;
-        prop_state *snap = calloc(n + 1, sizeof *snap);
-        uint32_t *parents = malloc(n * 4), *roff = malloc((n + 1) * 4);
-        uint32_t *rec = malloc(4096 * 4), w = 0;
-        prop_state cur = {0};
-        for (uint32_t s = 0; s < ns; s++) {
-            cur.len[s] = rng_next(&seed) % 5;
-            for (uint32_t k = 0; k < cur.len[s]; k++)
-                cur.d[s][k] = rng_next(&seed) % nb;
-        }
-        snap[0] = cur;
-        for (uint32_t j = 0; j < n; j++) {
-            uint32_t v = nb + j, u = rng_next(&seed) % v;
-            parents[j] = u;
-            roff[j] = w;
-            uint32_t edits = rng_next(&seed) % 4;
-            rec[w++] = edits;
-            for (uint32_t e = 0; e < edits; e++) {
-                uint32_t s = rng_next(&seed) % ns, at = w, ins = rng_next(&seed) % 3, sub = 0;
-                w += 3;
-                for (uint32_t k = 0; k < ins; k++) {
-                    uint32_t run = rng_next(&seed) % 4, pos = rng_next(&seed) % (cur.len[s] + 1);
-                    if (cur.len[s] + run > PROP_LEN)
-                        run = 0;
-                    rec[w++] = pos;
-                    rec[w++] = run;
-                    memmove(cur.d[s] + pos + run, cur.d[s] + pos, (cur.len[s] - pos) * 4);
-                    for (uint32_t r = 0; r < run; r++) {
-                        uint32_t x = rng_next(&seed) % 4 ? u : rng_next(&seed) % v;
-                        cur.d[s][pos + r] = rec[w++] = x;
-                    }
-                    cur.len[s] += run;
-                }
-                for (uint32_t k = 0; k < cur.len[s]; k++) {
-                    if (cur.d[s][k] == u && rng_next(&seed) % 2) {
-                        cur.d[s][k] = v;
-                        rec[w++] = k;
-                        sub++;
-                    }
-                }
-                rec[at] = s;
-                rec[at + 1] = ins;
-                rec[at + 2] = sub;
-            }
-            snap[j + 1] = cur;
-        }
-        roff[n] = w;
-
-        mts_model m = {0};
-        m.vertex_count = nb + n;
-        m.base_vertex_count = nb;
-        m.level_count = n;
-        m.strip_count = ns;
-        m.positions = calloc(3 * (size_t)m.vertex_count, sizeof(float));
-        m.normals = calloc(3 * (size_t)m.vertex_count, sizeof(float));
-        m.parents = parents;
-        m.record_offsets = roff;
-        m.record_data = rec;
-        m.record_word_count = w;
-        mts_strips *sets[2] = {&m.base, &m.full};
-        const prop_state *ends[2] = {&snap[0], &snap[n]};
-        for (int b = 0; b < 2; b++) {
-            uint32_t total = 0, o = 0;
-            for (uint32_t s = 0; s < ns; s++)
-                total += ends[b]->len[s];
-            mts_strips_alloc(sets[b], ns, total, NULL);
-            for (uint32_t s = 0; s < ns; s++) {
-                sets[b]->offsets[s] = o;
-                memcpy(sets[b]->indices + o, ends[b]->d[s], ends[b]->len[s] * 4);
-                o += ends[b]->len[s];
-            }
-            sets[b]->offsets[ns] = o;
-        }
-        m.level_triangles = malloc((n + 1) * 4);
-        m.level_strips = malloc((n + 1) * 4);
-        m.level_indices = malloc((n + 1) * 4);
-        for (uint32_t l = 0; l <= n; l++) {
-            uint32_t tr = 0, st = 0, ix = 0;
-            for (uint32_t s = 0; s < ns; s++) {
-                tr += count_triangles(snap[l].d[s], snap[l].len[s]);
-                st += snap[l].len[s] > 0;
-                ix += snap[l].len[s];
-            }
-            m.level_triangles[l] = tr;
-            m.level_strips[l] = st;
-            m.level_indices[l] = ix;
-        }
-
+        mts_model m;
+        hand_state *snap = hand_random_model(&seed, 0, &m);
         mts_error err = {0};
-        CHECKF(t, mts_model_validate(&m, &err) == MTS_OK, "model %d: validate: %s", it, err.msg);
-        for (int start = 0; start < 2 && !t->case_failed; start++) {
-            mts_lod lod;
-            CHECK(t, mts_lod_init(&lod, &m, start ? MTS_LOD_AT_FULL : MTS_LOD_AT_BASE, &err) ==
-                         MTS_OK);
-            for (int step = 0; step < 12 && !t->case_failed; step++) {
-                uint32_t target = rng_next(&seed) % (n + 1);
-                CHECKF(t, mts_lod_set_level(&lod, target, &err) == MTS_OK, "model %d: %s", it,
-                       err.msg);
-                for (uint32_t s = 0; s < ns && !t->case_failed; s++) {
-                    uint32_t len;
-                    const uint32_t *x = mts_lod_strip(&lod, s, &len);
-                    CHECKF(t, len == snap[target].len[s] &&
-                                  memcmp(x, snap[target].d[s], (size_t)len * 4) == 0,
-                           "model %d, level %u, strip %u differs (from the %s)", it, target, s,
-                           start ? "full level" : "base");
-                }
-            }
-            mts_lod_free(&lod);
-        }
+        char what[32];
+        snprintf(what, sizeof what, "model %d", it);
+        CHECKF(t, mts_model_validate(&m, &err) == MTS_OK, "%s: validate: %s", what, err.msg);
+        walk_against_states(t, &m, snap, &seed, 12, what);
         mts_model_free(&m);
         free(snap);
     }
+}
+
+/* One split that erases a run, inserts one and substitutes: the split gives
+ * exactly the new strip and the collapse exactly the old one, again and
+ * again, from either end. */
+static void test_erase_insert_subst(mts_test *t)
+{
+    const uint32_t base[] = {1, 0, 2, 1};
+    const uint32_t full[] = {1, 0, 2, 3, 1};
+    const uint32_t rec[] = {1,             /* edits */
+                            0, 1, 1, 1,    /* strip 0: 1 erase, 1 insert, 1 subst */
+                            1, 2, 0, 2,    /*   erase (0 2) at 1: 1 1 */
+                            1, 3, 0, 2, 0, /*   insert (0 2 0) at 1: 1 0 2 0 1 */
+                            3};            /*   position 3: 0 -> 3 */
+    mts_model m;
+    hand_model_one_split(&m, base, 4, full, 5, rec, 15);
+    mts_error err = {0};
+    CHECKF(t, mts_model_validate(&m, &err) == MTS_OK, "validate: %s", err.msg);
+    hand_state snap[2] = {0};
+    snap[0].len[0] = 4;
+    memcpy(snap[0].d[0], base, sizeof base);
+    snap[1].len[0] = 5;
+    memcpy(snap[1].d[0], full, sizeof full);
+    uint64_t seed = 5;
+    walk_against_states(t, &m, snap, &seed, 8, "erase-insert-subst");
+    /* the collapse reports the strip changed, like the split */
+    mts_lod lod;
+    CHECK(t, mts_lod_init(&lod, &m, MTS_LOD_AT_FULL, &err) == MTS_OK);
+    mts_lod_clear_changed(&lod);
+    mts_lod_collapse(&lod);
+    uint32_t nc;
+    const uint32_t *changed = mts_lod_changed(&lod, &nc);
+    CHECK(t, nc == 1 && changed[0] == 0 && lod.level == 0);
+    mts_lod_free(&lod);
+    mts_model_free(&m);
+}
+
+/* A split whose erased run is not what the strip holds is refused, naming
+ * the split, the strip and the position; the runtime is then broken. */
+static void test_erase_wrong_content_rejected(mts_test *t)
+{
+    mts_model m;
+    hand_state snap[3];
+    hand_model_erases(&m, snap);
+    mts_error err = {0};
+    CHECKF(t, mts_model_validate(&m, &err) == MTS_OK, "validate: %s", err.msg);
+    /* split 1's erase from strip 0 says (2 1 3) at 2; make it (2 0 3) */
+    uint32_t *erased = m.record_data + m.record_offsets[1] + 1 + 4 + 2;
+    CHECK(t, erased[0] == 2 && erased[1] == 1 && erased[2] == 3);
+    erased[1] = 0;
+    CHECK(t, mts_model_validate(&m, &err) == MTS_ERR_RANGE);
+    CHECKF(t, strstr(err.msg, "split 1: strip 0 position 3 holds 1, the record erases 0"),
+           "message: %s", err.msg);
+    mts_lod lod;
+    CHECK(t, mts_lod_init(&lod, &m, MTS_LOD_AT_BASE, &err) == MTS_OK);
+    CHECK(t, mts_lod_set_level(&lod, 2, &err) == MTS_ERR_RANGE);
+    CHECK(t, lod.level == 1 && lod.broken);
+    CHECKF(t, strstr(err.msg, "split 1") && strstr(err.msg, "strip 0") &&
+                  strstr(err.msg, "position 3"),
+           "message: %s", err.msg);
+    CHECK(t, mts_lod_set_level(&lod, 0, &err) != MTS_OK);
+    mts_lod_free(&lod);
+    mts_model_free(&m);
+}
+
+/* Erases that reach past the strip, or past the record, are refused before
+ * anything is read there (ASan watches). */
+static void test_erase_out_of_bounds_rejected(mts_test *t)
+{
+    const struct {
+        uint32_t pos, run;
+        const char *needle;
+    } cases[] = {
+        {2, 2, "split 0: erase of 2 at 2 does not fit strip 0 (length 3)"},
+        {4, 0, "split 0: erase of 0 at 4 does not fit strip 0 (length 3)"},
+        {1, 0xFFFFFFFFu, "does not fit strip 0"},
+        {0xFFFFFFFFu, 1, "does not fit strip 0"},
+        {0, 3, "record ends inside an erase from strip 0"},
+    };
+    const uint32_t base[] = {0, 1, 2}, full[] = {0, 1, 2};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        /* strip 0: one erase, nothing else; for the last case the record
+         * holds only 2 of the 3 indices it erases */
+        const uint32_t rec[] = {1, 0, 1, 0, 0, cases[i].pos, cases[i].run, 0, 1};
+        mts_model m;
+        hand_model_one_split(&m, base, 3, full, 3, rec, 9);
+        mts_error err = {0};
+        CHECK(t, mts_model_validate(&m, &err) == MTS_ERR_RANGE);
+        CHECKF(t, strstr(err.msg, cases[i].needle) != NULL, "case %zu: message: %s", i, err.msg);
+        mts_model_free(&m);
+    }
+    /* a record that ends inside the erase header */
+    const uint32_t rec[] = {1, 0, 1, 0, 0, 0};
+    mts_model m;
+    hand_model_one_split(&m, base, 3, full, 3, rec, 6);
+    mts_error err = {0};
+    CHECK(t, mts_model_validate(&m, &err) == MTS_ERR_RANGE);
+    CHECKF(t, strstr(err.msg, "record ends inside an erase from strip 0"), "message: %s",
+           err.msg);
+    mts_model_free(&m);
+}
+
+/* Strip lengths are not monotone in the level: a slot longer at a middle
+ * level than at either end, and one empty at the full level, work within
+ * their capacities, which set the slots (not the full strips). */
+static void test_capacity_longer_than_full(mts_test *t)
+{
+    mts_model m;
+    hand_state snap[3];
+    hand_model_erases(&m, snap);
+    CHECK(t, m.capacity[0] == 5 && m.capacity[1] == 3);
+    CHECK(t, m.full.offsets[1] == 2 && m.full.offsets[2] == 2);
+    mts_error err = {0};
+    CHECKF(t, mts_model_validate(&m, &err) == MTS_OK, "validate: %s", err.msg);
+    uint64_t seed = 17;
+    walk_against_states(t, &m, snap, &seed, 20, "erases model");
+    mts_lod lod;
+    CHECK(t, mts_lod_init(&lod, &m, MTS_LOD_AT_BASE, &err) == MTS_OK);
+    CHECK(t, lod.slot[2] == 8);
+    /* counts the capacities: slot, length, changed flag and list per strip */
+    CHECK(t, mts_lod_memory_bytes(&lod) ==
+                 3 * 13 + 8 * 4 + (uint64_t)lod.scratch_size * sizeof *lod.scratch);
+    mts_lod_free(&lod);
+    mts_model_free(&m);
+}
+
+/* A capacity smaller than a strip ever gets is refused: at the base or full
+ * level by mts_model_validate (and at the start by mts_lod_init), in
+ * between by the split that would overflow the slot; so is a model without
+ * capacities, or with more than records could ever fill. */
+static void test_capacity_exceeded_rejected(mts_test *t)
+{
+    mts_model m;
+    hand_state snap[3];
+    hand_model_erases(&m, snap);
+    mts_error err = {0};
+    mts_lod lod;
+
+    m.capacity[0] = 4; /* level 1's strip 0 is 5 long */
+    CHECK(t, mts_model_validate(&m, &err) == MTS_ERR_RANGE);
+    CHECKF(t, strstr(err.msg, "split 0: insert of 2 at 3 does not fit strip 0 (length 3 of "
+                              "capacity 4)"),
+           "message: %s", err.msg);
+    CHECK(t, mts_lod_init(&lod, &m, MTS_LOD_AT_BASE, &err) == MTS_OK);
+    CHECK(t, mts_lod_set_level(&lod, 2, &err) == MTS_ERR_RANGE);
+    CHECK(t, lod.level == 0 && lod.broken);
+    mts_lod_free(&lod);
+
+    m.capacity[0] = 2; /* the base strip is 3 long */
+    CHECK(t, mts_model_validate(&m, &err) == MTS_ERR_RANGE);
+    CHECKF(t, strstr(err.msg, "strip 0 is 3 long at the base and 2 at the full level, past its "
+                              "capacity 2"),
+           "message: %s", err.msg);
+    CHECK(t, mts_lod_init(&lod, &m, MTS_LOD_AT_BASE, &err) == MTS_ERR_RANGE);
+    CHECKF(t, strstr(err.msg, "base strip 0 is longer (3) than its capacity (2)"), "message: %s",
+           err.msg);
+    CHECK(t, mts_lod_init(&lod, &m, MTS_LOD_AT_FULL, &err) == MTS_OK);
+    mts_lod_free(&lod);
+
+    m.capacity[0] = 1; /* the full strip is 2 long */
+    CHECK(t, mts_lod_init(&lod, &m, MTS_LOD_AT_FULL, &err) == MTS_ERR_RANGE);
+    CHECKF(t, strstr(err.msg, "full strip 0 is longer (2) than its capacity (1)"), "message: %s",
+           err.msg);
+
+    m.capacity[0] = 1u << 20; /* far more than records could fill */
+    CHECK(t, mts_model_validate(&m, &err) == MTS_ERR_RANGE);
+    CHECKF(t, strstr(err.msg, "could ever fill"), "message: %s", err.msg);
+    m.capacity[0] = UINT32_MAX;
+    m.capacity[1] = 2;
+    CHECK(t, mts_lod_init(&lod, &m, MTS_LOD_AT_BASE, &err) == MTS_ERR_LIMIT);
+
+    m.capacity[0] = 5;
+    m.capacity[1] = 3;
+    CHECK(t, mts_model_validate(&m, &err) == MTS_OK);
+    uint32_t *cap = m.capacity;
+    m.capacity = NULL;
+    CHECK(t, mts_model_validate(&m, &err) == MTS_ERR_FORMAT);
+    CHECKF(t, strstr(err.msg, "capacities are missing"), "message: %s", err.msg);
+    CHECK(t, mts_lod_init(&lod, &m, MTS_LOD_AT_BASE, &err) != MTS_OK);
+    m.capacity = cap;
+    mts_model_free(&m);
+}
+
+/* Two edits of one split on one strip: the first inserts, the second erases
+ * part of what the first inserted and of what was there. The slot must hold
+ * the longest moment inside the split, and the collapse must put back the
+ * erased indices where they were. */
+static void test_erase_after_insert_same_strip(mts_test *t)
+{
+    const uint32_t base[] = {1, 2, 0}, full[] = {1};
+    const uint32_t rec[] = {2,                   /* edits */
+                            0, 0, 1, 0,          /* strip 0: 1 insert */
+                            3, 2, 0, 0,          /*   insert (0 0) at 3: 1 2 0 0 0 */
+                            0, 1, 0, 0,          /* strip 0: 1 erase */
+                            1, 4, 2, 0, 0, 0};   /*   erase (2 0 0 0) at 1: 1 */
+    mts_model m;
+    hand_model_one_split(&m, base, 3, full, 1, rec, 19);
+    mts_error err = {0};
+    /* the longest moment (5) is past the longest level (3) */
+    CHECK(t, m.capacity[0] == 3);
+    CHECK(t, mts_model_validate(&m, &err) == MTS_ERR_RANGE);
+    CHECKF(t, strstr(err.msg, "insert of 2 at 3 does not fit strip 0 (length 3 of capacity 3)"),
+           "message: %s", err.msg);
+    m.capacity[0] = 5;
+    CHECKF(t, mts_model_validate(&m, &err) == MTS_OK, "validate: %s", err.msg);
+    hand_state snap[2] = {0};
+    snap[0].len[0] = 3;
+    memcpy(snap[0].d[0], base, sizeof base);
+    snap[1].len[0] = 1;
+    snap[1].d[0][0] = 1;
+    uint64_t seed = 3;
+    walk_against_states(t, &m, snap, &seed, 8, "insert then erase");
+    mts_model_free(&m);
 }
 
 static void test_level_lookup(mts_test *t)
@@ -553,6 +651,12 @@ int main(void)
     RUN(&t, test_collapse_undoes_edits_in_reverse);
     RUN(&t, test_validate_checks_bbox);
     RUN(&t, test_random_records_walk_both_ways);
+    RUN(&t, test_erase_insert_subst);
+    RUN(&t, test_erase_wrong_content_rejected);
+    RUN(&t, test_erase_out_of_bounds_rejected);
+    RUN(&t, test_capacity_longer_than_full);
+    RUN(&t, test_capacity_exceeded_rejected);
+    RUN(&t, test_erase_after_insert_same_strip);
     RUN(&t, test_verify_detects_winding_flip);
     RUN(&t, test_verify_detects_up_down_mismatch);
     RUN(&t, test_bunny_sampled);

@@ -1,11 +1,15 @@
-/* The .mtsm file: round trip, and every kind of damage gets its own clear
- * error and never a crash (truncation at every byte offset, random byte
- * flips, wrong magic and version, bad checksums, out-of-range indices). */
+/* The .mtsm file: round trip (capacities included), and every kind of damage
+ * gets its own clear error and never a crash (truncation at every byte
+ * offset, random byte flips, wrong magic and version, version-1 files, bad
+ * checksums, out-of-range indices, capacities that do not hold the strips or
+ * add up). */
 #include <math.h>
 #include <stdint.h>
 
 #include "build.h"
 #include "crc32c.h"
+#include "hand_model.h"
+#include "lod.h"
 #include "mesh.h"
 #include "model.h"
 #include "modelfile.h"
@@ -85,6 +89,7 @@ static void test_round_trip(mts_test *t)
     CHECKF(t, mts_modelfile_decode(file, size, "sphere.mtsm", &back, &err) == MTS_OK, "%s", err.msg);
     CHECK(t, back.vertex_count == m.vertex_count && back.level_count == m.level_count);
     CHECK(t, back.strip_count == m.strip_count);
+    CHECK(t, memcmp(back.capacity, m.capacity, (size_t)m.strip_count * 4) == 0);
     CHECK(t, memcmp(back.positions, m.positions, (size_t)m.vertex_count * 12) == 0);
     CHECK(t, memcmp(back.normals, m.normals, (size_t)m.vertex_count * 12) == 0);
     CHECK(t, memcmp(back.full.indices, m.full.indices, (size_t)m.full.index_count * 4) == 0);
@@ -108,6 +113,60 @@ static void test_round_trip(mts_test *t)
     mts_model_free(&loaded);
     remove(path);
     free(again);
+    free(file);
+    mts_model_free(&back);
+    mts_model_free(&m);
+}
+
+/* A model whose strips are longer at a middle level than at either end and
+ * whose records erase (tests/hand_model.h): through the file and back,
+ * capacities and all, and the loaded model walks as the original does. */
+static void test_round_trip_erase_model(mts_test *t)
+{
+    mts_model m, back;
+    hand_state snap[3];
+    hand_model_erases(&m, snap);
+    snprintf(m.source, sizeof m.source, "by hand");
+    uint8_t *file = NULL;
+    size_t size = 0;
+    mts_error err = {0};
+    CHECKF(t, mts_modelfile_encode(&m, &file, &size, &err) == MTS_OK, "encode: %s", err.msg);
+    CHECKF(t, mts_modelfile_decode(file, size, "hand.mtsm", &back, &err) == MTS_OK, "decode: %s",
+           err.msg);
+    if (t->case_failed) {
+        free(file);
+        mts_model_free(&m);
+        return;
+    }
+    CHECK(t, back.strip_count == 2 && back.capacity[0] == 5 && back.capacity[1] == 3);
+    CHECK(t, back.record_word_count == m.record_word_count &&
+                 memcmp(back.record_data, m.record_data, (size_t)m.record_word_count * 4) == 0);
+    CHECK(t, memcmp(back.record_offsets, m.record_offsets, 3 * 4) == 0);
+    CHECK(t, back.full.offsets[1] == 2 && back.full.offsets[2] == 2);
+    CHECK(t, strcmp(back.source, "by hand") == 0);
+    mts_lod lod;
+    CHECK(t, mts_lod_init(&lod, &back, MTS_LOD_AT_FULL, &err) == MTS_OK);
+    for (uint32_t l = 3; l-- > 0;) {
+        CHECK(t, mts_lod_set_level(&lod, l, &err) == MTS_OK);
+        for (uint32_t s = 0; s < 2; s++) {
+            uint32_t len;
+            const uint32_t *x = mts_lod_strip(&lod, s, &len);
+            CHECKF(t, len == snap[l].len[s] && memcmp(x, snap[l].d[s], (size_t)len * 4) == 0,
+                   "level %u strip %u", l, s);
+        }
+    }
+    mts_lod_free(&lod);
+    /* every cut of it is refused too */
+    for (size_t cut = 0; cut < size && !t->case_failed; cut++) {
+        mts_model bad;
+        uint8_t *copy = malloc(cut ? cut : 1);
+        memcpy(copy, file, cut);
+        mts_result rc = mts_modelfile_decode(copy, cut, "cut.mtsm", &bad, &err);
+        free(copy);
+        CHECKF(t, rc != MTS_OK, "cut at %zu of %zu was accepted", cut, size);
+        if (rc == MTS_OK)
+            mts_model_free(&bad);
+    }
     free(file);
     mts_model_free(&back);
     mts_model_free(&m);
@@ -242,8 +301,15 @@ static void test_specific_errors(mts_test *t)
     expect_error(t, f, size, MTS_ERR_FORMAT, "magic");
 
     memcpy(f, file, size);
-    f[4] = 2;
-    expect_error(t, f, size, MTS_ERR_VERSION, "version 2.0");
+    f[4] = 3;
+    expect_error(t, f, size, MTS_ERR_VERSION, "version 3.0");
+
+    /* version 1 (records without erase runs, no capacities): rebuild */
+    memcpy(f, file, size);
+    f[4] = 1;
+    reseal(f);
+    expect_error(t, f, size, MTS_ERR_VERSION,
+                 "model file version 1 is from an older mtstream; rebuild it with mts-build");
 
     memcpy(f, file, size);
     f[section_offset(f, 2) + 5] ^= 0x40; /* inside the positions */
@@ -279,6 +345,38 @@ static void test_specific_errors(mts_test *t)
         m.record_data[1] = saved;
     }
 
+    /* capacities (section 9, one u32 per strip; their sum is word 7 of
+     * 'info'): one that a strip does not fit, even when the sum agrees */
+    {
+        uint32_t s = 0;
+        while (s < m.strip_count && m.full.offsets[s + 1] == m.full.offsets[s])
+            s++;
+        CHECK(t, s < m.strip_count);
+        uint32_t total = 0;
+        for (uint32_t k = 0; k < m.strip_count; k++)
+            total += m.capacity[k];
+        memcpy(f, file, size);
+        put32(f + section_offset(f, 9) + 4 * (uint64_t)s, 0);
+        put32(f + section_offset(f, 1) + 28, total - m.capacity[s]);
+        reseal(f);
+        expect_error(t, f, size, MTS_ERR_RANGE, "past its capacity");
+
+        /* one that breaks the sum 'info' declares */
+        memcpy(f, file, size);
+        put32(f + section_offset(f, 9) + 4 * (uint64_t)s, m.capacity[s] + 1);
+        reseal(f);
+        expect_error(t, f, size, MTS_ERR_FORMAT, "strip capacities add up to");
+
+        /* more than base indices and record words could ever fill, even
+         * when the capacities add up to it */
+        memcpy(f, file, size);
+        uint32_t huge = 0x7FFFFFF0u;
+        put32(f + section_offset(f, 9) + 4 * (uint64_t)s, huge);
+        put32(f + section_offset(f, 1) + 28, total - m.capacity[s] + huge);
+        reseal(f);
+        expect_error(t, f, size, MTS_ERR_FORMAT, "could ever fill");
+    }
+
     /* counts that promise more than the file holds */
     memcpy(f, file, size);
     put32(f + section_offset(f, 1), 0x7FFFFFFF);
@@ -302,6 +400,7 @@ int main(void)
     mts_test t = {0};
     RUN(&t, test_crc32c_vector);
     RUN(&t, test_round_trip);
+    RUN(&t, test_round_trip_erase_model);
     RUN(&t, test_truncated_everywhere);
     RUN(&t, test_random_flips);
     RUN(&t, test_specific_errors);

@@ -1,9 +1,11 @@
 /* Varints and the compact split encoding: exact round trips (whole model and
- * arbitrary batches), and truncated or random input ends in an error, never
- * an overrun. */
+ * arbitrary batches, records with erase runs), the exact bytes of one
+ * record, and truncated or random input ends in an error, never an
+ * overrun. */
 #include <stdint.h>
 
 #include "build.h"
+#include "hand_model.h"
 #include "mesh.h"
 #include "model.h"
 #include "reccodec.h"
@@ -111,6 +113,58 @@ static void test_round_trip_cow(mts_test *t)
     mts_model_free(&m);
 }
 
+/* The layout of reccodec.h, byte by byte, on split 1 of the hand-made model
+ * with erase runs (tests/hand_model.h). */
+static void test_erase_record_bytes(mts_test *t)
+{
+    mts_model m;
+    hand_state snap[3];
+    hand_model_erases(&m, snap);
+    const uint8_t want[] = {
+        2,             /* v - 1 - parent: 4 - 1 - 1 */
+        2,             /* edits */
+        0, 1, 0, 1,    /* strip 0 (delta 0), 1 erase, no insert, 1 subst */
+        2, 3, 2, 0, 4, /*   erase at 2, 3 long: 2 1 3 as zigzag(index - 1) */
+        2,             /*   position 1 (delta from 0) */
+        2, 1, 1, 0,    /* strip 1 (delta +1), 1 erase, 1 insert, no subst */
+        0, 3, 0, 2, 1, /*   erase at 0, 3 long: 1 2 0 */
+        0, 0,          /*   insert at 0, empty */
+    };
+    uint8_t buf[(22 + 1) * MTS_VARINT32_MAX_BYTES]; /* the bound: 22 words and a parent */
+    size_t written = 0;
+    mts_error err = {0};
+    CHECK(t, mts_reccodec_bound(&m, 1, 1) == sizeof buf);
+    CHECKF(t, mts_reccodec_encode(&m, 1, 1, buf, sizeof buf, &written, &err) == MTS_OK, "%s",
+           err.msg);
+    CHECKF(t, written == sizeof want && memcmp(buf, want, sizeof want) == 0,
+           "split 1 encodes to %zu bytes, not the %zu expected", written, sizeof want);
+    mts_model_free(&m);
+}
+
+/* Records with erase runs, round trip: the hand-made model, then random
+ * models (erases, empty runs, several edits on one strip) with vertex ids
+ * from a few up to a million (multi-byte varints, negative deltas). A
+ * split's words never outnumber its bytes: round_trip gives the decoder no
+ * more room than that. */
+static void test_round_trip_erase_runs(mts_test *t)
+{
+    mts_model m;
+    hand_state snap[3];
+    hand_model_erases(&m, snap);
+    round_trip(t, &m, 0, 2, NULL);
+    round_trip(t, &m, 1, 1, NULL);
+    mts_model_free(&m);
+    uint64_t seed = 4242;
+    for (int it = 0; it < 600 && !t->case_failed; it++) {
+        hand_state *states = hand_random_model(&seed, it % 2, &m);
+        round_trip(t, &m, 0, m.level_count, NULL);
+        for (uint32_t j = 0; j < m.level_count && !t->case_failed; j++)
+            round_trip(t, &m, j, 1, NULL);
+        mts_model_free(&m);
+        free(states);
+    }
+}
+
 static void test_truncated_and_garbage(mts_test *t)
 {
     mts_model m;
@@ -160,6 +214,8 @@ int main(void)
     mts_test t = {0};
     RUN(&t, test_varint);
     RUN(&t, test_round_trip_cow);
+    RUN(&t, test_erase_record_bytes);
+    RUN(&t, test_round_trip_erase_runs);
     RUN(&t, test_truncated_and_garbage);
     return mts_test_end(&t);
 }

@@ -45,7 +45,7 @@ static void test_hello_round_trip_and_errors(mts_test *t)
     mts_error err = {0};
     CHECK(t, one_frame(&b, &type, &p, &n) && type == MTS_MSG_HELLO);
     CHECKF(t, mts_wire_parse_hello(p, n, &back, &err) == MTS_OK, "%s", err.msg);
-    CHECK(t, back.major == 1 && strcmp(back.model, "bunny00") == 0);
+    CHECK(t, back.major == MTS_WIRE_MAJOR && strcmp(back.model, "bunny00") == 0);
     CHECK(t, back.stop_kind == MTS_STOP_FRACTION && back.stop_value == 250000);
     CHECK(t, back.resume_batch == 7 && back.stream_id == h.stream_id);
     /* every truncation is an error */
@@ -63,10 +63,16 @@ static void test_hello_round_trip_and_errors(mts_test *t)
     copy[0] = 'G';
     CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_FORMAT);
     CHECK(t, strstr(err.msg, "magic") != NULL);
+    /* a 1.0 peer (records without erased runs) and a future major */
     memcpy(copy, p, n);
-    copy[4] = 2;
+    copy[4] = 1;
+    CHECK(t, MTS_WIRE_MAJOR == 2);
     CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
-    CHECK(t, strstr(err.msg, "2.0") != NULL);
+    CHECKF(t, strstr(err.msg, "1.0") != NULL && strstr(err.msg, "speaks 2.x") != NULL, "%s",
+           err.msg);
+    copy[4] = 3;
+    CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
+    CHECKF(t, strstr(err.msg, "3.0") != NULL, "%s", err.msg);
     free(copy);
     /* names that could reach a file system are refused */
     const char *bad[] = {"../etc/passwd", "a/b", ".hidden", "", "sp ace",
@@ -78,7 +84,7 @@ static void test_hello_round_trip_and_errors(mts_test *t)
         /* write the name raw, bypassing the writer's own truncation */
         size_t f = mts_wire_frame_begin(&bb, MTS_MSG_HELLO);
         mts_buf_put(&bb, "MTSH", 4);
-        mts_buf_u16(&bb, 1);
+        mts_buf_u16(&bb, MTS_WIRE_MAJOR);
         mts_buf_u16(&bb, 0);
         mts_buf_string(&bb, bad[i], strlen(bad[i]));
         mts_buf_u8(&bb, 0);

@@ -12,7 +12,7 @@
 static void usage(FILE *f)
 {
     fputs("usage: mts-build MESH [-o MODEL.mtsm] [--base-vertices N] [--tunnel-length K]\n"
-          "                 [--json] [--quiet]\n"
+          "                 [--key-ratio R] [--json] [--quiet]\n"
           "\n"
           "Builds a multiresolution triangle-strip model from a mesh (OFF, OBJ, PLY, STL):\n"
           "strips at full resolution, a quadric edge-collapse sequence down to a base mesh,\n"
@@ -26,6 +26,10 @@ static void usage(FILE *f)
           "                        strips for the vertex cache; 0: off (default: "
           MTS_TUNNEL_DEFAULT_LENGTH_STR ", most "
           MTS_TUNNEL_MAX_LENGTH_STR ")\n"
+          "  --key-ratio R         strips are grown upward from the base split by split\n"
+          "                        and stripified afresh each time the triangles grow by R\n"
+          "                        (R > 1); 0: only at the base and the full level\n"
+          "                        (default: " MTS_LODBUILD_DEFAULT_KEY_RATIO_STR ")\n"
           "  --json                print one line of JSON with the figures\n"
           "  -q, --quiet           no progress bar, no summary\n"
           "  -h, --help            this help\n"
@@ -38,6 +42,7 @@ int main(int argc, char **argv)
 {
     const char *input = NULL, *output = NULL;
     uint32_t base_vertices = 0, tunnel_length = MTS_TUNNEL_DEFAULT_LENGTH;
+    double key_ratio = MTS_LODBUILD_DEFAULT_KEY_RATIO;
     int json = 0, quiet = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -60,6 +65,12 @@ int main(int argc, char **argv)
                 tunnel_length > MTS_TUNNEL_MAX_LENGTH) {
                 fprintf(stderr, "mts-build: --tunnel-length needs a whole number from 0 to %d\n",
                         MTS_TUNNEL_MAX_LENGTH);
+                return CLI_EXIT_USAGE;
+            }
+        } else if (!strcmp(a, "--key-ratio")) {
+            if (++i >= argc || !cli_parse_double(argv[i], &key_ratio) ||
+                !(key_ratio == 0 || (key_ratio > 1 && key_ratio <= 1000))) {
+                fprintf(stderr, "mts-build: --key-ratio needs 0 or a number above 1\n");
                 return CLI_EXIT_USAGE;
             }
         } else if (!strcmp(a, "--json")) {
@@ -106,6 +117,7 @@ int main(int argc, char **argv)
     mts_build_options bo = {0};
     bo.base_vertices = base_vertices;
     bo.tunnel_length = tunnel_length == 0 ? -1 : (int)tunnel_length;
+    bo.key_ratio = key_ratio == 0 ? -1 : key_ratio;
     bo.progress = cli_bar_progress(&bar);
     if (mts_build_model(&mesh, input, &bo, &model, &rep, &err) != MTS_OK)
         goto fail;
@@ -119,6 +131,19 @@ int main(int argc, char **argv)
     uint32_t n = model.level_count;
     double ipt_full = (double)(model.level_indices[n] + model.level_strips[n] - 1) /
                       model.level_triangles[n];
+    /* the worst level a client may draw, restarts counted */
+    double ipt_worst = 0;
+    uint32_t worst_level = 0;
+    for (uint32_t l = 0; l <= n; l++) {
+        double ipt = model.level_triangles[l]
+                         ? (double)(model.level_indices[l] + model.level_strips[l] - 1) /
+                               model.level_triangles[l]
+                         : 0;
+        if (ipt > ipt_worst) {
+            ipt_worst = ipt;
+            worst_level = l;
+        }
+    }
     if (json) {
         cli_json j;
         cli_json_begin(&j, stdout);
@@ -135,6 +160,9 @@ int main(int argc, char **argv)
         cli_json_num(&j, "indices_per_triangle_full", ipt_full, 4);
         cli_json_u64(&j, "swaps", rep.tunnel.swaps_after);
         cli_json_u64(&j, "tunnel_length", (uint64_t)rep.tunnel_length);
+        cli_json_u64(&j, "key_levels", rep.records.key_levels);
+        cli_json_num(&j, "indices_per_triangle_worst", ipt_worst, 4);
+        cli_json_u64(&j, "worst_level", worst_level);
         cli_json_object_begin(&j, "greedy");
         cli_json_u64(&j, "strips", rep.tunnel.strips_before);
         cli_json_u64(&j, "swaps", rep.tunnel.swaps_before);
@@ -179,8 +207,10 @@ int main(int argc, char **argv)
                    (unsigned long long)rep.tunnel.swaps_before,
                    (double)rep.tunnel.draw_indices_before / model.level_triangles[n],
                    rep.tunnel.changes);
-        printf("  levels: %u splits from a base of %u vertices / %u triangles\n", n,
-               model.base_vertex_count, model.level_triangles[0]);
+        printf("  levels: %u splits from a base of %u vertices / %u triangles; %u key levels; "
+               "worst %.3f indices/triangle (level %u)\n",
+               n, model.base_vertex_count, model.level_triangles[0], rep.records.key_levels,
+               ipt_worst, worst_level);
         printf("  wrote %s: %llu bytes in %.2f s (load %.2f, stripify %.2f, tunnel %.2f, "
                "simplify %.2f, records %.2f, write %.2f)\n",
                output, (unsigned long long)file_bytes, t3 - t0, t1 - t0, rep.seconds_stripify,

@@ -6,8 +6,10 @@
  *          mts_model_validate behind the checksums
  * A model that loads was validated, and everything downstream trusts that
  * (mts_lod collapses check nothing; the server streams it): so a loaded model
- * is walked from the full level to the base and back, from the base up, and
- * encoded and loaded again, which must all work. */
+ * is walked from the full level to the base and back, from the base up, in
+ * slots as long as its capacities (which no strip may pass at any level,
+ * though they may pass the full strips), and encoded and loaded again, which
+ * must all work. */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,12 +19,28 @@
 #include "model.h"
 #include "modelfile.h"
 
+/* The runtime's slots are the capacities, and every strip fits its slot. */
+static void mts_fuzz_check_slots(const mts_model *m, const mts_lod *lod)
+{
+    MTS_FUZZ_CHECK(lod->slot[0] == 0);
+    for (uint32_t s = 0; s < m->strip_count; s++) {
+        MTS_FUZZ_CHECK(lod->slot[s + 1] - lod->slot[s] == m->capacity[s]);
+        MTS_FUZZ_CHECK(lod->length[s] <= m->capacity[s]);
+    }
+}
+
 static void mts_fuzz_walk_model(const mts_model *m)
 {
     mts_error err = {0};
     mts_lod lod;
+    MTS_FUZZ_CHECK(m->strip_count == 0 || m->capacity != NULL);
     MTS_FUZZ_CHECK(mts_lod_init(&lod, m, MTS_LOD_AT_FULL, &err) == MTS_OK);
-    MTS_FUZZ_CHECK(mts_lod_set_level(&lod, 0, &err) == MTS_OK);
+    mts_fuzz_check_slots(m, &lod);
+    /* one level at a time, each checked against the capacities */
+    while (lod.level > 0) {
+        mts_lod_collapse(&lod);
+        mts_fuzz_check_slots(m, &lod);
+    }
     for (uint32_t s = 0; s < m->strip_count; s++) {
         uint32_t len;
         const uint32_t *str = mts_lod_strip(&lod, s, &len);
@@ -32,6 +50,7 @@ static void mts_fuzz_walk_model(const mts_model *m)
     mts_lod_free(&lod);
     MTS_FUZZ_CHECK(mts_lod_init(&lod, m, MTS_LOD_AT_BASE, &err) == MTS_OK);
     MTS_FUZZ_CHECK(mts_lod_set_level(&lod, m->level_count, &err) == MTS_OK);
+    mts_fuzz_check_slots(m, &lod);
     for (uint32_t s = 0; s < m->strip_count; s++) {
         uint32_t len;
         const uint32_t *str = mts_lod_strip(&lod, s, &len);
@@ -46,7 +65,10 @@ static void mts_fuzz_walk_model(const mts_model *m)
     mts_model m2;
     MTS_FUZZ_CHECK(mts_modelfile_decode(again, again_size, "again", &m2, &err) == MTS_OK);
     MTS_FUZZ_CHECK(m2.vertex_count == m->vertex_count && m2.level_count == m->level_count &&
-                   m2.record_word_count == m->record_word_count);
+                   m2.record_word_count == m->record_word_count &&
+                   m2.strip_count == m->strip_count);
+    MTS_FUZZ_CHECK(m->strip_count == 0 ||
+                   memcmp(m2.capacity, m->capacity, (size_t)m->strip_count * 4) == 0);
     mts_model_free(&m2);
     free(again);
 }
@@ -72,7 +94,8 @@ int mts_fuzz_modelfile(const uint8_t *data, size_t size)
     } else {
         MTS_FUZZ_CHECK(err.msg[0] != 0 && err.code == rc);
         /* a failed load leaves nothing to free */
-        MTS_FUZZ_CHECK(m.positions == NULL && m.record_data == NULL && m.full.indices == NULL);
+        MTS_FUZZ_CHECK(m.positions == NULL && m.record_data == NULL && m.full.indices == NULL &&
+                       m.capacity == NULL);
     }
     free(bytes);
     return 0;

@@ -5,6 +5,11 @@
  * runs them through the targets in memory. Seeds stay small (the biggest are
  * cow's streams, under 10 KiB) so that each execution stays fast.
  *
+ * The model-file seeds also hold a hand-made model (tests/hand_model.h) whose
+ * records erase and whose strips are longer at a middle level than at the
+ * full one, so the fuzzer starts from erase runs and capacities that the
+ * full strips do not give.
+ *
  * Targets: "stream_client", "request", "modelfile", "draco" (the fuzz_*.c
  * files say what their input is; two of them start with a mode byte). */
 #ifndef MTS_FUZZ_SEEDS_H
@@ -15,6 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../hand_model.h"
 #include "draco.h"
 #include "fuzz_util.h"
 #include "modelfile.h"
@@ -139,16 +145,17 @@ static inline void mts_fuzz_request_seeds(mts_fuzz_seeder *sd, const mts_stream 
         uint32_t value, resume;
         int right_id;
     } hellos[] = {
-        {"hello-full", "fuzz", 1, MTS_STOP_FULL, 0, 0, 0},
-        {"hello-level", "fuzz", 1, MTS_STOP_LEVEL, 10, 0, 0},
-        {"hello-level-past", "fuzz", 1, MTS_STOP_LEVEL, 1000000, 0, 0},
-        {"hello-triangles", "fuzz", 1, MTS_STOP_TRIANGLES, 100, 0, 0},
-        {"hello-fraction", "fuzz", 1, MTS_STOP_FRACTION, 500000, 0, 0},
-        {"hello-resume", "fuzz", 1, MTS_STOP_LEVEL, 40, 2, 1},
-        {"hello-resume-stale", "fuzz", 1, MTS_STOP_FULL, 0, 1, 0},
-        {"hello-resume-past", "fuzz", 1, MTS_STOP_LEVEL, 10, 5, 1},
-        {"hello-unknown-model", "cow", 1, MTS_STOP_FULL, 0, 0, 0},
-        {"hello-version-2", "fuzz", 2, MTS_STOP_FULL, 0, 0, 0},
+        {"hello-full", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 0, 0},
+        {"hello-level", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 10, 0, 0},
+        {"hello-level-past", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 1000000, 0, 0},
+        {"hello-triangles", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_TRIANGLES, 100, 0, 0},
+        {"hello-fraction", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FRACTION, 500000, 0, 0},
+        {"hello-resume", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 40, 2, 1},
+        {"hello-resume-stale", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 1, 0},
+        {"hello-resume-past", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 10, 5, 1},
+        {"hello-unknown-model", "cow", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 0, 0},
+        {"hello-version-1", "fuzz", 1, MTS_STOP_FULL, 0, 0, 0}, /* an older peer */
+        {"hello-version-next", "fuzz", MTS_WIRE_MAJOR + 1, MTS_STOP_FULL, 0, 0, 0},
     };
     for (size_t i = 0; i < sizeof hellos / sizeof hellos[0]; i++) {
         mts_wire_hello h = {0};
@@ -294,6 +301,20 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
     mts_fuzz_modelfile_seed(&sd, "torus", 0, &torus.model);
     mts_fuzz_modelfile_seed(&sd, "torus-crc-kept", 1, &torus.model);
     mts_fuzz_modelfile_seed(&sd, "small", 0, &small.model);
+    {
+        mts_model hm;
+        hand_state hs[3];
+        hand_model_erases(&hm, hs);
+        mts_fuzz_modelfile_seed(&sd, "hand-erases", 0, &hm);
+        mts_model_free(&hm);
+        /* random records: several edits on a strip, empty runs (few
+         * vertices: a wide model's positions would make a big seed) */
+        uint64_t seed = 2024;
+        hand_state *states = hand_random_model(&seed, 0, &hm);
+        mts_fuzz_modelfile_seed(&sd, "hand-random", 0, &hm);
+        mts_model_free(&hm);
+        free(states);
+    }
 
     /* draco: what BASE frames carry, and whole meshes with and without normals */
     size_t dsize = 0;
