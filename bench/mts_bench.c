@@ -32,6 +32,12 @@
 /* Fractions of the full vertex count the level table samples. */
 static const double level_fractions[] = {1.0, 0.5, 0.25, 0.1, 0.05, 0.01};
 #define LEVEL_ROWS (sizeof level_fractions / sizeof level_fractions[0])
+/* Paper 004 Table 1: its model at 13, 27 and 52% ("LOD%"), with maximal
+ * tunnel length 13, its best column: strips, isolated triangles, mean strip
+ * length. The model is not among the shared ones, so only the shape of the
+ * strips (mean length, isolated share) compares. */
+static const double p4_fractions[3] = {0.13, 0.27, 0.52};
+static const double p4_paper[3][3] = {{489, 46, 152.10}, {869, 52, 147.59}, {1489, 107, 199.70}};
 
 enum { WALK_LINEAR, WALK_EXPONENTIAL, WALK_RANDOM, WALK_KINDS };
 static const char *const walk_names[WALK_KINDS] = {"linear", "exponential", "random"};
@@ -158,6 +164,10 @@ typedef struct model_result {
     level_row level[LEVEL_ROWS];
     /* over every level, from the model's level table */
     uint32_t worst_level, key_levels, worst_triangles, worst_strips;
+    /* paper 004 Table 1's LOD fractions of the triangles: strips, isolated
+     * triangles, mean strip length */
+    uint32_t p4_level[3], p4_strips[3], p4_isolated[3];
+    double p4_mean[3];
     double worst_ipt, worst_degenerate_share;
 
     double sweep_ms, up_ms, down_ms; /* medians */
@@ -460,6 +470,32 @@ static int bench_levels(model_result *r, const mts_model *model)
             ok = 0;
         }
     }
+    for (int i = 0; i < 3 && ok; i++) {
+        uint32_t level = mts_model_level_for_triangles(
+            model, (uint64_t)(p4_fractions[i] * model->level_triangles[model->level_count]));
+        if (mts_lod_set_level(&lod, level, &err) != MTS_OK) {
+            fail(r, "set level", &err);
+            ok = 0;
+            break;
+        }
+        uint32_t strips = 0, isolated = 0;
+        uint64_t tris = 0;
+        for (uint32_t s = 0; s < lod.strip_count; s++) {
+            uint32_t len;
+            const uint32_t *p = mts_lod_strip(&lod, s, &len);
+            mts_strip_stats one = {0};
+            mts_strip_stats_add(&one, p, len);
+            if (!one.triangles)
+                continue;
+            strips++;
+            isolated += one.triangles == 1;
+            tris += one.triangles;
+        }
+        r->p4_level[i] = level;
+        r->p4_strips[i] = strips;
+        r->p4_isolated[i] = isolated;
+        r->p4_mean[i] = ratio(tris, strips);
+    }
     mts_lod_free(&lod);
     fifo_free(&c16);
     return ok;
@@ -761,6 +797,21 @@ static void print_tables(const model_result *res, int count, const bench_options
     printf("(paper: a 550 MHz Pentium III; coherent walks start at their first level, "
            "untimed)\n");
 
+    printf("\nStrips at paper 004 Table 1's levels (fraction of the full triangles; paper: "
+           "its own model, tunnel length 13)\n");
+    printf("%-14s %6s %8s %8s %9s %11s %8s %9s %11s\n", "model", "LOD%", "level", "strips",
+           "isolated", "mean tris", "paper", "p.isol.", "p.mean");
+    rule(14 + 7 + 9 * 2 + 10 + 12 + 9 + 10 + 12);
+    for (int i = 0; i < count; i++) {
+        const model_result *r = &res[i];
+        if (r->missing || r->failed)
+            continue;
+        for (int k = 0; k < 3; k++)
+            printf("%-14s %5.0f%% %8u %8u %9u %11.2f %8.0f %9.0f %11.2f\n", k ? "" : r->name,
+                   p4_fractions[k] * 100, r->p4_level[k], r->p4_strips[k], r->p4_isolated[k],
+                   r->p4_mean[k], p4_paper[k][0], p4_paper[k][1], p4_paper[k][2]);
+    }
+
     printf("\nModel size, paper 000 Table 1 (MB = 10^6 bytes)\n");
     printf("%-14s %11s %11s %8s %7s %9s %9s %9s %9s %9s\n", "model", "input B", "mtsm B",
            "mtsm MB", "strips", "paper MB", "PM MB", "MOM-Fan", "p.strips", "p.verts");
@@ -842,6 +893,21 @@ static void json_model(cli_json *j, const model_result *r)
     cli_json_object_end(j);
     cli_json_object_end(j);
 
+    cli_json_object_begin(j, "paper004_table1");
+    for (int k = 0; k < 3; k++) {
+        char key[16];
+        snprintf(key, sizeof key, "%g", p4_fractions[k]);
+        cli_json_object_begin(j, key);
+        cli_json_u64(j, "level", r->p4_level[k]);
+        cli_json_u64(j, "strips", r->p4_strips[k]);
+        cli_json_u64(j, "isolated", r->p4_isolated[k]);
+        cli_json_num(j, "mean_strip_triangles", r->p4_mean[k], 3);
+        cli_json_u64(j, "paper_strips", (uint64_t)p4_paper[k][0]);
+        cli_json_u64(j, "paper_isolated", (uint64_t)p4_paper[k][1]);
+        cli_json_num(j, "paper_mean_strip_triangles", p4_paper[k][2], 2);
+        cli_json_object_end(j);
+    }
+    cli_json_object_end(j);
     cli_json_object_begin(j, "worst_level");
     cli_json_u64(j, "level", r->worst_level);
     cli_json_u64(j, "levels", (uint64_t)r->levels + 1);

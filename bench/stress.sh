@@ -31,6 +31,11 @@ ulimit -n "$(ulimit -Hn)" 2>/dev/null
 
 dir="$out/stress_models"
 mkdir -p "$dir"
+# a model kept from an earlier run is reused only if this build still loads it
+# (the file format has a version)
+if [ -f "$dir/bunny00.mtsm" ] && ! build/bin/mts-inspect "$dir/bunny00.mtsm" >/dev/null 2>&1; then
+  rm -f "$dir/bunny00.mtsm"
+fi
 [ -f "$dir/bunny00.mtsm" ] || build/bin/mts-build "$shared/models/bunny00.off" -o "$dir/bunny00.mtsm" --quiet ||
   skip "mts-build failed"
 

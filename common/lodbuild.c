@@ -471,6 +471,73 @@ static mts_result adopt_strips(builder *b, const mts_strips *strips, mts_error *
     return MTS_OK;
 }
 
+/* A runtime reserves each slot's longest length over all levels, so strips
+ * of a key level go into the slots by length, longest into the roomiest:
+ * otherwise every slot soon holds a long strip at some key and the room
+ * reserved grows to several times what any one level draws. */
+/* Sorts ids by key[id], largest first, ties by id (a stable, deterministic
+ * order; insertion sort over runs is too slow for 10^4 slots, so merge). */
+static void sort_desc(uint32_t *ids, uint32_t n, const uint32_t *key)
+{
+    uint32_t *tmp = malloc(((size_t)n + 1) * 4);
+    if (!tmp)
+        return; /* leaves the order as is: still correct, only roomier */
+    for (uint32_t width = 1; width < n; width *= 2) {
+        for (uint32_t lo = 0; lo < n; lo += 2 * width) {
+            uint32_t mid = lo + width < n ? lo + width : n;
+            uint32_t hi = lo + 2 * width < n ? lo + 2 * width : n;
+            uint32_t i = lo, j = mid, o = lo;
+            while (i < mid && j < hi)
+                tmp[o++] = key[ids[i]] >= key[ids[j]] ? ids[i++] : ids[j++];
+            while (i < mid)
+                tmp[o++] = ids[i++];
+            while (j < hi)
+                tmp[o++] = ids[j++];
+        }
+        memcpy(ids, tmp, (size_t)n * 4);
+    }
+    free(tmp);
+}
+
+static int fit_slots(builder *b)
+{
+    uint32_t n = b->slot_count;
+    uint32_t *paths = malloc(((size_t)n + 1) * 4), *slots = malloc(((size_t)n + 1) * 4);
+    int32_t *head = malloc(((size_t)n + 1) * sizeof *head);
+    uint32_t *ntri = malloc(((size_t)n + 1) * 4);
+    if (!paths || !slots || !head || !ntri) {
+        free(paths);
+        free(slots);
+        free(head);
+        free(ntri);
+        return 0;
+    }
+    for (uint32_t s = 0; s < n; s++) {
+        paths[s] = s;
+        slots[s] = s;
+        head[s] = b->head[s];
+        ntri[s] = b->ntri[s];
+    }
+    sort_desc(paths, n, b->ntri);
+    sort_desc(slots, n, b->capacity);
+    for (uint32_t k = 0; k < n; k++) {
+        uint32_t s = slots[k];
+        b->head[s] = head[paths[k]];
+        b->ntri[s] = ntri[paths[k]];
+        path_claim(b, b->head[s], (int32_t)s);
+    }
+    b->free_count = 0;
+    for (uint32_t k = n; k-- > 0;) {
+        if (b->head[k] < 0)
+            b->free_slots[b->free_count++] = k;
+    }
+    free(paths);
+    free(slots);
+    free(head);
+    free(ntri);
+    return 1;
+}
+
 /* Restripifies the live triangles (the level's mesh) into the slots. */
 static mts_result restrip(builder *b, uint32_t level, int tunnel_length, mts_error *err)
 {
@@ -499,6 +566,8 @@ static mts_result restrip(builder *b, uint32_t level, int tunnel_length, mts_err
     if (rc == MTS_OK)
         rc = adopt_strips(b, &strips, err);
     mts_strips_free(&strips);
+    if (rc == MTS_OK && !fit_slots(b))
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "lodbuild: out of memory");
     return rc;
 }
 
