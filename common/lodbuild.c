@@ -262,38 +262,32 @@ static void touch(builder *b, int32_t slot)
     }
 }
 
+/* Grows an array from old to cap elements of size elem, the new ones zero. */
+static int grow_zeroed(void **p, size_t elem, uint32_t old, uint32_t cap)
+{
+    void *q = realloc(*p, (size_t)cap * elem);
+    if (!q)
+        return 0;
+    memset((char *)q + (size_t)old * elem, 0, (size_t)(cap - old) * elem);
+    *p = q;
+    return 1;
+}
+
 static int32_t slot_new(builder *b)
 {
     if (b->free_count)
         return (int32_t)b->free_slots[--b->free_count];
     if (b->slot_count == b->slot_cap) {
-        uint32_t cap = b->slot_cap * 2;
-        words *seq = realloc(b->seq, (size_t)cap * sizeof *seq);
-        if (seq)
-            b->seq = seq;
-        int32_t *head = realloc(b->head, (size_t)cap * sizeof *head);
-        if (head)
-            b->head = head;
-        uint32_t *ntri = realloc(b->ntri, (size_t)cap * 4);
-        if (ntri)
-            b->ntri = ntri;
-        uint32_t *capa = realloc(b->capacity, (size_t)cap * 4);
-        if (capa)
-            b->capacity = capa;
-        uint32_t *fs = realloc(b->free_slots, (size_t)cap * 4);
-        if (fs)
-            b->free_slots = fs;
-        uint32_t *st = realloc(b->stamp, (size_t)cap * 4);
-        if (st)
-            b->stamp = st;
-        uint32_t *tc = realloc(b->touched, (size_t)cap * 4);
-        if (tc)
-            b->touched = tc;
-        if (!seq || !head || !ntri || !capa || !fs || !st || !tc)
+        uint32_t old = b->slot_cap, cap = old * 2;
+        /* each array keeps its old block if its own growth fails */
+        if (!grow_zeroed((void **)&b->seq, sizeof *b->seq, old, cap) ||
+            !grow_zeroed((void **)&b->head, sizeof *b->head, old, cap) ||
+            !grow_zeroed((void **)&b->ntri, 4, old, cap) ||
+            !grow_zeroed((void **)&b->capacity, 4, old, cap) ||
+            !grow_zeroed((void **)&b->free_slots, 4, old, cap) ||
+            !grow_zeroed((void **)&b->stamp, 4, old, cap) ||
+            !grow_zeroed((void **)&b->touched, 4, old, cap))
             return -1;
-        memset(b->seq + b->slot_cap, 0, (size_t)(cap - b->slot_cap) * sizeof *seq);
-        memset(b->stamp + b->slot_cap, 0, (size_t)(cap - b->slot_cap) * 4);
-        memset(b->capacity + b->slot_cap, 0, (size_t)(cap - b->slot_cap) * 4);
         b->slot_cap = cap;
     }
     int32_t s = (int32_t)b->slot_count++;
