@@ -60,6 +60,7 @@ typedef struct mts_lodbuild_stats {
     uint64_t grown_joined;     /* ... joining two strips */
     uint64_t grown_alone;      /* ... starting a strip of their own */
     uint64_t strips_cut;       /* strips a split broke without a triangle to mend them */
+    uint64_t explicit_splits;  /* splits the fan rule does not describe (grow.h) */
 } mts_lodbuild_stats;
 
 /* mesh: the full mesh the strips and collapses refer to (original ids);

@@ -161,6 +161,7 @@ int main(int argc, char **argv)
         cli_json_u64(&j, "swaps", rep.tunnel.swaps_after);
         cli_json_u64(&j, "tunnel_length", (uint64_t)rep.tunnel_length);
         cli_json_u64(&j, "key_levels", rep.records.key_levels);
+        cli_json_u64(&j, "explicit_splits", rep.records.explicit_splits);
         cli_json_num(&j, "indices_per_triangle_worst", ipt_worst, 4);
         cli_json_u64(&j, "worst_level", worst_level);
         cli_json_object_begin(&j, "greedy");
@@ -208,9 +209,9 @@ int main(int argc, char **argv)
                    (double)rep.tunnel.draw_indices_before / model.level_triangles[n],
                    rep.tunnel.changes);
         printf("  levels: %u splits from a base of %u vertices / %u triangles; %u key levels; "
-               "worst %.3f indices/triangle (level %u)\n",
+               "worst %.3f indices/triangle (level %u); %llu splits described explicitly\n",
                n, model.base_vertex_count, model.level_triangles[0], rep.records.key_levels,
-               ipt_worst, worst_level);
+               ipt_worst, worst_level, (unsigned long long)rep.records.explicit_splits);
         printf("  wrote %s: %llu bytes in %.2f s (load %.2f, stripify %.2f, tunnel %.2f, "
                "simplify %.2f, records %.2f, write %.2f)\n",
                output, (unsigned long long)file_bytes, t3 - t0, t1 - t0, rep.seconds_stripify,

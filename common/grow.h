@@ -1,0 +1,118 @@
+/* Strip growth: derives each split's strip record (model.h's format) from the
+ * vertex split alone, the same way on the builder and on a client.
+ *
+ * Why a module of its own: the records are most of a stream's bytes (3.1 of
+ * bunny00's 3.5 MB in record format 2), yet everything in them follows from
+ * which triangles a split brings back and the rules that grow strips upward
+ * (lodbuild.h). A client that runs these rules on the splits it receives
+ * needs only the split itself on the wire: the parent, the two vertices the
+ * new triangles open onto, and the new vertex's position. Builder and client
+ * call the same code on the same inputs in the same order, so the records
+ * agree by construction; lodbuild.c checks every split's triangles against
+ * the full mesh's collapse chains and describes a split explicitly where the
+ * fan rule below would not reproduce them.
+ *
+ * Everything here depends only on the order of the inputs and on equality of
+ * vertex ids, never on their values, so renumbering vertices (as the stream
+ * does to match Draco's output) renumbers the records and nothing else.
+ *
+ * Triangle ids: the base strips' non-degenerate windows in order, then per
+ * split its new triangles in order. Keys (levels restripified afresh) are the
+ * levels the caller lists, plus the full level, whose strips the caller
+ * gives (typically tunnelled, which a client could not afford to redo). */
+#ifndef MTS_GROW_H
+#define MTS_GROW_H
+
+#include <stdint.h>
+
+#include "error.h"
+#include "strips.h"
+
+#define MTS_GROW_NONE UINT32_MAX
+
+/* Split j brings back vertex v = nb + j next to its parent u. By the fan rule
+ * it brings back the triangles (u, v, left) and (v, u, right), either
+ * MTS_GROW_NONE on a border, and v takes over the triangles around u from the
+ * one holding the edge u->right round to the one holding left->u. A split
+ * the rule does not describe lists its triangles instead: `moved` names the
+ * triangles whose corner u becomes v, and `born` gives the new triangles (3
+ * vertex ids each, as they are at level j + 1). */
+typedef struct mts_grow_split {
+    uint32_t parent;
+    uint32_t left, right;
+    uint32_t moved_count;
+    const uint32_t *moved;
+    uint32_t born_count;
+    const uint32_t *born;
+} mts_grow_split;
+
+/* Zero-initialised means defaults. */
+typedef struct mts_grow_options {
+    /* Ascending levels in 1..n-1 that are restripified afresh. With
+     * key_levels NULL and key_ratio > 1, a level is a key once its triangles
+     * have grown by key_ratio since the last key; mts_grow_keys() lists the
+     * keys so chosen. */
+    const uint32_t *key_levels;
+    uint32_t key_count;
+    double key_ratio;
+    /* The builder's first pass: base strips in any form (a strip that does
+     * not chain is split over slots, the longest go first); the form growth
+     * derives is then what mts_grow_slot() gives at level 0. Otherwise slot s
+     * holds base strip s, which must already be in that form. */
+    int normalise_base;
+} mts_grow_options;
+
+typedef struct mts_grow mts_grow;
+
+/* base: the strips at level 0 (slot s holds strip s; slots may be empty).
+ * level_count: n, the number of splits; vertex ids run below nb + n. */
+mts_result mts_grow_create(const mts_strips *base, uint32_t base_vertex_count,
+                           uint32_t level_count, const mts_grow_options *opts, mts_grow **out,
+                           mts_error *err);
+void mts_grow_free(mts_grow *g);
+
+/* Applies the next split (level l to l + 1) and gives its record in
+ * model.h's format: *record points at *word_count words owned by g, valid
+ * until the next call. At the last split, `full` gives the full level's
+ * strips (slot s gets strip s, its indices as given, each strip one path)
+ * and is required; elsewhere it is ignored. A
+ * split that names no live triangle or contradicts the mesh gives
+ * MTS_ERR_FORMAT and leaves g unusable. */
+mts_result mts_grow_next(mts_grow *g, const mts_grow_split *split, const mts_strips *full,
+                         const uint32_t **record, uint32_t *word_count, mts_error *err);
+
+/* The triangles the fan rule gives split's vertex (ids, ascending walk
+ * order), without applying anything: at most cap are written, the count is
+ * returned, or -1 when the rule does not apply (no fan from right to left). */
+int32_t mts_grow_fan(const mts_grow *g, uint32_t parent, uint32_t left, uint32_t right,
+                     uint32_t *ids, uint32_t cap);
+
+/* The live triangle holding the directed edge a->b and the third vertex c
+ * (in that rotation), or -1. */
+int32_t mts_grow_find(const mts_grow *g, uint32_t a, uint32_t b, uint32_t c);
+
+/* Vertex ids of triangle t, as they are now. */
+void mts_grow_triangle(const mts_grow *g, uint32_t t, uint32_t out[3]);
+
+typedef struct mts_grow_figures {
+    uint32_t level;
+    uint32_t triangles;    /* live */
+    uint32_t strips;       /* non-empty slots */
+    uint64_t indices;      /* over all slots */
+    uint32_t slot_count;   /* slots so far */
+    const uint32_t *capacity; /* slot_count: longest each slot has been */
+    uint64_t edits, substitutions, erased_indices, inserted_indices;
+    uint64_t grown_inserted, grown_appended, grown_joined, grown_alone, strips_cut;
+    uint32_t key_count;    /* keys so far, the base included */
+} mts_grow_figures;
+
+void mts_grow_get_figures(const mts_grow *g, mts_grow_figures *out);
+
+/* The keys so far (levels in 1..n), ascending; the full level included once
+ * reached. */
+const uint32_t *mts_grow_keys(const mts_grow *g, uint32_t *count);
+
+/* The indices of slot s now. */
+const uint32_t *mts_grow_slot(const mts_grow *g, uint32_t s, uint32_t *length);
+
+#endif
