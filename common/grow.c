@@ -175,6 +175,7 @@ struct mts_grow {
     int32_t *next, *prev; /* strip paths on the dual graph */
     int32_t *tslot;       /* slot of each triangle's strip, -1 while unplaced */
     edge_map edges;
+    int32_t *vtri; /* per vertex: a live triangle with that corner, or -1 */
     /* slots */
     uint32_t slot_count, slot_cap;
     words *seq;    /* indices of each slot as last derived */
@@ -193,6 +194,7 @@ struct mts_grow {
     /* the last record, and scratch */
     words rec, scratch;
     words affected;
+    words ring; /* scratch of the fan codes */
     mts_grow_figures fig;
 };
 
@@ -667,9 +669,8 @@ static int cmp_u32(const void *a, const void *c)
 }
 
 /* The record of the split to level g->level: one edit per touched slot, in
- * slot order; `full` (the last split) gives the indices instead of the
- * paths. */
-static int emit_record(mts_grow *g, uint32_t u, uint32_t v, const mts_strips *full)
+ * slot order. */
+static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
 {
     g->rec.n = 0;
     if (!words_reserve(&g->rec, 1))
@@ -679,24 +680,186 @@ static int emit_record(mts_grow *g, uint32_t u, uint32_t v, const mts_strips *fu
     qsort(g->touched, g->touched_count, 4, cmp_u32);
     for (uint32_t k = 0; k < g->touched_count; k++) {
         uint32_t s = g->touched[k];
-        if (full) {
-            uint32_t len = s < full->strip_count ? full->offsets[s + 1] - full->offsets[s] : 0;
-            g->scratch.n = 0;
-            if (!words_reserve(&g->scratch, len))
-                return 0;
-            if (len)
-                memcpy(g->scratch.w, full->indices + full->offsets[s], (size_t)len * 4);
-            g->scratch.n = len;
-        } else if (!derive_indices(g, g->head[s], &g->scratch)) {
-            return 0;
-        }
-        if (!emit_edit(g, s, &g->scratch, u, v, &edits))
+        if (!derive_indices(g, g->head[s], &g->scratch) ||
+            !emit_edit(g, s, &g->scratch, u, v, &edits))
             return 0;
     }
     g->rec.w[0] = edits;
     g->touched_count = 0;
     g->stamp_now++;
     return 1;
+}
+
+/* ---- the full level's strips as swap bits ---- */
+
+/* Reads a strip in derived form: its triangle count and, per inner
+ * triangle, whether it swaps. Returns 0 when the strip is not in that form. */
+static int parse_derived(const uint32_t *s, uint32_t len, uint32_t *ntri, mts_buf *bits,
+                         uint64_t *bit_count)
+{
+    if (len == 0) {
+        *ntri = 0;
+        return 1;
+    }
+    if (len < 3 || s[0] == s[1] || s[1] == s[2] || s[0] == s[2])
+        return 0;
+    uint32_t a = s[1], c = s[2], k = 3, count = 1;
+    while (k < len) {
+        int swap = 0;
+        if (s[k] == a && k + 1 < len) {
+            swap = 1;
+            k++;
+        }
+        uint32_t w = s[k++];
+        if (w == a || w == c)
+            return 0;
+        count++;
+        if (k < len) { /* an inner triangle: one bit */
+            if ((*bit_count & 7) == 0)
+                mts_buf_u8(bits, 0);
+            if (swap && !bits->failed)
+                bits->data[bits->size - 1] |= (uint8_t)(1u << (*bit_count & 7));
+            (*bit_count)++;
+        } else if (swap) {
+            return 0; /* the last triangle never swaps */
+        }
+        if (swap) {
+            c = w;
+        } else {
+            a = c;
+            c = w;
+        }
+    }
+    *ntri = count;
+    return 1;
+}
+
+int mts_grow_full_encode(const mts_strips *full, mts_buf *out)
+{
+    mts_buf bits = {0};
+    uint64_t bit_count = 0;
+    uint32_t prev = 0;
+    int ok = 1;
+    for (uint32_t st = 0; st < full->strip_count && ok; st++) {
+        const uint32_t *s = full->indices + full->offsets[st];
+        uint32_t len = full->offsets[st + 1] - full->offsets[st], ntri;
+        if (!parse_derived(s, len, &ntri, &bits, &bit_count)) {
+            ok = 0;
+            break;
+        }
+        mts_buf_varint(out, ntri);
+        if (ntri) {
+            mts_buf_varint(out, mts_zigzag_u32(s[0] - prev));
+            mts_buf_varint(out, mts_zigzag_u32(s[1] - s[0]));
+            mts_buf_varint(out, mts_zigzag_u32(s[2] - s[0]));
+            prev = s[0];
+        }
+    }
+    if (ok)
+        mts_buf_put(out, bits.data, bits.size);
+    if (bits.failed)
+        out->failed = 1;
+    mts_buf_free(&bits);
+    return ok && !out->failed;
+}
+
+/* The triangle across the edge {a, c} from t, or -1. */
+static int32_t across(const mts_grow *g, int32_t t, uint32_t a, uint32_t c)
+{
+    int32_t x = edge_map_get(&g->edges, a, c);
+    if (x >= 0 && x != t)
+        return x;
+    x = edge_map_get(&g->edges, c, a);
+    return x != t ? x : -1;
+}
+
+/* Resolves mts_grow_full_encode's bytes on the current (full) mesh into
+ * strips, slot by slot. */
+static mts_result decode_full(mts_grow *g, const uint8_t *code, size_t size, uint32_t slots,
+                              mts_strips *out, mts_error *err)
+{
+    mts_cursor cur = mts_cursor_make(code, size);
+    if (slots > size)
+        return mts_error_set(err, MTS_ERR_FORMAT, "full strips: %u slots cannot fit %zu bytes",
+                             slots, size);
+    uint32_t *head = malloc(((size_t)slots + 1) * 16);
+    if (!head)
+        return mts_error_set(err, MTS_ERR_NOMEM, "full strips: out of memory");
+    uint64_t tris = 0, bits = 0;
+    uint32_t prev = 0;
+    for (uint32_t s = 0; s < slots; s++) {
+        uint32_t *h = head + 4 * (size_t)s;
+        h[0] = mts_cursor_varint(&cur);
+        if (h[0]) {
+            h[1] = prev + mts_unzigzag_u32(mts_cursor_varint(&cur));
+            h[2] = h[1] + mts_unzigzag_u32(mts_cursor_varint(&cur));
+            h[3] = h[1] + mts_unzigzag_u32(mts_cursor_varint(&cur));
+            prev = h[1];
+            bits += h[0] >= 2 ? h[0] - 2 : 0;
+        }
+        tris += h[0];
+    }
+    mts_result rc = MTS_OK;
+    if (!cur.ok || tris > g->tri_count || (bits + 7) / 8 != mts_cursor_left(&cur)) {
+        rc = mts_error_set(err, MTS_ERR_FORMAT,
+                           "full strips: malformed (%llu triangles of %u, %zu bytes of swap "
+                           "bits for %llu)",
+                           (unsigned long long)tris, g->tri_count, mts_cursor_left(&cur),
+                           (unsigned long long)bits);
+        goto done;
+    }
+    /* each triangle costs at most 2 indices past the first 3 of a strip */
+    if ((rc = mts_strips_alloc(out, slots, (uint32_t)(2 * tris + 3ull * slots), err)) != MTS_OK)
+        goto done;
+    const uint8_t *bitp = cur.p;
+    uint64_t bit = 0;
+    uint32_t o = 0;
+    for (uint32_t s = 0; s < slots; s++) {
+        const uint32_t *h = head + 4 * (size_t)s;
+        out->offsets[s] = o;
+        if (!h[0])
+            continue;
+        int32_t t = mts_grow_find(g, h[1], h[2], h[3]);
+        if (t < 0) {
+            rc = mts_error_set(err, MTS_ERR_FORMAT,
+                               "full strips: strip %u starts on (%u %u %u), not a triangle", s,
+                               h[1], h[2], h[3]);
+            goto done;
+        }
+        out->indices[o++] = h[1];
+        out->indices[o++] = h[2];
+        out->indices[o++] = h[3];
+        uint32_t a = h[2], c = h[3];
+        for (uint32_t i = 1; i < h[0]; i++) {
+            t = across(g, t, a, c);
+            if (t < 0) {
+                rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                   "full strips: strip %u runs off the mesh at triangle %u", s,
+                                   i);
+                goto done;
+            }
+            uint32_t w = third_vertex(g, (uint32_t)t, a, c);
+            int swap = 0;
+            if (i + 1 < h[0]) {
+                swap = bitp[bit >> 3] >> (bit & 7) & 1;
+                bit++;
+            }
+            if (swap)
+                out->indices[o++] = a;
+            out->indices[o++] = w;
+            if (swap) {
+                c = w;
+            } else {
+                a = c;
+                c = w;
+            }
+        }
+    }
+    out->offsets[slots] = o;
+    out->index_count = o;
+done:
+    free(head);
+    return rc;
 }
 
 static int tri_reserve(mts_grow *g, uint32_t extra)
@@ -738,6 +901,7 @@ static int tri_add(mts_grow *g, uint32_t a, uint32_t b, uint32_t c)
     g->img[t][1] = b;
     g->img[t][2] = c;
     g->next[t] = g->prev[t] = g->tslot[t] = -1;
+    g->vtri[a] = g->vtri[b] = g->vtri[c] = (int32_t)t;
     return tri_edges_put(g, t);
 }
 
@@ -751,6 +915,7 @@ void mts_grow_free(mts_grow *g)
     free(g->tslot);
     free(g->edges.key);
     free(g->edges.tri);
+    free(g->vtri);
     if (g->seq) {
         for (uint32_t s = 0; s < g->slot_cap; s++)
             free(g->seq[s].w);
@@ -766,6 +931,7 @@ void mts_grow_free(mts_grow *g)
     free(g->rec.w);
     free(g->scratch.w);
     free(g->affected.w);
+    free(g->ring.w);
     free(g);
 }
 
@@ -824,6 +990,11 @@ mts_result mts_grow_create(const mts_strips *base, uint32_t nb, uint32_t n,
         }
     }
     uint32_t windows = base->index_count;
+    g->vtri = malloc(((size_t)nb + n + 1) * sizeof *g->vtri);
+    if (!g->vtri)
+        goto nomem;
+    for (size_t i = 0; i < (size_t)nb + n; i++)
+        g->vtri[i] = -1;
     if (!edge_map_alloc(&g->edges, 3 * (size_t)windows + 64) || !tri_reserve(g, windows + 1))
         goto nomem;
     for (uint32_t k = 0; k < base->strip_count; k++) {
@@ -943,6 +1114,102 @@ int32_t mts_grow_fan(const mts_grow *g, uint32_t u, uint32_t left, uint32_t righ
     return count ? (int32_t)count : -1;
 }
 
+/* The parent's triangles in ring order (grow.h); -1 when the ring is not a
+ * simple fan. *closed says whether it goes all the way round. */
+static int32_t ring(const mts_grow *g, uint32_t u, words *out, int *closed)
+{
+    out->n = 0;
+    *closed = 0;
+    if (u >= g->nb + g->level || g->vtri[u] < 0)
+        return -1;
+    int32_t t0 = g->vtri[u], t = t0, first = t0, lowest = t0;
+    uint32_t steps = 0;
+    /* back to the border, or round to t0 */
+    for (;;) {
+        int32_t p = edge_map_get(&g->edges, after(g, (uint32_t)t, u), u);
+        if (p < 0) {
+            first = t;
+            break;
+        }
+        if (p == t0) {
+            *closed = 1;
+            first = lowest;
+            break;
+        }
+        if (++steps > g->tri_count)
+            return -1;
+        t = p;
+        if (t < lowest)
+            lowest = t;
+    }
+    t = first;
+    for (;;) {
+        if (out->n >= g->tri_count)
+            return -1;
+        if (!words_reserve(out, 1))
+            return -1;
+        out->w[out->n++] = (uint32_t)t;
+        t = edge_map_get(&g->edges, u, before(g, (uint32_t)t, u));
+        if (t < 0 || t == first)
+            break;
+    }
+    if (*closed && t != first)
+        return -1;
+    return (int32_t)out->n;
+}
+
+int mts_grow_fan_encode(mts_grow *g, uint32_t u, uint32_t left, uint32_t right,
+                        mts_grow_fan_code *code)
+{
+    mts_grow *mg = g;
+    int closed;
+    int32_t k = ring(g, u, &mg->ring, &closed);
+    int32_t m = mts_grow_fan(g, u, left, right, NULL, 0);
+    if (k <= 0 || m <= 0 || m > k)
+        return 0;
+    uint32_t first;
+    if (mts_grow_fan(g, u, left, right, &first, 1) != m)
+        return 0;
+    /* the fan runs forward from `first` (mts_grow_fan walks backward only
+     * when right is absent, so then its first is the fan's far end) */
+    if (right == MTS_GROW_NONE) {
+        first = mg->ring.w[0];
+        if (closed)
+            return 0;
+    }
+    for (int32_t i = 0; i < k; i++) {
+        if (mg->ring.w[i] == first) {
+            code->start = (uint32_t)i;
+            code->count = (uint32_t)m;
+            code->sides = (right == MTS_GROW_NONE) | (left == MTS_GROW_NONE) << 1;
+            uint32_t l2, r2;
+            return mts_grow_fan_decode(g, u, code, &l2, &r2) && l2 == left && r2 == right;
+        }
+    }
+    return 0;
+}
+
+int mts_grow_fan_decode(mts_grow *g, uint32_t u, const mts_grow_fan_code *code,
+                        uint32_t *left, uint32_t *right)
+{
+    mts_grow *mg = g;
+    int closed;
+    int32_t k = ring(g, u, &mg->ring, &closed);
+    if (k <= 0 || code->start >= (uint32_t)k || code->count == 0 || code->count > (uint32_t)k ||
+        code->sides > 3)
+        return 0;
+    if (!closed && code->start + code->count > (uint32_t)k)
+        return 0;
+    uint32_t t_first = mg->ring.w[code->start];
+    uint32_t t_last = mg->ring.w[(code->start + code->count - 1) % (uint32_t)k];
+    *right = code->sides & 1 ? MTS_GROW_NONE : after(g, t_first, u);
+    *left = code->sides & 2 ? MTS_GROW_NONE : before(g, t_last, u);
+    if (*left == MTS_GROW_NONE && *right == MTS_GROW_NONE)
+        return 0;
+    /* the fan rule must give back exactly these triangles */
+    return mts_grow_fan(g, u, *left, *right, NULL, 0) == (int32_t)code->count;
+}
+
 static int is_key(mts_grow *g)
 {
     if (g->level == g->n)
@@ -957,7 +1224,7 @@ static int is_key(mts_grow *g)
     return g->next_key > 0 && g->tri_count >= g->next_key;
 }
 
-mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_strips *full,
+mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_full *full,
                          const uint32_t **record, uint32_t *word_count, mts_error *err)
 {
     if (g->level >= g->n)
@@ -969,16 +1236,8 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_strips
                              "grow: split %u (vertex %u, parent %u, %u, %u) names a vertex out "
                              "of range",
                              g->level, v, u, sp->left, sp->right);
-    if (g->level + 1 == g->n) {
-        if (!full)
-            return mts_error_set(err, MTS_ERR_ARG, "grow: the last split needs the full strips");
-        for (uint32_t i = 0; i < full->index_count; i++) {
-            if (full->indices[i] > v)
-                return mts_error_set(err, MTS_ERR_FORMAT,
-                                     "grow: full strip index %u is past the last vertex %u",
-                                     full->indices[i], v);
-        }
-    }
+    if (g->level + 1 == g->n && (!full || (!full->strips && !full->code)))
+        return mts_error_set(err, MTS_ERR_ARG, "grow: the last split needs the full strips");
 
     /* the triangles v takes over */
     g->affected.n = 0;
@@ -1034,10 +1293,31 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_strips
         if (sp->right != MTS_GROW_NONE && !tri_add(g, v, u, sp->right))
             goto nomem;
     }
+    if (g->affected.n)
+        g->vtri[v] = (int32_t)g->affected.w[0];
+    if (g->vtri[u] >= 0 && after(g, (uint32_t)g->vtri[u], u) == MTS_GROW_NONE) {
+        /* u's triangle moved to v and no new one has u: find another */
+        g->vtri[u] = -1;
+        for (uint32_t t = 0; t < g->tri_count && g->vtri[u] < 0; t++) {
+            if (after(g, t, u) != MTS_GROW_NONE)
+                g->vtri[u] = (int32_t)t;
+        }
+    }
     g->level++;
 
     if (is_key(g)) {
-        mts_result rc = g->level == g->n ? adopt_strips(g, full, 1, err) : restrip(g, err);
+        mts_result rc;
+        if (g->level < g->n) {
+            rc = restrip(g, err);
+        } else if (full->strips) {
+            rc = adopt_strips(g, full->strips, 0, err);
+        } else {
+            mts_strips decoded = {0};
+            rc = decode_full(g, full->code, full->code_size, full->slot_count, &decoded, err);
+            if (rc == MTS_OK)
+                rc = adopt_strips(g, &decoded, 1, err);
+            mts_strips_free(&decoded);
+        }
         if (rc != MTS_OK)
             return rc;
         if (!words_reserve(&g->keys, 1))
@@ -1062,7 +1342,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_strips
                 goto nomem;
         }
     }
-    if (!emit_record(g, u, v, g->level == g->n ? full : NULL))
+    if (!emit_record(g, u, v))
         goto nomem;
     if (g->rec.n > UINT32_MAX)
         return mts_error_set(err, MTS_ERR_LIMIT, "grow: a record of %zu words", g->rec.n);

@@ -25,6 +25,7 @@
 
 #include <stdint.h>
 
+#include "bytes.h"
 #include "error.h"
 #include "strips.h"
 
@@ -71,14 +72,30 @@ mts_result mts_grow_create(const mts_strips *base, uint32_t base_vertex_count,
                            mts_error *err);
 void mts_grow_free(mts_grow *g);
 
+/* The full level's strips, which a client cannot afford to compute (they
+ * are tunnelled): the builder gives them as strips in any form, and the
+ * strips growth derives from their paths become the full level; a client
+ * gives mts_grow_full_encode's bytes of those. */
+typedef struct mts_grow_full {
+    const mts_strips *strips;
+    const uint8_t *code;
+    size_t code_size;
+    uint32_t slot_count; /* with code: the model's slots */
+} mts_grow_full;
+
+/* The full level's strips (in the form growth derives, as the builder left
+ * them in the model) in about 1 bit per triangle: per slot its triangle
+ * count and first three indices as varints, then one bit per inner triangle
+ * (whether the strip swaps there), which a client resolves on its own mesh.
+ * 0 when a strip is not in that form (or out of memory: out->failed). */
+int mts_grow_full_encode(const mts_strips *full, mts_buf *out);
+
 /* Applies the next split (level l to l + 1) and gives its record in
  * model.h's format: *record points at *word_count words owned by g, valid
- * until the next call. At the last split, `full` gives the full level's
- * strips (slot s gets strip s, its indices as given, each strip one path)
- * and is required; elsewhere it is ignored. A
- * split that names no live triangle or contradicts the mesh gives
- * MTS_ERR_FORMAT and leaves g unusable. */
-mts_result mts_grow_next(mts_grow *g, const mts_grow_split *split, const mts_strips *full,
+ * until the next call. The last split needs `full`; elsewhere it is
+ * ignored. A split that names no live triangle or contradicts the mesh
+ * gives MTS_ERR_FORMAT and leaves g unusable. */
+mts_result mts_grow_next(mts_grow *g, const mts_grow_split *split, const mts_grow_full *full,
                          const uint32_t **record, uint32_t *word_count, mts_error *err);
 
 /* The triangles the fan rule gives split's vertex (ids, ascending walk
@@ -90,6 +107,24 @@ int32_t mts_grow_fan(const mts_grow *g, uint32_t parent, uint32_t left, uint32_t
 /* The live triangle holding the directed edge a->b and the third vertex c
  * (in that rotation), or -1. */
 int32_t mts_grow_find(const mts_grow *g, uint32_t a, uint32_t b, uint32_t c);
+
+/* The compact form of a fan-rule split, what a stream carries: the
+ * parent's triangles in ring order (from the border when the parent is on
+ * one, else from its lowest triangle id, turning as the fan does), `start`
+ * the ring position of the first triangle v takes over, `count` how many it
+ * takes, and `sides` bit 0 set when there is no `right` new triangle, bit 1
+ * when there is no `left` one. Encoding fails (returns 0) when the split is
+ * not a fan of the current mesh; decoding fails on a code that names no
+ * fan. Only ring order matters, never vertex values. Both use g's
+ * scratch, hence the non-const g. */
+typedef struct mts_grow_fan_code {
+    uint32_t start, count, sides;
+} mts_grow_fan_code;
+
+int mts_grow_fan_encode(mts_grow *g, uint32_t parent, uint32_t left, uint32_t right,
+                        mts_grow_fan_code *code);
+int mts_grow_fan_decode(mts_grow *g, uint32_t parent, const mts_grow_fan_code *code,
+                        uint32_t *left, uint32_t *right);
 
 /* Vertex ids of triangle t, as they are now. */
 void mts_grow_triangle(const mts_grow *g, uint32_t t, uint32_t out[3]);

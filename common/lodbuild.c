@@ -93,6 +93,9 @@ typedef struct describer {
     uint32_t explicit_splits;
 } describer;
 
+static mts_result describe_explicitly(const truth *tr, const mts_grow *g, uint32_t j,
+                                      describer *d, mts_grow_split *sp, mts_error *err);
+
 static mts_result describe_split(const truth *tr, const mts_grow *g, uint32_t j, describer *d,
                                  mts_grow_split *sp, mts_error *err)
 {
@@ -155,7 +158,18 @@ static mts_result describe_split(const truth *tr, const mts_grow *g, uint32_t j,
                 return MTS_OK;
         }
     }
-    /* explicit: the moved triangles by id, the new ones by vertices */
+    return describe_explicitly(tr, g, j, d, sp, err);
+nomem:
+    return mts_error_set(err, MTS_ERR_NOMEM, "lodbuild: out of memory");
+}
+
+/* The split as lists: the moved triangles by id, the new ones by vertices
+ * (d->moved_tris and d->born as describe_split left them). */
+static mts_result describe_explicitly(const truth *tr, const mts_grow *g, uint32_t j,
+                                      describer *d, mts_grow_split *sp, mts_error *err)
+{
+    (void)tr;
+    size_t moved = d->moved_tris.n / 3;
     d->explicit_splits++;
     if (!words_reserve(&d->ids, moved))
         goto nomem;
@@ -240,7 +254,7 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
     mts_result rc = MTS_ERR_NOMEM;
     truth tr = {0};
     describer d = {0};
-    words rec = {0};
+    words rec = {0}, growth = {0};
     mts_grow *g = NULL;
     uint32_t *new_id = NULL, *parents = NULL, *rec_off = NULL;
     mts_strips given = {0};
@@ -312,10 +326,12 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
     tr.born_off = calloc((size_t)n + 3, 4);
     tr.born = malloc(((size_t)F + 1) * 4);
     rec_off = malloc(((size_t)n + 1) * 4);
+    model->growth_offsets = malloc(((size_t)n + 1) * 4);
     model->level_triangles = malloc(((size_t)n + 1) * 4);
     model->level_strips = malloc(((size_t)n + 1) * 4);
     model->level_indices = malloc(((size_t)n + 1) * 4);
     if (!tr.corner || !tr.birth || !tr.chain_off || !tr.born_off || !tr.born || !rec_off ||
+        !model->growth_offsets ||
         !model->level_triangles || !model->level_strips || !model->level_indices)
         goto nomem;
 
@@ -413,9 +429,35 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
         mts_grow_split sp;
         if ((rc = describe_split(&tr, g, j, &d, &sp, err)) != MTS_OK)
             goto fail;
+        mts_grow_fan_code code;
+        if (!sp.moved_count && !sp.born_count &&
+            !mts_grow_fan_encode(g, sp.parent, sp.left, sp.right, &code)) {
+            /* a fan, but not one the ring code reaches: say it explicitly */
+            if ((rc = describe_explicitly(&tr, g, j, &d, &sp, err)) != MTS_OK)
+                goto fail;
+        }
+        model->growth_offsets[j] = (uint32_t)growth.n;
+        if (!words_reserve(&growth, 5 + (size_t)sp.moved_count + 3 * (size_t)sp.born_count))
+            goto nomem;
+        if (sp.moved_count || sp.born_count) {
+            growth.w[growth.n++] = 0;
+            growth.w[growth.n++] = 0;
+            growth.w[growth.n++] = MTS_GROWTH_EXPLICIT;
+            growth.w[growth.n++] = sp.moved_count;
+            growth.w[growth.n++] = sp.born_count;
+            memcpy(growth.w + growth.n, sp.moved, (size_t)sp.moved_count * 4);
+            growth.n += sp.moved_count;
+            memcpy(growth.w + growth.n, sp.born, (size_t)sp.born_count * 12);
+            growth.n += 3 * (size_t)sp.born_count;
+        } else {
+            growth.w[growth.n++] = code.start;
+            growth.w[growth.n++] = code.count;
+            growth.w[growth.n++] = code.sides;
+        }
         const uint32_t *r;
         uint32_t words_in;
-        if ((rc = mts_grow_next(g, &sp, &given, &r, &words_in, err)) != MTS_OK)
+        mts_grow_full gf = {&given, NULL, 0, 0};
+        if ((rc = mts_grow_next(g, &sp, &gf, &r, &words_in, err)) != MTS_OK)
             goto fail;
         rec_off[j] = (uint32_t)rec.n;
         if (!words_reserve(&rec, words_in))
@@ -442,6 +484,25 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
             mts_progress_report(progress, "records", (double)j / n);
     }
     rec_off[n] = (uint32_t)rec.n;
+    if (growth.n > UINT32_MAX - 1) {
+        rc = mts_error_set(err, MTS_ERR_LIMIT, "lodbuild: the split descriptions are too long");
+        goto fail;
+    }
+    model->growth_offsets[n] = (uint32_t)growth.n;
+    model->growth_word_count = (uint32_t)growth.n;
+    model->growth_data = growth.w ? growth.w : malloc(4);
+    growth.w = NULL;
+    {
+        uint32_t kc;
+        const uint32_t *keys = mts_grow_keys(g, &kc);
+        kc -= kc && keys[kc - 1] == n; /* the full level is implicit */
+        model->key_count = kc;
+        model->key_levels = malloc(((size_t)kc + 1) * 4);
+        if (!model->growth_data || !model->key_levels)
+            goto nomem;
+        if (kc)
+            memcpy(model->key_levels, keys, (size_t)kc * 4);
+    }
     mts_grow_get_figures(g, &fig);
 
     model->vertex_count = nv;
@@ -549,6 +610,7 @@ done:
     free(d.born.w);
     free(d.ids.w);
     free(rec.w);
+    free(growth.w);
     free(rec_off);
     mts_strips_free(&given);
     free(new_id);

@@ -21,6 +21,9 @@ void mts_model_free(mts_model *m)
     free(m->level_triangles);
     free(m->level_strips);
     free(m->level_indices);
+    free(m->key_levels);
+    free(m->growth_offsets);
+    free(m->growth_data);
     memset(m, 0, sizeof *m);
 }
 

@@ -38,6 +38,8 @@
 #include "error.h"
 #include "strips.h"
 
+#define MTS_GROWTH_EXPLICIT 4u
+
 typedef struct mts_model {
     uint32_t vertex_count;      /* full level */
     uint32_t base_vertex_count; /* nb */
@@ -57,6 +59,18 @@ typedef struct mts_model {
     uint32_t *record_offsets; /* n + 1 */
     uint32_t *record_data;
     uint32_t record_word_count; /* == record_offsets[n] */
+
+    /* What a stream sends in place of the records (grow.h): the key levels
+     * (ascending, in 1..n-1; the full level is always a key), and per split j
+     * growth_data[growth_offsets[j] .. growth_offsets[j+1]): the fan code
+     * start, count, sides, or for a split the fan rule does not describe
+     * sides = MTS_GROWTH_EXPLICIT, moved_count, born_count, the moved
+     * triangle ids, and 3 vertex ids per new triangle. */
+    uint32_t key_count;
+    uint32_t *key_levels;
+    uint32_t *growth_offsets; /* n + 1 */
+    uint32_t *growth_data;
+    uint32_t growth_word_count;
 
     /* Per level l in 0..n (vertices at l are nb + l). */
     uint32_t *level_triangles;

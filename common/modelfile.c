@@ -22,13 +22,15 @@ enum {
     SEC_LEVELS,
     SEC_SOURCE,
     SEC_CAPACITY, /* version 2 */
-    SEC_LAST = SEC_CAPACITY
+    SEC_GROWTH,   /* version 3 */
+    SEC_LAST = SEC_GROWTH
 };
 
 static const char *const section_names[] = {"?",           "info",   "positions",
                                             "normals",     "full strips",
                                             "base strips", "splits", "levels",
-                                            "source",      "capacity"};
+                                            "source",      "capacity",
+                                            "growth"};
 
 #define HEADER_SIZE 16u
 #define ENTRY_SIZE 24u
@@ -132,7 +134,7 @@ static void layout_sizes(layout *l)
 
 static int fixed_size(uint32_t id)
 {
-    return id != SEC_SPLITS && id != SEC_LEVELS && id != SEC_SOURCE;
+    return id != SEC_SPLITS && id != SEC_LEVELS && id != SEC_SOURCE && id != SEC_GROWTH;
 }
 
 /* Per-level counts change by a little from one level to the next. */
@@ -169,6 +171,77 @@ static int levels_decode(const uint8_t *p, const uint8_t *end, mts_model *m)
     return p == end;
 }
 
+/* Key levels as deltas, then per split its description (model.h), every
+ * value a varint: mostly 3 bytes a split. */
+static size_t growth_bound(const mts_model *m)
+{
+    return ((size_t)m->key_count + 1 + m->growth_word_count) * MTS_VARINT32_MAX_BYTES;
+}
+
+static size_t growth_encode(const mts_model *m, uint8_t *out)
+{
+    uint8_t *o = out;
+    o += mts_varint_put(o, m->key_count);
+    uint32_t prev = 0;
+    for (uint32_t k = 0; k < m->key_count; k++) {
+        o += mts_varint_put(o, m->key_levels[k] - prev);
+        prev = m->key_levels[k];
+    }
+    for (uint32_t i = 0; i < m->growth_word_count; i++)
+        o += mts_varint_put(o, m->growth_data[i]);
+    return (size_t)(o - out);
+}
+
+/* Fills key_levels, growth_offsets and growth_data (room for `room` words);
+ * returns 0 unless the section holds exactly the model's splits. */
+static int growth_decode(const uint8_t *p, const uint8_t *end, mts_model *m, size_t room)
+{
+    uint32_t kc;
+    if (!mts_varint_get(&p, end, &kc) || kc > (size_t)(end - p) || kc >= m->level_count + 1u)
+        return 0;
+    m->key_levels = malloc(((size_t)kc + 1) * 4);
+    if (!m->key_levels)
+        return 0;
+    m->key_count = kc;
+    uint64_t level = 0;
+    for (uint32_t k = 0; k < kc; k++) {
+        uint32_t d;
+        if (!mts_varint_get(&p, end, &d) || d == 0)
+            return 0;
+        level += d;
+        if (level >= m->level_count)
+            return 0;
+        m->key_levels[k] = (uint32_t)level;
+    }
+    size_t w = 0;
+    for (uint32_t j = 0; j < m->level_count; j++) {
+        m->growth_offsets[j] = (uint32_t)w;
+        uint32_t head[3];
+        for (int i = 0; i < 3; i++) {
+            if (w >= room || !mts_varint_get(&p, end, &head[i]))
+                return 0;
+            m->growth_data[w++] = head[i];
+        }
+        if (head[2] != MTS_GROWTH_EXPLICIT)
+            continue;
+        uint32_t moved, born;
+        if (w + 2 > room || !mts_varint_get(&p, end, &moved) || !mts_varint_get(&p, end, &born))
+            return 0;
+        m->growth_data[w++] = moved;
+        m->growth_data[w++] = born;
+        uint64_t more = (uint64_t)moved + 3ull * born;
+        if (more > room - w)
+            return 0;
+        for (uint64_t i = 0; i < more; i++) {
+            if (!mts_varint_get(&p, end, &m->growth_data[w++]))
+                return 0;
+        }
+    }
+    m->growth_offsets[m->level_count] = (uint32_t)w;
+    m->growth_word_count = (uint32_t)w;
+    return p == end;
+}
+
 static void put_strips(uint8_t *p, const mts_strips *st)
 {
     for (uint32_t s = 0; s < st->strip_count; s++)
@@ -200,29 +273,41 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
         free(levels);
         return mts_error_set(err, MTS_ERR_NOMEM, "out of memory encoding the records");
     }
+    /* a model made by hand (tests) may lack descriptions: no growth section */
+    const int has_growth = m->growth_data && m->growth_offsets && (!m->key_count || m->key_levels);
+    uint8_t *growth = malloc(has_growth ? growth_bound(m) : 1);
+    if (!growth) {
+        free(splits);
+        free(levels);
+        return mts_error_set(err, MTS_ERR_NOMEM, "out of memory encoding the splits");
+    }
+    l.size[SEC_GROWTH] = has_growth ? growth_encode(m, growth) : 0;
     size_t splits_len = 0;
     mts_result rc = mts_reccodec_encode(m, 0, m->level_count, splits, splits_cap, &splits_len, err);
     if (rc != MTS_OK) {
         free(splits);
         free(levels);
+        free(growth);
         return rc;
     }
     l.size[SEC_SPLITS] = splits_len;
     l.size[SEC_LEVELS] = levels_encode(m, levels);
     l.size[SEC_SOURCE] = source_len;
 
-    const uint32_t count = SEC_LAST;
-    uint64_t offset[SEC_LAST + 1];
+    /* growth is the last section id: without it, one section fewer */
+    const uint32_t count = has_growth ? SEC_LAST : SEC_GROWTH - 1;
+    uint64_t offset[SEC_LAST + 1] = {0};
     uint64_t at = align8(HEADER_SIZE + (uint64_t)ENTRY_SIZE * count);
-    for (uint32_t id = 1; id <= SEC_LAST; id++) {
+    for (uint32_t id = 1; id <= count; id++) {
         offset[id] = at;
         /* no padding after the last section: any truncation cuts into data */
-        at = id == SEC_LAST ? at + l.size[id] : align8(at + l.size[id]);
+        at = id == count ? at + l.size[id] : align8(at + l.size[id]);
     }
     uint8_t *buf = at > SIZE_MAX ? NULL : calloc(1, (size_t)at);
     if (!buf) {
         free(splits);
         free(levels);
+        free(growth);
         return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for a %llu-byte model file",
                              (unsigned long long)at);
     }
@@ -245,12 +330,15 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
     free(splits);
     free(levels);
     memcpy(buf + offset[SEC_SOURCE], m->source, source_len);
+    if (has_growth)
+        memcpy(buf + offset[SEC_GROWTH], growth, (size_t)l.size[SEC_GROWTH]);
+    free(growth);
 
     memcpy(buf, "MTSM", 4);
     put_u16(buf + 4, MTS_MODELFILE_MAJOR);
     put_u16(buf + 6, MTS_MODELFILE_MINOR);
     put_u32(buf + 8, count);
-    for (uint32_t id = 1; id <= SEC_LAST; id++) {
+    for (uint32_t id = 1; id <= count; id++) {
         uint8_t *e = buf + HEADER_SIZE + ENTRY_SIZE * (id - 1);
         put_u32(e, id);
         put_u32(e + 4, mts_crc32c(0, buf + offset[id], (size_t)l.size[id]));
@@ -303,13 +391,14 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     if (memcmp(buf, "MTSM", 4) != 0)
         return mts_error_set(err, MTS_ERR_FORMAT, "%s: not an mtstream model (bad magic)", name);
     uint16_t major = get_u16(buf + 4), minor = get_u16(buf + 6);
-    /* version 1's records have no erase runs and its strips no capacities:
-     * nothing here can read them, but mts-build makes the same model anew */
-    if (major == 1)
+    /* version 1's records have no erase runs and its strips no capacities,
+     * version 2's splits no descriptions a stream can send: nothing here can
+     * read them, but mts-build makes the same model anew */
+    if (major == 1 || major == 2)
         return mts_error_set(err, MTS_ERR_VERSION,
-                             "%s: model file version 1 is from an older mtstream; rebuild it "
+                             "%s: model file version %u is from an older mtstream; rebuild it "
                              "with mts-build",
-                             name);
+                             name, major);
     if (major != MTS_MODELFILE_MAJOR)
         return mts_error_set(err, MTS_ERR_VERSION,
                              "%s: model file version %u.%u; this build reads version %u.x", name,
@@ -356,7 +445,7 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
         sec_size[id] = len;
     }
     for (uint32_t id = 1; id <= SEC_LAST; id++) {
-        if (!sec[id] && id != SEC_SOURCE)
+        if (!sec[id] && id != SEC_SOURCE && id != SEC_GROWTH)
             return mts_error_set(err, MTS_ERR_FORMAT, "%s: section '%s' is missing", name,
                                  section_names[id]);
     }
@@ -421,8 +510,14 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     m->level_triangles = malloc(n1 * 4);
     m->level_strips = malloc(n1 * 4);
     m->level_indices = malloc(n1 * 4);
+    if (sec[SEC_GROWTH]) {
+        m->growth_offsets = malloc(n1 * 4);
+        /* every word of the descriptions takes a byte at least */
+        m->growth_data = malloc(((size_t)sec_size[SEC_GROWTH] + 1) * 4);
+    }
     if (!m->capacity || !m->positions || !m->normals || !m->parents || !m->record_offsets ||
-        !m->record_data || !m->level_triangles || !m->level_strips || !m->level_indices) {
+        !m->record_data || !m->level_triangles || !m->level_strips || !m->level_indices ||
+        (sec[SEC_GROWTH] && (!m->growth_offsets || !m->growth_data))) {
         rc = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory", name);
         goto fail;
     }
@@ -466,6 +561,13 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
         rc = mts_error_set(err, MTS_ERR_FORMAT,
                            "%s: section 'levels' does not hold exactly %u levels", name,
                            l.levels + 1);
+        goto fail;
+    }
+    if (sec[SEC_GROWTH] && !growth_decode(sec[SEC_GROWTH], sec[SEC_GROWTH] + sec_size[SEC_GROWTH], m,
+                       (size_t)sec_size[SEC_GROWTH] + 1)) {
+        rc = mts_error_set(err, MTS_ERR_FORMAT,
+                           "%s: section 'growth' does not hold exactly %u split descriptions",
+                           name, l.levels);
         goto fail;
     }
     for (size_t i = 0; i < source_len && i + 1 < sizeof m->source; i++)

@@ -2,13 +2,13 @@
  * table and a CRC-32C per section.
  *
  *   0   "MTSM"                     magic
- *   4   u16 major = 2, u16 minor   a reader accepts its own major version only
+ *   4   u16 major = 3, u16 minor   a reader accepts its own major version only
  *   8   u32 section_count          at most 64
  *   12  u32 header_crc             CRC-32C of bytes 0..11 and the table
  *   16  section_count x { u32 id, u32 crc32c, u64 offset, u64 size }
  *       sections, each 8-byte aligned
  *
- * Sections (all required but SOURCE; unknown ids are skipped):
+ * Sections (all required but SOURCE and GROWTH; unknown ids are skipped):
  *   1 INFO        u32 vertices, base_vertices, levels, strips, full_indices,
  *                 base_indices, record_words, capacity_total;
  *                 f32 bbox_min[3], bbox_max[3]
@@ -22,6 +22,11 @@
  *   8 SOURCE      UTF-8 text: what the model was built from
  *   9 CAPACITY    u32 per strip: its capacity (model.h), adding up to
  *                 capacity_total
+ *  10 GROWTH      varint key_count, the key levels as deltas, then every
+ *                 split's description (model.h: start, count, sides, and
+ *                 the lists of an explicit one), all varints. What a stream
+ *                 sends instead of the records; absent only in models made
+ *                 by hand, which a server refuses to stream
  * Fixed-size sections must have exactly the size INFO's counts give; the
  * varint sections must parse to exactly their end, and INFO's counts must
  * fit their sizes (a varint is a byte at least) before anything is allocated.
@@ -29,8 +34,9 @@
  * by the indices records insert, so no real model needs more, and a runtime's
  * slots stay as small as the file.
  *
- * Version 2 (this one) added erase runs to the records and the CAPACITY
- * section; a version-1 file is refused with a message to rebuild it.
+ * Version 2 added erase runs to the records and the CAPACITY section;
+ * version 3 (this one) the GROWTH section and full strips in the form growth
+ * derives. Older files are refused with a message to rebuild them.
  *
  * Loading checks the header, the table, every section's bounds, size and
  * checksum, then the whole model (mts_model_validate), so each kind of damage
@@ -45,7 +51,7 @@
 #include "error.h"
 #include "model.h"
 
-#define MTS_MODELFILE_MAJOR 2
+#define MTS_MODELFILE_MAJOR 3
 #define MTS_MODELFILE_MINOR 0
 
 /* Serialises a model into a new buffer (free with free()). */

@@ -3,6 +3,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "grow.h"
+
 /* Triangles compare as 64-bit keys when ids fit 21 bits (2M vertices), else
  * as triples; either way sorted canonical triangles compare exactly. */
 typedef struct tri_set {
@@ -624,5 +626,82 @@ done:
     verifier_free(&v);
     free(sums);
     free(sampled);
+    return rc;
+}
+
+/* One split's description from the model as mts_grow_next takes it; the
+ * fan code is decoded against g. Returns 0 on a malformed description. */
+static int growth_split(mts_grow *g, const mts_model *m, uint32_t j, mts_grow_split *sp)
+{
+    const uint32_t *w = m->growth_data + m->growth_offsets[j];
+    uint32_t len = m->growth_offsets[j + 1] - m->growth_offsets[j];
+    memset(sp, 0, sizeof *sp);
+    sp->parent = m->parents[j];
+    if (len < 3)
+        return 0;
+    if (w[2] == MTS_GROWTH_EXPLICIT) {
+        if (len < 5 || (uint64_t)w[3] + 3ull * w[4] != len - 5)
+            return 0;
+        sp->left = sp->right = MTS_GROW_NONE;
+        sp->moved_count = w[3];
+        sp->born_count = w[4];
+        sp->moved = w + 5;
+        sp->born = w + 5 + w[3];
+        return sp->moved_count || sp->born_count;
+    }
+    mts_grow_fan_code code = {w[0], w[1], w[2]};
+    return len == 3 && mts_grow_fan_decode(g, sp->parent, &code, &sp->left, &sp->right);
+}
+
+mts_result mts_verify_growth(const mts_model *m, mts_verify_report *report, mts_error *err)
+{
+    mts_verify_report rep = {0, 0, UINT32_MAX};
+    const uint32_t n = m->level_count;
+    if (!m->growth_offsets || !m->growth_data)
+        return mts_error_set(err, MTS_ERR_ARG, "the model has no split descriptions");
+    mts_grow_options go = {0};
+    go.key_levels = m->key_levels;
+    go.key_count = m->key_count;
+    /* the full strips as a stream sends them */
+    mts_buf code = {0};
+    if (!mts_grow_full_encode(&m->full, &code)) {
+        mts_buf_free(&code);
+        return mts_error_set(err, code.failed ? MTS_ERR_NOMEM : MTS_ERR_INVARIANT,
+                             "growth: the full strips are not in the form growth derives");
+    }
+    mts_grow_full gf = {NULL, code.data, code.size, m->strip_count};
+    mts_grow *g = NULL;
+    mts_result rc = mts_grow_create(&m->base, m->base_vertex_count, n, &go, &g, err);
+    if (rc != MTS_OK) {
+        mts_buf_free(&code);
+        return rc;
+    }
+    for (uint32_t j = 0; j < n && rc == MTS_OK; j++) {
+        mts_grow_split sp;
+        const uint32_t *r;
+        uint32_t words;
+        rep.failed_level = j;
+        if (!growth_split(g, m, j, &sp)) {
+            rc = mts_error_set(err, MTS_ERR_INVARIANT, "growth: split %u's description names no "
+                               "fan of the mesh", j);
+            break;
+        }
+        if ((rc = mts_grow_next(g, &sp, &gf, &r, &words, err)) != MTS_OK) {
+            mts_error_prefix(err, "growth");
+            break;
+        }
+        uint32_t want = m->record_offsets[j + 1] - m->record_offsets[j];
+        if (words != want ||
+            memcmp(r, m->record_data + m->record_offsets[j], (size_t)words * 4) != 0)
+            rc = mts_error_set(err, MTS_ERR_INVARIANT,
+                               "growth: split %u derives a record of %u words that differs from "
+                               "the model's %u",
+                               j, words, want);
+        rep.levels_checked++;
+    }
+    mts_grow_free(g);
+    mts_buf_free(&code);
+    if (report)
+        *report = rep;
     return rc;
 }

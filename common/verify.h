@@ -42,4 +42,11 @@ mts_result mts_verify_model(const mts_model *model, const mts_verify_options *op
 mts_result mts_verify_level(const mts_model *model, const mts_lod *lod,
                             mts_verify_report *report, mts_error *err);
 
+/* What a client that derives records does (grow.h), done here: growth from
+ * the base strips, driven by the model's key levels and split descriptions
+ * (the full strips at the last split), must give every record of the model
+ * word for word. On failure, report->failed_level is the split that
+ * differs. */
+mts_result mts_verify_growth(const mts_model *model, mts_verify_report *report, mts_error *err);
+
 #endif

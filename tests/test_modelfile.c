@@ -13,6 +13,7 @@
 #include "mesh.h"
 #include "model.h"
 #include "modelfile.h"
+#include "verify.h"
 #include "test.h"
 
 /* A closed UV sphere, small enough to truncate at every byte. */
@@ -97,6 +98,14 @@ static void test_round_trip(mts_test *t)
     CHECK(t, memcmp(back.record_data, m.record_data, (size_t)m.record_word_count * 4) == 0);
     CHECK(t, memcmp(back.level_triangles, m.level_triangles, ((size_t)m.level_count + 1) * 4) == 0);
     CHECK(t, strcmp(back.source, "sphere") == 0);
+    /* the split descriptions a stream sends, and the key levels */
+    CHECK(t, back.key_count == m.key_count && back.growth_word_count == m.growth_word_count);
+    CHECK(t, m.growth_word_count >= 3 * (size_t)m.level_count);
+    CHECK(t, memcmp(back.key_levels, m.key_levels, (size_t)m.key_count * 4) == 0);
+    CHECK(t, memcmp(back.growth_offsets, m.growth_offsets, ((size_t)m.level_count + 1) * 4) == 0);
+    CHECK(t, memcmp(back.growth_data, m.growth_data, (size_t)m.growth_word_count * 4) == 0);
+    mts_verify_report vr;
+    CHECKF(t, mts_verify_growth(&back, &vr, &err) == MTS_OK, "%s", err.msg);
     /* encoding is deterministic */
     uint8_t *again;
     size_t again_size;
@@ -301,15 +310,21 @@ static void test_specific_errors(mts_test *t)
     expect_error(t, f, size, MTS_ERR_FORMAT, "magic");
 
     memcpy(f, file, size);
-    f[4] = 3;
-    expect_error(t, f, size, MTS_ERR_VERSION, "version 3.0");
+    f[4] = 4;
+    expect_error(t, f, size, MTS_ERR_VERSION, "version 4.0");
 
-    /* version 1 (records without erase runs, no capacities): rebuild */
+    /* versions 1 and 2 (no erase runs, no capacities; no split
+     * descriptions): rebuild */
     memcpy(f, file, size);
     f[4] = 1;
     reseal(f);
     expect_error(t, f, size, MTS_ERR_VERSION,
                  "model file version 1 is from an older mtstream; rebuild it with mts-build");
+    memcpy(f, file, size);
+    f[4] = 2;
+    reseal(f);
+    expect_error(t, f, size, MTS_ERR_VERSION,
+                 "model file version 2 is from an older mtstream; rebuild it with mts-build");
 
     memcpy(f, file, size);
     f[section_offset(f, 2) + 5] ^= 0x40; /* inside the positions */
