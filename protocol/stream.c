@@ -1,5 +1,7 @@
 #include "stream.h"
 
+#include "grow.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -108,11 +110,16 @@ static mts_result copy_model(const mts_model *src, mts_model *dst, mts_error *er
     dst->level_strips = malloc(n1 * 4);
     dst->level_indices = malloc(n1 * 4);
     dst->capacity = malloc(((size_t)src->strip_count + 1) * 4);
+    dst->key_levels = malloc(((size_t)src->key_count + 1) * 4);
+    dst->growth_offsets = src->growth_offsets ? malloc(n1 * 4) : NULL;
+    dst->growth_data =
+        src->growth_data ? malloc(((size_t)src->growth_word_count + 1) * 4) : NULL;
     memset(&dst->full, 0, sizeof dst->full);
     memset(&dst->base, 0, sizeof dst->base);
     if (!dst->positions || !dst->normals || !dst->parents || !dst->record_offsets ||
         !dst->record_data || !dst->level_triangles || !dst->level_strips ||
-        !dst->level_indices || !dst->capacity ||
+        !dst->level_indices || !dst->capacity || !dst->key_levels ||
+        (src->growth_offsets && !dst->growth_offsets) || (src->growth_data && !dst->growth_data) ||
         mts_strips_alloc(&dst->full, src->strip_count, src->full.index_count, err) != MTS_OK ||
         mts_strips_alloc(&dst->base, src->strip_count, src->base.index_count, err) != MTS_OK) {
         mts_model_free(dst);
@@ -128,6 +135,12 @@ static mts_result copy_model(const mts_model *src, mts_model *dst, mts_error *er
     memcpy(dst->level_indices, src->level_indices, n1 * 4);
     if (src->strip_count)
         memcpy(dst->capacity, src->capacity, (size_t)src->strip_count * 4);
+    if (src->key_count)
+        memcpy(dst->key_levels, src->key_levels, (size_t)src->key_count * 4);
+    if (src->growth_offsets)
+        memcpy(dst->growth_offsets, src->growth_offsets, n1 * 4);
+    if (src->growth_data)
+        memcpy(dst->growth_data, src->growth_data, (size_t)src->growth_word_count * 4);
     memcpy(dst->full.offsets, src->full.offsets, ((size_t)src->strip_count + 1) * 4);
     memcpy(dst->full.indices, src->full.indices, (size_t)src->full.index_count * 4);
     memcpy(dst->base.offsets, src->base.offsets, ((size_t)src->strip_count + 1) * 4);
@@ -165,6 +178,15 @@ static int renumber_base(mts_model *m, uint32_t *quantized, const uint32_t *map)
             }
             p += substs;
         }
+    }
+    /* the new triangles of splits described explicitly name vertices */
+    for (uint32_t j = 0; m->growth_data && j < m->level_count; j++) {
+        uint32_t *w = m->growth_data + m->growth_offsets[j];
+        if (w[2] != MTS_GROWTH_EXPLICIT)
+            continue;
+        uint32_t *born = w + 5 + w[3];
+        for (uint32_t k = 0; k < 3 * w[4]; k++)
+            born[k] = MAP(born[k]);
     }
 #undef MAP
     float *pos = malloc((size_t)nb * 12 + 1), *nor = malloc((size_t)nb * 12 + 1);
@@ -340,9 +362,18 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         return mts_error_set(err, MTS_ERR_ARG, "stream: '%s' is not a valid model name", name);
     snprintf(s->name, sizeof s->name, "%s", name);
     mts_buf b = {0};
-    uint8_t *draco = NULL, *rec = NULL;
+    uint8_t *draco = NULL;
     uint16_t *oct = NULL;
     size_t draco_size = 0;
+    if (!model->growth_data || !model->growth_offsets)
+        return mts_error_set(err, MTS_ERR_ARG,
+                             "stream: model '%s' has no split descriptions; rebuild it with "
+                             "mts-build",
+                             name);
+    if (model->key_count > MTS_WIRE_MAX_KEYS)
+        return mts_error_set(err, MTS_ERR_LIMIT,
+                             "stream: model '%s' has %u key levels, more than a client takes (%u)",
+                             name, model->key_count, MTS_WIRE_MAX_KEYS);
     mts_result rc = copy_model(model, &s->model, err);
     if (rc != MTS_OK)
         return rc;
@@ -392,30 +423,51 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     put_crc(&b, f);
     mts_wire_frame_end(&b, f);
 
-    /* BATCHes */
+    /* BATCHes: per split its parent, how it changes the triangles (the
+     * fan code, grow.h) and its vertex; the records are the client's to
+     * derive. The batch with the last split also carries the full strips. */
+    mts_buf full = {0};
+    if (n > 0 && !mts_grow_full_encode(&m->full, &full)) {
+        rc = full.failed ? mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory")
+                         : mts_error_set(err, MTS_ERR_ARG,
+                                         "stream: model '%s' has full strips growth does not "
+                                         "derive; rebuild it with mts-build",
+                                         name);
+        mts_buf_free(&full);
+        goto fail;
+    }
     uint32_t per = opts->batch_splits ? opts->batch_splits : (n / 100 > 64 ? n / 100 : 64);
     s->batch_count = n == 0 ? 0 : (n + per - 1) / per;
     s->batch_first = malloc(((size_t)s->batch_count + 1) * 4);
     s->batch_offset = malloc(((size_t)s->batch_count + 1) * sizeof *s->batch_offset);
-    size_t rec_cap = mts_reccodec_bound(m, 0, n) + 16;
-    rec = malloc(rec_cap);
-    if (!s->batch_first || !s->batch_offset || !rec)
+    if (!s->batch_first || !s->batch_offset) {
+        mts_buf_free(&full);
         goto nomem;
+    }
     for (uint32_t k = 0; k < s->batch_count; k++) {
         uint32_t first = k * per, count = n - first < per ? n - first : per;
         s->batch_first[k] = first;
         s->batch_offset[k] = b.size;
-        size_t rec_size = 0;
-        if ((rc = mts_reccodec_encode(m, first, count, rec, rec_cap, &rec_size, err)) != MTS_OK)
-            goto fail;
         f = mts_wire_frame_begin(&b, MTS_MSG_BATCH);
         mts_buf_varint(&b, k);
         mts_buf_varint(&b, first);
         mts_buf_varint(&b, count);
-        mts_buf_varint(&b, (uint32_t)rec_size);
-        mts_buf_put(&b, rec, rec_size);
+        if (first + count == n) {
+            mts_buf_varint(&b, (uint32_t)full.size);
+            mts_buf_put(&b, full.data, full.size);
+        }
         for (uint32_t i = 0; i < count; i++) {
-            uint32_t v = nb + first + i, u = m->parents[first + i];
+            uint32_t j = first + i, v = nb + j, u = m->parents[j];
+            const uint32_t *w = m->growth_data + m->growth_offsets[j];
+            mts_buf_varint(&b, v - 1 - u);
+            mts_buf_varint(&b, w[0]);
+            mts_buf_varint(&b, w[1] << 3 | w[2]);
+            if (w[2] == MTS_GROWTH_EXPLICIT) {
+                mts_buf_varint(&b, w[3]);
+                mts_buf_varint(&b, w[4]);
+                for (uint32_t q = 0; q < w[3] + 3 * w[4]; q++)
+                    mts_buf_varint(&b, w[5 + q]);
+            }
             for (int a = 0; a < 3; a++)
                 mts_buf_varint(&b, mts_zigzag_u32(s->quantized[3 * (size_t)v + a] -
                                                   s->quantized[3 * (size_t)u + a]));
@@ -426,6 +478,7 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         put_crc(&b, f);
         mts_wire_frame_end(&b, f);
     }
+    mts_buf_free(&full);
     s->batch_first[s->batch_count] = n;
     s->batch_offset[s->batch_count] = b.size;
     if (b.failed)
@@ -439,14 +492,12 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     if (build_info_tail(s) != MTS_OK)
         goto nomem;
     free(draco);
-    free(rec);
     free(oct);
     return MTS_OK;
 nomem:
     rc = mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory encoding '%s'", name);
 fail:
     free(draco);
-    free(rec);
     free(oct);
     mts_buf_free(&b);
     mts_stream_free(s);
@@ -507,6 +558,7 @@ static void info_fields(const mts_stream *s, uint32_t stop_level, mts_wire_model
     memcpy(mi->grid_origin, s->grid.origin, 12);
     mi->grid_range = s->grid.range;
     mi->batch_count = s->batch_count;
+    mi->key_count = m->key_count;
 }
 
 /* The part of MODEL_INFO every connection shares, encoded once. */
@@ -525,6 +577,7 @@ static mts_result build_info_tail(mts_stream *s)
         memcpy(caps, m->capacity, (size_t)m->strip_count * 4);
         mi.batch_splits = sizes;
         mi.capacities = caps;
+        mi.key_levels = m->key_levels;
         mts_wire_put_model_info_tail(&tail, &mi);
     }
     free(sizes);
@@ -586,6 +639,7 @@ void mts_stream_client_free(mts_stream_client *c)
 {
     if (c->have_lod)
         mts_lod_free(&c->lod);
+    mts_grow_free(c->grow);
     mts_wire_model_info_free(&c->info);
     mts_model_free(&c->model);
     free(c->quantized);
@@ -697,6 +751,9 @@ static mts_result check_resumed_info(mts_stream_client *c, const uint8_t *p, siz
         what = "batches";
     else if (a->strips && memcmp(mi.capacities, a->capacities, (size_t)a->strips * 4) != 0)
         what = "strip capacities";
+    else if (mi.key_count != a->key_count ||
+             (a->key_count && memcmp(mi.key_levels, a->key_levels, (size_t)a->key_count * 4) != 0))
+        what = "key levels";
     if (what)
         rc = mts_error_set(err, MTS_ERR_FORMAT,
                            "MODEL_INFO on resume: '%s' is now another stream (%s differ: stream "
@@ -781,6 +838,11 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     free(lens);
     if (!cur.ok || mts_cursor_left(&cur) != 0)
         return mts_error_set(err, MTS_ERR_FORMAT, "BASE: malformed strips");
+    mts_grow_options go = {0};
+    go.key_levels = c->info.key_levels;
+    go.key_count = c->info.key_count;
+    if ((rc = mts_grow_create(&m->base, nb, m->level_count, &go, &c->grow, err)) != MTS_OK)
+        return mts_error_prefix(err, "BASE");
     if ((rc = mts_lod_init(&c->lod, m, MTS_LOD_AT_BASE, err)) != MTS_OK)
         return rc;
     c->have_lod = 1;
@@ -788,54 +850,111 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     return MTS_OK;
 }
 
+/* Appends one derived record to the client's model. */
+static mts_result keep_record(mts_stream_client *c, uint32_t j, const uint32_t *r, uint32_t words,
+                              mts_error *err)
+{
+    mts_model *m = &c->model;
+    size_t at = m->record_offsets[j];
+    if (words > UINT32_MAX - 1 - at)
+        return mts_error_set(err, MTS_ERR_LIMIT, "BATCH: records past 2^32 words");
+    if (at + words + 1 > c->record_capacity) {
+        size_t cap = c->record_capacity ? c->record_capacity : 4096;
+        while (cap < at + words + 1)
+            cap *= 2;
+        uint32_t *w = realloc(m->record_data, cap * 4);
+        if (!w)
+            return mts_error_set(err, MTS_ERR_NOMEM, "BATCH: out of memory for records");
+        m->record_data = w;
+        c->record_capacity = cap;
+    }
+    memcpy(m->record_data + at, r, (size_t)words * 4);
+    m->record_offsets[j + 1] = (uint32_t)(at + words);
+    m->record_word_count = (uint32_t)(at + words);
+    return MTS_OK;
+}
+
+/* A batch's splits: each one's parent, fan code (or explicit lists) and
+ * vertex, its record derived on the way (grow.h). The CRC has checked out,
+ * so a malformed split means a broken server: the client stops there. */
 static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
 {
     if (!crc_ok(p, n))
         return mts_error_set(err, MTS_ERR_CHECKSUM,
                              "BATCH %u: checksum mismatch; rejected, not applied", c->batches);
     mts_model *m = &c->model;
+    const uint32_t nb = m->base_vertex_count;
     mts_cursor cur = mts_cursor_make(p, n - 4);
     uint32_t index = mts_cursor_varint(&cur), first = mts_cursor_varint(&cur),
-             count = mts_cursor_varint(&cur), rsize = mts_cursor_varint(&cur);
-    const uint8_t *rec = mts_cursor_bytes(&cur, rsize);
-    if (!rec)
+             count = mts_cursor_varint(&cur);
+    if (!cur.ok)
         return mts_error_set(err, MTS_ERR_FORMAT, "BATCH: truncated header");
     if (index != c->batches || index >= c->info.batch_count || first != c->splits ||
         count != c->info.batch_splits[index] || count > m->level_count - first)
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "BATCH %u (splits %u+%u) out of order: expected batch %u at split %u",
                              index, first, count, c->batches, c->splits);
-    /* records: words never outnumber their bytes */
-    size_t words_before = m->record_offsets[first];
-    if (rsize > UINT32_MAX - words_before)
-        return mts_error_set(err, MTS_ERR_LIMIT, "BATCH %u: records too large", index);
-    if (words_before + rsize + 1 > c->record_capacity) {
-        size_t cap = c->record_capacity ? c->record_capacity : 4096;
-        while (cap < words_before + rsize + 1)
-            cap *= 2;
-        uint32_t *w = realloc(m->record_data, cap * 4);
-        if (!w)
-            return mts_error_set(err, MTS_ERR_NOMEM, "BATCH %u: out of memory", index);
-        m->record_data = w;
-        c->record_capacity = cap;
+    mts_grow_full full = {NULL, NULL, 0, m->strip_count};
+    if (first + count == m->level_count) {
+        uint32_t fsize = mts_cursor_varint(&cur);
+        full.code = mts_cursor_bytes(&cur, fsize);
+        full.code_size = fsize;
+        if (!full.code)
+            return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: full strips run past it", index);
     }
-    mts_reccodec_out ro = {m->parents + first, m->record_offsets + first,
-                           m->record_data + words_before, rsize, (uint32_t)words_before};
-    size_t consumed = 0, words = 0;
-    mts_result rc = mts_reccodec_decode(rec, rsize, m->base_vertex_count, first, count, &ro,
-                                        &consumed, &words, err);
-    if (rc != MTS_OK)
-        return mts_error_prefix(err, "BATCH %u", index);
-    if (consumed != rsize)
-        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: %zu bytes after its records", index,
-                             rsize - consumed);
-    m->record_word_count = (uint32_t)(words_before + words);
     const uint32_t maxq = (uint32_t)((1ull << c->grid.bits) - 1);
+    mts_result rc;
     for (uint32_t i = 0; i < count; i++) {
-        uint32_t v = m->base_vertex_count + first + i, u = m->parents[first + i];
+        const uint32_t j = first + i, v = nb + j;
+        uint32_t back = mts_cursor_varint(&cur), start = mts_cursor_varint(&cur),
+                 code = mts_cursor_varint(&cur);
+        if (!cur.ok || back >= v)
+            return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: split %u malformed", index, j);
+        mts_grow_split sp = {0};
+        sp.parent = v - 1 - back;
+        m->parents[j] = sp.parent;
+        if ((code & 7) == MTS_GROWTH_EXPLICIT) {
+            sp.left = sp.right = MTS_GROW_NONE;
+            sp.moved_count = mts_cursor_varint(&cur);
+            sp.born_count = mts_cursor_varint(&cur);
+            uint64_t words = (uint64_t)sp.moved_count + 3ull * sp.born_count;
+            if (!cur.ok || words > mts_cursor_left(&cur) || words == 0)
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "BATCH %u: split %u's lists cannot fit", index, j);
+            uint32_t *lists = malloc((size_t)words * 4);
+            if (!lists)
+                return mts_error_set(err, MTS_ERR_NOMEM, "BATCH %u: out of memory", index);
+            for (uint64_t q = 0; q < words; q++)
+                lists[q] = mts_cursor_varint(&cur);
+            sp.moved = lists;
+            sp.born = lists + sp.moved_count;
+            const uint32_t *r;
+            uint32_t rw;
+            rc = cur.ok ? mts_grow_next(c->grow, &sp, &full, &r, &rw, err)
+                        : mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: split %u truncated",
+                                        index, j);
+            free(lists);
+            if (rc == MTS_OK)
+                rc = keep_record(c, j, r, rw, err);
+            if (rc != MTS_OK)
+                return mts_error_prefix(err, "BATCH %u", index);
+        } else {
+            mts_grow_fan_code fc = {start, code >> 3, code & 7};
+            if (!mts_grow_fan_decode(c->grow, sp.parent, &fc, &sp.left, &sp.right))
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "BATCH %u: split %u names no fan of vertex %u (start %u, "
+                                     "count %u, sides %u)",
+                                     index, j, sp.parent, fc.start, fc.count, fc.sides);
+            const uint32_t *r;
+            uint32_t rw;
+            if ((rc = mts_grow_next(c->grow, &sp, &full, &r, &rw, err)) != MTS_OK ||
+                (rc = keep_record(c, j, r, rw, err)) != MTS_OK)
+                return mts_error_prefix(err, "BATCH %u", index);
+        }
         uint32_t *q = c->quantized + 3 * (size_t)v;
         for (int a = 0; a < 3; a++) {
-            q[a] = c->quantized[3 * (size_t)u + a] + mts_unzigzag_u32(mts_cursor_varint(&cur));
+            q[a] = c->quantized[3 * (size_t)sp.parent + a] +
+                   mts_unzigzag_u32(mts_cursor_varint(&cur));
             if (q[a] > maxq)
                 return mts_error_set(err, MTS_ERR_RANGE, "BATCH %u: vertex %u is off the grid",
                                      index, v);
@@ -845,7 +964,8 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
         oct_decode(o, m->normals + 3 * (size_t)v);
     }
     if (!cur.ok || mts_cursor_left(&cur) != 0)
-        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: vertex data malformed", index);
+        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: malformed (%zu bytes left over)",
+                             index, mts_cursor_left(&cur));
     c->batches++;
     c->splits += count;
     mts_lod_set_available(&c->lod, c->splits);

@@ -97,6 +97,7 @@ typedef struct mts_stream_client {
                               never travel), see take_info */
     uint32_t *quantized;
     size_t record_capacity;
+    struct mts_grow *grow; /* derives each split's record (grow.h) */
     mts_lod lod;
     int have_lod;
     mts_draco_grid grid;

@@ -80,6 +80,12 @@ void mts_wire_put_model_info_tail(mts_buf *b, const mts_wire_model_info *mi)
         mts_buf_varint(b, mi->batch_splits[i]);
     for (uint32_t s = 0; s < mi->strips; s++)
         mts_buf_varint(b, mi->capacities[s]);
+    mts_buf_varint(b, mi->key_count);
+    uint32_t prev = 0;
+    for (uint32_t k = 0; k < mi->key_count; k++) {
+        mts_buf_varint(b, mi->key_levels[k] - prev);
+        prev = mi->key_levels[k];
+    }
 }
 
 void mts_wire_put_model_info(mts_buf *b, const mts_wire_model_info *mi)
@@ -183,6 +189,8 @@ void mts_wire_model_info_free(mts_wire_model_info *mi)
 {
     free(mi->batch_splits);
     free(mi->capacities);
+    free(mi->key_levels);
+    mi->key_levels = NULL;
     mi->batch_splits = NULL;
     mi->capacities = NULL;
 }
@@ -239,6 +247,32 @@ mts_result mts_wire_parse_model_info(const uint8_t *payload, size_t size,
     }
     for (uint32_t s = 0; s < mi->strips; s++)
         mi->capacities[s] = mts_cursor_varint(&c);
+    mi->key_count = mts_cursor_varint(&c);
+    if (mi->key_count > MTS_WIRE_MAX_KEYS || mi->key_count > mts_cursor_left(&c)) {
+        uint32_t kc = mi->key_count;
+        mts_wire_model_info_free(mi);
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "MODEL_INFO: %u key levels (at most %u, and what fits the message)",
+                             kc, MTS_WIRE_MAX_KEYS);
+    }
+    mi->key_levels = malloc(((size_t)mi->key_count + 1) * 4);
+    if (!mi->key_levels) {
+        mts_wire_model_info_free(mi);
+        return mts_error_set(err, MTS_ERR_NOMEM, "MODEL_INFO: out of memory");
+    }
+    uint64_t key = 0;
+    for (uint32_t k = 0; k < mi->key_count; k++) {
+        uint32_t d = mts_cursor_varint(&c);
+        key += d;
+        if (d == 0 || key >= mi->levels) {
+            mts_wire_model_info_free(mi);
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "MODEL_INFO: key level %llu (the %u-th) is not ascending below "
+                                 "the %u levels",
+                                 (unsigned long long)key, k + 1, mi->levels);
+        }
+        mi->key_levels[k] = (uint32_t)key;
+    }
     if (!c.ok || mts_cursor_left(&c) != 0 || splits != mi->levels) {
         mts_wire_model_info_free(mi);
         return mts_error_set(err, MTS_ERR_FORMAT,

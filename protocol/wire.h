@@ -14,8 +14,13 @@
 
 /* 2.0: records carry erased runs (PROTOCOL.md, "Changes"); a peer of another
  * major version is refused at HELLO with ERROR version. */
-#define MTS_WIRE_MAJOR 2
+#define MTS_WIRE_MAJOR 3
 #define MTS_WIRE_MINOR 0
+
+/* Each key level costs a client a stripification of the whole mesh there, so
+ * a client bounds how many it takes (the builder makes about 13 on bunny00
+ * and 25 on a 1.2M-triangle mesh). */
+#define MTS_WIRE_MAX_KEYS 256u
 #define MTS_WIRE_MAX_FRAME (16u << 20) /* type + payload */
 #define MTS_WIRE_MAX_NAME 64
 #define MTS_WIRE_HEADER 5 /* u32 length, u8 type */
@@ -70,6 +75,8 @@ typedef struct mts_wire_model_info {
     uint32_t batch_count;
     uint32_t *batch_splits; /* batch_count */
     uint32_t *capacities;   /* strips: the longest each slot is at any level */
+    uint32_t key_count;     /* at most MTS_WIRE_MAX_KEYS */
+    uint32_t *key_levels;   /* key_count, ascending in 1..levels-1 */
 } mts_wire_model_info;
 
 typedef struct mts_wire_end {

@@ -2,12 +2,13 @@
  * server's model at the level it asked for (strips exactly, positions bit for
  * bit on the grid), whatever the stop point and however the bytes are split;
  * a corrupted batch is rejected and not applied; a cut stream leaves the
- * client at its last whole batch with a consistent mesh; records that erase
- * runs are renumbered with the base, streamed and applied both ways, and the
- * slots are MODEL_INFO's capacities (the longest at any level). */
+ * client at its last whole batch with a consistent mesh; the client derives
+ * every record from the splits' fan codes, word for word the model's, and
+ * moves both ways with them. */
 #include <stdint.h>
 
 #include "build.h"
+#include "crc32c.h"
 #include "mesh.h"
 #include "stream.h"
 #include "test.h"
@@ -258,191 +259,113 @@ static void test_fandisk_stops(mts_test *t)
     shared_model_stops(t, "fandisk_large.off");
 }
 
-/* ---- a hand-made model whose splits erase runs ------------------------
+/* ---- records the client derives --------------------------------------
  *
- * Six base vertices in a 2 x 3 grid, one strip; split 0 brings back vertex 6
- * (parent 4) by erasing the strip's tail [4 5] and inserting [4 5 4], whose
- * last 4 becomes 6; split 1 brings back 7 (parent 5) by erasing all of strip 0
- * in two runs and building strip 1 afresh, as at a key level. So slot 0 is
- * longest (7) at level 1 and empty at the full level, and both erased runs
- * hold base vertices that Draco's renumbering must rename. */
-static const float hand_pos[8][3] = {{0, 0, 0}, {0, 1, 0}, {1, 0, 0}, {1, 1, 0},
-                                     {2, 0, 0}, {2, 1, 0}, {3, 0, 0}, {3, 1, 0}};
-static const uint32_t hand_base0[6] = {0, 1, 2, 3, 4, 5};
-static const uint32_t hand_level1_strip0[7] = {0, 1, 2, 3, 4, 5, 6};
-static const uint32_t hand_full1[8] = {0, 1, 2, 3, 4, 5, 6, 7};
-static const uint32_t hand_records[] = {
-    /* split 0: one edit on strip 0: erase (4, 2: 4 5), insert (4, 3: 4 5 4), subst 6 */
-    1, 0, 1, 1, 1, 4, 2, 4, 5, 4, 3, 4, 5, 4, 6,
-    /* split 1: strip 0 erases (4, 3: 4 5 6) then (0, 4: 0 1 2 3); strip 1
-     * inserts (0, 8: 0 1 2 3 4 5 6 5) and turns position 7 into 7 */
-    2, 0, 2, 0, 0, 4, 3, 4, 5, 6, 0, 4, 0, 1, 2, 3,
-    1, 0, 1, 1, 0, 8, 0, 1, 2, 3, 4, 5, 6, 5, 7};
-
-static uint32_t *hand_words(const uint32_t *w, size_t n)
+ * The stream carries no records (PROTOCOL.md, BATCH): the client derives
+ * each from the split's fan code (common/grow.h). On cow, whose base Draco's
+ * Edgebreaker renumbers, the client's records equal the stream model's word
+ * for word (the derivation looks at vertex ids only for equality), key
+ * levels included, and they move the client both ways. */
+static void test_client_derives_every_record(mts_test *t)
 {
-    uint32_t *c = malloc(n * 4 + 4);
-    if (c)
-        memcpy(c, w, n * 4);
-    return c;
-}
-
-static void hand_model(mts_model *m)
-{
-    memset(m, 0, sizeof *m);
-    m->vertex_count = 8;
-    m->base_vertex_count = 6;
-    m->level_count = 2;
-    m->strip_count = 2;
-    m->positions = malloc(sizeof hand_pos);
-    memcpy(m->positions, hand_pos, sizeof hand_pos);
-    m->normals = calloc(24, sizeof(float));
-    for (int x = 0; x < 8; x++)
-        m->normals[3 * x + 2] = -1.0f;
-    m->bbox_max[0] = 3;
-    m->bbox_max[1] = 1;
-    const uint32_t parents[2] = {4, 5}, capacity[2] = {7, 8};
-    m->parents = hand_words(parents, 2);
-    m->capacity = hand_words(capacity, 2);
-    mts_strips_alloc(&m->base, 2, 6, NULL);
-    m->base.offsets[1] = m->base.offsets[2] = 6;
-    memcpy(m->base.indices, hand_base0, sizeof hand_base0);
-    mts_strips_alloc(&m->full, 2, 8, NULL);
-    m->full.offsets[1] = 0;
-    m->full.offsets[2] = 8;
-    memcpy(m->full.indices, hand_full1, sizeof hand_full1);
-    const uint32_t offsets[3] = {0, 15, (uint32_t)(sizeof hand_records / 4)};
-    m->record_offsets = hand_words(offsets, 3);
-    m->record_data = hand_words(hand_records, sizeof hand_records / 4);
-    m->record_word_count = offsets[2];
-    const uint32_t tris[3] = {4, 5, 6}, strips[3] = {1, 1, 1}, indices[3] = {6, 7, 8};
-    m->level_triangles = hand_words(tris, 3);
-    m->level_strips = hand_words(strips, 3);
-    m->level_indices = hand_words(indices, 3);
-    snprintf(m->source, sizeof m->source, "hand");
-}
-
-/* strip s of the runtime is want[] with base vertices renamed by map */
-static int strip_is(const mts_lod *lod, uint32_t s, const uint32_t *want, uint32_t n,
-                    const uint32_t *map)
-{
-    uint32_t len;
-    const uint32_t *str = mts_lod_strip(lod, s, &len);
-    if (len != n)
-        return 0;
-    for (uint32_t k = 0; k < n; k++) {
-        if (str[k] != (want[k] < 6 ? map[want[k]] : want[k]))
-            return 0;
-    }
-    return 1;
-}
-
-static void test_erased_runs_renumbered_and_streamed(mts_test *t)
-{
-    mts_model m;
-    mts_error err = {0};
-    hand_model(&m);
-    CHECKF(t, mts_model_validate(&m, &err) == MTS_OK, "the hand model: %s", err.msg);
-    mts_stream_options o = {0};
-    o.batch_splits = 1;
     mts_stream s;
-    mts_result rc = mts_stream_build(&m, "hand", &o, &s, &err);
-    CHECKF(t, rc == MTS_OK, "stream: %s", err.msg);
-    if (rc != MTS_OK) {
-        mts_model_free(&m);
+    if (!build_stream(t, "tests/data/cow.off", &s))
         return;
-    }
-    /* Draco's renaming, read back from the positions (each base vertex is
-     * the one of the stream's nearest to it); Edgebreaker reverses this base
-     * (map 5 4 3 2 1 0), so every erased run is renamed */
-    uint32_t map[6];
-    for (uint32_t x = 0; x < 6; x++) {
-        float best = 1e30f;
-        for (uint32_t y = 0; y < 6; y++) {
-            float d = 0;
-            for (int a = 0; a < 3; a++) {
-                float e = s.model.positions[3 * y + a] - hand_pos[x][a];
-                d += e * e;
-            }
-            if (d < best) {
-                best = d;
-                map[x] = y;
-            }
-        }
-    }
-    if (getenv("MTS_TEST_VERBOSE"))
-        fprintf(stderr, "  hand model: Draco %s, base renamed %u %u %u %u %u %u\n",
-                s.draco_method == MTS_DRACO_SEQUENTIAL ? "sequential" : "edgebreaker", map[0],
-                map[1], map[2], map[3], map[4], map[5]);
-    /* the stream's model: capacities copied, records renamed, erased runs too */
-    CHECK(t, s.model.capacity != m.capacity && s.model.capacity[0] == 7 &&
-             s.model.capacity[1] == 8);
-    const uint32_t *w = s.model.record_data;
-    CHECK(t, w[5] == 4 && w[6] == 2 && w[7] == map[4] && w[8] == map[5]);   /* erased */
-    CHECK(t, w[9] == 4 && w[10] == 3 && w[11] == map[4] && w[13] == map[4]); /* inserted */
-    CHECK(t, w[15 + 7] == map[4] && w[15 + 8] == map[5] && w[15 + 9] == 6);
-    CHECK(t, w[15 + 12] == map[0] && w[15 + 15] == map[3]);
-    CHECK(t, w[15 + 22] == map[0] && w[15 + 27] == map[5] && w[15 + 28] == 6 &&
-             w[15 + 29] == map[5] && w[15 + 30] == 7);
+    mts_error err = {0};
+    const mts_model *sm = &s.model;
+    CHECKF(t, sm->key_count >= 5, "%u key levels", sm->key_count);
+    /* the renumbered model still derives its own records */
     mts_verify_report vr;
-    CHECKF(t, mts_verify_model(&s.model, NULL, &vr, &err) == MTS_OK, "verify: %s", err.msg);
-    CHECK(t, vr.levels_checked == 3);
-
-    for (uint32_t stop = 0; stop <= 2 && !t->case_failed; stop++) {
-        mts_buf b = {0};
-        uint32_t got_stop;
-        connection_bytes(&s, MTS_STOP_LEVEL, stop, &b, &got_stop);
-        CHECK(t, got_stop == stop);
-        mts_stream_client c;
-        mts_stream_client_init(&c);
-        int saw_end;
-        rc = feed(&c, b.data, b.size, 7 + stop, &saw_end, &err);
-        CHECKF(t, rc == MTS_OK && saw_end, "stop %u: %s", stop, err.msg);
-        CHECK(t, c.lod.level == stop && c.checksum == c.end_checksum);
-        /* the slots' room is MODEL_INFO's capacities, not the full lengths */
-        CHECK(t, c.info.capacities[0] == 7 && c.info.capacities[1] == 8);
-        CHECK(t, c.model.capacity && c.model.capacity[0] == 7 && c.model.capacity[1] == 8);
-        same_as_server(t, &s, &c);
-        if (stop == 1)
-            CHECK(t, strip_is(&c.lod, 0, hand_level1_strip0, 7, map) &&
-                         strip_is(&c.lod, 1, NULL, 0, map));
-        if (stop == 2) {
-            CHECK(t, strip_is(&c.lod, 0, NULL, 0, map) && strip_is(&c.lod, 1, hand_full1, 8, map));
-            /* down to the base (the erased runs come back) and up again */
-            CHECK(t, mts_lod_set_level(&c.lod, 0, &err) == MTS_OK);
-            CHECK(t, strip_is(&c.lod, 0, hand_base0, 6, map) && strip_is(&c.lod, 1, NULL, 0, map));
-            CHECK(t, mts_lod_set_level(&c.lod, 1, &err) == MTS_OK);
-            CHECK(t, strip_is(&c.lod, 0, hand_level1_strip0, 7, map));
-            CHECKF(t, mts_lod_set_level(&c.lod, 2, &err) == MTS_OK, "%s", err.msg);
-            same_as_server(t, &s, &c);
-        }
-        mts_stream_client_free(&c);
-        mts_buf_free(&b);
-    }
-
-    /* a MODEL_INFO whose capacity is below the base strip: BASE is refused */
+    CHECKF(t, mts_verify_growth(sm, &vr, &err) == MTS_OK, "renumbered: %s", err.msg);
     mts_buf b = {0};
     uint32_t stop;
     connection_bytes(&s, MTS_STOP_FULL, 0, &b, &stop);
-    uint32_t len = b.data[0] | b.data[1] << 8 | b.data[2] << 16 | (uint32_t)b.data[3] << 24;
-    mts_wire_model_info mi = {0};
-    CHECK(t, mts_wire_parse_model_info(b.data + 5, len - 1, &mi, &err) == MTS_OK);
-    if (mi.capacities) {
-        mi.capacities[0] = 5;
-        mts_buf bad = {0};
-        mts_wire_put_model_info(&bad, &mi);
-        mts_buf_put(&bad, b.data + 4 + len, b.size - 4 - len);
-        mts_stream_client c;
-        mts_stream_client_init(&c);
-        int saw_end;
-        rc = feed(&c, bad.data, bad.size, 0, &saw_end, &err);
-        CHECKF(t, rc == MTS_ERR_RANGE && strstr(err.msg, "capacity"), "%s", err.msg);
-        mts_stream_client_free(&c);
-        mts_buf_free(&bad);
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    int saw_end;
+    mts_result rc = feed(&c, b.data, b.size, 11, &saw_end, &err);
+    CHECKF(t, rc == MTS_OK && saw_end, "%s", err.msg);
+    CHECK(t, c.info.key_count == sm->key_count &&
+             memcmp(c.info.key_levels, sm->key_levels, (size_t)sm->key_count * 4) == 0);
+    CHECK(t, c.model.record_word_count == sm->record_word_count);
+    CHECK(t, memcmp(c.model.record_offsets, sm->record_offsets,
+                    ((size_t)sm->level_count + 1) * 4) == 0);
+    CHECK(t, memcmp(c.model.record_data, sm->record_data, (size_t)sm->record_word_count * 4) ==
+                 0);
+    CHECK(t, memcmp(c.model.parents, sm->parents, (size_t)sm->level_count * 4) == 0);
+    /* a key level's record erases runs; down to the base and back up */
+    uint64_t erased = 0;
+    for (uint32_t j = 0; j < sm->level_count; j++) {
+        const uint32_t *w = sm->record_data + sm->record_offsets[j];
+        for (uint32_t e = 0, edits = *w++; e < edits; e++) {
+            erased += w[1];
+            uint32_t runs = w[1] + w[2], substs = w[3];
+            w += 4;
+            for (uint32_t r = 0; r < runs; r++)
+                w += 2 + w[1];
+            w += substs;
+        }
     }
-    mts_wire_model_info_free(&mi);
+    CHECK(t, erased > 0);
+    CHECK(t, mts_lod_set_level(&c.lod, 0, &err) == MTS_OK);
+    same_as_server(t, &s, &c);
+    CHECK(t, mts_lod_set_level(&c.lod, sm->key_levels[1], &err) == MTS_OK);
+    same_as_server(t, &s, &c);
+    CHECK(t, mts_lod_set_level(&c.lod, sm->level_count, &err) == MTS_OK);
+    same_as_server(t, &s, &c);
+    mts_stream_client_free(&c);
+
+    /* a fan code that names no fan (first split's ring start set to 127,
+     * CRC resealed): the batch is refused, naming the split */
+    size_t at = 0;
+    while (at + 5 < b.size && b.data[at + 4] != MTS_MSG_BATCH)
+        at += 4 + (b.data[at] | b.data[at + 1] << 8 | b.data[at + 2] << 16 |
+                   (size_t)b.data[at + 3] << 24);
+    size_t flen = b.data[at] | b.data[at + 1] << 8 | b.data[at + 2] << 16 |
+                  (size_t)b.data[at + 3] << 24;
+    uint8_t *pl = b.data + at + 5;
+    mts_cursor cur = mts_cursor_make(pl, flen - 1);
+    for (int k = 0; k < 4; k++) /* index, first, count, the split's parent */
+        mts_cursor_varint(&cur);
+    size_t start_at = (size_t)(cur.p - pl);
+    CHECK(t, cur.ok && pl[start_at] < 0x80);
+    pl[start_at] = 127;
+    uint32_t crc = mts_crc32c(0, pl, flen - 1 - 4);
+    for (int k = 0; k < 4; k++)
+        pl[flen - 1 - 4 + k] = (uint8_t)(crc >> (8 * k));
+    mts_stream_client_init(&c);
+    rc = feed(&c, b.data, b.size, 0, &saw_end, &err);
+    CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, "BATCH 0: split 0 names no fan"), "%s",
+           err.msg);
+    CHECK(t, c.batches == 0 && c.lod.level == 0);
+    mts_stream_client_free(&c);
     mts_buf_free(&b);
     mts_stream_free(&s);
+}
+
+/* A model without split descriptions (one made by hand, or by an older
+ * build) cannot be streamed, and says why. */
+static void test_model_without_descriptions_refused(mts_test *t)
+{
+    mts_stream s;
+    mts_error err = {0};
+    mts_model m;
+    mts_mesh mesh = {0};
+    if (mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) != MTS_OK) {
+        CHECKF(t, 0, "%s", err.msg);
+        return;
+    }
+    mts_result rc = mts_build_model(&mesh, "cow", NULL, &m, NULL, &err);
+    mts_mesh_free(&mesh);
+    CHECKF(t, rc == MTS_OK, "%s", err.msg);
+    if (rc != MTS_OK)
+        return;
+    free(m.growth_data);
+    m.growth_data = NULL;
+    rc = mts_stream_build(&m, "cow", NULL, &s, &err);
+    CHECKF(t, rc == MTS_ERR_ARG && strstr(err.msg, "no split descriptions") &&
+                  strstr(err.msg, "rebuild"),
+           "%s", err.msg);
     mts_model_free(&m);
 }
 
@@ -453,7 +376,8 @@ int main(void)
     RUN(&t, test_corrupt_batch_rejected);
     RUN(&t, test_cut_stream_keeps_last_batch);
     RUN(&t, test_garbage_frames);
-    RUN(&t, test_erased_runs_renumbered_and_streamed);
+    RUN(&t, test_client_derives_every_record);
+    RUN(&t, test_model_without_descriptions_refused);
     RUN(&t, test_bunny_stops);
     RUN(&t, test_fandisk_stops);
     return mts_test_end(&t);

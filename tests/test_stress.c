@@ -158,7 +158,9 @@ static void test_hostile_handshakes(mts_test *t)
         nanosleep(&ts, NULL);
     }
     char out[4096];
-    int rc = stress(&sv, "cow --clients 30 --json", out, sizeof out);
+    /* --no-apply: what is timed is the server, not 30 clients deriving
+     * records in this one process */
+    int rc = stress(&sv, "cow --clients 30 --no-apply --json", out, sizeof out);
     CHECKF(t, rc == 0 && json_num(out, "succeeded") == 30, "exit %d: %s", rc, out);
     /* the good clients were not held up behind the silent ones */
     CHECKF(t, json_num(out, "p99_ms_final") < 900, "%s", out);
@@ -266,7 +268,8 @@ static void test_slow_reader(mts_test *t)
     mts_buf_free(&hello);
     int rc = stress(&sv, "grid --clients 20 --no-apply --json", out, sizeof out);
     CHECKF(t, rc == 0 && json_num(out, "succeeded") == 20, "exit %d: %s", rc, out);
-    CHECKF(t, json_num(out, "bytes") > 20 * 500000L, "the grid stream is too small: %s", out);
+    /* each stream is many times the stalled reader's 20 KB of socket buffers */
+    CHECKF(t, json_num(out, "bytes") > 20 * 200000L, "the grid stream is too small: %s", out);
     struct timespec ts = {2, 0};
     nanosleep(&ts, NULL);
     CHECK(t, server_stop(&sv) == 0);

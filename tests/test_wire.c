@@ -63,16 +63,20 @@ static void test_hello_round_trip_and_errors(mts_test *t)
     copy[0] = 'G';
     CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_FORMAT);
     CHECK(t, strstr(err.msg, "magic") != NULL);
-    /* a 1.0 peer (records without erased runs) and a future major */
-    memcpy(copy, p, n);
-    copy[4] = 1;
-    CHECK(t, MTS_WIRE_MAJOR == 2);
+    /* 1.0 and 2.0 peers (records on the wire) and a future major */
+    CHECK(t, MTS_WIRE_MAJOR == 3);
+    for (uint8_t old = 1; old <= 2; old++) {
+        memcpy(copy, p, n);
+        copy[4] = old;
+        char want[8];
+        snprintf(want, sizeof want, "%u.0", old);
+        CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
+        CHECKF(t, strstr(err.msg, want) != NULL && strstr(err.msg, "speaks 3.x") != NULL, "%s",
+               err.msg);
+    }
+    copy[4] = 4;
     CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
-    CHECKF(t, strstr(err.msg, "1.0") != NULL && strstr(err.msg, "speaks 2.x") != NULL, "%s",
-           err.msg);
-    copy[4] = 3;
-    CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
-    CHECKF(t, strstr(err.msg, "3.0") != NULL, "%s", err.msg);
+    CHECKF(t, strstr(err.msg, "4.0") != NULL, "%s", err.msg);
     free(copy);
     /* names that could reach a file system are refused */
     const char *bad[] = {"../etc/passwd", "a/b", ".hidden", "", "sp ace",
