@@ -1027,7 +1027,7 @@ mts_result mts_grow_create(const mts_strips *base, uint32_t nb, uint32_t n,
     for (uint32_t s = 0; strict && s < base->strip_count; s++) {
         uint32_t len = base->offsets[s + 1] - base->offsets[s];
         if (len != g->seq[s].n ||
-            memcmp(g->seq[s].w, base->indices + base->offsets[s], (size_t)len * 4) != 0) {
+            (len && memcmp(g->seq[s].w, base->indices + base->offsets[s], (size_t)len * 4) != 0)) {
             rc = mts_error_set(err, MTS_ERR_FORMAT,
                                "grow: base strip %u is not in the form growth derives", s);
             goto fail;
