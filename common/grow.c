@@ -655,7 +655,8 @@ static int emit_edit(mts_grow *g, uint32_t s, const words *to, uint32_t u, uint3
     from->n = 0;
     if (!words_reserve(from, ln))
         return 0;
-    memcpy(from->w, nw, ln * 4);
+    if (ln) /* an emptied slot's new indices may have no buffer at all */
+        memcpy(from->w, nw, ln * 4);
     from->n = ln;
     if (ln > g->capacity[s])
         g->capacity[s] = (uint32_t)ln;
