@@ -98,11 +98,16 @@ static inline int mts_test_run(const char *cmd, char *out, size_t size)
     return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
-/* A scratch directory for files a test writes. */
+/* A scratch directory for files a test writes; MTS_TEST_TMP is created if
+ * it does not exist yet (a test that wrote into a missing one failed in ways
+ * that looked like anything but that). */
 static inline const char *mts_test_tmpdir(void)
 {
     const char *d = getenv("MTS_TEST_TMP");
-    return d && *d ? d : "/tmp";
+    if (!d || !*d)
+        return "/tmp";
+    (void)mkdir(d, 0755);
+    return d;
 }
 
 #endif
