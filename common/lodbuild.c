@@ -196,7 +196,7 @@ nomem:
 
 /* The base mesh's strips in the form growth derives: stripified, tunnelled,
  * longest first. */
-static mts_result base_strips(const truth *tr, uint32_t F, mts_strips *out, mts_error *err)
+static mts_result base_strips(const truth *tr, mts_strips *out, mts_error *err)
 {
     uint32_t live = tr->born_off[1];
     uint32_t *tris = malloc(((size_t)live + 1) * 12);
@@ -204,7 +204,6 @@ static mts_result base_strips(const truth *tr, uint32_t F, mts_strips *out, mts_
         return mts_error_set(err, MTS_ERR_NOMEM, "lodbuild: out of memory");
     for (uint32_t k = 0; k < live; k++)
         image(tr, tr->born[k], 0, tris + 3 * (size_t)k);
-    (void)F;
     mts_strips strips = {0}, tunnelled = {0};
     mts_tunnel_options to = {0};
     to.length = MTS_TUNNEL_DEFAULT_LENGTH;
@@ -409,7 +408,7 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
 
     /* Level 0: the base mesh, stripified and tunnelled, in the form growth
      * derives; growth then starts from it exactly as a client does. */
-    if ((rc = base_strips(&tr, F, &model->base, err)) != MTS_OK)
+    if ((rc = base_strips(&tr, &model->base, err)) != MTS_OK)
         goto fail;
     mts_grow_options go = {0};
     go.key_ratio = ratio > 1 ? ratio : -1;

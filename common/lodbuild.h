@@ -16,7 +16,12 @@
  * stripifier; at the base also tunnelling, and at the full level the
  * caller's strips, typically tunnelled). A key level is a record like any
  * other: it erases the old strips and inserts the new ones, so the same
- * records still move both ways and a client needs no stripifier.
+ * records still move both ways.
+ *
+ * The growth itself is common/grow.c, which a streaming client runs too: the
+ * builder here works out each split's description from the collapse chains
+ * (checking the fan rule against them), drives grow.c with it, and keeps
+ * both the records and the descriptions in the model.
  *
  * A strip is kept as a path of triangles on the dual graph; its indices are
  * derived from the path alone (the first triangle's third vertex and the
