@@ -16,27 +16,8 @@
 #include <string.h>
 
 #include "stripify.h"
+#include "words.h"
 
-/* A growable array of 32-bit words. */
-typedef struct words {
-    uint32_t *w;
-    size_t n, cap;
-} words;
-
-static int words_reserve(words *v, size_t extra)
-{
-    if (v->n + extra <= v->cap)
-        return 1;
-    size_t cap = v->cap ? v->cap : 16;
-    while (cap < v->n + extra)
-        cap *= 2;
-    uint32_t *w = realloc(v->w, cap * sizeof *w);
-    if (!w)
-        return 0;
-    v->w = w;
-    v->cap = cap;
-    return 1;
-}
 
 /* Directed edge (a, b) -> the triangle that holds it; open addressing that
  * doubles when half full (tombstones counted). */
@@ -178,7 +159,7 @@ struct mts_grow {
     int32_t *vtri; /* per vertex: a live triangle with that corner, or -1 */
     /* slots */
     uint32_t slot_count, slot_cap;
-    words *seq;    /* indices of each slot as last derived */
+    mts_words *seq;    /* indices of each slot as last derived */
     int32_t *head; /* first triangle of each slot's path, -1 when empty */
     uint32_t *ntri;
     uint32_t *capacity;
@@ -190,11 +171,11 @@ struct mts_grow {
     const uint32_t *key_given;
     uint32_t key_given_count, key_given_at;
     double key_ratio, next_key;
-    words keys;
+    mts_words keys;
     /* the last record, and scratch */
-    words rec, scratch;
-    words affected;
-    words ring; /* scratch of the fan codes */
+    mts_words rec, scratch;
+    mts_words affected;
+    mts_words ring; /* scratch of the fan codes */
     mts_grow_figures fig;
 };
 
@@ -248,13 +229,13 @@ static uint32_t third_vertex(const mts_grow *g, uint32_t t, uint32_t x, uint32_t
  * the edge it shares with the second, then one index per triangle, plus a
  * swap where the path turns the same way twice. Links are always between
  * adjacent triangles (growth mends the ones a split breaks). */
-static int derive_indices(const mts_grow *g, int32_t head, words *out)
+static int derive_indices(const mts_grow *g, int32_t head, mts_words *out)
 {
     out->n = 0;
     if (head < 0)
         return 1;
     uint32_t t = (uint32_t)head;
-    if (!words_reserve(out, 3))
+    if (!mts_words_reserve(out, 3))
         return 0;
     if (g->next[t] < 0) {
         memcpy(out->w, g->img[t], 12);
@@ -270,7 +251,7 @@ static int derive_indices(const mts_grow *g, int32_t head, words *out)
     uint32_t a = x, c = y; /* the last two indices, the edge into the next */
     for (int32_t s = g->next[t]; s >= 0; s = g->next[s]) {
         uint32_t w = third_vertex(g, (uint32_t)s, a, c);
-        if (!words_reserve(out, 2))
+        if (!mts_words_reserve(out, 2))
             return 0;
         if (g->next[s] >= 0) {
             uint32_t p = a, q = c;
@@ -602,10 +583,10 @@ static mts_result restrip(mts_grow *g, mts_error *err)
  * the new vertex v appears; u is its parent), and stores `to`. The runs
  * carry u where `to` has v, and the positions of v are substitutions, so an
  * inserted run never names a vertex that does not exist yet. */
-static int emit_edit(mts_grow *g, uint32_t s, const words *to, uint32_t u, uint32_t v,
+static int emit_edit(mts_grow *g, uint32_t s, const mts_words *to, uint32_t u, uint32_t v,
                      uint32_t *edits)
 {
-    words *from = &g->seq[s];
+    mts_words *from = &g->seq[s];
     const uint32_t *o = from->w, *nw = to->w;
     size_t lo = from->n, ln = to->n;
 #define AS_BEFORE(x) ((x) == v ? u : (x))
@@ -620,7 +601,7 @@ static int emit_edit(mts_grow *g, uint32_t s, const words *to, uint32_t u, uint3
         substs += nw[k] == v;
     if (erase == 0 && insert == 0 && substs == 0)
         return 1;
-    if (!words_reserve(&g->rec, 4 + 2 + erase + 2 + insert + substs))
+    if (!mts_words_reserve(&g->rec, 4 + 2 + erase + 2 + insert + substs))
         return 0;
     uint32_t *w = g->rec.w + g->rec.n;
     *w++ = s;
@@ -653,7 +634,7 @@ static int emit_edit(mts_grow *g, uint32_t s, const words *to, uint32_t u, uint3
     g->total_indices = g->total_indices - lo + ln;
     g->nonempty = g->nonempty - (lo > 0) + (ln > 0);
     from->n = 0;
-    if (!words_reserve(from, ln))
+    if (!mts_words_reserve(from, ln))
         return 0;
     if (ln) /* an emptied slot's new indices may have no buffer at all */
         memcpy(from->w, nw, ln * 4);
@@ -674,7 +655,7 @@ static int cmp_u32(const void *a, const void *c)
 static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
 {
     g->rec.n = 0;
-    if (!words_reserve(&g->rec, 1))
+    if (!mts_words_reserve(&g->rec, 1))
         return 0;
     g->rec.n = 1;
     uint32_t edits = 0;
@@ -1117,7 +1098,7 @@ int32_t mts_grow_fan(const mts_grow *g, uint32_t u, uint32_t left, uint32_t righ
 
 /* The parent's triangles in ring order (grow.h); -1 when the ring is not a
  * simple fan. *closed says whether it goes all the way round. */
-static int32_t ring(const mts_grow *g, uint32_t u, words *out, int *closed)
+static int32_t ring(const mts_grow *g, uint32_t u, mts_words *out, int *closed)
 {
     out->n = 0;
     *closed = 0;
@@ -1147,7 +1128,7 @@ static int32_t ring(const mts_grow *g, uint32_t u, words *out, int *closed)
     for (;;) {
         if (out->n >= g->tri_count)
             return -1;
-        if (!words_reserve(out, 1))
+        if (!mts_words_reserve(out, 1))
             return -1;
         out->w[out->n++] = (uint32_t)t;
         t = edge_map_get(&g->edges, u, before(g, (uint32_t)t, u));
@@ -1243,7 +1224,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
     /* the triangles v takes over */
     g->affected.n = 0;
     if (sp->moved_count || sp->born_count) {
-        if (!words_reserve(&g->affected, sp->moved_count))
+        if (!mts_words_reserve(&g->affected, sp->moved_count))
             goto nomem;
         for (uint32_t k = 0; k < sp->moved_count; k++) {
             uint32_t t = sp->moved[k];
@@ -1259,7 +1240,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
             return mts_error_set(err, MTS_ERR_FORMAT,
                                  "grow: split %u: no fan of %u from %u to %u", g->level, u,
                                  sp->right, sp->left);
-        if (!words_reserve(&g->affected, (uint32_t)k))
+        if (!mts_words_reserve(&g->affected, (uint32_t)k))
             goto nomem;
         g->affected.n = (size_t)mts_grow_fan(g, u, sp->left, sp->right, g->affected.w,
                                              (uint32_t)k);
@@ -1321,7 +1302,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
         }
         if (rc != MTS_OK)
             return rc;
-        if (!words_reserve(&g->keys, 1))
+        if (!mts_words_reserve(&g->keys, 1))
             goto nomem;
         g->keys.w[g->keys.n++] = g->level;
         g->fig.key_count++;

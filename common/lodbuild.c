@@ -16,28 +16,9 @@
 
 #include "grow.h"
 #include "stripify.h"
+#include "words.h"
 #include "tunnel.h"
 
-/* A growable array of 32-bit words. */
-typedef struct words {
-    uint32_t *w;
-    size_t n, cap;
-} words;
-
-static int words_reserve(words *v, size_t extra)
-{
-    if (v->n + extra <= v->cap)
-        return 1;
-    size_t cap = v->cap ? v->cap : 16;
-    while (cap < v->n + extra)
-        cap *= 2;
-    uint32_t *w = realloc(v->w, cap * sizeof *w);
-    if (!w)
-        return 0;
-    v->w = w;
-    v->cap = cap;
-    return 1;
-}
 
 /* The full mesh's view of the levels: what each split truly brings back,
  * from the collapse chains, against which the fan rule is checked. */
@@ -89,7 +70,7 @@ static void truth_free(truth *tr)
  * when it reproduces the truth, else explicitly. The lists live in the
  * scratch arrays. */
 typedef struct describer {
-    words moved_tris, fan_tris, born, ids;
+    mts_words moved_tris, fan_tris, born, ids;
     uint32_t explicit_splits;
 } describer;
 
@@ -109,7 +90,7 @@ static mts_result describe_split(const truth *tr, const mts_grow *g, uint32_t j,
         uint32_t t = tr->chain[k] / 3;
         if (tr->birth[t] > j || (d->moved_tris.n && d->ids.w[d->ids.n - 1] == t))
             continue;
-        if (!words_reserve(&d->moved_tris, 3) || !words_reserve(&d->ids, 1))
+        if (!mts_words_reserve(&d->moved_tris, 3) || !mts_words_reserve(&d->ids, 1))
             goto nomem;
         uint32_t *x = d->moved_tris.w + d->moved_tris.n;
         image(tr, t, j, x);
@@ -124,7 +105,7 @@ static mts_result describe_split(const truth *tr, const mts_grow *g, uint32_t j,
     int fan_ok = 1;
     d->born.n = 0;
     for (uint32_t k = tr->born_off[level]; k < tr->born_off[level + 1]; k++) {
-        if (!words_reserve(&d->born, 3))
+        if (!mts_words_reserve(&d->born, 3))
             goto nomem;
         uint32_t *x = d->born.w + d->born.n;
         image(tr, tr->born[k], level, x);
@@ -145,7 +126,7 @@ static mts_result describe_split(const truth *tr, const mts_grow *g, uint32_t j,
     if (fan_ok) {
         int32_t k = mts_grow_fan(g, u, sp->left, sp->right, NULL, 0);
         if (k >= 0 && (size_t)k == moved) {
-            if (!words_reserve(&d->ids, (size_t)k) || !words_reserve(&d->fan_tris, 3 * (size_t)k))
+            if (!mts_words_reserve(&d->ids, (size_t)k) || !mts_words_reserve(&d->fan_tris, 3 * (size_t)k))
                 goto nomem;
             mts_grow_fan(g, u, sp->left, sp->right, d->ids.w, (uint32_t)k);
             for (int32_t q = 0; q < k; q++) {
@@ -171,7 +152,7 @@ static mts_result describe_explicitly(const truth *tr, const mts_grow *g, uint32
     (void)tr;
     size_t moved = d->moved_tris.n / 3;
     d->explicit_splits++;
-    if (!words_reserve(&d->ids, moved))
+    if (!mts_words_reserve(&d->ids, moved))
         goto nomem;
     for (size_t q = 0; q < moved; q++) {
         const uint32_t *x = d->moved_tris.w + 3 * q;
@@ -253,7 +234,7 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
     mts_result rc = MTS_ERR_NOMEM;
     truth tr = {0};
     describer d = {0};
-    words rec = {0}, growth = {0};
+    mts_words rec = {0}, growth = {0};
     mts_grow *g = NULL;
     uint32_t *new_id = NULL, *parents = NULL, *rec_off = NULL;
     mts_strips given = {0};
@@ -436,7 +417,7 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
                 goto fail;
         }
         model->growth_offsets[j] = (uint32_t)growth.n;
-        if (!words_reserve(&growth, 5 + (size_t)sp.moved_count + 3 * (size_t)sp.born_count))
+        if (!mts_words_reserve(&growth, 5 + (size_t)sp.moved_count + 3 * (size_t)sp.born_count))
             goto nomem;
         if (sp.moved_count || sp.born_count) {
             growth.w[growth.n++] = 0;
@@ -459,7 +440,7 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
         if ((rc = mts_grow_next(g, &sp, &gf, &r, &words_in, err)) != MTS_OK)
             goto fail;
         rec_off[j] = (uint32_t)rec.n;
-        if (!words_reserve(&rec, words_in))
+        if (!mts_words_reserve(&rec, words_in))
             goto nomem;
         memcpy(rec.w + rec.n, r, (size_t)words_in * 4);
         rec.n += words_in;
