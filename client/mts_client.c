@@ -192,6 +192,8 @@ static int on_event(void *user, mts_stream_event ev, mts_stream_client *c)
     } else if (ev == MTS_EV_BASE && rn->render) {
         mts_render_layout layout;
         mts_render_layout_from_lod(&c->lod, &layout);
+        /* a stream without normals is shaded from the faces each level has */
+        rn->ro.style.flat_shading = !(c->info.flags & MTS_INFO_NORMALS);
         if (mts_renderer_create(rn->ctx, &rn->ro, &layout, &rn->r, &rn->err) != MTS_OK ||
             !draw(rn, c) || !level_pngs(rn, c, 0)) {
             rn->failed = 1;
@@ -529,6 +531,7 @@ static int win_on_event(void *user, mts_stream_event ev, mts_stream_client *c)
     if (ev == MTS_EV_BASE && !rn->r) {
         mts_render_layout layout;
         mts_render_layout_from_lod(&c->lod, &layout);
+        rn->ro.style.flat_shading = !(c->info.flags & MTS_INFO_NORMALS);
         if (mts_renderer_create(rn->ctx, &rn->ro, &layout, &rn->r, &rn->err) != MTS_OK ||
             mts_lod_init(&wn->view, &c->model, MTS_LOD_AT_BASE, &rn->err) != MTS_OK) {
             rn->failed = 1;

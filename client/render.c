@@ -326,7 +326,7 @@ struct mts_renderer {
     uint32_t list_count;
     GLuint wire_ibo; /* style.wireframe: GL_LINES over the triangles' edges */
     uint64_t wire_count;
-    GLint u_mvp, u_normal, u_color, u_light, u_ambient;
+    GLint u_mvp, u_normal, u_color, u_light, u_ambient, u_flat;
 
     uint32_t *staging; /* max_capacity + 1 */
     /* COMPACT and JOINED: a host copy of the slot buffer (the strips' current
@@ -399,6 +399,7 @@ void mts_render_options_default(mts_render_options *o)
      * reading 0.425x the list's indices (bench/mts_bench_stream.c) */
     o->style.draw_mode = MTS_RENDER_DRAW_JOINED;
     o->style.wireframe = 0;
+    o->style.flat_shading = 0;
     o->style.wire_color[0] = 0.08f;
     o->style.wire_color[1] = 0.09f;
     o->style.wire_color[2] = 0.12f;
@@ -549,8 +550,10 @@ static const char *vertex_src =
     "uniform mat4 u_mvp;\n"
     "uniform mat3 u_normal;\n"
     "out vec3 v_normal;\n"
+    "out vec3 v_view;\n" /* rotated into view space: slopes for flat shading */
     "void main() {\n"
     "    v_normal = u_normal * a_normal;\n"
+    "    v_view = u_normal * a_position;\n"
     "    gl_Position = u_mvp * vec4(a_position, 1.0);\n"
     "}\n";
 
@@ -558,14 +561,20 @@ static const char *fragment_src =
     "#version 300 es\n"
     "precision highp float;\n"
     "in vec3 v_normal;\n"
+    "in vec3 v_view;\n"
+    "uniform bool u_flat;\n"
     "uniform vec3 u_color;\n"
     "uniform vec3 u_light;\n" /* unit, towards the light, view space */
     "uniform float u_ambient;\n"
     "out vec4 o_color;\n"
     "void main() {\n"
-    "    float len = length(v_normal);\n"
+    /* screen x and y slopes of a face span its plane; their cross product
+     * faces the viewer (derivatives taken in uniform control flow) */
+    "    vec3 face = cross(dFdx(v_view), dFdy(v_view));\n"
+    "    vec3 n = u_flat ? face : v_normal;\n"
+    "    float len = length(n);\n"
     /* a zero normal (a vertex of zero-area faces only) gets half light */
-    "    float d = len > 1e-12 ? max(dot(v_normal / len, u_light), 0.0) : 0.5;\n"
+    "    float d = len > 1e-12 ? max(dot(n / len, u_light), 0.0) : 0.5;\n"
     "    o_color = vec4(u_color * (u_ambient + (1.0 - u_ambient) * d), 1.0);\n"
     "}\n";
 
@@ -621,6 +630,7 @@ static mts_result build_program(mts_renderer *r, mts_error *err)
     r->u_color = glGetUniformLocation(r->program, "u_color");
     r->u_light = glGetUniformLocation(r->program, "u_light");
     r->u_ambient = glGetUniformLocation(r->program, "u_ambient");
+    r->u_flat = glGetUniformLocation(r->program, "u_flat");
     return gl_check(err, "building the shader program");
 }
 
@@ -1175,6 +1185,7 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
     glUniform3fv(r->u_light, 1, light);
     glUniform1f(r->u_ambient, clampf(st->ambient, 0.0f, 1.0f));
     glUniform3fv(r->u_color, 1, st->color);
+    glUniform1i(r->u_flat, st->flat_shading != 0);
     glBindVertexArray(r->vao);
 
     uint32_t calls = 0;

@@ -183,6 +183,11 @@ typedef struct mts_render_style {
      * per-corner attributes that shared strip vertices cannot carry. */
     int wireframe;
     float wire_color[3];
+    /* Shade each triangle by its own plane, from the screen-space slopes of
+     * its positions, ignoring the vertex normals: for a model whose stream
+     * carries none (its source had none; PROTOCOL.md, MODEL_INFO flags), so
+     * every level is lit as the faces it has. */
+    int flat_shading;
 } mts_render_style;
 
 typedef struct mts_render_options {

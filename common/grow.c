@@ -176,6 +176,8 @@ struct mts_grow {
     mts_words rec, scratch;
     mts_words affected;
     mts_words ring; /* scratch of the fan codes */
+    uint32_t newest_born; /* the first triangle the last split brought back */
+    mts_words around;     /* scratch of mts_grow_around_newest */
     mts_grow_figures fig;
 };
 
@@ -675,9 +677,10 @@ static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
 /* ---- the full level's strips as swap bits ---- */
 
 /* Reads a strip in derived form: its triangle count and, per inner
- * triangle, whether it swaps. Returns 0 when the strip is not in that form. */
-static int parse_derived(const uint32_t *s, uint32_t len, uint32_t *ntri, mts_buf *bits,
-                         uint64_t *bit_count)
+ * triangle, whether it swaps (one byte each, appended at swaps + *count).
+ * Returns 0 when the strip is not in that form. */
+static int parse_derived(const uint32_t *s, uint32_t len, uint32_t *ntri, uint8_t *swaps,
+                         uint64_t *count_swaps)
 {
     if (len == 0) {
         *ntri = 0;
@@ -696,15 +699,10 @@ static int parse_derived(const uint32_t *s, uint32_t len, uint32_t *ntri, mts_bu
         if (w == a || w == c)
             return 0;
         count++;
-        if (k < len) { /* an inner triangle: one bit */
-            if ((*bit_count & 7) == 0)
-                mts_buf_u8(bits, 0);
-            if (swap && !bits->failed)
-                bits->data[bits->size - 1] |= (uint8_t)(1u << (*bit_count & 7));
-            (*bit_count)++;
-        } else if (swap) {
+        if (k < len) /* an inner triangle */
+            swaps[(*count_swaps)++] = (uint8_t)swap;
+        else if (swap)
             return 0; /* the last triangle never swaps */
-        }
         if (swap) {
             c = w;
         } else {
@@ -716,33 +714,32 @@ static int parse_derived(const uint32_t *s, uint32_t len, uint32_t *ntri, mts_bu
     return 1;
 }
 
-int mts_grow_full_encode(const mts_strips *full, mts_buf *out)
+mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
+                                  mts_grow_full_path *paths, uint8_t *swaps, uint64_t *swap_count,
+                                  mts_error *err)
 {
-    mts_buf bits = {0};
-    uint64_t bit_count = 0;
-    uint32_t prev = 0;
-    int ok = 1;
-    for (uint32_t st = 0; st < full->strip_count && ok; st++) {
+    *swap_count = 0;
+    for (uint32_t st = 0; st < full->strip_count; st++) {
         const uint32_t *s = full->indices + full->offsets[st];
-        uint32_t len = full->offsets[st + 1] - full->offsets[st], ntri;
-        if (!parse_derived(s, len, &ntri, &bits, &bit_count)) {
-            ok = 0;
-            break;
-        }
-        mts_buf_varint(out, ntri);
-        if (ntri) {
-            mts_buf_varint(out, mts_zigzag_u32(s[0] - prev));
-            mts_buf_varint(out, mts_zigzag_u32(s[1] - s[0]));
-            mts_buf_varint(out, mts_zigzag_u32(s[2] - s[0]));
-            prev = s[0];
-        }
+        uint32_t len = full->offsets[st + 1] - full->offsets[st];
+        mts_grow_full_path *p = &paths[st];
+        memset(p, 0, sizeof *p);
+        if (!parse_derived(s, len, &p->triangles, swaps, swap_count))
+            return mts_error_set(err, MTS_ERR_ARG,
+                                 "grow: full strip %u is not in the form growth derives", st);
+        if (!p->triangles)
+            continue;
+        int32_t t = mts_grow_find(g, s[0], s[1], s[2]);
+        if (t < 0)
+            return mts_error_set(err, MTS_ERR_ARG,
+                                 "grow: full strip %u starts on (%u %u %u), not a triangle of "
+                                 "level %u",
+                                 st, s[0], s[1], s[2], g->level);
+        p->first = (uint32_t)t;
+        while (g->img[t][p->rotation] != s[0])
+            p->rotation++;
     }
-    if (ok)
-        mts_buf_put(out, bits.data, bits.size);
-    if (bits.failed)
-        out->failed = 1;
-    mts_buf_free(&bits);
-    return ok && !out->failed;
+    return MTS_OK;
 }
 
 /* The triangle across the edge {a, c} from t, or -1. */
@@ -755,77 +752,54 @@ static int32_t across(const mts_grow *g, int32_t t, uint32_t a, uint32_t c)
     return x != t ? x : -1;
 }
 
-/* Resolves mts_grow_full_encode's bytes on the current (full) mesh into
- * strips, slot by slot. */
-static mts_result decode_full(mts_grow *g, const uint8_t *code, size_t size, uint32_t slots,
-                              mts_strips *out, mts_error *err)
+/* Resolves a description of the full strips (mts_grow_full_describe) on
+ * the current (full) mesh into strips, slot by slot. */
+static mts_result resolve_full(mts_grow *g, const mts_grow_full *f, mts_strips *out,
+                               mts_error *err)
 {
-    mts_cursor cur = mts_cursor_make(code, size);
-    if (slots > size)
-        return mts_error_set(err, MTS_ERR_FORMAT, "full strips: %u slots cannot fit %zu bytes",
-                             slots, size);
-    uint32_t *head = malloc(((size_t)slots + 1) * 16);
-    if (!head)
-        return mts_error_set(err, MTS_ERR_NOMEM, "full strips: out of memory");
-    uint64_t tris = 0, bits = 0;
-    uint32_t prev = 0;
-    for (uint32_t s = 0; s < slots; s++) {
-        uint32_t *h = head + 4 * (size_t)s;
-        h[0] = mts_cursor_varint(&cur);
-        if (h[0]) {
-            h[1] = prev + mts_unzigzag_u32(mts_cursor_varint(&cur));
-            h[2] = h[1] + mts_unzigzag_u32(mts_cursor_varint(&cur));
-            h[3] = h[1] + mts_unzigzag_u32(mts_cursor_varint(&cur));
-            prev = h[1];
-            bits += h[0] >= 2 ? h[0] - 2 : 0;
-        }
-        tris += h[0];
+    uint64_t tris = 0, inner = 0;
+    for (uint32_t s = 0; s < f->slot_count; s++) {
+        const mts_grow_full_path *p = &f->paths[s];
+        tris += p->triangles;
+        inner += p->triangles >= 2 ? p->triangles - 2 : 0;
+        if (p->triangles && (p->first >= g->tri_count || p->rotation > 2))
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "full strips: strip %u starts at corner %u of triangle %u (of "
+                                 "%u)",
+                                 s, p->rotation, p->first, g->tri_count);
     }
-    mts_result rc = MTS_OK;
-    if (!cur.ok || tris > g->tri_count || (bits + 7) / 8 != mts_cursor_left(&cur)) {
-        rc = mts_error_set(err, MTS_ERR_FORMAT,
-                           "full strips: malformed (%llu triangles of %u, %zu bytes of swap "
-                           "bits for %llu)",
-                           (unsigned long long)tris, g->tri_count, mts_cursor_left(&cur),
-                           (unsigned long long)bits);
-        goto done;
-    }
+    if (tris > g->tri_count || inner != f->swap_count)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "full strips: %llu triangles of %u, %llu swap bits for %llu",
+                             (unsigned long long)tris, g->tri_count,
+                             (unsigned long long)f->swap_count, (unsigned long long)inner);
     /* each triangle costs at most 2 indices past the first 3 of a strip */
-    if ((rc = mts_strips_alloc(out, slots, (uint32_t)(2 * tris + 3ull * slots), err)) != MTS_OK)
-        goto done;
-    const uint8_t *bitp = cur.p;
+    mts_result rc = mts_strips_alloc(out, f->slot_count, (uint32_t)(2 * tris + 3ull * f->slot_count),
+                                     err);
+    if (rc != MTS_OK)
+        return rc;
     uint64_t bit = 0;
     uint32_t o = 0;
-    for (uint32_t s = 0; s < slots; s++) {
-        const uint32_t *h = head + 4 * (size_t)s;
+    for (uint32_t s = 0; s < f->slot_count; s++) {
+        const mts_grow_full_path *p = &f->paths[s];
         out->offsets[s] = o;
-        if (!h[0])
+        if (!p->triangles)
             continue;
-        int32_t t = mts_grow_find(g, h[1], h[2], h[3]);
-        if (t < 0) {
-            rc = mts_error_set(err, MTS_ERR_FORMAT,
-                               "full strips: strip %u starts on (%u %u %u), not a triangle", s,
-                               h[1], h[2], h[3]);
-            goto done;
-        }
-        out->indices[o++] = h[1];
-        out->indices[o++] = h[2];
-        out->indices[o++] = h[3];
-        uint32_t a = h[2], c = h[3];
-        for (uint32_t i = 1; i < h[0]; i++) {
+        int32_t t = (int32_t)p->first;
+        const uint32_t *v = g->img[t];
+        uint32_t r = p->rotation;
+        out->indices[o++] = v[r];
+        out->indices[o++] = v[(r + 1) % 3];
+        out->indices[o++] = v[(r + 2) % 3];
+        uint32_t a = v[(r + 1) % 3], c = v[(r + 2) % 3];
+        for (uint32_t i = 1; i < p->triangles; i++) {
             t = across(g, t, a, c);
-            if (t < 0) {
-                rc = mts_error_set(err, MTS_ERR_FORMAT,
-                                   "full strips: strip %u runs off the mesh at triangle %u", s,
-                                   i);
-                goto done;
-            }
+            if (t < 0)
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "full strips: strip %u runs off the mesh at triangle %u", s,
+                                     i);
             uint32_t w = third_vertex(g, (uint32_t)t, a, c);
-            int swap = 0;
-            if (i + 1 < h[0]) {
-                swap = bitp[bit >> 3] >> (bit & 7) & 1;
-                bit++;
-            }
+            int swap = i + 1 < p->triangles ? f->swaps[bit++] != 0 : 0;
             if (swap)
                 out->indices[o++] = a;
             out->indices[o++] = w;
@@ -837,11 +811,9 @@ static mts_result decode_full(mts_grow *g, const uint8_t *code, size_t size, uin
             }
         }
     }
-    out->offsets[slots] = o;
+    out->offsets[f->slot_count] = o;
     out->index_count = o;
-done:
-    free(head);
-    return rc;
+    return MTS_OK;
 }
 
 static int tri_reserve(mts_grow *g, uint32_t extra)
@@ -914,6 +886,7 @@ void mts_grow_free(mts_grow *g)
     free(g->scratch.w);
     free(g->affected.w);
     free(g->ring.w);
+    free(g->around.w);
     free(g);
 }
 
@@ -1218,7 +1191,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
                              "grow: split %u (vertex %u, parent %u, %u, %u) names a vertex out "
                              "of range",
                              g->level, v, u, sp->left, sp->right);
-    if (g->level + 1 == g->n && (!full || (!full->strips && !full->code)))
+    if (g->level + 1 == g->n && (!full || (!full->strips && !full->paths)))
         return mts_error_set(err, MTS_ERR_ARG, "grow: the last split needs the full strips");
 
     /* the triangles v takes over */
@@ -1258,6 +1231,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
             goto nomem;
     }
     const uint32_t first_new = g->tri_count;
+    g->newest_born = first_new;
     if (sp->moved_count || sp->born_count) {
         for (uint32_t k = 0; k < sp->born_count; k++) {
             const uint32_t *t = sp->born + 3 * (size_t)k;
@@ -1295,7 +1269,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
             rc = adopt_strips(g, full->strips, 0, err);
         } else {
             mts_strips decoded = {0};
-            rc = decode_full(g, full->code, full->code_size, full->slot_count, &decoded, err);
+            rc = resolve_full(g, full, &decoded, err);
             if (rc == MTS_OK)
                 rc = adopt_strips(g, &decoded, 1, err);
             mts_strips_free(&decoded);
@@ -1333,6 +1307,36 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
     return MTS_OK;
 nomem:
     return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+}
+
+const uint32_t *mts_grow_around_newest(mts_grow *g, uint32_t *count)
+{
+    *count = 0;
+    if (g->level == 0)
+        return NULL;
+    const uint32_t v = g->nb + g->level - 1;
+    size_t want = 2 * (g->affected.n + (size_t)(g->tri_count - g->newest_born));
+    if (!mts_words_reserve(&g->around, want))
+        return NULL;
+    uint32_t *out = g->around.w, n = 0;
+    /* the moved triangles are v's by construction; of the new ones, those
+     * with a corner v (an explicit split may bring back others) */
+    for (size_t k = 0; k < g->affected.n; k++) {
+        const uint32_t *t = g->img[g->affected.w[k]];
+        for (int c = 0; c < 3; c++)
+            if (t[c] != v)
+                out[n++] = t[c];
+    }
+    for (uint32_t f = g->newest_born; f < g->tri_count; f++) {
+        const uint32_t *t = g->img[f];
+        if (t[0] != v && t[1] != v && t[2] != v)
+            continue;
+        for (int c = 0; c < 3; c++)
+            if (t[c] != v)
+                out[n++] = t[c];
+    }
+    *count = n;
+    return out;
 }
 
 void mts_grow_get_figures(const mts_grow *g, mts_grow_figures *out)

@@ -75,20 +75,33 @@ void mts_grow_free(mts_grow *g);
 /* The full level's strips, which a client cannot afford to compute (they
  * are tunnelled): the builder gives them as strips in any form, and the
  * strips growth derives from their paths become the full level; a client
- * gives mts_grow_full_encode's bytes of those. */
+ * gives their description (mts_grow_full_describe) instead. */
+typedef struct mts_grow_full_path {
+    uint32_t triangles; /* 0: an empty slot */
+    uint32_t first;     /* the id of its first triangle at the full level */
+    uint32_t rotation;  /* 0..2: the strip starts at this corner of it */
+} mts_grow_full_path;
+
 typedef struct mts_grow_full {
     const mts_strips *strips;
-    const uint8_t *code;
-    size_t code_size;
-    uint32_t slot_count; /* with code: the model's slots */
+    /* or per slot its path, and one byte (0 or 1) per inner triangle of
+     * every strip in slot order: whether the strip swaps there */
+    const mts_grow_full_path *paths;
+    const uint8_t *swaps;
+    uint64_t swap_count;
+    uint32_t slot_count; /* with paths: the model's slots */
 } mts_grow_full;
 
-/* The full level's strips (in the form growth derives, as the builder left
- * them in the model) in about 1 bit per triangle: per slot its triangle
- * count and first three indices as varints, then one bit per inner triangle
- * (whether the strip swaps there), which a client resolves on its own mesh.
- * 0 when a strip is not in that form (or out of memory: out->failed). */
-int mts_grow_full_encode(const mts_strips *full, mts_buf *out);
+/* Describes the full strips (in the form growth derives, as the builder
+ * left them in the model) as a client can resolve them on its own mesh:
+ * g must be at the full level. paths holds full->strip_count entries,
+ * swaps room for full->index_count bytes; *swap_count is set. About 2
+ * bytes a strip and under a bit a triangle once entropy-coded, where the
+ * strips' indices would take 1.3 to 2 bytes each. MTS_ERR_ARG when a strip
+ * is not in that form or does not lie on g's mesh. */
+mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
+                                  mts_grow_full_path *paths, uint8_t *swaps, uint64_t *swap_count,
+                                  mts_error *err);
 
 /* Applies the next split (level l to l + 1) and gives its record in
  * model.h's format: *record points at *word_count words owned by g, valid
@@ -125,6 +138,14 @@ int mts_grow_fan_encode(mts_grow *g, uint32_t parent, uint32_t left, uint32_t ri
                         mts_grow_fan_code *code);
 int mts_grow_fan_decode(mts_grow *g, uint32_t parent, const mts_grow_fan_code *code,
                         uint32_t *left, uint32_t *right);
+
+/* After a split: the two other corners of every triangle around its new
+ * vertex v, twice each ring vertex of an interior v, so their mean is the
+ * ring's centroid -- what a stream predicts v's position from, since both
+ * ends know the ring before they know v. Points into g's scratch (valid
+ * until the next call); NULL with *count 0 before any split or when out of
+ * memory. */
+const uint32_t *mts_grow_around_newest(mts_grow *g, uint32_t *count);
 
 /* Vertex ids of triangle t, as they are now. */
 void mts_grow_triangle(const mts_grow *g, uint32_t t, uint32_t out[3]);

@@ -436,7 +436,7 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
         }
         const uint32_t *r;
         uint32_t words_in;
-        mts_grow_full gf = {&given, NULL, 0, 0};
+        mts_grow_full gf = {&given, NULL, NULL, 0, 0};
         if ((rc = mts_grow_next(g, &sp, &gf, &r, &words_in, err)) != MTS_OK)
             goto fail;
         rec_off[j] = (uint32_t)rec.n;
@@ -495,6 +495,7 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
     if (!model->positions || !model->normals || !model->capacity)
         goto nomem;
     memcpy(model->capacity, fig.capacity, (size_t)fig.slot_count * 4);
+    model->flags = mesh->normals_given ? MTS_MODEL_NORMALS_GIVEN : 0;
     for (int a = 0; a < 3; a++) {
         model->bbox_min[a] = nv ? mesh->positions[a] : 0;
         model->bbox_max[a] = nv ? mesh->positions[a] : 0;

@@ -276,6 +276,7 @@ static mts_result clean(mts__mesh_raw *raw, mts_mesh *mesh, mts_mesh_stats *st, 
             missing |= nn[v * 3] == 0 && nn[v * 3 + 1] == 0 && nn[v * 3 + 2] == 0;
         }
         st->normals_from_file = 1;
+        mesh->normals_given = 1;
         if (missing) {
             mts_mesh computed = *mesh;
             computed.normals = NULL;

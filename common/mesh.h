@@ -23,6 +23,10 @@ typedef struct mts_mesh {
     float *positions;    /* 3 per vertex */
     float *normals;      /* 3 per vertex, unit length (or zero for a vertex of zero-area faces only) */
     uint32_t *triangles; /* 3 per triangle, counter-clockwise seen from outside */
+    /* 1 when the normals came from the file (the mesh's own shading), 0 when
+     * mts_mesh_compute_normals made them: a stream need not carry those,
+     * since a client can shade the faces it has (protocol/PROTOCOL.md). */
+    int normals_given;
 } mts_mesh;
 
 typedef enum mts_mesh_format {

@@ -40,6 +40,10 @@
 
 #define MTS_GROWTH_EXPLICIT 4u
 
+/* The normals are the source mesh's own; without this flag they were
+ * computed from its faces, and a stream leaves them out. */
+#define MTS_MODEL_NORMALS_GIVEN 1u
+
 typedef struct mts_model {
     uint32_t vertex_count;      /* full level */
     uint32_t base_vertex_count; /* nb */
@@ -50,6 +54,7 @@ typedef struct mts_model {
     float *positions; /* 3 per vertex, stream order */
     float *normals;   /* 3 per vertex, stream order */
     float bbox_min[3], bbox_max[3];
+    uint32_t flags; /* MTS_MODEL_* */
 
     uint32_t *parents; /* n */
 

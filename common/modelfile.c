@@ -35,7 +35,7 @@ static const char *const section_names[] = {"?",           "info",   "positions"
 #define HEADER_SIZE 16u
 #define ENTRY_SIZE 24u
 #define MAX_SECTIONS 64u
-#define INFO_SIZE 56u
+#define INFO_SIZE 60u
 
 static void put_u16(uint8_t *p, uint16_t x)
 {
@@ -319,6 +319,7 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
     put_u32s(p, info, 8);
     put_f32s(p + 32, m->bbox_min, 3);
     put_f32s(p + 44, m->bbox_max, 3);
+    put_u32s(p + 56, &m->flags, 1);
     put_f32s(buf + offset[SEC_POSITIONS], m->positions, 3 * (size_t)l.vertices);
     put_f32s(buf + offset[SEC_NORMALS], m->normals, 3 * (size_t)l.vertices);
     put_strips(buf + offset[SEC_STRIPS_FULL], &m->full);
@@ -392,9 +393,10 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
         return mts_error_set(err, MTS_ERR_FORMAT, "%s: not an mtstream model (bad magic)", name);
     uint16_t major = get_u16(buf + 4), minor = get_u16(buf + 6);
     /* version 1's records have no erase runs and its strips no capacities,
-     * version 2's splits no descriptions a stream can send: nothing here can
-     * read them, but mts-build makes the same model anew */
-    if (major == 1 || major == 2)
+     * version 2's splits no descriptions a stream can send, version 3's
+     * INFO no flags: nothing here can read them, but mts-build makes the
+     * same model anew */
+    if (major >= 1 && major < MTS_MODELFILE_MAJOR)
         return mts_error_set(err, MTS_ERR_VERSION,
                              "%s: model file version %u is from an older mtstream; rebuild it "
                              "with mts-build",
@@ -523,6 +525,7 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     }
     get_f32s(m->bbox_min, info + 32, 3);
     get_f32s(m->bbox_max, info + 44, 3);
+    m->flags = get_u32(info + 56);
     get_f32s(m->positions, sec[SEC_POSITIONS], nv3);
     get_f32s(m->normals, sec[SEC_NORMALS], nv3);
     if ((rc = get_strips(sec[SEC_STRIPS_FULL], l.strips, l.full_indices, name, "full strips",

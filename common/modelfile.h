@@ -2,7 +2,7 @@
  * table and a CRC-32C per section.
  *
  *   0   "MTSM"                     magic
- *   4   u16 major = 3, u16 minor   a reader accepts its own major version only
+ *   4   u16 major = 4, u16 minor   a reader accepts its own major version only
  *   8   u32 section_count          at most 64
  *   12  u32 header_crc             CRC-32C of bytes 0..11 and the table
  *   16  section_count x { u32 id, u32 crc32c, u64 offset, u64 size }
@@ -11,7 +11,8 @@
  * Sections (all required but SOURCE and GROWTH; unknown ids are skipped):
  *   1 INFO        u32 vertices, base_vertices, levels, strips, full_indices,
  *                 base_indices, record_words, capacity_total;
- *                 f32 bbox_min[3], bbox_max[3]
+ *                 f32 bbox_min[3], bbox_max[3]; u32 flags (model.h's
+ *                 MTS_MODEL_*: bit 0, the normals are the source's own)
  *   2 POSITIONS   f32 x 3 per vertex, stream order
  *   3 NORMALS     f32 x 3 per vertex
  *   4 STRIPS_FULL u32 length per strip, then the indices
@@ -35,8 +36,9 @@
  * slots stay as small as the file.
  *
  * Version 2 added erase runs to the records and the CAPACITY section;
- * version 3 (this one) the GROWTH section and full strips in the form growth
- * derives. Older files are refused with a message to rebuild them.
+ * version 3 the GROWTH section and full strips in the form growth derives;
+ * version 4 (this one) INFO's flags, so a stream knows whether the normals
+ * are worth sending. Older files are refused with a message to rebuild them.
  *
  * Loading checks the header, the table, every section's bounds, size and
  * checksum, then the whole model (mts_model_validate), so each kind of damage
@@ -51,7 +53,7 @@
 #include "error.h"
 #include "model.h"
 
-#define MTS_MODELFILE_MAJOR 3
+#define MTS_MODELFILE_MAJOR 4
 #define MTS_MODELFILE_MINOR 0
 
 /* Serialises a model into a new buffer (free with free()). */

@@ -653,40 +653,31 @@ static int growth_split(mts_grow *g, const mts_model *m, uint32_t j, mts_grow_sp
     return len == 3 && mts_grow_fan_decode(g, sp->parent, &code, &sp->left, &sp->right);
 }
 
-mts_result mts_verify_growth(const mts_model *m, mts_verify_report *report, mts_error *err)
+/* Derives every record from the descriptions with the full strips given as
+ * gf, comparing each with the model's; leaves g at the full level. */
+static mts_result derive_all(const mts_model *m, const mts_grow_full *gf, mts_grow **gout,
+                             mts_verify_report *rep, mts_error *err)
 {
-    mts_verify_report rep = {0, 0, UINT32_MAX};
     const uint32_t n = m->level_count;
-    if (!m->growth_offsets || !m->growth_data)
-        return mts_error_set(err, MTS_ERR_ARG, "the model has no split descriptions");
     mts_grow_options go = {0};
     go.key_levels = m->key_levels;
     go.key_count = m->key_count;
-    /* the full strips as a stream sends them */
-    mts_buf code = {0};
-    if (!mts_grow_full_encode(&m->full, &code)) {
-        mts_buf_free(&code);
-        return mts_error_set(err, code.failed ? MTS_ERR_NOMEM : MTS_ERR_INVARIANT,
-                             "growth: the full strips are not in the form growth derives");
-    }
-    mts_grow_full gf = {NULL, code.data, code.size, m->strip_count};
     mts_grow *g = NULL;
     mts_result rc = mts_grow_create(&m->base, m->base_vertex_count, n, &go, &g, err);
-    if (rc != MTS_OK) {
-        mts_buf_free(&code);
+    if (rc != MTS_OK)
         return rc;
-    }
+    rep->levels_checked = 0;
     for (uint32_t j = 0; j < n && rc == MTS_OK; j++) {
         mts_grow_split sp;
         const uint32_t *r;
         uint32_t words;
-        rep.failed_level = j;
+        rep->failed_level = j;
         if (!growth_split(g, m, j, &sp)) {
             rc = mts_error_set(err, MTS_ERR_INVARIANT, "growth: split %u's description names no "
                                "fan of the mesh", j);
             break;
         }
-        if ((rc = mts_grow_next(g, &sp, &gf, &r, &words, err)) != MTS_OK) {
+        if ((rc = mts_grow_next(g, &sp, gf, &r, &words, err)) != MTS_OK) {
             mts_error_prefix(err, "growth");
             break;
         }
@@ -697,10 +688,42 @@ mts_result mts_verify_growth(const mts_model *m, mts_verify_report *report, mts_
                                "growth: split %u derives a record of %u words that differs from "
                                "the model's %u",
                                j, words, want);
-        rep.levels_checked++;
+        rep->levels_checked++;
+    }
+    if (rc == MTS_OK)
+        rep->failed_level = UINT32_MAX;
+    *gout = g;
+    return rc;
+}
+
+mts_result mts_verify_growth(const mts_model *m, mts_verify_report *report, mts_error *err)
+{
+    mts_verify_report rep = {0, 0, UINT32_MAX};
+    if (!m->growth_offsets || !m->growth_data)
+        return mts_error_set(err, MTS_ERR_ARG, "the model has no split descriptions");
+    /* As the builder: the full strips given whole. Then as a client, which
+     * gets them described on the full level's triangles (mts_grow_full_
+     * describe, which needs a grow at the full level: the first pass's). */
+    mts_grow_full given = {&m->full, NULL, NULL, 0, 0};
+    mts_grow *g = NULL, *again = NULL;
+    mts_grow_full_path *paths = malloc(((size_t)m->strip_count + 1) * sizeof *paths);
+    uint8_t *swaps = malloc((size_t)m->full.index_count + 1);
+    mts_result rc = paths && swaps ? derive_all(m, &given, &g, &rep, err)
+                                   : mts_error_set(err, MTS_ERR_NOMEM, "verify: out of memory");
+    uint64_t swap_count = 0;
+    if (rc == MTS_OK && m->level_count > 0 &&
+        (rc = mts_grow_full_describe(g, &m->full, paths, swaps, &swap_count, err)) != MTS_OK)
+        rc = mts_error_set(err, MTS_ERR_INVARIANT,
+                           "growth: the full strips are not in the form growth derives (%s)",
+                           err->msg);
+    if (rc == MTS_OK && m->level_count > 0) {
+        mts_grow_full described = {NULL, paths, swaps, swap_count, m->strip_count};
+        rc = derive_all(m, &described, &again, &rep, err);
     }
     mts_grow_free(g);
-    mts_buf_free(&code);
+    mts_grow_free(again);
+    free(paths);
+    free(swaps);
     if (report)
         *report = rep;
     return rc;

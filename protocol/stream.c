@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "crc32c.h"
+#include "rcoder.h"
 #include "reccodec.h"
 #include "varint.h"
 
@@ -78,6 +79,74 @@ uint64_t mts_stream_checksum(const mts_lod *lod, const uint32_t *quantized)
     for (uint32_t x = 0; x < nv; x++)
         sum += vertex_sum(x, quantized + 3 * (size_t)x);
     return sum;
+}
+
+/* The adaptive models a stream's splits are coded with (PROTOCOL.md,
+ * BATCH). They live as long as the stream, not a batch: server and client
+ * code every batch in order (a client resumes with the models it has), so
+ * each batch starts from what the ones before it taught, and the first few
+ * hundred splits pay for the learning once, not once a batch. */
+#define POSITION_CONTEXTS 16
+struct mts__stream_models {
+    mts_rc_uint_model parent, start, count, lists;
+    mts_rc_tree_model sides;
+    mts_rc_uint_model full_triangles;
+    mts_rc_tree_model rotation;
+    uint16_t swap[2]; /* by the previous swap bit */
+    mts_rc_uint_model position[POSITION_CONTEXTS];
+    mts_rc_uint_model normal[2];
+};
+
+static void models_init(struct mts__stream_models *m)
+{
+    mts_rc_uint_model_init(&m->parent);
+    mts_rc_uint_model_init(&m->start);
+    mts_rc_uint_model_init(&m->count);
+    mts_rc_uint_model_init(&m->lists);
+    mts_rc_tree_model_init(&m->sides, 3);
+    mts_rc_uint_model_init(&m->full_triangles);
+    mts_rc_tree_model_init(&m->rotation, 2);
+    mts_rc_prob_init(m->swap, 2);
+    for (int k = 0; k < POSITION_CONTEXTS; k++)
+        mts_rc_uint_model_init(&m->position[k]);
+    mts_rc_uint_model_init(&m->normal[0]);
+    mts_rc_uint_model_init(&m->normal[1]);
+}
+
+/* Where a new vertex is expected: the mean of the corners around it right
+ * after its split (grow.h, mts_grow_around_newest), on the grid; and, as the
+ * context its residual is coded in, how far that is from the parent (the
+ * local edge length: residuals scale with it). Server and client hold the
+ * same ring and the same grid points, so they agree exactly. */
+static unsigned predict_position(mts_grow *g, const uint32_t *quantized, uint32_t parent,
+                                 int64_t pred[3])
+{
+    uint32_t k;
+    const uint32_t *around = mts_grow_around_newest(g, &k);
+    const uint32_t *qu = quantized + 3 * (size_t)parent;
+    if (k == 0) {
+        for (int a = 0; a < 3; a++)
+            pred[a] = qu[a];
+        return 0;
+    }
+    uint64_t sum[3] = {0, 0, 0};
+    for (uint32_t i = 0; i < k; i++) {
+        const uint32_t *q = quantized + 3 * (size_t)around[i];
+        sum[0] += q[0];
+        sum[1] += q[1];
+        sum[2] += q[2];
+    }
+    uint64_t far = 0;
+    for (int a = 0; a < 3; a++) {
+        pred[a] = (int64_t)((sum[a] + k / 2) / k);
+        uint64_t d = (uint64_t)(pred[a] > qu[a] ? pred[a] - qu[a] : qu[a] - pred[a]);
+        if (d > far)
+            far = d;
+    }
+    unsigned ctx = 0;
+    while (far >> ctx && ctx < POSITION_CONTEXTS - 1)
+        ctx++;
+    return ctx;
 }
 
 /* ---- server ---- */
@@ -242,8 +311,9 @@ static mts_result encode_base(mts_stream *s, int method, uint8_t **draco, size_t
         rc = mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory for the base mesh");
         goto done;
     }
+    const int carry_normals = (m->flags & MTS_MODEL_NORMALS_GIVEN) != 0;
     for (int attempt = 0; attempt < 2; attempt++) {
-        mts_draco_mesh in = {nb, nt, m->positions, m->normals, tris};
+        mts_draco_mesh in = {nb, nt, m->positions, carry_normals ? m->normals : NULL, tris};
         mts_draco_options o = {0};
         o.grid = s->grid;
         o.method = attempt == 0 ? method : MTS_DRACO_SEQUENTIAL;
@@ -253,7 +323,7 @@ static mts_result encode_base(mts_stream *s, int method, uint8_t **draco, size_t
         if ((rc = mts_draco_encode(&in, &o, draco, draco_size, err)) != MTS_OK ||
             (rc = mts_draco_decode(*draco, *draco_size, &dec, err)) != MTS_OK)
             goto done;
-        if (dec.vertex_count == nb && dec.normals &&
+        if (dec.vertex_count == nb && (dec.normals != NULL) == carry_normals &&
             mts_draco_renumber(&in, &dec, map, NULL, err) == MTS_OK) {
             s->draco_method = o.method;
             break;
@@ -281,7 +351,8 @@ static mts_result encode_base(mts_stream *s, int method, uint8_t **draco, size_t
                                "stream: base vertex %u changed its grid point through Draco", x);
             goto done;
         }
-        memcpy(m->normals + 3 * (size_t)x, dec.normals + 3 * (size_t)x, 12);
+        if (carry_normals)
+            memcpy(m->normals + 3 * (size_t)x, dec.normals + 3 * (size_t)x, 12);
     }
     for (uint32_t x = 0; x < m->vertex_count; x++)
         mts_draco_dequantize(&s->grid, s->quantized + 3 * (size_t)x, m->positions + 3 * (size_t)x);
@@ -349,6 +420,113 @@ static mts_result level_checksums(mts_stream *s, mts_error *err)
     return rc;
 }
 
+/* What the server's run of the client's growth leaves for the encoder:
+ * per split its position residuals (and normal code residuals) and the
+ * context they are coded in, and the full strips' description. */
+typedef struct prediction_pass {
+    int32_t *residual; /* 5 per split: position x y z, normal code a b */
+    uint8_t *context;
+    mts_grow_full_path *paths;
+    uint8_t *swaps;
+    uint64_t swap_count;
+} prediction_pass;
+
+static void pass_free(prediction_pass *p)
+{
+    free(p->residual);
+    free(p->context);
+    free(p->paths);
+    free(p->swaps);
+    memset(p, 0, sizeof *p);
+}
+
+static mts_result predict_all(mts_stream *s, const uint16_t *oct, int carry_normals,
+                              prediction_pass *pass, mts_error *err)
+{
+    const mts_model *m = &s->model;
+    const uint32_t nb = m->base_vertex_count, n = m->level_count;
+    pass->residual = malloc((size_t)n * 20 + 1);
+    pass->context = malloc((size_t)n + 1);
+    pass->paths = malloc(((size_t)m->strip_count + 1) * sizeof *pass->paths);
+    pass->swaps = malloc((size_t)m->full.index_count + 1);
+    if (!pass->residual || !pass->context || !pass->paths || !pass->swaps)
+        return mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory predicting '%s'",
+                             s->name);
+    mts_grow_options go = {0};
+    go.key_levels = m->key_levels;
+    go.key_count = m->key_count;
+    mts_grow *g = NULL;
+    mts_result rc = mts_grow_create(&m->base, nb, n, &go, &g, err);
+    const mts_grow_full given = {&m->full, NULL, NULL, 0, m->strip_count};
+    for (uint32_t j = 0; j < n && rc == MTS_OK; j++) {
+        const uint32_t v = nb + j, u = m->parents[j];
+        const uint32_t *w = m->growth_data + m->growth_offsets[j];
+        mts_grow_split sp = {0};
+        sp.parent = u;
+        if (w[2] == MTS_GROWTH_EXPLICIT) {
+            sp.left = sp.right = MTS_GROW_NONE;
+            sp.moved_count = w[3];
+            sp.born_count = w[4];
+            sp.moved = w + 5;
+            sp.born = w + 5 + w[3];
+        } else {
+            mts_grow_fan_code fc = {w[0], w[1], w[2]};
+            if (!mts_grow_fan_decode(g, u, &fc, &sp.left, &sp.right)) {
+                rc = mts_error_set(err, MTS_ERR_ARG,
+                                   "stream: model '%s': split %u's fan code names no fan; "
+                                   "rebuild it with mts-build",
+                                   s->name, j);
+                break;
+            }
+        }
+        const uint32_t *rec;
+        uint32_t words;
+        if ((rc = mts_grow_next(g, &sp, &given, &rec, &words, err)) != MTS_OK)
+            break;
+        int64_t pred[3];
+        pass->context[j] = (uint8_t)predict_position(g, s->quantized, u, pred);
+        int32_t *r = pass->residual + 5 * (size_t)j;
+        for (int a = 0; a < 3; a++)
+            r[a] = (int32_t)((int64_t)s->quantized[3 * (size_t)v + a] - pred[a]);
+        for (int a = 0; a < 2; a++)
+            r[3 + a] = carry_normals ? (int32_t)oct[2 * (size_t)v + a] - oct[2 * (size_t)u + a]
+                                     : 0;
+    }
+    if (rc == MTS_OK && n > 0)
+        rc = mts_grow_full_describe(g, &m->full, pass->paths, pass->swaps, &pass->swap_count,
+                                    err);
+    mts_grow_free(g);
+    return rc == MTS_OK ? MTS_OK : mts_error_prefix(err, "stream: model '%s'", s->name);
+}
+
+/* The bits a triangle id of the full level takes. */
+static unsigned triangle_id_bits(uint32_t triangles)
+{
+    unsigned b = 0;
+    while (b < 32 && (triangles - 1) >> b)
+        b++;
+    return b;
+}
+
+static void encode_full(mts_rc_encoder *e, struct mts__stream_models *md,
+                        const prediction_pass *pass, uint32_t slots, uint32_t triangles)
+{
+    const unsigned id_bits = triangle_id_bits(triangles);
+    for (uint32_t st = 0; st < slots; st++) {
+        const mts_grow_full_path *p = &pass->paths[st];
+        mts_rc_encode_uint(e, &md->full_triangles, p->triangles);
+        if (p->triangles) {
+            mts_rc_encode_direct(e, p->first, id_bits);
+            mts_rc_encode_tree(e, &md->rotation, p->rotation);
+        }
+    }
+    unsigned last = 0;
+    for (uint64_t k = 0; k < pass->swap_count; k++) {
+        mts_rc_encode_bit(e, &md->swap[last], pass->swaps[k]);
+        last = pass->swaps[k];
+    }
+}
+
 static mts_result build_info_tail(mts_stream *s);
 
 mts_result mts_stream_build(const mts_model *model, const char *name,
@@ -364,6 +542,8 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     mts_buf b = {0};
     uint8_t *draco = NULL;
     uint16_t *oct = NULL;
+    struct mts__stream_models *models = NULL;
+    prediction_pass pass = {0};
     size_t draco_size = 0;
     if (!model->growth_data || !model->growth_offsets)
         return mts_error_set(err, MTS_ERR_ARG,
@@ -394,18 +574,24 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         mts_draco_quantize(&s->grid, m->positions + 3 * (size_t)x, q);
         mts_draco_dequantize(&s->grid, q, m->positions + 3 * (size_t)x);
     }
-    /* normals as the client will decode them; the codes are kept, since
-     * encoding a decoded normal again need not give the same code */
-    oct = malloc(((size_t)nv - nb + 1) * 4);
+    /* normals, where the stream carries them, as the client will decode
+     * them; the codes are kept, since encoding a decoded normal again need
+     * not give the same code. The base's are Draco's (encode_base). */
+    const int carry_normals = (m->flags & MTS_MODEL_NORMALS_GIVEN) != 0;
+    if (!carry_normals) /* the stream stands for what a client holds: none */
+        memset(m->normals, 0, (size_t)nv * 12);
+    oct = malloc((size_t)nv * 4 + 4);
     if (!oct)
         goto nomem;
-    for (uint32_t x = nb; x < nv; x++) {
-        uint16_t *o = oct + 2 * (size_t)(x - nb);
+    for (uint32_t x = nb; x < nv && carry_normals; x++) {
+        uint16_t *o = oct + 2 * (size_t)x;
         oct_encode(m->normals + 3 * (size_t)x, o);
         oct_decode(o, m->normals + 3 * (size_t)x);
     }
     if ((rc = encode_base(s, opts->draco_method, &draco, &draco_size, err)) != MTS_OK)
         goto fail;
+    for (uint32_t x = 0; x < nb && carry_normals; x++)
+        oct_encode(m->normals + 3 * (size_t)x, oct + 2 * (size_t)x);
 
     /* BASE */
     size_t f = mts_wire_frame_begin(&b, MTS_MSG_BASE);
@@ -424,26 +610,22 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     mts_wire_frame_end(&b, f);
 
     /* BATCHes: per split its parent, how it changes the triangles (the
-     * fan code, grow.h) and its vertex; the records are the client's to
-     * derive. The batch with the last split also carries the full strips. */
-    mts_buf full = {0};
-    if (n > 0 && !mts_grow_full_encode(&m->full, &full)) {
-        rc = full.failed ? mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory")
-                         : mts_error_set(err, MTS_ERR_ARG,
-                                         "stream: model '%s' has full strips growth does not "
-                                         "derive; rebuild it with mts-build",
-                                         name);
-        mts_buf_free(&full);
+     * fan code, grow.h) and its vertex, range-coded (PROTOCOL.md, BATCH);
+     * the records are the client's to derive. The server first runs the
+     * growth a client will run: positions are predicted from the ring a
+     * split leaves around its vertex, and the full strips are described on
+     * the full level's triangles, which the last batch carries ahead of
+     * its splits. */
+    if ((rc = predict_all(s, oct, carry_normals, &pass, err)) != MTS_OK)
         goto fail;
-    }
     uint32_t per = opts->batch_splits ? opts->batch_splits : (n / 100 > 64 ? n / 100 : 64);
     s->batch_count = n == 0 ? 0 : (n + per - 1) / per;
     s->batch_first = malloc(((size_t)s->batch_count + 1) * 4);
     s->batch_offset = malloc(((size_t)s->batch_count + 1) * sizeof *s->batch_offset);
-    if (!s->batch_first || !s->batch_offset) {
-        mts_buf_free(&full);
+    models = malloc(sizeof *models);
+    if (!s->batch_first || !s->batch_offset || !models)
         goto nomem;
-    }
+    models_init(models);
     for (uint32_t k = 0; k < s->batch_count; k++) {
         uint32_t first = k * per, count = n - first < per ? n - first : per;
         s->batch_first[k] = first;
@@ -452,33 +634,32 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         mts_buf_varint(&b, k);
         mts_buf_varint(&b, first);
         mts_buf_varint(&b, count);
-        if (first + count == n) {
-            mts_buf_varint(&b, (uint32_t)full.size);
-            mts_buf_put(&b, full.data, full.size);
-        }
+        mts_rc_encoder e;
+        mts_rc_encoder_init(&e, &b);
+        if (first + count == n)
+            encode_full(&e, models, &pass, m->strip_count, m->level_triangles[n]);
         for (uint32_t i = 0; i < count; i++) {
             uint32_t j = first + i, v = nb + j, u = m->parents[j];
             const uint32_t *w = m->growth_data + m->growth_offsets[j];
-            mts_buf_varint(&b, v - 1 - u);
-            mts_buf_varint(&b, w[0]);
-            mts_buf_varint(&b, w[1] << 3 | w[2]);
+            mts_rc_encode_uint(&e, &models->parent, v - 1 - u);
+            mts_rc_encode_tree(&e, &models->sides, w[2]);
             if (w[2] == MTS_GROWTH_EXPLICIT) {
-                mts_buf_varint(&b, w[3]);
-                mts_buf_varint(&b, w[4]);
-                for (uint32_t q = 0; q < w[3] + 3 * w[4]; q++)
-                    mts_buf_varint(&b, w[5 + q]);
+                for (uint32_t q = 0; q < 2 + w[3] + 3 * w[4]; q++)
+                    mts_rc_encode_uint(&e, &models->lists, w[3 + q]);
+            } else {
+                mts_rc_encode_uint(&e, &models->start, w[0]);
+                mts_rc_encode_uint(&e, &models->count, w[1]);
             }
+            const int32_t *r = pass.residual + 5 * (size_t)j;
             for (int a = 0; a < 3; a++)
-                mts_buf_varint(&b, mts_zigzag_u32(s->quantized[3 * (size_t)v + a] -
-                                                  s->quantized[3 * (size_t)u + a]));
-            const uint16_t *o = oct + 2 * (size_t)(v - nb);
-            mts_buf_u16(&b, o[0]);
-            mts_buf_u16(&b, o[1]);
+                mts_rc_encode_sint(&e, &models->position[pass.context[j]], r[a]);
+            for (int a = 0; a < 2 && carry_normals; a++)
+                mts_rc_encode_sint(&e, &models->normal[a], r[3 + a]);
         }
+        mts_rc_encoder_flush(&e);
         put_crc(&b, f);
         mts_wire_frame_end(&b, f);
     }
-    mts_buf_free(&full);
     s->batch_first[s->batch_count] = n;
     s->batch_offset[s->batch_count] = b.size;
     if (b.failed)
@@ -493,12 +674,16 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         goto nomem;
     free(draco);
     free(oct);
+    free(models);
+    pass_free(&pass);
     return MTS_OK;
 nomem:
     rc = mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory encoding '%s'", name);
 fail:
     free(draco);
     free(oct);
+    free(models);
+    pass_free(&pass);
     mts_buf_free(&b);
     mts_stream_free(s);
     return rc;
@@ -555,6 +740,7 @@ static void info_fields(const mts_stream *s, uint32_t stop_level, mts_wire_model
     memcpy(mi->bbox_min, m->bbox_min, 12);
     memcpy(mi->bbox_max, m->bbox_max, 12);
     mi->quant_bits = (uint8_t)s->grid.bits;
+    mi->flags = (m->flags & MTS_MODEL_NORMALS_GIVEN) ? MTS_INFO_NORMALS : 0;
     memcpy(mi->grid_origin, s->grid.origin, 12);
     mi->grid_range = s->grid.range;
     mi->batch_count = s->batch_count;
@@ -640,6 +826,8 @@ void mts_stream_client_free(mts_stream_client *c)
     if (c->have_lod)
         mts_lod_free(&c->lod);
     mts_grow_free(c->grow);
+    free(c->models);
+    free(c->oct);
     mts_wire_model_info_free(&c->info);
     mts_model_free(&c->model);
     free(c->quantized);
@@ -701,8 +889,14 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     m->parents = calloc(n1, 4);
     m->record_offsets = calloc(n1, 4);
     m->capacity = malloc(((size_t)mi->strips + 1) * 4);
+    c->models = malloc(sizeof *c->models);
+    if (mi->flags & MTS_INFO_NORMALS) {
+        m->flags = MTS_MODEL_NORMALS_GIVEN;
+        c->oct = malloc(nv * 4);
+    }
     if (!m->positions || !m->normals || !c->quantized || !m->parents || !m->record_offsets ||
-        !m->capacity || mts_strips_alloc(&m->full, mi->strips, 0, err) != MTS_OK)
+        !m->capacity || !c->models || (m->flags && !c->oct) ||
+        mts_strips_alloc(&m->full, mi->strips, 0, err) != MTS_OK)
         return mts_error_set(err, MTS_ERR_NOMEM, "MODEL_INFO: out of memory for %u vertices",
                              mi->vertices);
     /* The slots' room is MODEL_INFO's capacities (the longest each slot is at
@@ -711,6 +905,7 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
      * reads base and capacity), never at the full level, and is not for
      * mts_model_validate or mts_verify_model. */
     memcpy(m->capacity, mi->capacities, (size_t)mi->strips * 4);
+    models_init(c->models);
     c->grid.bits = mi->quant_bits;
     memcpy(c->grid.origin, mi->grid_origin, 12);
     c->grid.range = mi->grid_range;
@@ -742,6 +937,7 @@ static mts_result check_resumed_info(mts_stream_client *c, const uint8_t *p, siz
         what = "stop levels";
     else if (memcmp(mi.bbox_min, a->bbox_min, 12) != 0 ||
              memcmp(mi.bbox_max, a->bbox_max, 12) != 0 || mi.quant_bits != a->quant_bits ||
+             mi.flags != a->flags ||
              memcmp(mi.grid_origin, a->grid_origin, 12) != 0 ||
              memcmp(&mi.grid_range, &a->grid_range, 4) != 0)
         what = "grids";
@@ -780,16 +976,23 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     mts_result rc = mts_draco_decode(draco, dsize, &dec, err);
     if (rc != MTS_OK)
         return mts_error_prefix(err, "BASE");
-    if (dec.vertex_count != nb || !dec.normals || dec.grid.bits != c->grid.bits ||
+    const int carry_normals = c->oct != NULL;
+    if (dec.vertex_count != nb || (dec.normals != NULL) != carry_normals ||
+        dec.grid.bits != c->grid.bits ||
         memcmp(dec.grid.origin, c->grid.origin, 12) != 0 || dec.grid.range != c->grid.range) {
         rc = mts_error_set(err, MTS_ERR_FORMAT,
-                           "BASE: Draco mesh has %u vertices (expected %u) or another grid",
-                           dec.vertex_count, nb);
+                           "BASE: Draco mesh has %u vertices (expected %u), another grid, or "
+                           "normals where MODEL_INFO says %s",
+                           dec.vertex_count, nb, carry_normals ? "there are" : "there are none");
         mts_draco_mesh_out_free(&dec);
         return rc;
     }
     memcpy(m->positions, dec.positions, (size_t)nb * 12);
-    memcpy(m->normals, dec.normals, (size_t)nb * 12);
+    if (carry_normals) {
+        memcpy(m->normals, dec.normals, (size_t)nb * 12);
+        for (uint32_t x = 0; x < nb; x++)
+            oct_encode(m->normals + 3 * (size_t)x, c->oct + 2 * (size_t)x);
+    }
     memcpy(c->quantized, dec.quantized, (size_t)nb * 12);
     mts_draco_mesh_out_free(&dec);
 
@@ -874,16 +1077,155 @@ static mts_result keep_record(mts_stream_client *c, uint32_t j, const uint32_t *
     return MTS_OK;
 }
 
+/* The full strips' description, ahead of the last batch's splits: per slot
+ * its triangle count and, when it has any, its first triangle's id and
+ * corner; then the swap bits. Every count is bounded by the full level's
+ * triangles, which MODEL_INFO gave, before anything is allocated. */
+static mts_result decode_full(mts_stream_client *c, mts_rc_decoder *d, mts_grow_full *full,
+                              mts_error *err)
+{
+    struct mts__stream_models *md = c->models;
+    const uint32_t slots = c->model.strip_count, triangles = c->info.triangles;
+    const unsigned id_bits = triangle_id_bits(triangles);
+    mts_grow_full_path *paths = malloc(((size_t)slots + 1) * sizeof *paths);
+    if (!paths)
+        return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the full strips");
+    uint64_t tris = 0, inner = 0;
+    for (uint32_t st = 0; st < slots && d->ok; st++) {
+        mts_grow_full_path *p = &paths[st];
+        memset(p, 0, sizeof *p);
+        p->triangles = mts_rc_decode_uint(d, &md->full_triangles);
+        tris += p->triangles;
+        if (tris > triangles)
+            break;
+        if (p->triangles) {
+            p->first = mts_rc_decode_direct(d, id_bits);
+            p->rotation = mts_rc_decode_tree(d, &md->rotation);
+            inner += p->triangles >= 2 ? p->triangles - 2 : 0;
+        }
+    }
+    if (!d->ok || tris > triangles) {
+        free(paths);
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "the full strips are malformed (%llu triangles of %u)",
+                             (unsigned long long)tris, triangles);
+    }
+    uint8_t *swaps = malloc((size_t)inner + 1);
+    if (!swaps) {
+        free(paths);
+        return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the full strips");
+    }
+    unsigned last = 0;
+    for (uint64_t k = 0; k < inner; k++)
+        last = swaps[k] = (uint8_t)mts_rc_decode_bit(d, &md->swap[last]);
+    full->paths = paths;
+    full->swaps = swaps;
+    full->swap_count = inner;
+    return MTS_OK;
+}
+
 /* A batch's splits: each one's parent, fan code (or explicit lists) and
  * vertex, its record derived on the way (grow.h). The CRC has checked out,
  * so a malformed split means a broken server: the client stops there. */
+static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts_grow_full *full,
+                              uint32_t index, uint32_t first, uint32_t count, uint32_t maxq,
+                              mts_error *err)
+{
+    struct mts__stream_models *md = c->models;
+    mts_model *m = &c->model;
+    const uint32_t nb = m->base_vertex_count;
+    mts_result rc;
+    for (uint32_t i = 0; i < count; i++) {
+        const uint32_t j = first + i, v = nb + j;
+        uint32_t back = mts_rc_decode_uint(d, &md->parent);
+        unsigned sides = mts_rc_decode_tree(d, &md->sides);
+        if (!d->ok || back >= v || sides > MTS_GROWTH_EXPLICIT)
+            return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: split %u malformed", index, j);
+        mts_grow_split sp = {0};
+        sp.parent = v - 1 - back;
+        m->parents[j] = sp.parent;
+        const uint32_t *r;
+        uint32_t rw;
+        if (sides == MTS_GROWTH_EXPLICIT) {
+            /* a split moves and brings back at most as many triangles as
+             * the full mesh has: that bounds the lists before anything is
+             * allocated for them */
+            sp.left = sp.right = MTS_GROW_NONE;
+            sp.moved_count = mts_rc_decode_uint(d, &md->lists);
+            sp.born_count = mts_rc_decode_uint(d, &md->lists);
+            uint64_t words = (uint64_t)sp.moved_count + 3ull * sp.born_count;
+            if (!d->ok || words == 0 || sp.moved_count > c->info.triangles ||
+                sp.born_count > c->info.triangles)
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "BATCH %u: split %u lists %u moved and %u new triangles "
+                                     "(the model has %u)",
+                                     index, j, sp.moved_count, sp.born_count, c->info.triangles);
+            uint32_t *lists = malloc((size_t)words * 4);
+            if (!lists)
+                return mts_error_set(err, MTS_ERR_NOMEM, "BATCH %u: out of memory", index);
+            for (uint64_t q = 0; q < words && d->ok; q++)
+                lists[q] = mts_rc_decode_uint(d, &md->lists);
+            sp.moved = lists;
+            sp.born = lists + sp.moved_count;
+            rc = d->ok ? mts_grow_next(c->grow, &sp, full, &r, &rw, err)
+                      : mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: split %u truncated",
+                                      index, j);
+            free(lists);
+        } else {
+            mts_grow_fan_code fc = {0, 0, sides};
+            fc.start = mts_rc_decode_uint(d, &md->start);
+            fc.count = mts_rc_decode_uint(d, &md->count);
+            if (!d->ok || !mts_grow_fan_decode(c->grow, sp.parent, &fc, &sp.left, &sp.right))
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "BATCH %u: split %u names no fan of vertex %u (start %u, "
+                                     "count %u, sides %u)",
+                                     index, j, sp.parent, fc.start, fc.count, fc.sides);
+            rc = mts_grow_next(c->grow, &sp, full, &r, &rw, err);
+        }
+        if (rc == MTS_OK)
+            rc = keep_record(c, j, r, rw, err);
+        if (rc != MTS_OK)
+            return mts_error_prefix(err, "BATCH %u", index);
+        int64_t pred[3];
+        unsigned ctx = predict_position(c->grow, c->quantized, sp.parent, pred);
+        uint32_t *q = c->quantized + 3 * (size_t)v;
+        for (int a = 0; a < 3; a++) {
+            int64_t x = pred[a] + mts_rc_decode_sint(d, &md->position[ctx]);
+            if (x < 0 || x > maxq)
+                return mts_error_set(err, MTS_ERR_RANGE, "BATCH %u: vertex %u is off the grid",
+                                     index, v);
+            q[a] = (uint32_t)x;
+        }
+        mts_draco_dequantize(&c->grid, q, m->positions + 3 * (size_t)v);
+        if (c->oct) {
+            uint16_t *o = c->oct + 2 * (size_t)v;
+            const uint16_t *ou = c->oct + 2 * (size_t)sp.parent;
+            for (int a = 0; a < 2; a++) {
+                int64_t x = (int64_t)ou[a] + mts_rc_decode_sint(d, &md->normal[a]);
+                if (x < 0 || x > UINT16_MAX)
+                    return mts_error_set(err, MTS_ERR_RANGE,
+                                         "BATCH %u: vertex %u's normal is off its code", index,
+                                         v);
+                o[a] = (uint16_t)x;
+            }
+            oct_decode(o, m->normals + 3 * (size_t)v);
+        }
+    }
+    if (!d->ok || !mts_rc_decoder_finished(d))
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "BATCH %u: the coded splits %s", index,
+                             d->ok ? "end before the message does" : "run past the message");
+    return MTS_OK;
+}
+
+/* A batch: its header, then (in the last batch) the full strips' description
+ * and the splits, all range-coded. */
 static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
 {
     if (!crc_ok(p, n))
         return mts_error_set(err, MTS_ERR_CHECKSUM,
                              "BATCH %u: checksum mismatch; rejected, not applied", c->batches);
     mts_model *m = &c->model;
-    const uint32_t nb = m->base_vertex_count;
     mts_cursor cur = mts_cursor_make(p, n - 4);
     uint32_t index = mts_cursor_varint(&cur), first = mts_cursor_varint(&cur),
              count = mts_cursor_varint(&cur);
@@ -894,78 +1236,20 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "BATCH %u (splits %u+%u) out of order: expected batch %u at split %u",
                              index, first, count, c->batches, c->splits);
-    mts_grow_full full = {NULL, NULL, 0, m->strip_count};
-    if (first + count == m->level_count) {
-        uint32_t fsize = mts_cursor_varint(&cur);
-        full.code = mts_cursor_bytes(&cur, fsize);
-        full.code_size = fsize;
-        if (!full.code)
-            return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: full strips run past it", index);
-    }
     const uint32_t maxq = (uint32_t)((1ull << c->grid.bits) - 1);
-    mts_result rc;
-    for (uint32_t i = 0; i < count; i++) {
-        const uint32_t j = first + i, v = nb + j;
-        uint32_t back = mts_cursor_varint(&cur), start = mts_cursor_varint(&cur),
-                 code = mts_cursor_varint(&cur);
-        if (!cur.ok || back >= v)
-            return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: split %u malformed", index, j);
-        mts_grow_split sp = {0};
-        sp.parent = v - 1 - back;
-        m->parents[j] = sp.parent;
-        if ((code & 7) == MTS_GROWTH_EXPLICIT) {
-            sp.left = sp.right = MTS_GROW_NONE;
-            sp.moved_count = mts_cursor_varint(&cur);
-            sp.born_count = mts_cursor_varint(&cur);
-            uint64_t words = (uint64_t)sp.moved_count + 3ull * sp.born_count;
-            if (!cur.ok || words > mts_cursor_left(&cur) || words == 0)
-                return mts_error_set(err, MTS_ERR_FORMAT,
-                                     "BATCH %u: split %u's lists cannot fit", index, j);
-            uint32_t *lists = malloc((size_t)words * 4);
-            if (!lists)
-                return mts_error_set(err, MTS_ERR_NOMEM, "BATCH %u: out of memory", index);
-            for (uint64_t q = 0; q < words; q++)
-                lists[q] = mts_cursor_varint(&cur);
-            sp.moved = lists;
-            sp.born = lists + sp.moved_count;
-            const uint32_t *r;
-            uint32_t rw;
-            rc = cur.ok ? mts_grow_next(c->grow, &sp, &full, &r, &rw, err)
-                        : mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: split %u truncated",
-                                        index, j);
-            free(lists);
-            if (rc == MTS_OK)
-                rc = keep_record(c, j, r, rw, err);
-            if (rc != MTS_OK)
-                return mts_error_prefix(err, "BATCH %u", index);
-        } else {
-            mts_grow_fan_code fc = {start, code >> 3, code & 7};
-            if (!mts_grow_fan_decode(c->grow, sp.parent, &fc, &sp.left, &sp.right))
-                return mts_error_set(err, MTS_ERR_FORMAT,
-                                     "BATCH %u: split %u names no fan of vertex %u (start %u, "
-                                     "count %u, sides %u)",
-                                     index, j, sp.parent, fc.start, fc.count, fc.sides);
-            const uint32_t *r;
-            uint32_t rw;
-            if ((rc = mts_grow_next(c->grow, &sp, &full, &r, &rw, err)) != MTS_OK ||
-                (rc = keep_record(c, j, r, rw, err)) != MTS_OK)
-                return mts_error_prefix(err, "BATCH %u", index);
-        }
-        uint32_t *q = c->quantized + 3 * (size_t)v;
-        for (int a = 0; a < 3; a++) {
-            q[a] = c->quantized[3 * (size_t)sp.parent + a] +
-                   mts_unzigzag_u32(mts_cursor_varint(&cur));
-            if (q[a] > maxq)
-                return mts_error_set(err, MTS_ERR_RANGE, "BATCH %u: vertex %u is off the grid",
-                                     index, v);
-        }
-        uint16_t o[2] = {mts_cursor_u16(&cur), mts_cursor_u16(&cur)};
-        mts_draco_dequantize(&c->grid, q, m->positions + 3 * (size_t)v);
-        oct_decode(o, m->normals + 3 * (size_t)v);
-    }
-    if (!cur.ok || mts_cursor_left(&cur) != 0)
-        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: malformed (%zu bytes left over)",
-                             index, mts_cursor_left(&cur));
+    mts_rc_decoder d;
+    if (!mts_rc_decoder_init(&d, cur.p, mts_cursor_left(&cur)))
+        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: no coded splits", index);
+    mts_grow_full full = {NULL, NULL, NULL, 0, m->strip_count};
+    mts_result rc = MTS_OK;
+    if (first + count == m->level_count &&
+        (rc = decode_full(c, &d, &full, err)) != MTS_OK)
+        return mts_error_prefix(err, "BATCH %u", index);
+    rc = take_splits(c, &d, &full, index, first, count, maxq, err);
+    free((void *)full.paths);
+    free((void *)full.swaps);
+    if (rc != MTS_OK)
+        return rc;
     c->batches++;
     c->splits += count;
     mts_lod_set_available(&c->lod, c->splits);

@@ -98,6 +98,8 @@ typedef struct mts_stream_client {
     uint32_t *quantized;
     size_t record_capacity;
     struct mts_grow *grow; /* derives each split's record (grow.h) */
+    struct mts__stream_models *models; /* the batches' coding models (stream.c) */
+    uint16_t *oct; /* per vertex its normal's code, when the stream has normals */
     mts_lod lod;
     int have_lod;
     mts_draco_grid grid;

@@ -72,6 +72,7 @@ void mts_wire_put_model_info_tail(mts_buf *b, const mts_wire_model_info *mi)
     for (int a = 0; a < 3; a++)
         mts_buf_f32(b, mi->bbox_max[a]);
     mts_buf_u8(b, mi->quant_bits);
+    mts_buf_u8(b, mi->flags);
     for (int a = 0; a < 3; a++)
         mts_buf_f32(b, mi->grid_origin[a]);
     mts_buf_f32(b, mi->grid_range);
@@ -214,6 +215,7 @@ mts_result mts_wire_parse_model_info(const uint8_t *payload, size_t size,
     for (int a = 0; a < 3; a++)
         mi->bbox_max[a] = mts_cursor_f32(&c);
     mi->quant_bits = mts_cursor_u8(&c);
+    mi->flags = mts_cursor_u8(&c);
     for (int a = 0; a < 3; a++)
         mi->grid_origin[a] = mts_cursor_f32(&c);
     mi->grid_range = mts_cursor_f32(&c);
@@ -228,6 +230,9 @@ mts_result mts_wire_parse_model_info(const uint8_t *payload, size_t size,
     if (mi->quant_bits < 1 || mi->quant_bits > 30 || !(mi->grid_range > 0))
         return mts_error_set(err, MTS_ERR_FORMAT, "MODEL_INFO: bad position grid (%u bits)",
                              mi->quant_bits);
+    if (mi->flags & ~MTS_INFO_KNOWN_FLAGS)
+        return mts_error_set(err, MTS_ERR_FORMAT, "MODEL_INFO: unknown flags 0x%02x",
+                             mi->flags);
     /* every varint is a byte at least: counts are bounded by what is left */
     if (mi->batch_count > mts_cursor_left(&c) ||
         (uint64_t)mi->batch_count + mi->strips > mts_cursor_left(&c))

@@ -12,9 +12,10 @@
 #include "bytes.h"
 #include "error.h"
 
-/* 2.0: records carry erased runs (PROTOCOL.md, "Changes"); a peer of another
- * major version is refused at HELLO with ERROR version. */
-#define MTS_WIRE_MAJOR 3
+/* 4.0: batches entropy-coded, normals only where the source had them
+ * (PROTOCOL.md, "Changes"); a peer of another major version is refused at
+ * HELLO with ERROR version. */
+#define MTS_WIRE_MAJOR 4
 #define MTS_WIRE_MINOR 0
 
 /* Each key level costs a client a stripification of the whole mesh there, so
@@ -71,6 +72,7 @@ typedef struct mts_wire_model_info {
     uint32_t stop_level, stop_triangles;
     float bbox_min[3], bbox_max[3];
     uint8_t quant_bits;
+    uint8_t flags; /* MTS_INFO_* */
     float grid_origin[3], grid_range;
     uint32_t batch_count;
     uint32_t *batch_splits; /* batch_count */
@@ -78,6 +80,11 @@ typedef struct mts_wire_model_info {
     uint32_t key_count;     /* at most MTS_WIRE_MAX_KEYS */
     uint32_t *key_levels;   /* key_count, ascending in 1..levels-1 */
 } mts_wire_model_info;
+
+/* MODEL_INFO flags: the stream carries per-vertex normals (the source's
+ * own); without it a client shades the faces it has. */
+#define MTS_INFO_NORMALS 1u
+#define MTS_INFO_KNOWN_FLAGS MTS_INFO_NORMALS
 
 typedef struct mts_wire_end {
     uint32_t final_level;

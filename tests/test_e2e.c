@@ -231,7 +231,9 @@ static void test_pngs_at_three_levels(mts_test *t)
         char path[800];
         snprintf(path, sizeof path, "%s/e2e_cow_L%s.png", tmp_dir, levels[i]);
         sizes[i] = file_size(path);
-        CHECKF(t, sizes[i] > 3000, "%s: %d bytes", path, sizes[i]);
+        /* a blank 256x256 frame compresses to a few hundred bytes; the
+         * flat-shaded base mesh to about 2.7 KB */
+        CHECKF(t, sizes[i] > 1500, "%s: %d bytes", path, sizes[i]);
         FILE *f = fopen(path, "rb");
         if (f && sizes[i] > 0) {
             data[i] = malloc((size_t)sizes[i]);

@@ -918,7 +918,7 @@ static void test_compute_normals(mts_test *t)
     /* a vertex of zero-area faces only keeps a zero normal */
     float pos[] = {0, 0, 0, 2, 0, 0, 0, 2, 0, 1, 0, 0};
     uint32_t tri[] = {0, 1, 2, 0, 1, 3};
-    mts_mesh m = {4, 2, pos, NULL, tri};
+    mts_mesh m = {4, 2, pos, NULL, tri, 0};
     mts_mesh_compute_normals(&m);
     CHECK(t, m.normals != NULL);
     if (!m.normals)

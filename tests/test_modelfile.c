@@ -60,6 +60,7 @@ static int small_model(mts_test *t, mts_model *model, uint8_t **file, size_t *si
     mts_mesh mesh = {0};
     mts_error err = {0};
     make_sphere(&mesh, 8, 10);
+    mesh.normals_given = 1; /* as if the file had them: the flag must survive */
     mts_result rc = mts_build_model(&mesh, "sphere", NULL, model, NULL, &err);
     mts_mesh_free(&mesh);
     CHECKF(t, rc == MTS_OK, "build: %s", err.msg);
@@ -98,6 +99,7 @@ static void test_round_trip(mts_test *t)
     CHECK(t, memcmp(back.record_data, m.record_data, (size_t)m.record_word_count * 4) == 0);
     CHECK(t, memcmp(back.level_triangles, m.level_triangles, ((size_t)m.level_count + 1) * 4) == 0);
     CHECK(t, strcmp(back.source, "sphere") == 0);
+    CHECK(t, m.flags == MTS_MODEL_NORMALS_GIVEN && back.flags == m.flags);
     /* the split descriptions a stream sends, and the key levels */
     CHECK(t, back.key_count == m.key_count && back.growth_word_count == m.growth_word_count);
     CHECK(t, m.growth_word_count >= 3 * (size_t)m.level_count);
@@ -310,11 +312,11 @@ static void test_specific_errors(mts_test *t)
     expect_error(t, f, size, MTS_ERR_FORMAT, "magic");
 
     memcpy(f, file, size);
-    f[4] = 4;
-    expect_error(t, f, size, MTS_ERR_VERSION, "version 4.0");
+    f[4] = 5;
+    expect_error(t, f, size, MTS_ERR_VERSION, "version 5.0");
 
-    /* versions 1 and 2 (no erase runs, no capacities; no split
-     * descriptions): rebuild */
+    /* versions 1 to 3 (no erase runs, no capacities; no split
+     * descriptions; no flags): rebuild */
     memcpy(f, file, size);
     f[4] = 1;
     reseal(f);
@@ -325,6 +327,11 @@ static void test_specific_errors(mts_test *t)
     reseal(f);
     expect_error(t, f, size, MTS_ERR_VERSION,
                  "model file version 2 is from an older mtstream; rebuild it with mts-build");
+    memcpy(f, file, size);
+    f[4] = 3;
+    reseal(f);
+    expect_error(t, f, size, MTS_ERR_VERSION,
+                 "model file version 3 is from an older mtstream; rebuild it with mts-build");
 
     memcpy(f, file, size);
     f[section_offset(f, 2) + 5] ^= 0x40; /* inside the positions */

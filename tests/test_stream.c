@@ -315,8 +315,10 @@ static void test_client_derives_every_record(mts_test *t)
     same_as_server(t, &s, &c);
     mts_stream_client_free(&c);
 
-    /* a fan code that names no fan (first split's ring start set to 127,
-     * CRC resealed): the batch is refused, naming the split */
+    /* a batch whose coded splits are damaged after the CRC was taken (a
+     * byte of the first batch's range-coded body flipped, CRC resealed):
+     * what decodes no longer names fans of the mesh or ends where the
+     * message does, and the batch is refused whole */
     size_t at = 0;
     while (at + 5 < b.size && b.data[at + 4] != MTS_MSG_BATCH)
         at += 4 + (b.data[at] | b.data[at + 1] << 8 | b.data[at + 2] << 16 |
@@ -325,18 +327,18 @@ static void test_client_derives_every_record(mts_test *t)
                   (size_t)b.data[at + 3] << 24;
     uint8_t *pl = b.data + at + 5;
     mts_cursor cur = mts_cursor_make(pl, flen - 1);
-    for (int k = 0; k < 4; k++) /* index, first, count, the split's parent */
+    for (int k = 0; k < 3; k++) /* index, first, count */
         mts_cursor_varint(&cur);
-    size_t start_at = (size_t)(cur.p - pl);
-    CHECK(t, cur.ok && pl[start_at] < 0x80);
-    pl[start_at] = 127;
+    size_t body = (size_t)(cur.p - pl);
+    CHECK(t, cur.ok && body + 8 < flen - 1 - 4);
+    pl[body + 2] ^= 0x5a;
     uint32_t crc = mts_crc32c(0, pl, flen - 1 - 4);
     for (int k = 0; k < 4; k++)
         pl[flen - 1 - 4 + k] = (uint8_t)(crc >> (8 * k));
     mts_stream_client_init(&c);
     rc = feed(&c, b.data, b.size, 0, &saw_end, &err);
-    CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, "BATCH 0: split 0 names no fan"), "%s",
-           err.msg);
+    CHECKF(t, (rc == MTS_ERR_FORMAT || rc == MTS_ERR_RANGE) && strncmp(err.msg, "BATCH 0: ", 9) == 0,
+           "%s", err.msg);
     CHECK(t, c.batches == 0 && c.lod.level == 0);
     mts_stream_client_free(&c);
     mts_buf_free(&b);

@@ -189,7 +189,9 @@ static void test_hostile_handshakes(mts_test *t)
  * served and the server stops cleanly with nothing leaked. */
 static void test_resets_mid_stream(mts_test *t)
 {
-    const char *extra[] = {"--rate-limit", "200000", NULL};
+    /* cow's stream (19 KB) takes 0.4 s at this rate: every broken client
+     * is still mid-stream when it goes */
+    const char *extra[] = {"--rate-limit", "50000", NULL};
     server sv;
     CHECK(t, server_start(&sv, "resets", extra));
     mts_buf hello = {0};
@@ -269,7 +271,7 @@ static void test_slow_reader(mts_test *t)
     int rc = stress(&sv, "grid --clients 20 --no-apply --json", out, sizeof out);
     CHECKF(t, rc == 0 && json_num(out, "succeeded") == 20, "exit %d: %s", rc, out);
     /* each stream is many times the stalled reader's 20 KB of socket buffers */
-    CHECKF(t, json_num(out, "bytes") > 20 * 200000L, "the grid stream is too small: %s", out);
+    CHECKF(t, json_num(out, "bytes") > 20 * 100000L, "the grid stream is too small: %s", out);
     struct timespec ts = {2, 0};
     nanosleep(&ts, NULL);
     CHECK(t, server_stop(&sv) == 0);

@@ -63,20 +63,21 @@ static void test_hello_round_trip_and_errors(mts_test *t)
     copy[0] = 'G';
     CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_FORMAT);
     CHECK(t, strstr(err.msg, "magic") != NULL);
-    /* 1.0 and 2.0 peers (records on the wire) and a future major */
-    CHECK(t, MTS_WIRE_MAJOR == 3);
-    for (uint8_t old = 1; old <= 2; old++) {
+    /* 1.0 and 2.0 peers (records on the wire), 3.0 (splits not
+     * entropy-coded) and a future major */
+    CHECK(t, MTS_WIRE_MAJOR == 4);
+    for (uint8_t old = 1; old <= 3; old++) {
         memcpy(copy, p, n);
         copy[4] = old;
         char want[8];
         snprintf(want, sizeof want, "%u.0", old);
         CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
-        CHECKF(t, strstr(err.msg, want) != NULL && strstr(err.msg, "speaks 3.x") != NULL, "%s",
+        CHECKF(t, strstr(err.msg, want) != NULL && strstr(err.msg, "speaks 4.x") != NULL, "%s",
                err.msg);
     }
-    copy[4] = 4;
+    copy[4] = 5;
     CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
-    CHECKF(t, strstr(err.msg, "4.0") != NULL, "%s", err.msg);
+    CHECKF(t, strstr(err.msg, "5.0") != NULL, "%s", err.msg);
     free(copy);
     /* names that could reach a file system are refused */
     const char *bad[] = {"../etc/passwd", "a/b", ".hidden", "", "sp ace",
@@ -122,6 +123,7 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     mi.stop_triangles = 60;
     mi.bbox_max[0] = mi.bbox_max[1] = mi.bbox_max[2] = 1;
     mi.quant_bits = 14;
+    mi.flags = MTS_INFO_NORMALS;
     mi.grid_range = 1;
     mi.batch_count = 3;
     mi.batch_splits = batches;
@@ -136,6 +138,7 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     CHECKF(t, mts_wire_parse_model_info(p, n, &back, &err) == MTS_OK, "%s", err.msg);
     CHECK(t, back.levels == 35 && back.batch_count == 3 && back.batch_splits[1] == 20);
     CHECK(t, back.capacities[2] == 300 && back.stop_level == 30 && back.quant_bits == 14);
+    CHECK(t, back.flags == MTS_INFO_NORMALS);
     mts_wire_model_info_free(&back);
     for (size_t cut = 0; cut < n; cut++) {
         CHECKF(t, mts_wire_parse_model_info(p, cut, &back, &err) != MTS_OK, "cut %zu", cut);
@@ -146,6 +149,15 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     mts_wire_put_model_info(&c, &mi);
     CHECK(t, one_frame(&c, &type, &p, &n));
     CHECK(t, mts_wire_parse_model_info(p, n, &back, &err) == MTS_ERR_FORMAT);
+    /* a flag this version does not know: the stream would not decode */
+    batches[2] = 5;
+    mi.flags = 0x80;
+    mts_buf g = {0};
+    mts_wire_put_model_info(&g, &mi);
+    CHECK(t, one_frame(&g, &type, &p, &n));
+    CHECK(t, mts_wire_parse_model_info(p, n, &back, &err) == MTS_ERR_FORMAT);
+    CHECKF(t, strstr(err.msg, "unknown flags 0x80") != NULL, "%s", err.msg);
+    mts_buf_free(&g);
     mts_buf_free(&b);
     mts_buf_free(&c);
     /* a count that promises more than the frame holds is refused before
@@ -161,6 +173,7 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     for (int i = 0; i < 6; i++)
         mts_buf_f32(&e, 0);
     mts_buf_u8(&e, 14);
+    mts_buf_u8(&e, 0);
     for (int i = 0; i < 3; i++)
         mts_buf_f32(&e, 0);
     mts_buf_f32(&e, 1);
