@@ -15,8 +15,11 @@
  * tables on the wire. Binary models need no tables: they start flat and
  * learn from what they code, the decoder mirroring the encoder step by step
  * (the stream keeps them from batch to batch, stream.c). They adapt faster
- * than LZMA's (MTS_RC_ADAPT_SHIFT 4, not 5), which pays in short streams
- * (measured in tests/test_rcoder.c's notes and the PROTOCOL).
+ * than LZMA's (MTS_RC_ADAPT_SHIFT 4, not 5): on geometric integers that
+ * costs 5.5% over the entropy after 1000 symbols where 5 costs 6.7%, and
+ * wins more on fewer (33% against 50% after 50). On whole streams the two
+ * are within 0.5% (bunny00 209,005 bytes with 4, 208,719 with 5; cow
+ * 17,199 and 17,287).
  *
  * Determinism: integers only -- no floating point, no platform-dependent
  * widths -- so an encoder and a decoder on any platform agree bit for bit.
