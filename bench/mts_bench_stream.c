@@ -123,6 +123,8 @@ static int draw_compare(mts_render_context *ctx, const mts_model *m, draw_figure
     mts_render_options ro;
     mts_render_options_default(&ro);
     ro.width = ro.height = 1024;
+    /* shaded as mts-client shades this model (flat when the stream has no normals) */
+    ro.style.flat_shading = !(m->flags & MTS_MODEL_NORMALS_GIVEN);
     mts_render_layout layout;
     mts_render_layout_from_lod(&lod, &layout);
     if (mts_renderer_create(ctx, &ro, &layout, &r, err) != MTS_OK ||
@@ -235,6 +237,7 @@ static int draw_table(mts_render_context *ctx, const mts_model *m, const char *n
     mts_render_options ro;
     mts_render_options_default(&ro);
     ro.width = ro.height = dt_side;
+    ro.style.flat_shading = !(m->flags & MTS_MODEL_NORMALS_GIVEN);
     mts_render_layout layout;
     mts_render_layout_from_lod(&lod, &layout);
     size_t cap = ((size_t)m->level_triangles[m->level_count] + 1) * 3;
@@ -444,6 +447,7 @@ int main(int argc, char **argv)
                 mts_renderer *r = NULL;
                 mts_render_options ro;
                 mts_render_options_default(&ro);
+                ro.style.flat_shading = !(s.model.flags & MTS_MODEL_NORMALS_GIVEN);
                 if (mts_lod_init(&lod, &s.model, MTS_LOD_AT_BASE, &err) == MTS_OK) {
                     mts_render_layout layout;
                     mts_render_layout_from_lod(&lod, &layout);
