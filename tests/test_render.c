@@ -367,6 +367,70 @@ done:
     free(f);
 }
 
+/* Flat shading (a stream without normals) lights each triangle by its own
+ * plane and ignores the vertex normals: the same silhouette as smooth
+ * shading, similar light overall, varied across the surface; zero normals
+ * change nothing, where smooth shading would give them one flat half-light. */
+static void test_flat_shading(mts_test *t)
+{
+    NEED_CONTEXT(t);
+    mts_render_options o;
+    options(&o);
+    frame *f = calloc(4, sizeof *f);
+    float *zero = calloc((size_t)g_mesh.vertex_count * 3, sizeof *zero);
+    mts_renderer *r = NULL;
+    mts_error err = {0};
+    if (!f || !zero) {
+        CHECK(t, 0);
+        goto done;
+    }
+    r = renderer_for_triangles(t, &o, g_mesh.triangles, g_mesh.triangle_count, 0);
+    if (!r || !draw_and_read(t, r, &f[0], NULL))
+        goto done;
+    mts_render_options flat = o;
+    flat.style.flat_shading = 1;
+    mts_render_set_style(r, &flat.style);
+    if (!draw_and_read(t, r, &f[1], "cow_flat"))
+        goto done;
+    CHECK(t, mts_render_append_vertices(r, 0, g_mesh.vertex_count, g_mesh.positions, zero,
+                                        &err) == MTS_OK);
+    if (!draw_and_read(t, r, &f[2], NULL))
+        goto done;
+    mts_render_set_style(r, &o.style);
+    if (!draw_and_read(t, r, &f[3], NULL))
+        goto done;
+    uint32_t fg0 = foreground(&f[0]), fg1 = foreground(&f[1]);
+    CHECKF(t, fg1 + SIDE > fg0 && fg0 + SIDE > fg1, "silhouettes: smooth %u, flat %u pixels",
+           fg0, fg1);
+    CHECKF(t, pixels_differing(&f[0], &f[1], 8) > fg0 / 20, "flat shading looks smooth");
+    CHECKF(t, pixels_differing(&f[1], &f[2], 0) == 0, "flat shading read the normals");
+    /* light over the surface: mean and spread of the red channel */
+    double sum[4] = {0};
+    int lo[4] = {255, 255, 255, 255}, hi[4] = {0};
+    for (int k = 0; k < 4; k++) {
+        uint32_t n = 0;
+        for (uint32_t i = 0; i < SIDE * SIDE; i++) {
+            const uint8_t *p = f[k].px + 4 * i;
+            if (!differs(p, f[k].px, 2))
+                continue;
+            n++;
+            sum[k] += p[0];
+            lo[k] = p[0] < lo[k] ? p[0] : lo[k];
+            hi[k] = p[0] > hi[k] ? p[0] : hi[k];
+        }
+        sum[k] /= n ? n : 1;
+    }
+    CHECKF(t, sum[1] > 0.8 * sum[0] && sum[1] < 1.25 * sum[0], "mean light: smooth %.1f, flat %.1f",
+           sum[0], sum[1]);
+    CHECKF(t, hi[1] - lo[1] > 60, "flat shading spans %d..%d", lo[1], hi[1]);
+    CHECKF(t, hi[3] - lo[3] <= 2, "zero normals, smooth: %d..%d (half light everywhere)", lo[3],
+           hi[3]);
+done:
+    mts_renderer_destroy(r);
+    free(zero);
+    free(f);
+}
+
 /* The base level drawn from slots sized for the full level (long runs of
  * restart indices, left by strips that shrank) and from tight slots (one
  * restart between strips) is the same picture, pixel for pixel. */
@@ -816,6 +880,7 @@ int main(void)
     RUN(&t, test_cow_levels);
     RUN(&t, test_full_level_matches_mesh);
     RUN(&t, test_back_faces_culled);
+    RUN(&t, test_flat_shading);
     RUN(&t, test_restart_runs_draw_nothing);
     RUN(&t, test_small_move_uploads_changed_strips);
     RUN(&t, test_draw_modes);

@@ -15,7 +15,9 @@
 #include "verify.h"
 #include "wire.h"
 
-static int build_stream(mts_test *t, const char *path, mts_stream *s)
+/* normals_given: treat the mesh's (computed) normals as the file's own, so
+ * the stream carries them. */
+static int build_stream_normals(mts_test *t, const char *path, int normals_given, mts_stream *s)
 {
     mts_error err = {0};
     mts_mesh mesh = {0};
@@ -24,6 +26,8 @@ static int build_stream(mts_test *t, const char *path, mts_stream *s)
         CHECKF(t, 0, "%s", err.msg);
         return 0;
     }
+    if (normals_given)
+        mesh.normals_given = 1;
     mts_result rc = mts_build_model(&mesh, path, NULL, &m, NULL, &err);
     mts_mesh_free(&mesh);
     CHECKF(t, rc == MTS_OK, "%s", err.msg);
@@ -33,6 +37,11 @@ static int build_stream(mts_test *t, const char *path, mts_stream *s)
     mts_model_free(&m);
     CHECKF(t, rc == MTS_OK, "stream: %s", err.msg);
     return rc == MTS_OK;
+}
+
+static int build_stream(mts_test *t, const char *path, mts_stream *s)
+{
+    return build_stream_normals(t, path, 0, s);
 }
 
 /* What a connection is sent for a HELLO: MODEL_INFO, the range, END. */
@@ -136,6 +145,52 @@ static void test_cow_every_stop(mts_test *t)
         }
     }
     mts_stream_free(&s);
+}
+
+/* Normals travel exactly when the source had its own: then the client
+ * holds the server's (octahedral-coded, bit for bit); without, neither end
+ * has any and the stream is smaller by them. */
+static void test_normals_travel_when_given(mts_test *t)
+{
+    mts_stream with, without;
+    if (!build_stream_normals(t, "tests/data/cow.off", 1, &with))
+        return;
+    if (!build_stream(t, "tests/data/cow.off", &without)) {
+        mts_stream_free(&with);
+        return;
+    }
+    mts_stream *both[2] = {&with, &without};
+    size_t sizes[2] = {0, 0};
+    for (int k = 0; k < 2; k++) {
+        mts_stream *s = both[k];
+        const size_t nv = s->model.vertex_count;
+        mts_buf b = {0};
+        uint32_t stop;
+        connection_bytes(s, MTS_STOP_FULL, 0, &b, &stop);
+        sizes[k] = b.size;
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        mts_error err = {0};
+        int saw_end;
+        mts_result rc = feed(&c, b.data, b.size, 7, &saw_end, &err);
+        CHECKF(t, rc == MTS_OK && saw_end, "%s", err.msg);
+        CHECK(t, !!(c.info.flags & MTS_INFO_NORMALS) == (k == 0));
+        same_as_server(t, s, &c); /* normals included, bit for bit */
+        size_t unit = 0;
+        for (size_t x = 0; x < nv; x++) {
+            const float *q = c.model.normals + 3 * x;
+            float l = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+            unit += l > 0.999f && l < 1.001f;
+        }
+        CHECKF(t, k == 0 ? unit == nv : unit == 0, "%zu of %zu unit normals", unit, nv);
+        mts_stream_client_free(&c);
+        mts_buf_free(&b);
+    }
+    /* 2 x 16 bits a vertex, coded: at least a byte a vertex saved */
+    CHECKF(t, sizes[1] + with.model.vertex_count < sizes[0], "%zu with normals, %zu without",
+           sizes[0], sizes[1]);
+    mts_stream_free(&with);
+    mts_stream_free(&without);
 }
 
 static void test_corrupt_batch_rejected(mts_test *t)
@@ -375,6 +430,7 @@ int main(void)
 {
     mts_test t = {0};
     RUN(&t, test_cow_every_stop);
+    RUN(&t, test_normals_travel_when_given);
     RUN(&t, test_corrupt_batch_rejected);
     RUN(&t, test_cut_stream_keeps_last_batch);
     RUN(&t, test_garbage_frames);
