@@ -719,6 +719,9 @@ mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
                                   mts_error *err)
 {
     *swap_count = 0;
+    if (g->level != g->n)
+        return mts_error_set(err, MTS_ERR_ARG,
+                             "grow: the full strips described at level %u of %u", g->level, g->n);
     for (uint32_t st = 0; st < full->strip_count; st++) {
         const uint32_t *s = full->indices + full->offsets[st];
         uint32_t len = full->offsets[st + 1] - full->offsets[st];
@@ -1309,15 +1312,17 @@ nomem:
     return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
 }
 
-const uint32_t *mts_grow_around_newest(mts_grow *g, uint32_t *count)
+mts_result mts_grow_around_newest(mts_grow *g, const uint32_t **ids, uint32_t *count,
+                                  mts_error *err)
 {
+    *ids = NULL;
     *count = 0;
     if (g->level == 0)
-        return NULL;
+        return mts_error_set(err, MTS_ERR_ARG, "grow: no split applied yet");
     const uint32_t v = g->nb + g->level - 1;
     size_t want = 2 * (g->affected.n + (size_t)(g->tri_count - g->newest_born));
     if (!mts_words_reserve(&g->around, want))
-        return NULL;
+        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
     uint32_t *out = g->around.w, n = 0;
     /* the moved triangles are v's by construction; of the new ones, those
      * with a corner v (an explicit split may bring back others) */
@@ -1335,8 +1340,9 @@ const uint32_t *mts_grow_around_newest(mts_grow *g, uint32_t *count)
             if (t[c] != v)
                 out[n++] = t[c];
     }
+    *ids = out;
     *count = n;
-    return out;
+    return MTS_OK;
 }
 
 void mts_grow_get_figures(const mts_grow *g, mts_grow_figures *out)

@@ -97,8 +97,10 @@ typedef struct mts_grow_full {
  * g must be at the full level. paths holds full->strip_count entries,
  * swaps room for full->index_count bytes; *swap_count is set. About 2
  * bytes a strip and under a bit a triangle once entropy-coded, where the
- * strips' indices would take 1.3 to 2 bytes each. MTS_ERR_ARG when a strip
- * is not in that form or does not lie on g's mesh. */
+ * strips' indices would take 1.3 to 2 bytes each. MTS_ERR_ARG when g is
+ * not at the full level, a strip is not in that form or does not start on
+ * a triangle of g's mesh; the rest of each strip is walked only when the
+ * description is resolved (mts_grow_next; mts_verify_growth does both). */
 mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
                                   mts_grow_full_path *paths, uint8_t *swaps, uint64_t *swap_count,
                                   mts_error *err);
@@ -142,10 +144,10 @@ int mts_grow_fan_decode(mts_grow *g, uint32_t parent, const mts_grow_fan_code *c
 /* After a split: the two other corners of every triangle around its new
  * vertex v, twice each ring vertex of an interior v, so their mean is the
  * ring's centroid -- what a stream predicts v's position from, since both
- * ends know the ring before they know v. Points into g's scratch (valid
- * until the next call); NULL with *count 0 before any split or when out of
- * memory. */
-const uint32_t *mts_grow_around_newest(mts_grow *g, uint32_t *count);
+ * ends know the ring before they know v. *ids points into g's scratch
+ * (valid until the next call). MTS_ERR_ARG before any split. */
+mts_result mts_grow_around_newest(mts_grow *g, const uint32_t **ids, uint32_t *count,
+                                  mts_error *err);
 
 /* Vertex ids of triangle t, as they are now. */
 void mts_grow_triangle(const mts_grow *g, uint32_t t, uint32_t out[3]);

@@ -526,6 +526,10 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     get_f32s(m->bbox_min, info + 32, 3);
     get_f32s(m->bbox_max, info + 44, 3);
     m->flags = get_u32(info + 56);
+    if (m->flags & ~MTS_MODEL_NORMALS_GIVEN) {
+        rc = mts_error_set(err, MTS_ERR_FORMAT, "%s: unknown model flags 0x%x", name, m->flags);
+        goto fail;
+    }
     get_f32s(m->positions, sec[SEC_POSITIONS], nv3);
     get_f32s(m->normals, sec[SEC_NORMALS], nv3);
     if ((rc = get_strips(sec[SEC_STRIPS_FULL], l.strips, l.full_indices, name, "full strips",

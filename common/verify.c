@@ -712,10 +712,13 @@ mts_result mts_verify_growth(const mts_model *m, mts_verify_report *report, mts_
                                    : mts_error_set(err, MTS_ERR_NOMEM, "verify: out of memory");
     uint64_t swap_count = 0;
     if (rc == MTS_OK && m->level_count > 0 &&
-        (rc = mts_grow_full_describe(g, &m->full, paths, swaps, &swap_count, err)) != MTS_OK)
-        rc = mts_error_set(err, MTS_ERR_INVARIANT,
-                           "growth: the full strips are not in the form growth derives (%s)",
-                           err->msg);
+        mts_grow_full_describe(g, &m->full, paths, swaps, &swap_count, err) != MTS_OK) {
+        /* not the model a stream could send: an invariant, not bad input */
+        mts_error_prefix(err, "growth");
+        rc = MTS_ERR_INVARIANT;
+        if (err)
+            err->code = rc;
+    }
     if (rc == MTS_OK && m->level_count > 0) {
         mts_grow_full described = {NULL, paths, swaps, swap_count, m->strip_count};
         rc = derive_all(m, &described, &again, &rep, err);

@@ -118,16 +118,20 @@ static void models_init(struct mts__stream_models *m)
  * context its residual is coded in, how far that is from the parent (the
  * local edge length: residuals scale with it). Server and client hold the
  * same ring and the same grid points, so they agree exactly. */
-static unsigned predict_position(mts_grow *g, const uint32_t *quantized, uint32_t parent,
-                                 int64_t pred[3])
+static mts_result predict_position(mts_grow *g, const uint32_t *quantized, uint32_t parent,
+                                   int64_t pred[3], unsigned *context, mts_error *err)
 {
     uint32_t k;
-    const uint32_t *around = mts_grow_around_newest(g, &k);
+    const uint32_t *around;
+    mts_result rc = mts_grow_around_newest(g, &around, &k, err);
+    if (rc != MTS_OK)
+        return rc;
     const uint32_t *qu = quantized + 3 * (size_t)parent;
+    *context = 0;
     if (k == 0) {
         for (int a = 0; a < 3; a++)
             pred[a] = qu[a];
-        return 0;
+        return MTS_OK;
     }
     uint64_t sum[3] = {0, 0, 0};
     for (uint32_t i = 0; i < k; i++) {
@@ -146,7 +150,8 @@ static unsigned predict_position(mts_grow *g, const uint32_t *quantized, uint32_
     unsigned ctx = 0;
     while (far >> ctx && ctx < POSITION_CONTEXTS - 1)
         ctx++;
-    return ctx;
+    *context = ctx;
+    return MTS_OK;
 }
 
 /* ---- server ---- */
@@ -473,9 +478,8 @@ static mts_result predict_all(mts_stream *s, const uint16_t *oct, int carry_norm
             mts_grow_fan_code fc = {w[0], w[1], w[2]};
             if (!mts_grow_fan_decode(g, u, &fc, &sp.left, &sp.right)) {
                 rc = mts_error_set(err, MTS_ERR_ARG,
-                                   "stream: model '%s': split %u's fan code names no fan; "
-                                   "rebuild it with mts-build",
-                                   s->name, j);
+                                   "split %u's fan code names no fan; rebuild it with mts-build",
+                                   j);
                 break;
             }
         }
@@ -484,7 +488,10 @@ static mts_result predict_all(mts_stream *s, const uint16_t *oct, int carry_norm
         if ((rc = mts_grow_next(g, &sp, &given, &rec, &words, err)) != MTS_OK)
             break;
         int64_t pred[3];
-        pass->context[j] = (uint8_t)predict_position(g, s->quantized, u, pred);
+        unsigned ctx;
+        if ((rc = predict_position(g, s->quantized, u, pred, &ctx, err)) != MTS_OK)
+            break;
+        pass->context[j] = (uint8_t)ctx;
         int32_t *r = pass->residual + 5 * (size_t)j;
         for (int a = 0; a < 3; a++)
             r[a] = (int32_t)((int64_t)s->quantized[3 * (size_t)v + a] - pred[a]);
@@ -874,6 +881,14 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
         return mts_error_set(err, MTS_ERR_LIMIT,
                              "MODEL_INFO: strip capacities add up to %llu for %u vertices",
                              (unsigned long long)cap, mi->vertices);
+    /* every full-level triangle is drawn by a strip no longer than its slot,
+     * so the capacities bound the triangles, and with them every count the
+     * batches may announce (explicit lists, the full strips) */
+    if (mi->triangles > cap || mi->stop_triangles > mi->triangles)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "MODEL_INFO: %u triangles (%u at the stop level) cannot fit strip "
+                             "slots of %llu indices",
+                             mi->triangles, mi->stop_triangles, (unsigned long long)cap);
     mts_model *m = &c->model;
     size_t nv = mi->vertices, n1 = (size_t)mi->levels + 1;
     m->vertex_count = mi->vertices;
@@ -1116,7 +1131,7 @@ static mts_result decode_full(mts_stream_client *c, mts_rc_decoder *d, mts_grow_
         return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the full strips");
     }
     unsigned last = 0;
-    for (uint64_t k = 0; k < inner; k++)
+    for (uint64_t k = 0; k < inner && d->ok; k++)
         last = swaps[k] = (uint8_t)mts_rc_decode_bit(d, &md->swap[last]);
     full->paths = paths;
     full->swaps = swaps;
@@ -1147,19 +1162,24 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
         const uint32_t *r;
         uint32_t rw;
         if (sides == MTS_GROWTH_EXPLICIT) {
-            /* a split moves and brings back at most as many triangles as
-             * the full mesh has: that bounds the lists before anything is
-             * allocated for them */
+            /* a split moves at most the triangles there are, and no
+             * triangle ever goes away on the way up, so it brings back at
+             * most those still to come: that bounds the lists (by the
+             * capacities, take_info) before anything is allocated */
             sp.left = sp.right = MTS_GROW_NONE;
             sp.moved_count = mts_rc_decode_uint(d, &md->lists);
             sp.born_count = mts_rc_decode_uint(d, &md->lists);
+            mts_grow_figures fig;
+            mts_grow_get_figures(c->grow, &fig);
             uint64_t words = (uint64_t)sp.moved_count + 3ull * sp.born_count;
-            if (!d->ok || words == 0 || sp.moved_count > c->info.triangles ||
-                sp.born_count > c->info.triangles)
+            if (!d->ok || words == 0 || words > SIZE_MAX / 4 || sp.moved_count > fig.triangles ||
+                fig.triangles > c->info.triangles ||
+                sp.born_count > c->info.triangles - fig.triangles)
                 return mts_error_set(err, MTS_ERR_FORMAT,
                                      "BATCH %u: split %u lists %u moved and %u new triangles "
-                                     "(the model has %u)",
-                                     index, j, sp.moved_count, sp.born_count, c->info.triangles);
+                                     "(%u there, %u at the full level)",
+                                     index, j, sp.moved_count, sp.born_count, fig.triangles,
+                                     c->info.triangles);
             uint32_t *lists = malloc((size_t)words * 4);
             if (!lists)
                 return mts_error_set(err, MTS_ERR_NOMEM, "BATCH %u: out of memory", index);
@@ -1187,7 +1207,9 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
         if (rc != MTS_OK)
             return mts_error_prefix(err, "BATCH %u", index);
         int64_t pred[3];
-        unsigned ctx = predict_position(c->grow, c->quantized, sp.parent, pred);
+        unsigned ctx;
+        if ((rc = predict_position(c->grow, c->quantized, sp.parent, pred, &ctx, err)) != MTS_OK)
+            return mts_error_prefix(err, "BATCH %u", index);
         uint32_t *q = c->quantized + 3 * (size_t)v;
         for (int a = 0; a < 3; a++) {
             int64_t x = pred[a] + mts_rc_decode_sint(d, &md->position[ctx]);
@@ -1214,7 +1236,8 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
     if (!d->ok || !mts_rc_decoder_finished(d))
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "BATCH %u: the coded splits %s", index,
-                             d->ok ? "end before the message does" : "run past the message");
+                             d->ok ? "end before the message does"
+                                   : "are malformed or run past the message");
     return MTS_OK;
 }
 

@@ -348,6 +348,12 @@ static void test_specific_errors(mts_test *t)
     reseal(f);
     expect_error(t, f, size, MTS_ERR_RANGE, "out of range");
 
+    /* a model flag this version does not know (INFO's flags, resealed) */
+    memcpy(f, file, size);
+    put32(f + section_offset(f, 1) + 56, 0x80);
+    reseal(f);
+    expect_error(t, f, size, MTS_ERR_FORMAT, "unknown model flags 0x80");
+
     /* a parent before vertex 0: the first split's first varint */
     memcpy(f, file, size);
     f[section_offset(f, 6)] = 0x7F;

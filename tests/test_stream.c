@@ -193,6 +193,38 @@ static void test_normals_travel_when_given(mts_test *t)
     mts_stream_free(&without);
 }
 
+/* A MODEL_INFO whose triangle count the strip slots cannot hold (a hostile
+ * server's way to make later counts huge) is refused before any batch. */
+static void test_info_triangles_bounded(mts_test *t)
+{
+    mts_stream s;
+    if (!build_stream(t, "tests/data/cow.off", &s))
+        return;
+    mts_buf b = {0};
+    mts_stream_put_model_info(&s, s.model.level_count, &b);
+    mts_wire_model_info mi = {0};
+    mts_error err = {0};
+    CHECKF(t, mts_wire_parse_model_info(b.data + MTS_WIRE_HEADER, b.size - MTS_WIRE_HEADER, &mi,
+                                        &err) == MTS_OK,
+           "%s", err.msg);
+    uint64_t cap = 0;
+    for (uint32_t i = 0; i < mi.strips; i++)
+        cap += mi.capacities[i];
+    mi.triangles = (uint32_t)cap + 1;
+    mts_buf bad = {0};
+    mts_wire_put_model_info(&bad, &mi);
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    int saw_end;
+    mts_result rc = feed(&c, bad.data, bad.size, 0, &saw_end, &err);
+    CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, "cannot fit strip slots"), "%s", err.msg);
+    mts_stream_client_free(&c);
+    mts_wire_model_info_free(&mi);
+    mts_buf_free(&bad);
+    mts_buf_free(&b);
+    mts_stream_free(&s);
+}
+
 static void test_corrupt_batch_rejected(mts_test *t)
 {
     mts_stream s;
@@ -431,6 +463,7 @@ int main(void)
     mts_test t = {0};
     RUN(&t, test_cow_every_stop);
     RUN(&t, test_normals_travel_when_given);
+    RUN(&t, test_info_triangles_bounded);
     RUN(&t, test_corrupt_batch_rejected);
     RUN(&t, test_cut_stream_keeps_last_batch);
     RUN(&t, test_garbage_frames);
