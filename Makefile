@@ -17,12 +17,15 @@ OPT      := -O2 -g
 endif
 
 WARN     := -Wall -Wextra -Werror
-CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(WARN) -Icommon -Iprotocol -Iclient -Iserver -Itools
+# The wire's float steps (Draco's dequantization, normal codes) must round the
+# same on every build: no fused multiply-add (clang contracts by default).
+FP       := -ffp-contract=off
+CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(FP) $(WARN) -Icommon -Iprotocol -Iclient -Iserver -Itools
 # OpenMesh's headers are not -Wextra clean and trip -Wmaybe-uninitialized when
 # inlined; the shims stay -Wall -Werror otherwise.
 # NDEBUG: OpenMesh asserts on property type names with string compares in
 # every point() access, a fifth of the decimation time.
-CXXFLAGS += -std=c++17 $(OPT) -DNDEBUG -Wall -Werror -Wno-maybe-uninitialized -Icommon -Iprotocol
+CXXFLAGS += -std=c++17 $(OPT) $(FP) -DNDEBUG -Wall -Werror -Wno-maybe-uninitialized -Icommon -Iprotocol
 # Draco, EGL, GLES, libpng, libcurl and X11 (mts-client --window) ship pkg-config
 # files; OpenMesh and meshoptimizer do not. --as-needed keeps each program linked
 # only to what it uses.
@@ -161,9 +164,9 @@ FUZZ_TARGETS  := stream_client:32768 request:1024 modelfile:16384 draco:8192
 FUZZ_NAMES    := $(foreach t,$(FUZZ_TARGETS),$(firstword $(subst :, ,$(t))))
 FUZZ_SAN      := -fsanitize=address,undefined -fno-sanitize-recover=undefined
 FUZZ_OPT      := -O1 -g -fno-omit-frame-pointer -fsanitize=fuzzer-no-link $(FUZZ_SAN)
-FUZZ_CFLAGS   := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(FUZZ_OPT) $(WARN) \
+FUZZ_CFLAGS   := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(FUZZ_OPT) $(FP) $(WARN) \
                  -Icommon -Iprotocol $(filter-out -I/usr/include/draco%,$(PKG_CFLAGS))
-FUZZ_CXXFLAGS := -std=c++17 $(FUZZ_OPT) -DNDEBUG -Wall -Werror -Icommon -Iprotocol
+FUZZ_CXXFLAGS := -std=c++17 $(FUZZ_OPT) $(FP) -DNDEBUG -Wall -Werror -Icommon -Iprotocol
 # the library modules the targets reach: common/ and protocol/
 FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(wildcard common/*.c protocol/*.c)) \
                  $(patsubst %.cpp,$(FUZZ_DIR)/obj/%.o,$(wildcard common/*.cpp protocol/*.cpp))

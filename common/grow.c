@@ -1324,21 +1324,19 @@ mts_result mts_grow_around_newest(mts_grow *g, const uint32_t **ids, uint32_t *c
     if (!mts_words_reserve(&g->around, want))
         return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
     uint32_t *out = g->around.w, n = 0;
-    /* the moved triangles are v's by construction; of the new ones, those
-     * with a corner v (an explicit split may bring back others) */
-    for (size_t k = 0; k < g->affected.n; k++) {
-        const uint32_t *t = g->img[g->affected.w[k]];
-        for (int c = 0; c < 3; c++)
-            if (t[c] != v)
-                out[n++] = t[c];
-    }
-    for (uint32_t f = g->newest_born; f < g->tri_count; f++) {
-        const uint32_t *t = g->img[f];
-        if (t[0] != v && t[1] != v && t[2] != v)
+    /* the moved triangles and, of the new ones, those with a corner v (an
+     * explicit split may bring back others); each triangle's two other
+     * corners in its own order after v, so (v, a, b) is the triangle as
+     * drawn and its normal is (a - v) x (b - v) */
+    for (size_t k = 0, total = g->affected.n + (g->tri_count - g->newest_born); k < total; k++) {
+        uint32_t t = k < g->affected.n ? g->affected.w[k]
+                                       : g->newest_born + (uint32_t)(k - g->affected.n);
+        const uint32_t *c = g->img[t];
+        int at = c[0] == v ? 0 : c[1] == v ? 1 : c[2] == v ? 2 : -1;
+        if (at < 0)
             continue;
-        for (int c = 0; c < 3; c++)
-            if (t[c] != v)
-                out[n++] = t[c];
+        out[n++] = c[(at + 1) % 3];
+        out[n++] = c[(at + 2) % 3];
     }
     *ids = out;
     *count = n;

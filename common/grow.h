@@ -141,10 +141,12 @@ int mts_grow_fan_encode(mts_grow *g, uint32_t parent, uint32_t left, uint32_t ri
 int mts_grow_fan_decode(mts_grow *g, uint32_t parent, const mts_grow_fan_code *code,
                         uint32_t *left, uint32_t *right);
 
-/* After a split: the two other corners of every triangle around its new
- * vertex v, twice each ring vertex of an interior v, so their mean is the
- * ring's centroid -- what a stream predicts v's position from, since both
- * ends know the ring before they know v. *ids points into g's scratch
+/* After a split: the two other corners (a, b) of every triangle around its
+ * new vertex v, in the triangle's order after v (so it is (v, a, b) as
+ * drawn), pair by pair. Each ring vertex of an interior v comes twice, so
+ * their mean is the ring's centroid -- what a stream predicts v's position
+ * from, since both ends know the ring before they know v -- and the pairs
+ * give the faces' normals, which predict v's. *ids points into g's scratch
  * (valid until the next call). MTS_ERR_ARG before any split. */
 mts_result mts_grow_around_newest(mts_grow *g, const uint32_t **ids, uint32_t *count,
                                   mts_error *err);

@@ -15,8 +15,13 @@
 /* ---- shared pieces ---- */
 
 /* Octahedral normal encoding (Meyer et al., "On Floating-Point Normal
- * Vectors", 2010): two 16-bit numbers, under 0.01 degrees of error. Server and
- * client run this same code, so both hold the same decoded normal. */
+ * Vectors", 2010): two numbers of NORMAL_BITS each. 10 bits (Draco's default
+ * for normals) is about 0.1 degree, finer than shading shows; each bit more
+ * would cost the stream two bits a vertex of noise. Server and client run
+ * this same code, so both hold the same decoded normal. */
+#define NORMAL_BITS 10
+#define NORMAL_MAX ((1 << NORMAL_BITS) - 1)
+
 static void oct_encode(const float n[3], uint16_t out[2])
 {
     float l = fabsf(n[0]) + fabsf(n[1]) + fabsf(n[2]);
@@ -26,13 +31,14 @@ static void oct_encode(const float n[3], uint16_t out[2])
         x = (1 - fabsf(y)) * (ox >= 0 ? 1.0f : -1.0f);
         y = (1 - fabsf(ox)) * (y >= 0 ? 1.0f : -1.0f);
     }
-    out[0] = (uint16_t)lrintf((x * 0.5f + 0.5f) * 65535.0f);
-    out[1] = (uint16_t)lrintf((y * 0.5f + 0.5f) * 65535.0f);
+    out[0] = (uint16_t)lrintf((x * 0.5f + 0.5f) * (float)NORMAL_MAX);
+    out[1] = (uint16_t)lrintf((y * 0.5f + 0.5f) * (float)NORMAL_MAX);
 }
 
 static void oct_decode(const uint16_t in[2], float n[3])
 {
-    float x = (float)in[0] / 65535.0f * 2.0f - 1.0f, y = (float)in[1] / 65535.0f * 2.0f - 1.0f;
+    float x = (float)in[0] / (float)NORMAL_MAX * 2.0f - 1.0f,
+          y = (float)in[1] / (float)NORMAL_MAX * 2.0f - 1.0f;
     float z = 1.0f - fabsf(x) - fabsf(y);
     if (z < 0) {
         float ox = x;
@@ -118,20 +124,14 @@ static void models_init(struct mts__stream_models *m)
  * context its residual is coded in, how far that is from the parent (the
  * local edge length: residuals scale with it). Server and client hold the
  * same ring and the same grid points, so they agree exactly. */
-static mts_result predict_position(mts_grow *g, const uint32_t *quantized, uint32_t parent,
-                                   int64_t pred[3], unsigned *context, mts_error *err)
+static unsigned predict_position(const uint32_t *around, uint32_t k, const uint32_t *quantized,
+                                 uint32_t parent, int64_t pred[3])
 {
-    uint32_t k;
-    const uint32_t *around;
-    mts_result rc = mts_grow_around_newest(g, &around, &k, err);
-    if (rc != MTS_OK)
-        return rc;
     const uint32_t *qu = quantized + 3 * (size_t)parent;
-    *context = 0;
     if (k == 0) {
         for (int a = 0; a < 3; a++)
             pred[a] = qu[a];
-        return MTS_OK;
+        return 0;
     }
     uint64_t sum[3] = {0, 0, 0};
     for (uint32_t i = 0; i < k; i++) {
@@ -150,8 +150,64 @@ static mts_result predict_position(mts_grow *g, const uint32_t *quantized, uint3
     unsigned ctx = 0;
     while (far >> ctx && ctx < POSITION_CONTEXTS - 1)
         ctx++;
-    *context = ctx;
-    return MTS_OK;
+    return ctx;
+}
+
+/* Where a new vertex's normal is expected: the area-weighted normal of the
+ * faces around it right after its split (pairs from
+ * mts_grow_around_newest, v's grid point already decoded), as an
+ * octahedral code; the parent's code where the faces have no area. All in
+ * integers: a prediction must come out bit for bit the same on every
+ * platform, and floating-point contraction may differ between builds. */
+static void predict_normal(const uint32_t *around, uint32_t k, const uint32_t *quantized,
+                           uint32_t v, unsigned grid_bits, const uint16_t parent_code[2],
+                           uint16_t code[2])
+{
+    /* differences of up to 2^16 keep each cross product under 2^33 and a
+     * sum over any ring far from int64's limits */
+    const unsigned shift = grid_bits > 16 ? grid_bits - 16 : 0;
+    const uint32_t *qv = quantized + 3 * (size_t)v;
+    int64_t n[3] = {0, 0, 0};
+    for (uint32_t i = 0; i + 1 < k; i += 2) {
+        const uint32_t *qa = quantized + 3 * (size_t)around[i];
+        const uint32_t *qb = quantized + 3 * (size_t)around[i + 1];
+        int64_t a[3], b[3];
+        for (int x = 0; x < 3; x++) {
+            a[x] = ((int64_t)qa[x] - qv[x]) / ((int64_t)1 << shift);
+            b[x] = ((int64_t)qb[x] - qv[x]) / ((int64_t)1 << shift);
+        }
+        n[0] += a[1] * b[2] - a[2] * b[1];
+        n[1] += a[2] * b[0] - a[0] * b[2];
+        n[2] += a[0] * b[1] - a[1] * b[0];
+    }
+    /* keep |x| + |y| + |z| under 2^40 so NORMAL_MAX times it fits; halving
+     * (toward zero, as C divides) keeps the direction */
+    for (;;) {
+        int64_t l = (n[0] < 0 ? -n[0] : n[0]) + (n[1] < 0 ? -n[1] : n[1]) +
+                    (n[2] < 0 ? -n[2] : n[2]);
+        if (l < ((int64_t)1 << 40))
+            break;
+        n[0] /= 2;
+        n[1] /= 2;
+        n[2] /= 2;
+    }
+    int64_t ax = n[0] < 0 ? -n[0] : n[0], ay = n[1] < 0 ? -n[1] : n[1],
+            az = n[2] < 0 ? -n[2] : n[2], l = ax + ay + az;
+    if (l == 0) {
+        code[0] = parent_code[0];
+        code[1] = parent_code[1];
+        return;
+    }
+    /* oct_encode's map with x / l and y / l as fractions: the lower half
+     * folds over the diagonals (a zero component counts as positive) */
+    int64_t x = n[0], y = n[1];
+    if (n[2] < 0) {
+        x = (l - ay) * (n[0] >= 0 ? 1 : -1);
+        y = (l - ax) * (n[1] >= 0 ? 1 : -1);
+    }
+    /* round(NORMAL_MAX (x + l) / 2l), x + l in [0, 2l] */
+    code[0] = (uint16_t)((NORMAL_MAX * (x + l) + l) / (2 * l));
+    code[1] = (uint16_t)((NORMAL_MAX * (y + l) + l) / (2 * l));
 }
 
 /* ---- server ---- */
@@ -487,17 +543,22 @@ static mts_result predict_all(mts_stream *s, const uint16_t *oct, int carry_norm
         uint32_t words;
         if ((rc = mts_grow_next(g, &sp, &given, &rec, &words, err)) != MTS_OK)
             break;
-        int64_t pred[3];
-        unsigned ctx;
-        if ((rc = predict_position(g, s->quantized, u, pred, &ctx, err)) != MTS_OK)
+        const uint32_t *around;
+        uint32_t k;
+        if ((rc = mts_grow_around_newest(g, &around, &k, err)) != MTS_OK)
             break;
-        pass->context[j] = (uint8_t)ctx;
+        int64_t pred[3];
+        pass->context[j] = (uint8_t)predict_position(around, k, s->quantized, u, pred);
         int32_t *r = pass->residual + 5 * (size_t)j;
         for (int a = 0; a < 3; a++)
             r[a] = (int32_t)((int64_t)s->quantized[3 * (size_t)v + a] - pred[a]);
-        for (int a = 0; a < 2; a++)
-            r[3 + a] = carry_normals ? (int32_t)oct[2 * (size_t)v + a] - oct[2 * (size_t)u + a]
-                                     : 0;
+        r[3] = r[4] = 0;
+        if (carry_normals) {
+            uint16_t code[2];
+            predict_normal(around, k, s->quantized, v, s->grid.bits, oct + 2 * (size_t)u, code);
+            r[3] = (int32_t)oct[2 * (size_t)v] - code[0];
+            r[4] = (int32_t)oct[2 * (size_t)v + 1] - code[1];
+        }
     }
     if (rc == MTS_OK && n > 0)
         rc = mts_grow_full_describe(g, &m->full, pass->paths, pass->swaps, &pass->swap_count,
@@ -1206,10 +1267,12 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
             rc = keep_record(c, j, r, rw, err);
         if (rc != MTS_OK)
             return mts_error_prefix(err, "BATCH %u", index);
-        int64_t pred[3];
-        unsigned ctx;
-        if ((rc = predict_position(c->grow, c->quantized, sp.parent, pred, &ctx, err)) != MTS_OK)
+        const uint32_t *around;
+        uint32_t k;
+        if ((rc = mts_grow_around_newest(c->grow, &around, &k, err)) != MTS_OK)
             return mts_error_prefix(err, "BATCH %u", index);
+        int64_t pred[3];
+        unsigned ctx = predict_position(around, k, c->quantized, sp.parent, pred);
         uint32_t *q = c->quantized + 3 * (size_t)v;
         for (int a = 0; a < 3; a++) {
             int64_t x = pred[a] + mts_rc_decode_sint(d, &md->position[ctx]);
@@ -1220,11 +1283,12 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
         }
         mts_draco_dequantize(&c->grid, q, m->positions + 3 * (size_t)v);
         if (c->oct) {
-            uint16_t *o = c->oct + 2 * (size_t)v;
-            const uint16_t *ou = c->oct + 2 * (size_t)sp.parent;
+            uint16_t *o = c->oct + 2 * (size_t)v, ou[2];
+            predict_normal(around, k, c->quantized, v, c->grid.bits,
+                           c->oct + 2 * (size_t)sp.parent, ou);
             for (int a = 0; a < 2; a++) {
                 int64_t x = (int64_t)ou[a] + mts_rc_decode_sint(d, &md->normal[a]);
-                if (x < 0 || x > UINT16_MAX)
+                if (x < 0 || x > NORMAL_MAX)
                     return mts_error_set(err, MTS_ERR_RANGE,
                                          "BATCH %u: vertex %u's normal is off its code", index,
                                          v);
