@@ -1,17 +1,22 @@
 /* A model's wire stream (PROTOCOL.md), both ends.
  *
  * Server: mts_stream_build turns a model into an immutable byte stream -- a
- * BASE frame (Draco base mesh + base strips) and BATCH frames (splits with
- * their vertices and records) -- encoded once and shared read-only by every
- * connection; a connection is then an offset range into it plus two small
- * per-connection frames (MODEL_INFO, END). Building also fixes the model the
- * stream stands for: positions snapped to the quantization grid, normals as
- * the client will decode them, base vertices renumbered to Draco's decoded
- * order. A client that applies the whole stream holds exactly that model.
+ * BASE frame (Draco base mesh + base strips) and BATCH frames (range-coded
+ * splits: parent, fan code, vertex position and, where the source had them,
+ * normal, each against a prediction from the mesh both ends hold; the last
+ * batch also describes the full strips) -- encoded once and shared
+ * read-only by every connection; a connection is then an offset range into
+ * it plus two small per-connection frames (MODEL_INFO, END). Building runs
+ * the growth a client will run (grow.h), to predict as the client will, and
+ * fixes the model the stream stands for: positions snapped to the
+ * quantization grid, normals as the client will decode them (none where the
+ * source had none), base vertices renumbered to Draco's decoded order. A
+ * client that applies the whole stream holds exactly that model.
  *
  * Client: mts_stream_client takes frames as they arrive, checks each against
- * its bounds, the CRC and the state so far, and applies every batch through
- * the LOD runtime (mts_lod), so a renderer can follow along. After a broken
+ * its bounds, the CRC and the state so far, derives every split's record
+ * with the same growth, and applies every batch through the LOD runtime
+ * (mts_lod), so a renderer can follow along. After a broken
  * connection it takes a new conversation that resumes from the last batch it
  * applied (mts_stream_client_resume_point, mts_stream_client_reconnected). */
 #ifndef MTS_STREAM_H
