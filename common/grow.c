@@ -19,16 +19,18 @@
 #include "words.h"
 
 
-/* Directed edge (a, b) -> the triangle that holds it; open addressing that
- * doubles when half full (tombstones counted). */
+/* Directed edge (a, b) -> the triangle that holds it: linear probing that
+ * doubles when half full. Deleting shifts the entries after a hole back
+ * into it (Knuth's algorithm R) instead of leaving a tombstone: a split
+ * deletes and inserts a dozen edges, and tombstones made the table rehash
+ * itself every few thousand splits, 15% of a client's derivation time. */
 typedef struct edge_map {
     uint64_t *key;
     int32_t *tri;
-    uint32_t mask, used, live;
+    uint32_t mask, live;
 } edge_map;
 
 #define EDGE_EMPTY UINT64_MAX
-#define EDGE_GONE (UINT64_MAX - 1)
 
 static uint32_t edge_hash(uint64_t k)
 {
@@ -57,7 +59,7 @@ static int edge_map_alloc(edge_map *m, size_t entries)
     for (size_t i = 0; i < cap; i++)
         m->key[i] = EDGE_EMPTY;
     m->mask = (uint32_t)(cap - 1);
-    m->used = m->live = 0;
+    m->live = 0;
     return 1;
 }
 
@@ -68,25 +70,21 @@ static void edge_map_insert_new(edge_map *m, uint64_t k, int32_t t)
         i = (i + 1) & m->mask;
     m->key[i] = k;
     m->tri[i] = t;
-    m->used++;
     m->live++;
 }
 
-/* Makes room for one more entry: rehashes without tombstones, doubling when
- * the live entries alone fill a quarter. */
+/* Makes room for one more entry: doubles once half full. */
 static int edge_map_room(edge_map *m)
 {
-    if ((size_t)(m->used + 1) * 2 <= (size_t)m->mask + 1)
+    if ((size_t)(m->live + 1) * 2 <= (size_t)m->mask + 1)
         return 1;
     edge_map old = *m;
-    size_t want = (size_t)m->live + 1 > ((size_t)m->mask + 1) / 4 ? ((size_t)m->mask + 1)
-                                                                    : ((size_t)m->mask + 1) / 2;
-    if (!edge_map_alloc(m, want)) {
+    if (!edge_map_alloc(m, (size_t)old.mask + 1)) {
         *m = old;
         return 0;
     }
     for (size_t i = 0; i <= old.mask; i++) {
-        if (old.key[i] != EDGE_EMPTY && old.key[i] != EDGE_GONE)
+        if (old.key[i] != EDGE_EMPTY)
             edge_map_insert_new(m, old.key[i], old.tri[i]);
     }
     free(old.key);
@@ -100,25 +98,16 @@ static int edge_map_put(edge_map *m, uint32_t a, uint32_t b, int32_t t)
         return 0;
     uint64_t k = (uint64_t)a << 32 | b;
     uint32_t i = edge_hash(k) & m->mask;
-    int64_t gone = -1;
     while (m->key[i] != EDGE_EMPTY) {
         if (m->key[i] == k) {
             m->tri[i] = t;
             return 1;
         }
-        if (m->key[i] == EDGE_GONE && gone < 0)
-            gone = i;
         i = (i + 1) & m->mask;
-    }
-    if (gone >= 0) {
-        i = (uint32_t)gone;
-        m->live++;
-    } else {
-        m->used++;
-        m->live++;
     }
     m->key[i] = k;
     m->tri[i] = t;
+    m->live++;
     return 1;
 }
 
@@ -137,15 +126,26 @@ static int32_t edge_map_get(const edge_map *m, uint32_t a, uint32_t b)
 static void edge_map_del(edge_map *m, uint32_t a, uint32_t b, int32_t t)
 {
     uint64_t k = (uint64_t)a << 32 | b;
-    for (uint32_t i = edge_hash(k) & m->mask; m->key[i] != EDGE_EMPTY; i = (i + 1) & m->mask) {
-        if (m->key[i] == k) {
-            if (m->tri[i] == t) {
-                m->key[i] = EDGE_GONE;
-                m->live--;
-            }
+    uint32_t i = edge_hash(k) & m->mask;
+    while (m->key[i] != k) {
+        if (m->key[i] == EDGE_EMPTY)
             return;
+        i = (i + 1) & m->mask;
+    }
+    if (m->tri[i] != t)
+        return;
+    /* close the hole: an entry further on moves into it unless its home
+     * slot lies cyclically in (hole, entry], where a lookup still finds it */
+    for (uint32_t j = (i + 1) & m->mask; m->key[j] != EDGE_EMPTY; j = (j + 1) & m->mask) {
+        uint32_t home = edge_hash(m->key[j]) & m->mask;
+        if (((j - home) & m->mask) >= ((j - i) & m->mask)) {
+            m->key[i] = m->key[j];
+            m->tri[i] = m->tri[j];
+            i = j;
         }
     }
+    m->key[i] = EDGE_EMPTY;
+    m->live--;
 }
 
 struct mts_grow {
