@@ -1,19 +1,19 @@
 #!/usr/bin/env bash
 # Runs the libFuzzer targets `make fuzz` built (Makefile, "fuzzing"):
 #
-#   scripts/fuzz.sh BUILD_DIR SECONDS MIN_RUNS TARGET:MAX_LEN...
+#   scripts/fuzz.sh BUILD_DIR SECONDS MIN_RUNS MAX_SECONDS TARGET:MAX_LEN...
 #
 # Each target runs SECONDS on build/fuzz/corpus/<target> (kept between runs;
 # new inputs go there) plus the seeds and tests/fuzz/regressions/<target>. A
 # target that ran fewer than MIN_RUNS executions in that time gets a second
-# run of at most SECONDS more, so a fast target is not held back and a slow
-# one is bounded. Prints executions per target; exits 1 when any target found
+# run until it has, for at most MAX_SECONDS in all, so a fast target is not
+# held back and a slow one still reaches MIN_RUNS within a bound. Prints executions per target; exits 1 when any target found
 # a crash, a hang (-timeout) or an out-of-memory (-rss_limit_mb,
 # -malloc_limit_mb), with the input in BUILD_DIR/artifacts/<target>/.
 set -uo pipefail
 cd "$(dirname "$0")/.." || exit 1
-dir=$1 seconds=$2 min_runs=$3
-shift 3
+dir=$1 seconds=$2 min_runs=$3 max_seconds=$4
+shift 4
 # A small ASan quarantine (16 MB instead of 256): the targets free and
 # allocate the same buffers every execution, and cycling 256 MB of fresh
 # pages through the kernel made them several times slower. A use after free
@@ -31,12 +31,13 @@ for spec in "$@"; do
   : > "$log"
   result=ok runs=0 secs=0
   for phase in 1 2; do
-    limit=()
+    limit=() time_limit=$seconds
     if [ "$phase" -eq 2 ]; then
-      [ "$runs" -lt "$min_runs" ] || break
+      [ "$runs" -lt "$min_runs" ] && [ "$secs" -lt "$max_seconds" ] || break
       limit=(-runs=$((min_runs - runs)))
+      time_limit=$((max_seconds - secs))
     fi
-    if ! "$dir/bin/fuzz_$t" -max_total_time="$seconds" "${limit[@]}" -max_len="$max_len" \
+    if ! "$dir/bin/fuzz_$t" -max_total_time="$time_limit" "${limit[@]}" -max_len="$max_len" \
          -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048 -print_final_stats=1 \
          -artifact_prefix="$dir/artifacts/$t/" "${dirs[@]}" >> "$log" 2>&1; then
       result=FAILED
@@ -54,7 +55,7 @@ for spec in "$@"; do
   summary+=$(printf '%-14s %10d executions in %4d s (%6d/s)  %s' "$t" "$runs" "$secs" "$rate" "$result")$'\n'
 done
 printf 'fuzz: executions per target (at least %s s each, more up to %s s while under %s)\n%s' \
-  "$seconds" $((2 * seconds)) "$min_runs" "$summary"
+  "$seconds" "$max_seconds" "$min_runs" "$summary"
 if [ -n "$failed" ]; then
   echo "fuzz: FAILED:$failed -- the inputs are in $dir/artifacts/<target>/; reproduce with" \
        "$dir/bin/fuzz_<target> FILE, fix, and keep the input in tests/fuzz/regressions/<target>/"
