@@ -1211,15 +1211,20 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
             g->affected.w[g->affected.n++] = t;
         }
     } else {
-        int32_t k = mts_grow_fan(g, u, sp->left, sp->right, NULL, 0);
+        /* one walk of the fan while the scratch is big enough (nearly
+         * always); a second only after growing it */
+        uint32_t cap = g->affected.cap > UINT32_MAX ? UINT32_MAX : (uint32_t)g->affected.cap;
+        int32_t k = mts_grow_fan(g, u, sp->left, sp->right, g->affected.w, cap);
         if (k < 0)
             return mts_error_set(err, MTS_ERR_FORMAT,
                                  "grow: split %u: no fan of %u from %u to %u", g->level, u,
                                  sp->right, sp->left);
-        if (!mts_words_reserve(&g->affected, (uint32_t)k))
-            goto nomem;
-        g->affected.n = (size_t)mts_grow_fan(g, u, sp->left, sp->right, g->affected.w,
-                                             (uint32_t)k);
+        if ((uint32_t)k > cap) {
+            if (!mts_words_reserve(&g->affected, (uint32_t)k))
+                goto nomem;
+            k = mts_grow_fan(g, u, sp->left, sp->right, g->affected.w, (uint32_t)k);
+        }
+        g->affected.n = (size_t)k;
     }
     for (size_t k = 0; k < g->affected.n; k++) {
         uint32_t t = g->affected.w[k];
@@ -1341,6 +1346,28 @@ mts_result mts_grow_around_newest(mts_grow *g, const uint32_t **ids, uint32_t *c
     *ids = out;
     *count = n;
     return MTS_OK;
+}
+
+int mts_grow_model_split(mts_grow *g, const mts_model *m, uint32_t j, mts_grow_split *sp)
+{
+    const uint32_t *w = m->growth_data + m->growth_offsets[j];
+    uint32_t len = m->growth_offsets[j + 1] - m->growth_offsets[j];
+    memset(sp, 0, sizeof *sp);
+    sp->parent = m->parents[j];
+    if (len < 3)
+        return 0;
+    if (w[2] == MTS_GROWTH_EXPLICIT) {
+        if (len < 5 || (uint64_t)w[3] + 3ull * w[4] != len - 5)
+            return 0;
+        sp->left = sp->right = MTS_GROW_NONE;
+        sp->moved_count = w[3];
+        sp->born_count = w[4];
+        sp->moved = w + 5;
+        sp->born = w + 5 + w[3];
+        return sp->moved_count || sp->born_count;
+    }
+    mts_grow_fan_code code = {w[0], w[1], w[2]};
+    return len == 3 && mts_grow_fan_decode(g, sp->parent, &code, &sp->left, &sp->right);
 }
 
 void mts_grow_get_figures(const mts_grow *g, mts_grow_figures *out)

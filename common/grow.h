@@ -27,6 +27,7 @@
 
 #include "bytes.h"
 #include "error.h"
+#include "model.h"
 #include "strips.h"
 
 #define MTS_GROW_NONE UINT32_MAX
@@ -150,6 +151,12 @@ int mts_grow_fan_decode(mts_grow *g, uint32_t parent, const mts_grow_fan_code *c
  * (valid until the next call). MTS_ERR_ARG before any split. */
 mts_result mts_grow_around_newest(mts_grow *g, const uint32_t **ids, uint32_t *count,
                                   mts_error *err);
+
+/* Split j of a model as mts_grow_next takes it, from the model's split
+ * description (model.h: a fan code decoded against g, now at level j, or
+ * the explicit lists, which sp then points into). 0 when the description
+ * is malformed or names no fan of g's mesh. */
+int mts_grow_model_split(mts_grow *g, const mts_model *m, uint32_t j, mts_grow_split *sp);
 
 /* Vertex ids of triangle t, as they are now. */
 void mts_grow_triangle(const mts_grow *g, uint32_t t, uint32_t out[3]);

@@ -629,30 +629,6 @@ done:
     return rc;
 }
 
-/* One split's description from the model as mts_grow_next takes it; the
- * fan code is decoded against g. Returns 0 on a malformed description. */
-static int growth_split(mts_grow *g, const mts_model *m, uint32_t j, mts_grow_split *sp)
-{
-    const uint32_t *w = m->growth_data + m->growth_offsets[j];
-    uint32_t len = m->growth_offsets[j + 1] - m->growth_offsets[j];
-    memset(sp, 0, sizeof *sp);
-    sp->parent = m->parents[j];
-    if (len < 3)
-        return 0;
-    if (w[2] == MTS_GROWTH_EXPLICIT) {
-        if (len < 5 || (uint64_t)w[3] + 3ull * w[4] != len - 5)
-            return 0;
-        sp->left = sp->right = MTS_GROW_NONE;
-        sp->moved_count = w[3];
-        sp->born_count = w[4];
-        sp->moved = w + 5;
-        sp->born = w + 5 + w[3];
-        return sp->moved_count || sp->born_count;
-    }
-    mts_grow_fan_code code = {w[0], w[1], w[2]};
-    return len == 3 && mts_grow_fan_decode(g, sp->parent, &code, &sp->left, &sp->right);
-}
-
 /* Derives every record from the descriptions with the full strips given as
  * gf, comparing each with the model's; leaves g at the full level. */
 static mts_result derive_all(const mts_model *m, const mts_grow_full *gf, mts_grow **gout,
@@ -672,7 +648,7 @@ static mts_result derive_all(const mts_model *m, const mts_grow_full *gf, mts_gr
         const uint32_t *r;
         uint32_t words;
         rep->failed_level = j;
-        if (!growth_split(g, m, j, &sp)) {
+        if (!mts_grow_model_split(g, m, j, &sp)) {
             rc = mts_error_set(err, MTS_ERR_INVARIANT, "growth: split %u's description names no "
                                "fan of the mesh", j);
             break;

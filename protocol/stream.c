@@ -9,7 +9,6 @@
 
 #include "crc32c.h"
 #include "rcoder.h"
-#include "reccodec.h"
 #include "varint.h"
 
 /* ---- shared pieces ---- */
@@ -521,23 +520,13 @@ static mts_result predict_all(mts_stream *s, const uint16_t *oct, int carry_norm
     const mts_grow_full given = {&m->full, NULL, NULL, 0, m->strip_count};
     for (uint32_t j = 0; j < n && rc == MTS_OK; j++) {
         const uint32_t v = nb + j, u = m->parents[j];
-        const uint32_t *w = m->growth_data + m->growth_offsets[j];
-        mts_grow_split sp = {0};
-        sp.parent = u;
-        if (w[2] == MTS_GROWTH_EXPLICIT) {
-            sp.left = sp.right = MTS_GROW_NONE;
-            sp.moved_count = w[3];
-            sp.born_count = w[4];
-            sp.moved = w + 5;
-            sp.born = w + 5 + w[3];
-        } else {
-            mts_grow_fan_code fc = {w[0], w[1], w[2]};
-            if (!mts_grow_fan_decode(g, u, &fc, &sp.left, &sp.right)) {
-                rc = mts_error_set(err, MTS_ERR_ARG,
-                                   "split %u's fan code names no fan; rebuild it with mts-build",
-                                   j);
-                break;
-            }
+        mts_grow_split sp;
+        if (!mts_grow_model_split(g, m, j, &sp)) {
+            rc = mts_error_set(err, MTS_ERR_ARG,
+                               "split %u's description names no fan of the mesh; rebuild it "
+                               "with mts-build",
+                               j);
+            break;
         }
         const uint32_t *rec;
         uint32_t words;
