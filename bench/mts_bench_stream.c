@@ -86,6 +86,41 @@ static double apply_all(const mts_buf *b, mts_renderer *r, mts_error *err)
     return ok ? t : 0;
 }
 
+/* Medians of 5 runs of apply_all on a connection's bytes b, without GL
+ * upload and (with a context) with it; *gl stays 0 without one. */
+static void apply_median(const mts_buf *b, const mts_stream *s, mts_render_context *ctx,
+                         double *no_gl, double *gl, mts_error *err)
+{
+    double t[5] = {0}, tg[5] = {0};
+    apply_all(b, NULL, err); /* warm-up: first-touch page faults are not decoding */
+    for (int k = 0; k < 5; k++)
+        t[k] = apply_all(b, NULL, err);
+    if (t[0] == 0)
+        printf("%-14s apply FAILED: %s\n", "", err->msg);
+    qsort(t, 5, sizeof(double), cmp_double);
+    *no_gl = t[2];
+    *gl = 0;
+    if (!ctx)
+        return;
+    for (int k = 0; k < 5; k++) {
+        mts_lod lod;
+        mts_renderer *r = NULL;
+        mts_render_options ro;
+        mts_render_options_default(&ro);
+        ro.style.flat_shading = !(s->model.flags & MTS_MODEL_NORMALS_GIVEN);
+        if (mts_lod_init(&lod, &s->model, MTS_LOD_AT_BASE, err) == MTS_OK) {
+            mts_render_layout layout;
+            mts_render_layout_from_lod(&lod, &layout);
+            if (mts_renderer_create(ctx, &ro, &layout, &r, err) == MTS_OK)
+                tg[k] = apply_all(b, r, err);
+            mts_renderer_destroy(r);
+            mts_lod_free(&lod);
+        }
+    }
+    qsort(tg, 5, sizeof(double), cmp_double);
+    *gl = tg[2];
+}
+
 /* Median frame time of n draws in the renderer's current mode. */
 static double frame_ms(mts_renderer *r, int n, mts_error *err)
 {
@@ -396,7 +431,9 @@ int main(int argc, char **argv)
             printf("%-14s FAILED: %s\n", name, err.msg);
             continue;
         }
-        if (mts_stream_build(&m, name, NULL, &s, &err) != MTS_OK) {
+        mts_stream_options sto = {0};
+        sto.with_records = 1;
+        if (mts_stream_build(&m, name, &sto, &s, &err) != MTS_OK) {
             printf("%-14s FAILED: %s\n", name, err.msg);
             mts_model_free(&m);
             mts_mesh_free(&mesh);
@@ -432,40 +469,25 @@ int main(int argc, char **argv)
                s.batch_offset[0], draco[0], draco[1], draco[2], file_size,
                draco[0] ? (double)full / draco[0] : 0, at[0], at[1], at[2]);
 
-        /* apply throughput, median of 5 */
-        double no_gl[5] = {0}, with_gl[5] = {0};
-        apply_all(&b, NULL, &err); /* warm-up: first-touch page faults are not decoding */
-        for (int k = 0; k < 5; k++)
-            no_gl[k] = apply_all(&b, NULL, &err);
-        if (no_gl[0] == 0)
-            printf("%-14s apply FAILED: %s\n", "", err.msg);
-        qsort(no_gl, 5, sizeof(double), cmp_double);
-        double gl_med = 0;
-        if (have_gl) {
-            for (int k = 0; k < 5; k++) {
-                mts_lod lod;
-                mts_renderer *r = NULL;
-                mts_render_options ro;
-                mts_render_options_default(&ro);
-                ro.style.flat_shading = !(s.model.flags & MTS_MODEL_NORMALS_GIVEN);
-                if (mts_lod_init(&lod, &s.model, MTS_LOD_AT_BASE, &err) == MTS_OK) {
-                    mts_render_layout layout;
-                    mts_render_layout_from_lod(&lod, &layout);
-                    if (mts_renderer_create(ctx, &ro, &layout, &r, &err) == MTS_OK)
-                        with_gl[k] = apply_all(&b, r, &err);
-                    mts_renderer_destroy(r);
-                    mts_lod_free(&lod);
-                }
-            }
-            qsort(with_gl, 5, sizeof(double), cmp_double);
-            gl_med = with_gl[2];
-        }
+        /* apply throughput, median of 5, of each form */
+        double no_gl = 0, gl_med = 0, rec_no_gl = 0, rec_gl = 0;
+        apply_median(&b, &s, have_gl ? ctx : NULL, &no_gl, &gl_med, &err);
+        mts_buf rb = {0};
+        size_t rec_full = connection_bytes(s.records_form, m.level_count, &rb);
+        apply_median(&rb, &s, have_gl ? ctx : NULL, &rec_no_gl, &rec_gl, &err);
+        mts_buf_free(&rb);
         double splits = m.level_count;
         printf("%-14s apply %u splits: %.2f ms decode+apply (%.2f M splits/s)", "", m.level_count,
-               no_gl[2] * 1e3, no_gl[2] > 0 ? splits / no_gl[2] / 1e6 : 0);
+               no_gl * 1e3, no_gl > 0 ? splits / no_gl / 1e6 : 0);
         if (have_gl)
             printf(", %.2f ms with GL upload (%.2f M splits/s)", gl_med * 1e3,
                    gl_med > 0 ? splits / gl_med / 1e6 : 0);
+        printf("\n%-14s records form (--records): %zu B (%.1fx), apply %.2f ms (%.2f M splits/s)",
+               "", rec_full, full ? (double)rec_full / full : 0, rec_no_gl * 1e3,
+               rec_no_gl > 0 ? splits / rec_no_gl / 1e6 : 0);
+        if (have_gl)
+            printf(", %.2f ms with GL upload (%.2f M splits/s)", rec_gl * 1e3,
+                   rec_gl > 0 ? splits / rec_gl / 1e6 : 0);
         printf("\n");
         draw_figures df = {0};
         if (have_gl && draw_compare(ctx, &s.model, &df, &err))
@@ -485,14 +507,19 @@ int main(int argc, char **argv)
                     "\"bytes_100pct_triangles\":%zu,\"apply_ms\":%.3f,\"splits_per_s\":%.0f,"
                     "\"apply_gl_ms\":%.3f,\"splits_per_s_gl\":%.0f,\"frame_ms_strips\":%.3f,"
                     "\"frame_ms_list\":%.3f,\"frame_ms_list_meshopt\":%.3f,"
-                    "\"strip_index_bytes\":%llu,\"list_index_bytes\":%llu}",
+                    "\"strip_index_bytes\":%llu,\"list_index_bytes\":%llu,"
+                    "\"records_stream_bytes\":%zu,\"records_apply_ms\":%.3f,"
+                    "\"records_splits_per_s\":%.0f,\"records_apply_gl_ms\":%.3f,"
+                    "\"records_splits_per_s_gl\":%.0f}",
                     first_json ? "" : ",", name, full, s.batch_offset[0], s.batch_count, draco[0],
                     draco[1], draco[2], draco[0] ? (double)full / draco[0] : 0,
-                    (long long)st.st_size, file_size, at[0], at[1], at[2], no_gl[2] * 1e3,
-                    no_gl[2] > 0 ? splits / no_gl[2] : 0, gl_med * 1e3,
+                    (long long)st.st_size, file_size, at[0], at[1], at[2], no_gl * 1e3,
+                    no_gl > 0 ? splits / no_gl : 0, gl_med * 1e3,
                     gl_med > 0 ? splits / gl_med : 0, df.strips_ms, df.list_ms, df.list_opt_ms,
                     (unsigned long long)df.strip_index_bytes,
-                    (unsigned long long)df.list_index_bytes);
+                    (unsigned long long)df.list_index_bytes, rec_full, rec_no_gl * 1e3,
+                    rec_no_gl > 0 ? splits / rec_no_gl : 0, rec_gl * 1e3,
+                    rec_gl > 0 ? splits / rec_gl : 0);
             first_json = 0;
         }
         mts_buf_free(&b);

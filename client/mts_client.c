@@ -25,7 +25,8 @@ static void usage(FILE *f)
 {
     fputs("usage: mts-client [HOST[:PORT]] MODEL [--level L | --triangles N | --fraction F]\n"
           "                  [--png FILE] [--png-levels L1,L2,...] [--size WxH] [--color-strips]\n"
-          "                  [--verify] [--model-file M.mtsm] [--no-render] [--resume]\n"
+          "                  [--verify] [--model-file M.mtsm] [--no-render] [--records]\n"
+          "                  [--resume]\n"
           "                  [--retries N] [--lod-policy P [--fps N] [--distance D]]\n"
           "                  [--json] [--quiet]\n"
           "       mts-client [HOST[:PORT]] MODEL --window [--size WxH] [--script FILE]\n"
@@ -51,6 +52,8 @@ static void usage(FILE *f)
           "                      done) and, with --model-file, that the final strips and\n"
           "                      positions equal that model's stream at the same level\n"
           "  --no-render         decode and apply only\n"
+          "  --records           ask for the records form: about 16x the bytes, but nothing\n"
+          "                      to derive, so far less work to apply; for fast links\n"
           "  --resume            when the connection breaks (or cannot be made), wait\n"
           "                      0.1 s doubling to 2 s (with jitter), reconnect and go on\n"
           "                      from the last batch applied; the final mesh is the same\n"
@@ -822,6 +825,7 @@ static int win_main(run *rn, mts_session_options *so, const char *script_path, i
         cli_json_bool(&j, "complete", complete);
         cli_json_u64(&j, "bytes", st.bytes);
         cli_json_u64(&j, "batches", c.batches);
+        cli_json_str(&j, "form", c.records ? "records" : "splits");
         cli_json_u64(&j, "level", c.have_lod ? c.lod.level : 0);
         cli_json_u64(&j, "levels", c.info.levels);
         cli_json_u64(&j, "triangles", triangles);
@@ -906,6 +910,8 @@ int main(int argc, char **argv)
             list = 1;
         } else if (!strcmp(a, "--no-render")) {
             rn.render = 0;
+        } else if (!strcmp(a, "--records")) {
+            so.hello.flags |= MTS_HELLO_RECORDS;
         } else if (!strcmp(a, "--window")) {
             window = 1;
         } else if (!strcmp(a, "--script")) {
@@ -1122,6 +1128,7 @@ int main(int argc, char **argv)
         cli_json_bool(&j, "complete", rc == MTS_OK);
         cli_json_u64(&j, "bytes", st.bytes);
         cli_json_u64(&j, "batches", c.batches);
+        cli_json_str(&j, "form", c.records ? "records" : "splits");
         cli_json_u64(&j, "level", c.have_lod ? c.lod.level : 0);
         cli_json_u64(&j, "levels", c.info.levels);
         if (po.kind != MTS_LOD_POLICY_RECEIVED) {

@@ -13,6 +13,7 @@ static void usage(FILE *f)
 {
     fputs("usage: mts-stress [HOST[:PORT]] MODEL --clients N [--concurrency C] [--ramp S]\n"
           "                  [--level L | --triangles N | --fraction F] [--no-apply] [--verify]\n"
+          "                  [--records]\n"
           "                  [--connect-timeout S] [--io-timeout S] [--json] [--quiet]\n"
           "       mts-stress HOST:PORT --http PATH --clients N ...   (a static file server)\n"
           "\n"
@@ -27,6 +28,8 @@ static void usage(FILE *f)
           "  --level L / --triangles N / --fraction F   where each client stops (default: full)\n"
           "  --no-apply           only read and frame the stream; do not decode or apply\n"
           "                       (loads the server, not this process)\n"
+          "  --records            ask for the records form (PROTOCOL.md): far more bytes,\n"
+          "                       far less work for an applying client\n"
           "  --verify             with --no-apply, still check every batch's CRC (applying\n"
           "                       clients always check CRCs and the final checksum)\n"
           "  --http PATH          not mtstream: GET PATH over HTTP/1.0 from each client, to\n"
@@ -97,6 +100,8 @@ int main(int argc, char **argv)
             so.no_apply = 1;
         } else if (!strcmp(a, "--verify")) {
             so.verify = 1;
+        } else if (!strcmp(a, "--records")) {
+            so.hello.flags |= MTS_HELLO_RECORDS;
         } else if (!strcmp(a, "--clients") || !strcmp(a, "--concurrency")) {
             uint32_t x;
             if (!v || !cli_parse_u32(v, &x) || x == 0) {

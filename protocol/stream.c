@@ -3,12 +3,14 @@
 #include "grow.h"
 
 #include <math.h>
+#include <sys/mman.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "crc32c.h"
 #include "rcoder.h"
+#include "reccodec.h"
 #include "varint.h"
 
 /* ---- shared pieces ---- */
@@ -215,14 +217,25 @@ void mts_stream_free(mts_stream *s)
 {
     if (!s)
         return;
-    mts_model_free(&s->model);
-    free(s->quantized);
+    if (s->records_form) {
+        mts_stream_free(s->records_form);
+        free(s->records_form);
+    }
+    if (!s->borrowed) {
+        mts_model_free(&s->model);
+        free(s->quantized);
+        free(s->batch_first);
+        free(s->level_checksum);
+    }
     free(s->bytes);
-    free(s->batch_first);
     free(s->batch_offset);
-    free(s->level_checksum);
     free(s->info_tail);
     memset(s, 0, sizeof *s);
+}
+
+const mts_stream *mts_stream_for_hello(const mts_stream *s, uint32_t hello_flags)
+{
+    return (hello_flags & MTS_HELLO_RECORDS) && s->records_form ? s->records_form : s;
 }
 
 static mts_result copy_model(const mts_model *src, mts_model *dst, mts_error *err)
@@ -586,6 +599,92 @@ static void encode_full(mts_rc_encoder *e, struct mts__stream_models *md,
 
 static mts_result build_info_tail(mts_stream *s);
 
+/* The records form of a built stream (PROTOCOL.md, "Records form"): its
+ * BASE frame as is, then per batch the splits' records in the model file's
+ * encoding (reccodec.h) and each new vertex against its parent, as plain
+ * varints: a client then only checks and applies records, with no growth
+ * to run, which is what a fast link wants. */
+static mts_result build_records_form(mts_stream *s, const uint16_t *oct, int carry_normals,
+                                     mts_error *err)
+{
+    const mts_model *m = &s->model;
+    const uint32_t nb = m->base_vertex_count;
+    mts_stream *r = calloc(1, sizeof *r);
+    mts_buf b = {0};
+    uint8_t *rec = NULL;
+    size_t rec_cap = 0;
+    mts_result rc = MTS_OK;
+    if (!r)
+        goto nomem;
+    memcpy(r->name, s->name, sizeof r->name);
+    r->model = s->model;
+    r->quantized = s->quantized;
+    r->grid = s->grid;
+    r->draco_method = s->draco_method;
+    r->batch_count = s->batch_count;
+    r->batch_first = s->batch_first;
+    r->level_checksum = s->level_checksum;
+    r->borrowed = 1;
+    r->records = 1;
+    r->batch_offset = malloc(((size_t)s->batch_count + 1) * sizeof *r->batch_offset);
+    if (!r->batch_offset)
+        goto nomem;
+    const size_t base_end = s->batch_count ? s->batch_offset[0] : s->size;
+    mts_buf_put(&b, s->bytes, base_end);
+    for (uint32_t k = 0; k < s->batch_count; k++) {
+        const uint32_t first = s->batch_first[k], count = s->batch_first[k + 1] - first;
+        r->batch_offset[k] = b.size;
+        size_t f = mts_wire_frame_begin(&b, MTS_MSG_BATCH);
+        mts_buf_varint(&b, k);
+        mts_buf_varint(&b, first);
+        mts_buf_varint(&b, count);
+        size_t need = mts_reccodec_bound(m, first, count), written = 0;
+        if (need > rec_cap) {
+            free(rec);
+            rec_cap = need;
+            if (!(rec = malloc(rec_cap)))
+                goto nomem;
+        }
+        if ((rc = mts_reccodec_encode(m, first, count, rec, rec_cap, &written, err)) != MTS_OK)
+            goto fail;
+        mts_buf_put(&b, rec, written);
+        for (uint32_t i = 0; i < count; i++) {
+            const uint32_t j = first + i, v = nb + j, u = m->parents[j];
+            for (int a = 0; a < 3; a++)
+                mts_buf_varint(&b, mts_zigzag_u32(s->quantized[3 * (size_t)v + a] -
+                                                  s->quantized[3 * (size_t)u + a]));
+            for (int a = 0; a < 2 && carry_normals; a++)
+                mts_buf_varint(&b, mts_zigzag_u32((uint32_t)oct[2 * (size_t)v + a] -
+                                                  oct[2 * (size_t)u + a]));
+        }
+        put_crc(&b, f);
+        mts_wire_frame_end(&b, f);
+    }
+    r->batch_offset[s->batch_count] = b.size;
+    if (b.failed)
+        goto nomem;
+    r->bytes = b.data;
+    r->size = b.size;
+    b.data = NULL;
+    r->stream_id = fnv64(r->bytes, r->size) ^ ((uint64_t)r->size << 1);
+    if (build_info_tail(r) != MTS_OK)
+        goto nomem;
+    free(rec);
+    s->records_form = r;
+    return MTS_OK;
+nomem:
+    rc = mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory for the records form of '%s'",
+                       s->name);
+fail:
+    free(rec);
+    mts_buf_free(&b);
+    if (r) {
+        mts_stream_free(r);
+        free(r);
+    }
+    return rc;
+}
+
 mts_result mts_stream_build(const mts_model *model, const char *name,
                             const mts_stream_options *opts, mts_stream *s, mts_error *err)
 {
@@ -729,6 +828,8 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         goto fail;
     if (build_info_tail(s) != MTS_OK)
         goto nomem;
+    if (opts->with_records && (rc = build_records_form(s, oct, carry_normals, err)) != MTS_OK)
+        goto fail;
     free(draco);
     free(oct);
     free(models);
@@ -797,7 +898,8 @@ static void info_fields(const mts_stream *s, uint32_t stop_level, mts_wire_model
     memcpy(mi->bbox_min, m->bbox_min, 12);
     memcpy(mi->bbox_max, m->bbox_max, 12);
     mi->quant_bits = (uint8_t)s->grid.bits;
-    mi->flags = (m->flags & MTS_MODEL_NORMALS_GIVEN) ? MTS_INFO_NORMALS : 0;
+    mi->flags = (uint8_t)(((m->flags & MTS_MODEL_NORMALS_GIVEN) ? MTS_INFO_NORMALS : 0) |
+                          (s->records ? MTS_INFO_RECORDS : 0));
     memcpy(mi->grid_origin, s->grid.origin, 12);
     mi->grid_range = s->grid.range;
     mi->batch_count = s->batch_count;
@@ -872,6 +974,7 @@ enum { ST_INFO = 0, ST_BASE, ST_BATCHES, ST_DONE, ST_FAILED, ST_SKIP_BASE };
  * arrives, so those counts are capped: 2^24 vertices (a 16M-vertex model
  * holds about 1.2 GB here). */
 #define CLIENT_MAX_VERTICES (1u << 24)
+#define RECORDS_HUGE ((size_t)2 << 20) /* a huge page */
 
 void mts_stream_client_init(mts_stream_client *c)
 {
@@ -975,6 +1078,7 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     memcpy(c->grid.origin, mi->grid_origin, 12);
     c->grid.range = mi->grid_range;
     c->stop_level = mi->stop_level;
+    c->records = (mi->flags & MTS_INFO_RECORDS) != 0;
     return MTS_OK;
 }
 
@@ -1106,15 +1210,54 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     free(lens);
     if (!cur.ok || mts_cursor_left(&cur) != 0)
         return mts_error_set(err, MTS_ERR_FORMAT, "BASE: malformed strips");
+    /* the records form brings every record: nothing to grow */
     mts_grow_options go = {0};
     go.key_levels = c->info.key_levels;
     go.key_count = c->info.key_count;
-    if ((rc = mts_grow_create(&m->base, nb, m->level_count, &go, &c->grow, err)) != MTS_OK)
+    if (!c->records &&
+        (rc = mts_grow_create(&m->base, nb, m->level_count, &go, &c->grow, err)) != MTS_OK)
         return mts_error_prefix(err, "BASE");
     if ((rc = mts_lod_init(&c->lod, m, MTS_LOD_AT_BASE, err)) != MTS_OK)
         return rc;
     c->have_lod = 1;
     mts_lod_set_available(&c->lod, 0);
+    return MTS_OK;
+}
+
+/* Room in the client's model for `words` more record words from word `at`.
+ * A whole model's records run to megabytes (bunny00: 1.7 M words), and a
+ * fresh page costs a fault on first touch, which on a virtual machine is
+ * dearer than decoding the page's records: large buffers are asked for in
+ * huge pages where the kernel gives them (madvise; a hint, nothing more). */
+static mts_result reserve_records(mts_stream_client *c, size_t at, size_t words, mts_error *err)
+{
+    mts_model *m = &c->model;
+    if (words > UINT32_MAX - 1 - at)
+        return mts_error_set(err, MTS_ERR_LIMIT, "BATCH: records past 2^32 words");
+    if (at + words + 1 <= c->record_capacity)
+        return MTS_OK;
+    size_t cap = c->record_capacity ? c->record_capacity : 4096;
+    while (cap < at + words + 1)
+        cap *= 2;
+    uint32_t *w = NULL;
+    if (cap * 4 >= RECORDS_HUGE) {
+        if (posix_memalign((void **)&w, RECORDS_HUGE, cap * 4) != 0)
+            w = NULL;
+        if (w) {
+#ifdef MADV_HUGEPAGE
+            madvise(w, cap * 4, MADV_HUGEPAGE);
+#endif
+            memcpy(w, m->record_data, at * 4);
+            free(m->record_data);
+        }
+    } else {
+        w = realloc(m->record_data, cap * 4);
+    }
+    if (!w)
+        return mts_error_set(err, MTS_ERR_NOMEM, "BATCH: out of memory for %zu record words",
+                             cap);
+    m->record_data = w;
+    c->record_capacity = cap;
     return MTS_OK;
 }
 
@@ -1124,18 +1267,9 @@ static mts_result keep_record(mts_stream_client *c, uint32_t j, const uint32_t *
 {
     mts_model *m = &c->model;
     size_t at = m->record_offsets[j];
-    if (words > UINT32_MAX - 1 - at)
-        return mts_error_set(err, MTS_ERR_LIMIT, "BATCH: records past 2^32 words");
-    if (at + words + 1 > c->record_capacity) {
-        size_t cap = c->record_capacity ? c->record_capacity : 4096;
-        while (cap < at + words + 1)
-            cap *= 2;
-        uint32_t *w = realloc(m->record_data, cap * 4);
-        if (!w)
-            return mts_error_set(err, MTS_ERR_NOMEM, "BATCH: out of memory for records");
-        m->record_data = w;
-        c->record_capacity = cap;
-    }
+    mts_result rc = reserve_records(c, at, words, err);
+    if (rc != MTS_OK)
+        return rc;
     memcpy(m->record_data + at, r, (size_t)words * 4);
     m->record_offsets[j + 1] = (uint32_t)(at + words);
     m->record_word_count = (uint32_t)(at + words);
@@ -1294,8 +1428,65 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
     return MTS_OK;
 }
 
-/* A batch: its header, then (in the last batch) the full strips' description
- * and the splits, all range-coded. */
+/* A records-form batch's body (PROTOCOL.md, "Records form"): the splits'
+ * parents and records, then each new vertex against its parent. The records
+ * are only decoded here, into the client's model; mts_lod_split checks each
+ * against the strips as it applies it, as it would a derived one. */
+static mts_result take_records(mts_stream_client *c, const uint8_t *p, size_t n, uint32_t index,
+                               uint32_t first, uint32_t count, uint32_t maxq, mts_error *err)
+{
+    mts_model *m = &c->model;
+    const uint32_t nb = m->base_vertex_count;
+    /* a split's words never outnumber its bytes (reccodec.h), so n more
+     * words hold the batch whatever it says */
+    size_t at = m->record_offsets[first];
+    mts_result rc = reserve_records(c, at, n, err);
+    if (rc != MTS_OK)
+        return mts_error_prefix(err, "BATCH %u", index);
+    mts_reccodec_out out = {m->parents + first, m->record_offsets + first, m->record_data + at,
+                            c->record_capacity - at, (uint32_t)at};
+    size_t used = 0, words = 0;
+    rc = mts_reccodec_decode(p, n, nb, first, count, &out, &used, &words, err);
+    if (rc != MTS_OK)
+        return mts_error_prefix(err, "BATCH %u", index);
+    m->record_word_count = (uint32_t)(at + words);
+    mts_cursor cur = mts_cursor_make(p + used, n - used);
+    for (uint32_t i = 0; i < count; i++) {
+        const uint32_t v = nb + first + i, u = m->parents[first + i];
+        uint32_t *q = c->quantized + 3 * (size_t)v;
+        for (int a = 0; a < 3; a++) {
+            int64_t x = (int64_t)c->quantized[3 * (size_t)u + a] +
+                        (int32_t)mts_unzigzag_u32(mts_cursor_varint(&cur));
+            if (!cur.ok || x < 0 || x > maxq)
+                return mts_error_set(err, MTS_ERR_RANGE,
+                                     "BATCH %u: vertex %u is %s", index, v,
+                                     cur.ok ? "off the grid" : "cut short");
+            q[a] = (uint32_t)x;
+        }
+        mts_draco_dequantize(&c->grid, q, m->positions + 3 * (size_t)v);
+        if (c->oct) {
+            uint16_t *o = c->oct + 2 * (size_t)v;
+            for (int a = 0; a < 2; a++) {
+                int64_t x = (int64_t)c->oct[2 * (size_t)u + a] +
+                            (int32_t)mts_unzigzag_u32(mts_cursor_varint(&cur));
+                if (!cur.ok || x < 0 || x > NORMAL_MAX)
+                    return mts_error_set(err, MTS_ERR_RANGE,
+                                         "BATCH %u: vertex %u's normal is %s", index, v,
+                                         cur.ok ? "off its code" : "cut short");
+                o[a] = (uint16_t)x;
+            }
+            oct_decode(o, m->normals + 3 * (size_t)v);
+        }
+    }
+    if (mts_cursor_left(&cur) != 0)
+        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: %zu bytes after its records", index,
+                             mts_cursor_left(&cur));
+    return MTS_OK;
+}
+
+/* A batch: its header, then either (splits form) the full strips'
+ * description in the last batch and the splits, all range-coded, or
+ * (records form) the records and vertices. */
 static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
 {
     if (!crc_ok(p, n))
@@ -1313,11 +1504,17 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
                              "BATCH %u (splits %u+%u) out of order: expected batch %u at split %u",
                              index, first, count, c->batches, c->splits);
     const uint32_t maxq = (uint32_t)((1ull << c->grid.bits) - 1);
+    mts_result rc = MTS_OK;
+    if (c->records) {
+        if ((rc = take_records(c, cur.p, mts_cursor_left(&cur), index, first, count, maxq, err)) !=
+            MTS_OK)
+            return rc;
+        goto applied;
+    }
     mts_rc_decoder d;
     if (!mts_rc_decoder_init(&d, cur.p, mts_cursor_left(&cur)))
         return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: no coded splits", index);
     mts_grow_full full = {NULL, NULL, NULL, 0, m->strip_count};
-    mts_result rc = MTS_OK;
     if (first + count == m->level_count &&
         (rc = decode_full(c, &d, &full, err)) != MTS_OK)
         return mts_error_prefix(err, "BATCH %u", index);
@@ -1326,6 +1523,7 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
     free((void *)full.swaps);
     if (rc != MTS_OK)
         return rc;
+applied:
     c->batches++;
     c->splits += count;
     mts_lod_set_available(&c->lod, c->splits);

@@ -13,9 +13,14 @@
  * source had none), base vertices renumbered to Draco's decoded order. A
  * client that applies the whole stream holds exactly that model.
  *
+ * The records form (s->records_form, PROTOCOL.md "Records form") carries
+ * the records themselves instead, for clients that would rather spend bytes
+ * than work.
+ *
  * Client: mts_stream_client takes frames as they arrive, checks each against
  * its bounds, the CRC and the state so far, derives every split's record
- * with the same growth, and applies every batch through the LOD runtime
+ * with the same growth (or, in the records form, decodes it), and applies
+ * every batch through the LOD runtime
  * (mts_lod), so a renderer can follow along. After a broken
  * connection it takes a new conversation that resumes from the last batch it
  * applied (mts_stream_client_resume_point, mts_stream_client_reconnected). */
@@ -37,6 +42,7 @@ typedef struct mts_stream_options {
     int quant_bits;          /* position grid; 0 = 14 */
     uint32_t batch_splits;   /* splits per batch; 0 = max(64, levels / 100) */
     int draco_method;        /* mts_draco_method; 0 = edgebreaker (sequential as fallback) */
+    int with_records;        /* also build the records form (s->records_form) */
 } mts_stream_options;
 
 typedef struct mts_stream {
@@ -54,10 +60,24 @@ typedef struct mts_stream {
     uint64_t *level_checksum; /* levels + 1 */
     uint8_t *info_tail;       /* MODEL_INFO's shared part (mts_wire_put_model_info_tail) */
     size_t info_tail_size;
+    /* The records form (PROTOCOL.md, "Records form"): the same model, BASE
+     * and batching, but each batch carries its splits' records, so a client
+     * applies them without deriving anything; about 16x the bytes. Built
+     * when opts->with_records, else NULL. It is an mts_stream of its own,
+     * so every call here takes it as it takes the splits form; its model,
+     * grid points, batching and checksums are this stream's, borrowed, so
+     * it lives and dies with this one. */
+    struct mts_stream *records_form;
+    int records;  /* this is a records form */
+    int borrowed; /* model, quantized, batch_first, level_checksum are another's */
 } mts_stream;
 
 mts_result mts_stream_build(const mts_model *model, const char *name,
                             const mts_stream_options *opts, mts_stream *stream, mts_error *err);
+
+/* The form a HELLO's flags ask for: s->records_form when it asks for
+ * records and s has them, else s. */
+const mts_stream *mts_stream_for_hello(const mts_stream *s, uint32_t hello_flags);
 void mts_stream_free(mts_stream *stream);
 
 /* The level a HELLO's stop point resolves to (PROTOCOL.md, HELLO). */
@@ -110,6 +130,7 @@ typedef struct mts_stream_client {
     mts_draco_grid grid;
     uint32_t batches, splits; /* received and applied */
     uint32_t stop_level;
+    int records; /* the batches carry records (MODEL_INFO flags MTS_INFO_RECORDS) */
     uint64_t end_checksum, checksum; /* the server's, and ours at the end */
     uint16_t error_code;
     char error_text[256];

@@ -12,11 +12,12 @@
 #include "bytes.h"
 #include "error.h"
 
-/* 4.0: batches entropy-coded, normals only where the source had them
- * (PROTOCOL.md, "Changes"); a peer of another major version is refused at
- * HELLO with ERROR version. */
+/* 4.0: batches entropy-coded, normals only where the source had them;
+ * 4.1: the records form, asked for by a HELLO flag (PROTOCOL.md,
+ * "Changes"); a peer of another major version is refused at HELLO with
+ * ERROR version. */
 #define MTS_WIRE_MAJOR 4
-#define MTS_WIRE_MINOR 0
+#define MTS_WIRE_MINOR 1
 
 /* Each key level costs a client a stripification of the whole mesh there, so
  * a client bounds how many it takes (the builder makes about 13 on bunny00
@@ -84,7 +85,15 @@ typedef struct mts_wire_model_info {
 /* MODEL_INFO flags: the stream carries per-vertex normals (the source's
  * own); without it a client shades the faces it has. */
 #define MTS_INFO_NORMALS 1u
-#define MTS_INFO_KNOWN_FLAGS MTS_INFO_NORMALS
+/* MODEL_INFO flags: the batches are in the records form (PROTOCOL.md,
+ * "Records form"): each split's record travels, so the client derives none. */
+#define MTS_INFO_RECORDS 2u
+#define MTS_INFO_KNOWN_FLAGS (MTS_INFO_NORMALS | MTS_INFO_RECORDS)
+
+/* HELLO flags: the client would rather have the records form (many more
+ * bytes, far less work to apply); a server without it sends the splits form,
+ * and MODEL_INFO's flags say which came. */
+#define MTS_HELLO_RECORDS 1u
 
 typedef struct mts_wire_end {
     uint32_t final_level;

@@ -19,12 +19,14 @@ static void usage(FILE *f)
           "                  [--max-clients N] [--idle-timeout S] [--handshake-timeout S]\n"
           "                  [--grace S] [--max-download BYTES] [--workers N]\n"
           "                  [--rate-limit BYTES/S] [--sndbuf BYTES] [--stats-interval S]\n"
-          "                  [--quiet]\n"
+          "                  [--no-records-form] [--quiet]\n"
           "\n"
           "Serves every .mtsm in DIR and every mesh there (built once and cached), each\n"
           "named by its file stem, plus models given one by one (a file, or an http(s)\n"
           "URL fetched and built). Clients get a Draco base mesh, then batches of strip\n"
-          "records (protocol/PROTOCOL.md).\n"
+          "records (protocol/PROTOCOL.md): each batch's vertex splits, range-coded, from\n"
+          "which the client derives the records, or where the client asks (mts-client\n"
+          "--records) the records themselves.\n"
           "\n"
           "  --models DIR           a directory of models and meshes\n"
           "  --model NAME=SOURCE    one model: a .mtsm, a mesh file or an http(s) URL\n"
@@ -42,6 +44,9 @@ static void usage(FILE *f)
           "                         up to 4 MiB each on Linux); bounds kernel memory\n"
           "  --stats-interval S     a 'stats:' log line every S s per worker: connections,\n"
           "                         peak, outcomes, MB/s out, resident memory\n"
+          "  --no-records-form      keep only the splits form of each stream (a client that\n"
+          "                         asks for records gets splits): saves memory, about 16x\n"
+          "                         the splits form's bytes per model\n"
           "  -q, --quiet            no per-connection log lines\n"
           "  -h, --help             this help\n"
           "\n"
@@ -118,7 +123,7 @@ static void *worker_main(void *arg)
 int main(int argc, char **argv)
 {
     const char *dirs[64], *models[64];
-    int ndirs = 0, nmodels = 0, quiet = 0;
+    int ndirs = 0, nmodels = 0, quiet = 0, no_records = 0;
     uint32_t nworkers = 1;
     mts_server_options so = {0};
     mts_catalog_options co = {0};
@@ -130,6 +135,9 @@ int main(int argc, char **argv)
             return CLI_EXIT_OK;
         } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
             quiet = 1;
+            continue;
+        } else if (!strcmp(a, "--no-records-form")) {
+            no_records = 1;
             continue;
         }
         if (!v) {
@@ -240,14 +248,19 @@ int main(int argc, char **argv)
     uint32_t ready = 0;
     for (uint32_t i = 0; i < count; i++) {
         const mts_catalog_entry *e = mts_catalog_at(cat, i);
-        if (mts_stream_build(&e->model, e->name, NULL, &streams[ready], &err) != MTS_OK) {
+        mts_stream_options sto = {0};
+        sto.with_records = !no_records;
+        if (mts_stream_build(&e->model, e->name, &sto, &streams[ready], &err) != MTS_OK) {
             fprintf(stderr, "mts-server: %s: cannot encode its stream: %s\n", e->name, err.msg);
             continue;
         }
         list[ready] = &streams[ready];
         if (!quiet)
-            fprintf(stderr, "mts-server: serving %s: %u vertices, %u levels, %zu stream bytes\n",
-                    e->name, e->model.vertex_count, e->model.level_count, streams[ready].size);
+            fprintf(stderr,
+                    "mts-server: serving %s: %u vertices, %u levels, %zu stream bytes (%zu as "
+                    "records)\n",
+                    e->name, e->model.vertex_count, e->model.level_count, streams[ready].size,
+                    streams[ready].records_form ? streams[ready].records_form->size : 0);
         ready++;
     }
     if (ready == 0) {

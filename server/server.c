@@ -336,6 +336,8 @@ static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, 
     }
     snprintf(c->model, sizeof c->model, "%s", h.model);
     const mts_stream *st = find_stream(s, h.model);
+    if (st) /* the form it asked for, where this server has it */
+        st = mts_stream_for_hello(st, h.flags);
     if (!st) {
         char text[128];
         snprintf(text, sizeof text, "no model named '%s' (LIST shows the models)", h.model);
