@@ -276,11 +276,15 @@ static int compare_with_file(const char *path, mts_stream_client *c, mts_error *
     mts_stream s;
     if (mts_modelfile_load(path, &m, err) != MTS_OK)
         return 0;
-    mts_result rc = mts_stream_build(&m, c->info.model, NULL, &s, err);
+    /* the form the server sent: a records-form stream has its own stream_id */
+    mts_stream_options so = {0};
+    so.with_records = c->records;
+    mts_result rc = mts_stream_build(&m, c->info.model, &so, &s, err);
     mts_model_free(&m);
     if (rc != MTS_OK)
         return 0;
-    int same = s.stream_id == c->info.stream_id;
+    int same = mts_stream_for_hello(&s, c->records ? MTS_HELLO_RECORDS : 0)->stream_id ==
+               c->info.stream_id;
     if (!same)
         mts_error_set(err, MTS_ERR_INVARIANT, "%s encodes to another stream than the server's",
                       path);

@@ -254,6 +254,89 @@ static void test_pngs_at_three_levels(mts_test *t)
         free(data[i]);
 }
 
+/* The value of "key": in a JSON line, as text ("" when absent). */
+static void json_value(const char *json, const char *key, char *out, size_t size)
+{
+    char k[64];
+    snprintf(k, sizeof k, "\"%s\":", key);
+    const char *p = strstr(json, k);
+    out[0] = 0;
+    if (!p)
+        return;
+    p += strlen(k);
+    size_t n = strcspn(p, ",}\n");
+    if (n >= size)
+        n = size - 1;
+    memcpy(out, p, n);
+    out[n] = 0;
+}
+
+/* mts-client --records against mts-server: the records form by default
+ * ("form":"records", many more bytes, the splits client's checksum and
+ * triangles); against mts-server --no-records-form the same request gets the
+ * splits form and completes all the same. */
+static void test_records_form_programs(mts_test *t)
+{
+    char out[8192], cmd[4096], dir[600];
+    snprintf(dir, sizeof dir, "%s/e2e_records_models", tmp_dir);
+    snprintf(cmd, sizeof cmd, "rm -rf %s && mkdir -p %s && cp tests/data/cow.off %s/", dir, dir,
+             dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
+    char server_bin[600];
+    snprintf(server_bin, sizeof server_bin, "%s/mts-server", bin_dir);
+    char splits[3][32] = {{0}}, split_bytes[32] = {0};
+    for (int without = 0; without < 2; without++) {
+        int port = free_port();
+        char listen[64], log[700];
+        snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
+        snprintf(log, sizeof log, "%s/e2e_records_srv%d.log", tmp_dir, without);
+        char *argv[] = {server_bin, "--models", dir, "--listen", listen,
+                        without ? "--no-records-form" : "--quiet", NULL};
+        pid_t spid = spawn(argv, log);
+        snprintf(cmd, sizeof cmd,
+                 "for i in $(seq 1 100); do %s/mts-client %s --list >/dev/null && exit 0; "
+                 "sleep 0.1; done; exit 1",
+                 bin_dir, listen);
+        CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "server did not come up (%s)", log);
+        const char *keys[3] = {"checksum", "triangles", "level"};
+        for (int records = 0; records < 2; records++) {
+            snprintf(cmd, sizeof cmd,
+                     "ASAN_OPTIONS=detect_leaks=0 %s/mts-client %s cow --no-render --json "
+                     "--verify%s",
+                     bin_dir, listen, records ? " --records" : "");
+            int rc = mts_test_run(cmd, out, sizeof out);
+            CHECKF(t, rc == 0 && strstr(out, "\"complete\":true") &&
+                          strstr(out, "\"verified\":true"),
+                   "exit %d: %s", rc, out);
+            const char *want = records && !without ? "\"form\":\"records\"" : "\"form\":\"splits\"";
+            CHECKF(t, strstr(out, want) != NULL, "%s%s: want %s in %s",
+                   without ? "--no-records-form, " : "", records ? "--records" : "splits", want,
+                   out);
+            char v[64], bytes[32];
+            json_value(out, "bytes", bytes, sizeof bytes);
+            if (!without && !records) {
+                for (int k = 0; k < 3; k++)
+                    json_value(out, keys[k], splits[k], sizeof splits[k]);
+                snprintf(split_bytes, sizeof split_bytes, "%s", bytes);
+                CHECKF(t, splits[0][0] != 0, "no checksum: %s", out);
+                continue;
+            }
+            for (int k = 0; k < 3; k++) {
+                json_value(out, keys[k], v, sizeof v);
+                CHECKF(t, strcmp(v, splits[k]) == 0, "%s: %s, the splits client's %s", keys[k], v,
+                       splits[k]);
+            }
+            if (without) /* the splits form, byte for byte as many */
+                CHECKF(t, strcmp(bytes, split_bytes) == 0, "bytes %s, splits %s", bytes,
+                       split_bytes);
+            else /* the records form: many times the bytes */
+                CHECKF(t, atol(bytes) > 4 * atol(split_bytes), "bytes %s, splits %s", bytes,
+                       split_bytes);
+        }
+        stop(spid);
+    }
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -264,5 +347,6 @@ int main(int argc, char **argv)
     RUN(&t, test_server_dies_mid_stream);
     RUN(&t, test_url_models);
     RUN(&t, test_pngs_at_three_levels);
+    RUN(&t, test_records_form_programs);
     return mts_test_end(&t);
 }

@@ -171,6 +171,8 @@ static void run_with_breaks(mts_test *t, const mts_stream *s, uint32_t stop, con
     CHECKF(t, (uint32_t)n.batch == c.batches, "%s: %d batch events for %u batches", what, n.batch,
            c.batches);
     CHECK(t, c.have_lod && c.lod.level == stop);
+    CHECKF(t, c.records == s->records, "%s: the client took the %s form", what,
+           c.records ? "records" : "splits");
     CHECKF(t, c.checksum == s->level_checksum[stop] && c.checksum == c.end_checksum,
            "%s: checksum %016llx, unbroken %016llx", what, (unsigned long long)c.checksum,
            (unsigned long long)s->level_checksum[stop]);
@@ -295,6 +297,112 @@ static void test_other_stream_refused(mts_test *t)
     mts_buf_free(&second);
     mts_stream_free(&a);
     mts_stream_free(&b);
+}
+
+/* The same cuts in the records form: the client resumes it with the records
+ * form's own stream_id (run_with_breaks checks what resume_point gives
+ * against the stream's) and ends on the splits form's checksum. */
+static void test_cut_anywhere_then_resume_records(mts_test *t)
+{
+    mts_stream s;
+    mts_stream_options o = {0};
+    o.with_records = 1;
+    if (!build_stream(t, &o, &s))
+        return;
+    const mts_stream *r = s.records_form;
+    CHECK(t, r != NULL && r->stream_id != s.stream_id && r->batch_count > 4);
+    if (!r || r->batch_count <= 4) {
+        mts_stream_free(&s);
+        return;
+    }
+    const uint32_t n = s.model.level_count;
+    mts_buf info = {0};
+    mts_stream_put_model_info(r, n, &info);
+    const size_t hi = info.size;
+    mts_buf_free(&info);
+    size_t edges[] = {0, hi - 1, hi, hi + 9, hi + r->batch_offset[0],
+                      hi + r->batch_offset[1], hi + r->batch_offset[3], hi + r->batch_offset[3] + 1,
+                      hi + r->batch_offset[r->batch_count] - 3, hi + r->size, hi + r->size + 3};
+    char what[128];
+    for (size_t i = 0; i < sizeof edges / sizeof edges[0] && !t->case_failed; i++) {
+        snprintf(what, sizeof what, "records, cut at %zu", edges[i]);
+        run_with_breaks(t, r, n, &edges[i], 1, i, what);
+    }
+    uint64_t seed = 4242;
+    size_t total = hi + r->size + 20;
+    for (int round = 0; round < 16 && !t->case_failed; round++) {
+        size_t cuts[3];
+        int k = round % 2 ? 3 : 1;
+        for (int j = 0; j < k; j++) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            cuts[j] = (size_t)(seed >> 33) % (total / (size_t)(j + 1));
+        }
+        uint32_t stop = round % 4 < 2 ? n : n / 3;
+        snprintf(what, sizeof what, "records, round %d (stop %u, cut %zu...)", round, stop,
+                 cuts[0]);
+        run_with_breaks(t, r, stop, cuts, k, seed, what);
+    }
+    mts_stream_free(&s);
+}
+
+/* A client that began in one form cannot go on in the other: the forms are
+ * two streams (two stream_ids). A server that checks answers `stale`; one
+ * that does not sends the other form, which is refused whole. */
+static void test_other_form_refused(mts_test *t)
+{
+    mts_stream s;
+    mts_stream_options o = {0};
+    o.with_records = 1;
+    if (!build_stream(t, &o, &s))
+        return;
+    const mts_stream *r = s.records_form;
+    CHECK(t, r != NULL);
+    if (!r) {
+        mts_stream_free(&s);
+        return;
+    }
+    const uint32_t n = s.model.level_count;
+    const mts_stream *began[2] = {r, &s}, *then[2] = {&s, r};
+    for (int i = 0; i < 2; i++) {
+        const mts_stream *a = began[i], *b = then[i];
+        mts_buf first = {0}, second = {0};
+        conversation(a, n, 0, 0, &first);
+        mts_buf info = {0};
+        mts_stream_put_model_info(a, n, &info);
+        size_t cut = info.size + a->batch_offset[4] + 10; /* inside batch 4 */
+        mts_buf_free(&info);
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        mts_error err = {0};
+        tally k = {0};
+        CHECK(t, feed(&c, first.data, cut, 1, &k, &err) == MTS_OK && c.batches == 4);
+        CHECK(t, c.records == a->records);
+        uint32_t batch;
+        uint64_t id;
+        CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == 4 &&
+                 id == a->stream_id);
+        CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK);
+        /* the server that checks: the other form's stream_id is not this one */
+        CHECK(t, !conversation(b, n, batch, id, &second));
+        mts_stream_client d;
+        mts_stream_client_init(&d);
+        tally kd = {0};
+        CHECK(t, feed(&d, second.data, second.size, 2, &kd, &err) == MTS_OK);
+        CHECK(t, kd.error == 1 && d.error_code == MTS_WERR_STALE);
+        mts_stream_client_free(&d);
+        /* the server that does not: sends the other form from batch 4 */
+        mts_buf_free(&second);
+        conversation(b, n, batch, b->stream_id, &second);
+        mts_result rc = feed(&c, second.data, second.size, 3, &k, &err);
+        CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, "not mixing"), "began %s: %d %s",
+               a->records ? "records" : "splits", rc, err.msg);
+        CHECK(t, c.batches == 4 && c.lod.level == a->batch_first[4] && !c.lod.broken);
+        CHECK(t, !mts_stream_client_resume_point(&c, &batch, &id));
+        mts_stream_client_free(&c);
+        mts_buf_free(&first);
+        mts_buf_free(&second);
+    }
+    mts_stream_free(&s);
 }
 
 /* ---- over loopback ---- */
@@ -473,6 +581,8 @@ typedef struct fixture {
     const char *render; /* "" or "--no-render" */
     int port;
     size_t cut;  /* into the first connection: inside batch 10 */
+    size_t cut_records; /* the same in the records form (mts-client --records) */
+    size_t records_size; /* the records form's bytes */
     uint32_t cut_batch;
     char unbroken[8192];
 } fixture;
@@ -513,8 +623,8 @@ static int setup(mts_test *t, fixture *f, pid_t *server)
         CHECKF(t, 0, "building the models: %s", out);
         return 0;
     }
-    /* where batch 10 is in the server's stream: the same model file, encoded
-     * the way the server does */
+    /* where batch 10 is in the server's stream, in both forms: the same
+     * model file, encoded the way the server does */
     mts_error err = {0};
     mts_model m;
     mts_stream s;
@@ -522,7 +632,9 @@ static int setup(mts_test *t, fixture *f, pid_t *server)
         CHECKF(t, 0, "%s", err.msg);
         return 0;
     }
-    mts_result rc = mts_stream_build(&m, "cow", NULL, &s, &err);
+    mts_stream_options so = {0};
+    so.with_records = 1;
+    mts_result rc = mts_stream_build(&m, "cow", &so, &s, &err);
     mts_model_free(&m);
     if (rc != MTS_OK) {
         CHECKF(t, 0, "%s", err.msg);
@@ -532,7 +644,14 @@ static int setup(mts_test *t, fixture *f, pid_t *server)
     mts_stream_put_model_info(&s, s.model.level_count, &info);
     f->cut_batch = 10;
     f->cut = info.size + s.batch_offset[f->cut_batch] + 7;
-    CHECK(t, s.batch_count > 20);
+    CHECK(t, s.batch_count > 20 && s.records_form);
+    if (s.records_form) {
+        mts_buf rinfo = {0};
+        mts_stream_put_model_info(s.records_form, s.model.level_count, &rinfo);
+        f->cut_records = rinfo.size + s.records_form->batch_offset[f->cut_batch] + 7;
+        f->records_size = s.records_form->size;
+        mts_buf_free(&rinfo);
+    }
     mts_buf_free(&info);
     mts_stream_free(&s);
 
@@ -598,8 +717,8 @@ enum { AFTER_CUT_RESTART, AFTER_CUT_NOTHING, AFTER_CUT_OTHER_MODEL };
 /* Starts the proxy and the client (--resume), cuts, kills the server, then
  * does `after`; returns the client's exit status, its output in out and
  * the seconds from the cut to its end. */
-static int broken_run(mts_test *t, fixture *f, pid_t *server, int after, const char *extra,
-                      char *out, size_t size, double *seconds_after_cut)
+static int broken_run(mts_test *t, fixture *f, pid_t *server, int after, size_t cut_at,
+                      const char *extra, char *out, size_t size, double *seconds_after_cut)
 {
     int pport, lfd = listen_any(&pport);
     int to_parent[2], to_proxy[2];
@@ -616,7 +735,7 @@ static int broken_run(mts_test *t, fixture *f, pid_t *server, int after, const c
     if (proxy == 0) {
         close(to_parent[0]);
         close(to_proxy[1]);
-        proxy_main(lfd, f->port, f->cut, to_parent[1], to_proxy[0], after == AFTER_CUT_NOTHING);
+        proxy_main(lfd, f->port, cut_at, to_parent[1], to_proxy[0], after == AFTER_CUT_NOTHING);
         _exit(0);
     }
     close(lfd);
@@ -670,7 +789,7 @@ static void test_server_killed_and_restarted(mts_test *t)
     }
     char out[16384];
     double secs;
-    int rc = broken_run(t, f, &server, AFTER_CUT_RESTART, "", out, sizeof out, &secs);
+    int rc = broken_run(t, f, &server, AFTER_CUT_RESTART, f->cut, "", out, sizeof out, &secs);
     stop_pid(server, SIGTERM);
     CHECKF(t, rc == 0, "exit %d: %s", rc, out);
     char want[64];
@@ -703,6 +822,57 @@ static void test_server_killed_and_restarted(mts_test *t)
         fprintf(stderr, "  resumed %.2f s after the cut:\n%s", secs, out);
 }
 
+/* The same in the records form (mts-client --records; mts-server keeps it by
+ * default): the client resumes at batch 10 with the records form's
+ * stream_id, and ends on the unbroken splits-form run's mesh, verified
+ * against the model file. */
+static void test_server_killed_and_restarted_records(mts_test *t)
+{
+    if (!have_programs(t))
+        return;
+    fixture *f;
+    pid_t server = -1;
+    if (!(f = get_fixture(t, &server))) {
+        stop_pid(server, SIGTERM);
+        return;
+    }
+    char out[16384];
+    double secs;
+    int rc = broken_run(t, f, &server, AFTER_CUT_RESTART, f->cut_records, "--records", out,
+                        sizeof out, &secs);
+    stop_pid(server, SIGTERM);
+    CHECKF(t, rc == 0, "exit %d: %s", rc, out);
+    char want[64];
+    snprintf(want, sizeof want, "connection lost at batch %u", f->cut_batch);
+    CHECKF(t, strstr(out, want) != NULL, "no break reported: %s", out);
+    snprintf(want, sizeof want, "resuming at batch %u", f->cut_batch);
+    CHECKF(t, strstr(out, want) != NULL, "no resume reported: %s", out);
+    CHECKF(t, strstr(out, "\"complete\":true") && strstr(out, "\"verified\":true") &&
+                  strstr(out, "\"form\":\"records\""),
+           "%s", out);
+    /* the same mesh as the unbroken splits-form run */
+    const char *keys[] = {"checksum", "triangles", "level", "batches", "levels"};
+    for (int i = 0; i < 5; i++) {
+        char a[128], b[128];
+        json_get(f->unbroken, keys[i], a, sizeof a);
+        json_get(out, keys[i], b, sizeof b);
+        CHECKF(t, a[0] && strcmp(a, b) == 0, "%s: %s unbroken, %s resumed", keys[i], a, b);
+    }
+    char form[32], rec[32], bytes[32];
+    json_get(f->unbroken, "form", form, sizeof form);
+    CHECK(t, strcmp(form, "\"splits\"") == 0);
+    json_get(out, "reconnects", rec, sizeof rec);
+    CHECKF(t, atoi(rec) >= 1, "reconnects: '%s'", rec);
+    /* the records form, and not twice: the second connection went on from
+     * batch 10 */
+    json_get(out, "bytes", bytes, sizeof bytes);
+    CHECKF(t, (size_t)atol(bytes) > f->records_size &&
+                  (size_t)atol(bytes) < f->records_size + f->cut_records / 2,
+           "bytes %s, records form %zu, cut at %zu", bytes, f->records_size, f->cut_records);
+    if (getenv("MTS_TEST_VERBOSE"))
+        fprintf(stderr, "  resumed (records form) %.2f s after the cut:\n%s", secs, out);
+}
+
 static void test_server_never_back(mts_test *t)
 {
     if (!have_programs(t))
@@ -716,7 +886,8 @@ static void test_server_never_back(mts_test *t)
     char out[16384];
     double secs;
     /* 3 tries: waits of 0.1, 0.2, 0.4 s, each at least half that (jitter) */
-    int rc = broken_run(t, f, &server, AFTER_CUT_NOTHING, "--retries 3", out, sizeof out, &secs);
+    int rc = broken_run(t, f, &server, AFTER_CUT_NOTHING, f->cut, "--retries 3", out, sizeof out,
+                        &secs);
     stop_pid(server, SIGTERM);
     CHECKF(t, rc == 1, "exit %d: %s", rc, out);
     CHECKF(t, strstr(out, "gave up after 3 tries") && strstr(out, "refused") &&
@@ -741,7 +912,7 @@ static void test_stale_stream_not_retried(mts_test *t)
     }
     char out[16384];
     double secs;
-    int rc = broken_run(t, f, &server, AFTER_CUT_OTHER_MODEL, "", out, sizeof out, &secs);
+    int rc = broken_run(t, f, &server, AFTER_CUT_OTHER_MODEL, f->cut, "", out, sizeof out, &secs);
     stop_pid(server, SIGTERM);
     CHECKF(t, rc == 1, "exit %d: %s", rc, out);
     CHECKF(t, strstr(out, "stale") && strstr(out, "cannot resume at batch 10"), "%s", out);
@@ -763,7 +934,10 @@ int main(int argc, char **argv)
     mts_test t = {0};
     RUN(&t, test_cut_anywhere_then_resume);
     RUN(&t, test_other_stream_refused);
+    RUN(&t, test_cut_anywhere_then_resume_records);
+    RUN(&t, test_other_form_refused);
     RUN(&t, test_server_killed_and_restarted);
+    RUN(&t, test_server_killed_and_restarted_records);
     RUN(&t, test_server_never_back);
     RUN(&t, test_stale_stream_not_retried);
     if (cow_state > 0)

@@ -101,7 +101,9 @@ typedef struct served {
     int port;
 } served;
 
-static int start_server(mts_test *t, served *sv, const mts_server_options *opts)
+/* sopts: how cow's stream is built (NULL: the defaults, no records form) */
+static int start_server_with(mts_test *t, served *sv, const mts_server_options *opts,
+                             const mts_stream_options *sopts)
 {
     mts_error err = {0};
     mts_mesh mesh = {0};
@@ -109,7 +111,7 @@ static int start_server(mts_test *t, served *sv, const mts_server_options *opts)
     CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
     CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
     mts_mesh_free(&mesh);
-    CHECKF(t, mts_stream_build(&m, "cow", NULL, &sv->stream, &err) == MTS_OK, "%s", err.msg);
+    CHECKF(t, mts_stream_build(&m, "cow", sopts, &sv->stream, &err) == MTS_OK, "%s", err.msg);
     mts_model_free(&m);
     const mts_stream *list[1] = {&sv->stream};
     mts_server *server = NULL;
@@ -133,6 +135,11 @@ static int start_server(mts_test *t, served *sv, const mts_server_options *opts)
     }
     mts_server_free(server); /* the parent's copy of the listener */
     return sv->pid > 0;
+}
+
+static int start_server(mts_test *t, served *sv, const mts_server_options *opts)
+{
+    return start_server_with(t, sv, opts, NULL);
 }
 
 static void stop_server(mts_test *t, served *sv)
@@ -400,6 +407,189 @@ static void test_refusal_survives_extra_bytes(mts_test *t)
     stop_server(t, &sv);
 }
 
+/* ---- the records form (PROTOCOL.md, "Records form") ---- */
+
+static void hello_for(mts_buf *b, uint32_t flags, uint32_t resume_batch, uint64_t stream_id)
+{
+    mts_wire_hello h = {0};
+    h.major = MTS_WIRE_MAJOR;
+    h.minor = MTS_WIRE_MINOR;
+    snprintf(h.model, sizeof h.model, "cow");
+    h.resume_batch = resume_batch;
+    h.stream_id = stream_id;
+    h.flags = flags;
+    mts_wire_put_hello(b, &h);
+}
+
+/* Feeds the first `size` bytes of a reply into c through a new frame reader,
+ * as one connection; returns the first error (MTS_OK when none) and sets
+ * *ended when END came. */
+static mts_result take_reply(mts_stream_client *c, const uint8_t *data, size_t size, int *ended,
+                             mts_error *err)
+{
+    mts_wire_reader r = {0};
+    mts_result rc = mts_wire_reader_feed(&r, data, size, err);
+    uint8_t type;
+    const uint8_t *p;
+    size_t n;
+    *ended = 0;
+    while (rc == MTS_OK && mts_wire_reader_next(&r, &type, &p, &n, err) == 1) {
+        mts_stream_event ev;
+        rc = mts_stream_client_frame(c, type, p, n, &ev, err);
+        *ended |= ev == MTS_EV_END;
+    }
+    mts_wire_reader_free(&r);
+    return rc;
+}
+
+/* The whole stream for a HELLO with these flags, into a fresh client. */
+static int fetch(mts_test *t, int port, uint32_t flags, mts_stream_client *c, mts_buf *reply)
+{
+    mts_buf h = {0};
+    hello_for(&h, flags, 0, 0);
+    CHECK(t, exchange(port, h.data, h.size, reply, 10));
+    mts_buf_free(&h);
+    mts_stream_client_init(c);
+    mts_error err = {0};
+    int ended = 0;
+    CHECKF(t, take_reply(c, reply->data, reply->size, &ended, &err) == MTS_OK && ended,
+           "flags 0x%x: %s", flags, err.msg);
+    return ended;
+}
+
+/* A server that keeps the records form: a HELLO without the flag gets the
+ * splits form, one with it the records form (MODEL_INFO flags and its own
+ * stream_id), and both end on the same checksum. A records-form client cut
+ * inside batch 5 resumes with the records form's stream_id and ends the same;
+ * a resume naming the other form's stream_id is answered `stale`. */
+static void test_records_form_on_request(mts_test *t)
+{
+    served sv;
+    mts_server_options o = {0};
+    o.listen = "127.0.0.1:0";
+    mts_stream_options so = {0};
+    so.with_records = 1;
+    if (!start_server_with(t, &sv, &o, &so))
+        return;
+    const mts_stream *s = &sv.stream, *r = s->records_form;
+    const uint32_t n = s->model.level_count;
+    CHECK(t, r != NULL && r->stream_id != s->stream_id && s->batch_count > 6);
+    if (!r || s->batch_count <= 6) {
+        stop_server(t, &sv);
+        return;
+    }
+    mts_stream_client a, b;
+    mts_buf ra = {0}, rb = {0};
+    fetch(t, sv.port, 0, &a, &ra);
+    CHECK(t, !a.records && !(a.info.flags & MTS_INFO_RECORDS) && a.info.stream_id == s->stream_id);
+    CHECK(t, a.lod.level == n && a.checksum == s->level_checksum[n]);
+    fetch(t, sv.port, MTS_HELLO_RECORDS, &b, &rb);
+    CHECK(t, b.records && (b.info.flags & MTS_INFO_RECORDS) && b.info.stream_id == r->stream_id);
+    CHECK(t, b.lod.level == n);
+    CHECKF(t, b.checksum == a.checksum && b.end_checksum == a.end_checksum,
+           "records %016llx, splits %016llx", (unsigned long long)b.checksum,
+           (unsigned long long)a.checksum);
+    /* each connection got its form whole: MODEL_INFO, the form's bytes, END */
+    CHECKF(t, ra.size > s->size && ra.size < s->size + 4096 && rb.size > r->size &&
+                  rb.size < r->size + 4096,
+           "splits %zu bytes (stream %zu), records %zu (stream %zu)", ra.size, s->size, rb.size,
+           r->size);
+    mts_stream_client_free(&a);
+    mts_stream_client_free(&b);
+
+    /* cut inside batch 5 of the records form, then resumed */
+    size_t info_size = 4 + ((size_t)rb.data[0] | (size_t)rb.data[1] << 8 |
+                            (size_t)rb.data[2] << 16 | (size_t)rb.data[3] << 24);
+    size_t cut = info_size + r->batch_offset[5] + 7;
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_error err = {0};
+    int ended;
+    CHECKF(t, take_reply(&c, rb.data, cut, &ended, &err) == MTS_OK && !ended, "%s", err.msg);
+    CHECK(t, c.records && c.batches == 5 && c.lod.level == s->batch_first[5]);
+    uint32_t batch;
+    uint64_t id;
+    CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == 5 && id == r->stream_id);
+    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK);
+    mts_buf h = {0}, rest = {0};
+    hello_for(&h, MTS_HELLO_RECORDS, batch, id);
+    CHECK(t, exchange(sv.port, h.data, h.size, &rest, 10));
+    CHECKF(t, rest.size > 5 && rest.data[4] == MTS_MSG_MODEL_INFO, "code %u",
+           error_code_of(&rest));
+    /* from batch 5 on: no BASE, no batch sent twice */
+    CHECKF(t, rest.size < rb.size - r->batch_offset[5] + 16, "resumed reply %zu bytes of %zu",
+           rest.size, rb.size);
+    CHECKF(t, take_reply(&c, rest.data, rest.size, &ended, &err) == MTS_OK && ended, "%s",
+           err.msg);
+    CHECK(t, c.resumes == 1 && c.lod.level == n && c.checksum == s->level_checksum[n]);
+    mts_stream_client_free(&c);
+
+    /* a resume with one form's stream_id asking for the other form: stale */
+    const struct {
+        uint32_t flags;
+        uint64_t id;
+    } stale[] = {{MTS_HELLO_RECORDS, s->stream_id}, {0, r->stream_id}};
+    for (int i = 0; i < 2; i++) {
+        mts_buf hs = {0}, rep = {0};
+        hello_for(&hs, stale[i].flags, 5, stale[i].id);
+        CHECK(t, exchange(sv.port, hs.data, hs.size, &rep, 5));
+        CHECKF(t, error_code_of(&rep) == MTS_WERR_STALE, "case %d: code %u", i,
+               error_code_of(&rep));
+        mts_buf_free(&hs);
+        mts_buf_free(&rep);
+    }
+    mts_buf_free(&h);
+    mts_buf_free(&rest);
+    mts_buf_free(&ra);
+    mts_buf_free(&rb);
+    stop_server(t, &sv);
+}
+
+/* A server without the records form answers a HELLO asking for records with
+ * the splits form, which the client takes and completes; a resume asking
+ * for records goes on in the splits form it was given. */
+static void test_records_request_without_records_form(mts_test *t)
+{
+    served sv;
+    mts_server_options o = {0};
+    o.listen = "127.0.0.1:0";
+    if (!start_server(t, &sv, &o))
+        return;
+    const mts_stream *s = &sv.stream;
+    const uint32_t n = s->model.level_count;
+    CHECK(t, s->records_form == NULL);
+    mts_stream_client a;
+    mts_buf ra = {0};
+    fetch(t, sv.port, MTS_HELLO_RECORDS, &a, &ra);
+    CHECK(t, !a.records && !(a.info.flags & MTS_INFO_RECORDS) && a.info.stream_id == s->stream_id);
+    CHECK(t, a.lod.level == n && a.checksum == s->level_checksum[n]);
+    mts_stream_client_free(&a);
+
+    size_t info_size = 4 + ((size_t)ra.data[0] | (size_t)ra.data[1] << 8 |
+                            (size_t)ra.data[2] << 16 | (size_t)ra.data[3] << 24);
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_error err = {0};
+    int ended;
+    CHECK(t, take_reply(&c, ra.data, info_size + s->batch_offset[5] + 7, &ended, &err) == MTS_OK);
+    uint32_t batch;
+    uint64_t id;
+    CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == 5 && id == s->stream_id);
+    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK);
+    mts_buf h = {0}, rest = {0};
+    hello_for(&h, MTS_HELLO_RECORDS, batch, id);
+    CHECK(t, exchange(sv.port, h.data, h.size, &rest, 10));
+    CHECKF(t, take_reply(&c, rest.data, rest.size, &ended, &err) == MTS_OK && ended, "code %u: %s",
+           error_code_of(&rest), err.msg);
+    CHECK(t, !c.records && c.resumes == 1 && c.lod.level == n &&
+             c.checksum == s->level_checksum[n]);
+    mts_stream_client_free(&c);
+    mts_buf_free(&h);
+    mts_buf_free(&rest);
+    mts_buf_free(&ra);
+    stop_server(t, &sv);
+}
+
 int main(void)
 {
     signal(SIGPIPE, SIG_IGN);
@@ -409,5 +599,7 @@ int main(void)
     RUN(&t, test_half_closed_slow_reader);
     RUN(&t, test_out_of_descriptors);
     RUN(&t, test_refusal_survives_extra_bytes);
+    RUN(&t, test_records_form_on_request);
+    RUN(&t, test_records_request_without_records_form);
     return mts_test_end(&t);
 }

@@ -9,6 +9,7 @@
 
 #include "build.h"
 #include "crc32c.h"
+#include "reccodec.h"
 #include "mesh.h"
 #include "stream.h"
 #include "test.h"
@@ -16,8 +17,9 @@
 #include "wire.h"
 
 /* normals_given: treat the mesh's (computed) normals as the file's own, so
- * the stream carries them. */
-static int build_stream_normals(mts_test *t, const char *path, int normals_given, mts_stream *s)
+ * the stream carries them; opts may be NULL. */
+static int build_stream_opts(mts_test *t, const char *path, int normals_given,
+                             const mts_stream_options *opts, mts_stream *s)
 {
     mts_error err = {0};
     mts_mesh mesh = {0};
@@ -33,10 +35,15 @@ static int build_stream_normals(mts_test *t, const char *path, int normals_given
     CHECKF(t, rc == MTS_OK, "%s", err.msg);
     if (rc != MTS_OK)
         return 0;
-    rc = mts_stream_build(&m, "cow", NULL, s, &err);
+    rc = mts_stream_build(&m, "cow", opts, s, &err);
     mts_model_free(&m);
     CHECKF(t, rc == MTS_OK, "stream: %s", err.msg);
     return rc == MTS_OK;
+}
+
+static int build_stream_normals(mts_test *t, const char *path, int normals_given, mts_stream *s)
+{
+    return build_stream_opts(t, path, normals_given, NULL, s);
 }
 
 static int build_stream(mts_test *t, const char *path, mts_stream *s)
@@ -118,6 +125,9 @@ static void test_cow_every_stop(mts_test *t)
     mts_stream s;
     if (!build_stream(t, "tests/data/cow.off", &s))
         return;
+    /* built without the records form: a HELLO asking for records gets this */
+    CHECK(t, s.records_form == NULL && !s.records);
+    CHECK(t, mts_stream_for_hello(&s, MTS_HELLO_RECORDS) == &s);
     const uint32_t n = s.model.level_count;
     struct {
         uint8_t kind;
@@ -298,14 +308,18 @@ static void test_garbage_frames(mts_test *t)
     CHECK(t, 1); /* reaching here under ASan is the assertion: no crash, no leak */
 }
 
-static void shared_model_stops(mts_test *t, const char *file)
+/* records: also build the records form, and check it at the full level
+ * (the build is the slow part: one build serves both forms) */
+static void shared_model_stops(mts_test *t, const char *file, int records)
 {
     char buf[1024];
     const char *path = mts_test_model(file, buf, sizeof buf);
     if (!path)
         SKIP(t, "%s not found", buf);
     mts_stream s;
-    if (!build_stream(t, path, &s))
+    mts_stream_options o = {0};
+    o.with_records = records;
+    if (!build_stream_opts(t, path, 0, &o, &s))
         return;
     if (getenv("MTS_TEST_VERBOSE"))
         fprintf(stderr, "  %s: stream %zu bytes (base frame %zu), %u batches, draco %s\n", file,
@@ -331,6 +345,34 @@ static void shared_model_stops(mts_test *t, const char *file)
         mts_stream_client_free(&c);
         mts_buf_free(&b);
     }
+    if (records && s.records_form) {
+        /* the records form at the full level: the same mesh, and the
+         * model's records word for word */
+        const mts_stream *r = s.records_form;
+        mts_buf b = {0};
+        uint32_t stop;
+        connection_bytes(r, MTS_STOP_FULL, 0, &b, &stop);
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        mts_error err = {0};
+        int saw_end;
+        CHECKF(t, feed(&c, b.data, b.size, 9, &saw_end, &err) == MTS_OK && saw_end, "records: %s",
+               err.msg);
+        CHECK(t, c.records == 1 && c.grow == NULL && c.info.stream_id == r->stream_id);
+        CHECK(t, stop == s.model.level_count && c.lod.level == stop);
+        CHECK(t, c.checksum == s.level_checksum[stop]);
+        same_as_server(t, &s, &c);
+        CHECK(t, c.model.record_word_count == s.model.record_word_count &&
+                     memcmp(c.model.record_data, s.model.record_data,
+                            (size_t)s.model.record_word_count * 4) == 0);
+        if (getenv("MTS_TEST_VERBOSE"))
+            fprintf(stderr, "  %s records form: %zu bytes (splits form %zu)\n", file, r->size,
+                    s.size);
+        mts_stream_client_free(&c);
+        mts_buf_free(&b);
+    } else if (records) {
+        CHECK(t, s.records_form != NULL);
+    }
     mts_stream_free(&s);
 }
 
@@ -338,12 +380,12 @@ static void shared_model_stops(mts_test *t, const char *file)
  * -0): the stream must use Draco's grid for every vertex */
 static void test_bunny_stops(mts_test *t)
 {
-    shared_model_stops(t, "bunny00.off");
+    shared_model_stops(t, "bunny00.off", 1);
 }
 
 static void test_fandisk_stops(mts_test *t)
 {
-    shared_model_stops(t, "fandisk_large.off");
+    shared_model_stops(t, "fandisk_large.off", 0);
 }
 
 /* ---- records the client derives --------------------------------------
@@ -432,6 +474,492 @@ static void test_client_derives_every_record(mts_test *t)
     mts_stream_free(&s);
 }
 
+/* ---- the records form ---------------------------------------------------
+ *
+ * The same model, BASE and batching, but each batch carries its splits'
+ * records (reccodec.h) and each new vertex against its parent (PROTOCOL.md,
+ * "Records form"): the client derives nothing and must end exactly where the
+ * splits form does, at every stop; a damaged or padded batch is refused. */
+
+/* cow with its records form, built once for the cases below */
+static mts_stream cow_rec;
+static int cow_rec_state; /* 0: not yet, 1: built, -1: failed */
+
+static const mts_stream *cow_with_records(mts_test *t)
+{
+    if (cow_rec_state == 0) {
+        mts_stream_options o = {0};
+        o.with_records = 1;
+        cow_rec_state = build_stream_opts(t, "tests/data/cow.off", 0, &o, &cow_rec) ? 1 : -1;
+        if (cow_rec_state > 0 && !cow_rec.records_form) {
+            CHECKF(t, 0, "with_records = 1 built no records form");
+            mts_stream_free(&cow_rec);
+            cow_rec_state = -1;
+        }
+    } else if (cow_rec_state < 0) {
+        CHECKF(t, 0, "building cow with its records form failed before");
+    }
+    return cow_rec_state > 0 ? &cow_rec : NULL;
+}
+
+static uint32_t get_u32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+/* Recomputes the CRC of the frame at f (its length field first). */
+static void reseal(uint8_t *f)
+{
+    size_t n = get_u32(f) - 1; /* payload, CRC included */
+    uint8_t *pl = f + MTS_WIRE_HEADER;
+    uint32_t crc = mts_crc32c(0, pl, n - 4);
+    for (int k = 0; k < 4; k++)
+        pl[n - 4 + k] = (uint8_t)(crc >> (8 * k));
+}
+
+/* Where batch k's frame lies in connection bytes b of stream r (MODEL_INFO
+ * first), and where its body starts after the header's three varints. */
+static void batch_frame(const mts_stream *r, const mts_buf *b, uint32_t k, size_t *at,
+                        size_t *end, size_t *body)
+{
+    size_t info_size = 4 + (size_t)get_u32(b->data);
+    *at = info_size + r->batch_offset[k];
+    *end = info_size + r->batch_offset[k + 1];
+    const uint8_t *pl = b->data + *at + MTS_WIRE_HEADER;
+    mts_cursor cur = mts_cursor_make(pl, *end - *at - MTS_WIRE_HEADER - 4);
+    for (int i = 0; i < 3; i++) /* index, first split, count */
+        mts_cursor_varint(&cur);
+    *body = (size_t)(cur.p - b->data);
+}
+
+/* Feeds b with batch k's body replaced by body[0..size) (CRC recomputed). */
+static mts_result feed_with_batch(mts_stream_client *c, const mts_stream *r, const mts_buf *b,
+                                  uint32_t k, const uint8_t *body, size_t size, uint64_t seed,
+                                  int *saw_end, mts_error *err)
+{
+    size_t at, end, bstart;
+    batch_frame(r, b, k, &at, &end, &bstart);
+    mts_buf x = {0};
+    mts_buf_put(&x, b->data, at);
+    size_t f = mts_wire_frame_begin(&x, MTS_MSG_BATCH);
+    mts_buf_put(&x, b->data + at + MTS_WIRE_HEADER, bstart - at - MTS_WIRE_HEADER);
+    mts_buf_put(&x, body, size);
+    mts_buf_u32(&x, 0); /* the CRC, resealed below */
+    mts_wire_frame_end(&x, f);
+    reseal(x.data + f);
+    mts_buf_put(&x, b->data + end, b->size - end);
+    mts_result rc = feed(c, x.data, x.size, seed, saw_end, err);
+    mts_buf_free(&x);
+    return rc;
+}
+
+/* The records form from the start at the splits form's stops, in random
+ * pieces: at every stop the client equals the model, ends with the splits
+ * form's END checksum, and holds the model's records word for word; the
+ * form is its own stream (flags, stream_id) over the same BASE and batches. */
+static void test_records_form_every_stop(mts_test *t)
+{
+    const mts_stream *s = cow_with_records(t);
+    if (!s)
+        return;
+    const mts_stream *r = s->records_form;
+    const uint32_t n = s->model.level_count;
+    /* what a HELLO picks */
+    CHECK(t, mts_stream_for_hello(s, 0) == s && mts_stream_for_hello(s, MTS_HELLO_RECORDS) == r);
+    CHECK(t, !s->records && r->records && r->borrowed && !r->records_form);
+    /* the same model, grid and batching; the BASE frame byte for byte */
+    CHECK(t, r->model.positions == s->model.positions && r->quantized == s->quantized &&
+             r->level_checksum == s->level_checksum);
+    CHECK(t, r->batch_count == s->batch_count && s->batch_count > 3 &&
+             memcmp(r->batch_first, s->batch_first, ((size_t)s->batch_count + 1) * 4) == 0);
+    CHECK(t, r->batch_offset[0] == s->batch_offset[0] &&
+             memcmp(r->bytes, s->bytes, s->batch_offset[0]) == 0);
+    CHECK(t, r->batch_offset[r->batch_count] == r->size && r->size > 4 * s->size);
+    CHECKF(t, r->stream_id != s->stream_id, "both forms are stream %016llx",
+           (unsigned long long)r->stream_id);
+    /* MODEL_INFO: equal but for the stream_id and the records flag */
+    mts_buf ia = {0}, ib = {0};
+    mts_stream_put_model_info(s, n, &ia);
+    mts_stream_put_model_info(r, n, &ib);
+    mts_wire_model_info a = {0}, b = {0};
+    mts_error err = {0};
+    CHECKF(t, mts_wire_parse_model_info(ia.data + MTS_WIRE_HEADER, ia.size - MTS_WIRE_HEADER, &a,
+                                        &err) == MTS_OK &&
+                  mts_wire_parse_model_info(ib.data + MTS_WIRE_HEADER,
+                                            ib.size - MTS_WIRE_HEADER, &b, &err) == MTS_OK,
+           "%s", err.msg);
+    CHECK(t, a.flags == 0 && b.flags == MTS_INFO_RECORDS);
+    CHECK(t, a.stream_id == s->stream_id && b.stream_id == r->stream_id);
+    CHECK(t, b.minor == MTS_WIRE_MINOR && MTS_WIRE_MINOR >= 1);
+    CHECK(t, a.levels == b.levels && a.vertices == b.vertices && a.triangles == b.triangles &&
+             a.batch_count == b.batch_count && a.key_count == b.key_count && a.strips == b.strips);
+    CHECK(t, ia.size == ib.size); /* the same fields, so the same size */
+    mts_wire_model_info_free(&a);
+    mts_wire_model_info_free(&b);
+    mts_buf_free(&ia);
+    mts_buf_free(&ib);
+
+    struct {
+        uint8_t kind;
+        uint32_t value;
+    } stops[] = {{MTS_STOP_FULL, 0},         {MTS_STOP_LEVEL, n / 3},
+                 {MTS_STOP_LEVEL, 0},        {MTS_STOP_TRIANGLES, 1000},
+                 {MTS_STOP_FRACTION, 500000}, {MTS_STOP_LEVEL, 999999}};
+    for (size_t i = 0; i < sizeof stops / sizeof stops[0] && !t->case_failed; i++) {
+        /* the splits form at this stop, for its END checksum */
+        mts_buf sb = {0};
+        uint32_t sstop;
+        connection_bytes(s, stops[i].kind, stops[i].value, &sb, &sstop);
+        mts_stream_client sc;
+        mts_stream_client_init(&sc);
+        int saw_end;
+        CHECKF(t, feed(&sc, sb.data, sb.size, 0, &saw_end, &err) == MTS_OK && saw_end,
+               "splits, stop %zu: %s", i, err.msg);
+        for (uint64_t seed = 0; seed < 4; seed++) {
+            mts_buf rb = {0};
+            uint32_t stop;
+            connection_bytes(r, stops[i].kind, stops[i].value, &rb, &stop);
+            CHECK(t, stop == sstop);
+            mts_stream_client c;
+            mts_stream_client_init(&c);
+            mts_result rc = feed(&c, rb.data, rb.size, seed, &saw_end, &err);
+            CHECKF(t, rc == MTS_OK && saw_end, "records, stop %zu seed %llu: %s", i,
+                   (unsigned long long)seed, err.msg);
+            CHECK(t, c.records == 1 && c.grow == NULL);
+            CHECK(t, (c.info.flags & MTS_INFO_RECORDS) && c.info.stream_id == r->stream_id);
+            CHECK(t, c.lod.level == stop && !c.lod.broken);
+            CHECKF(t, c.checksum == c.end_checksum && c.end_checksum == sc.end_checksum &&
+                          c.checksum == s->level_checksum[stop],
+                   "stop %zu: records %016llx, splits %016llx", i,
+                   (unsigned long long)c.checksum, (unsigned long long)sc.end_checksum);
+            same_as_server(t, s, &c);
+            /* the records it was sent (whole batches up to the stop) are the
+             * model's, parents included */
+            const uint32_t got = c.splits;
+            CHECK(t, got >= stop && got <= n && c.batches <= s->batch_count &&
+                     got == s->batch_first[c.batches]);
+            CHECK(t, memcmp(c.model.parents, s->model.parents, (size_t)got * 4) == 0);
+            CHECK(t, memcmp(c.model.record_offsets, s->model.record_offsets,
+                            ((size_t)got + 1) * 4) == 0);
+            CHECK(t, got == 0 || memcmp(c.model.record_data, s->model.record_data,
+                                        (size_t)s->model.record_offsets[got] * 4) == 0);
+            mts_stream_client_free(&c);
+            mts_buf_free(&rb);
+        }
+        mts_stream_client_free(&sc);
+        mts_buf_free(&sb);
+    }
+}
+
+/* Each records-form batch is the model's records in reccodec's encoding,
+ * then per split three grid deltas against the parent, then the CRC. */
+static void test_records_form_batch_layout(mts_test *t)
+{
+    const mts_stream *s = cow_with_records(t);
+    if (!s)
+        return;
+    const mts_stream *r = s->records_form;
+    mts_buf b = {0};
+    uint32_t stop;
+    connection_bytes(r, MTS_STOP_FULL, 0, &b, &stop);
+    const uint32_t nb = s->model.base_vertex_count;
+    for (uint32_t k = 0; k < r->batch_count && !t->case_failed; k++) {
+        const uint32_t first = s->batch_first[k], count = s->batch_first[k + 1] - first;
+        size_t at, end, body;
+        batch_frame(r, &b, k, &at, &end, &body);
+        CHECK(t, b.data[at + 4] == MTS_MSG_BATCH && get_u32(b.data + at) + 4 == end - at);
+        size_t bound = mts_reccodec_bound(&s->model, first, count), written = 0;
+        uint8_t *rec = malloc(bound ? bound : 1);
+        mts_error err = {0};
+        CHECKF(t, rec && mts_reccodec_encode(&s->model, first, count, rec, bound, &written,
+                                             &err) == MTS_OK,
+               "%s", err.msg);
+        CHECKF(t, body + written <= end - 4 && memcmp(b.data + body, rec, written) == 0,
+               "batch %u: its records are not reccodec's encoding of splits %u+%u", k, first,
+               count);
+        free(rec);
+        mts_cursor cur = mts_cursor_make(b.data + body + written, end - 4 - body - written);
+        for (uint32_t i = 0; i < count && cur.ok; i++) {
+            const uint32_t v = nb + first + i, u = s->model.parents[first + i];
+            for (int a = 0; a < 3; a++) {
+                int32_t d = (int32_t)mts_unzigzag_u32(mts_cursor_varint(&cur));
+                CHECKF(t, cur.ok && (int64_t)s->quantized[3 * (size_t)u + a] + d ==
+                                        (int64_t)s->quantized[3 * (size_t)v + a],
+                       "batch %u: vertex %u axis %d", k, v, a);
+            }
+        }
+        CHECKF(t, cur.ok && mts_cursor_left(&cur) == 0, "batch %u: %zu bytes before its CRC", k,
+               mts_cursor_left(&cur));
+    }
+    mts_buf_free(&b);
+}
+
+/* Normals the source had travel in the records form too, bit for bit. */
+static void test_records_form_normals(mts_test *t)
+{
+    mts_stream s;
+    mts_stream_options o = {0};
+    o.with_records = 1;
+    if (!build_stream_opts(t, "tests/data/cow.off", 1, &o, &s))
+        return;
+    const mts_stream *r = s.records_form;
+    CHECK(t, r != NULL);
+    if (!r) {
+        mts_stream_free(&s);
+        return;
+    }
+    const uint32_t n = s.model.level_count;
+    const uint32_t stops[2] = {n, n / 2};
+    for (int i = 0; i < 2; i++) {
+        mts_buf b = {0};
+        uint32_t stop;
+        connection_bytes(r, MTS_STOP_LEVEL, stops[i], &b, &stop);
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        mts_error err = {0};
+        int saw_end;
+        mts_result rc = feed(&c, b.data, b.size, 13 + (uint64_t)i, &saw_end, &err);
+        CHECKF(t, rc == MTS_OK && saw_end, "%s", err.msg);
+        CHECK(t, c.info.flags == (MTS_INFO_NORMALS | MTS_INFO_RECORDS) && c.records);
+        CHECK(t, c.lod.level == stop && c.checksum == s.level_checksum[stop]);
+        same_as_server(t, &s, &c); /* normals included, bit for bit */
+        size_t nv = (size_t)s.model.base_vertex_count + stop, unit = 0;
+        for (size_t x = 0; x < nv; x++) {
+            const float *q = c.model.normals + 3 * x;
+            float l = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+            unit += l > 0.999f && l < 1.001f;
+        }
+        CHECKF(t, unit == nv, "%zu of %zu unit normals", unit, nv);
+        mts_stream_client_free(&c);
+        mts_buf_free(&b);
+    }
+    mts_stream_free(&s);
+}
+
+/* One byte of a records-form batch's records damaged and the CRC resealed
+ * (a broken server): stream.h promises the batch is applied only once its
+ * encoding checks out and each record is checked against the strips as it
+ * is applied. So each damage is refused at that batch, the client left at
+ * its last whole batch (the encoding failed) or its runtime marked broken
+ * part-way through the batch (a record failed) -- or, where the damaged
+ * record happens to fit the strips, caught by a later record or END's
+ * checksum. No damaged stream ends accepted with another mesh, and a
+ * refused client has nothing to resume. */
+static void test_records_form_damaged_record(mts_test *t)
+{
+    const mts_stream *s = cow_with_records(t);
+    if (!s)
+        return;
+    const mts_stream *r = s->records_form;
+    mts_buf b = {0};
+    uint32_t stop;
+    connection_bytes(r, MTS_STOP_FULL, 0, &b, &stop);
+    const uint32_t k = 2, first = s->batch_first[k], next = s->batch_first[k + 1];
+    size_t at, end, body;
+    batch_frame(r, &b, k, &at, &end, &body);
+    size_t bound = mts_reccodec_bound(&s->model, first, next - first), written = 0;
+    uint8_t *rec = malloc(bound ? bound : 1);
+    mts_error err = {0};
+    CHECK(t, rec && mts_reccodec_encode(&s->model, first, next - first, rec, bound, &written,
+                                        &err) == MTS_OK);
+    free(rec);
+    uint8_t *copy = malloc(b.size);
+    if (!copy) {
+        CHECK(t, 0);
+        mts_buf_free(&b);
+        return;
+    }
+    const size_t step = written / 300 + 1;
+    unsigned refused = 0, broken = 0, later = 0, harmless = 0;
+    for (size_t pos = body; pos < body + written && !t->case_failed; pos += step) {
+        memcpy(copy, b.data, b.size);
+        copy[pos] ^= pos == body ? 0x5a : (uint8_t)(1u << (pos % 7));
+        reseal(copy + at);
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        int saw_end;
+        /* up to the damaged batch */
+        mts_result rc = feed(&c, copy, end, pos, &saw_end, &err);
+        if (rc != MTS_OK) {
+            refused++;
+            CHECKF(t, strncmp(err.msg, "BATCH 2", 7) == 0, "byte %zu: %s", pos - body, err.msg);
+            if (c.lod.broken) {
+                broken++;
+                CHECKF(t, c.lod.level >= first && c.lod.level < next,
+                       "byte %zu: broken at level %u, batch 2 is %u..%u", pos - body, c.lod.level,
+                       first, next);
+            } else {
+                CHECKF(t, c.batches == k && c.splits == first && c.lod.level == first,
+                       "byte %zu: %u batches, level %u after a refused batch (%s)", pos - body,
+                       c.batches, c.lod.level, err.msg);
+                same_as_server(t, s, &c); /* the last whole batch, untouched */
+            }
+            uint32_t rb;
+            uint64_t id;
+            CHECK(t, !mts_stream_client_resume_point(&c, &rb, &id));
+            mts_stream_event ev;
+            CHECK(t, mts_stream_client_frame(&c, MTS_MSG_BATCH, copy + end + 5, 8, &ev, &err) ==
+                         MTS_ERR_ARG); /* not fed again */
+        } else {
+            /* a damaged record that fits the strips: the rest must catch it,
+             * or it changed nothing the mesh shows */
+            rc = feed(&c, copy + end, b.size - end, pos + 1, &saw_end, &err);
+            if (rc != MTS_OK) {
+                later++;
+                if (getenv("MTS_TEST_VERBOSE"))
+                    fprintf(stderr, "  byte %zu caught later: %s\n", pos - body, err.msg);
+            } else {
+                CHECKF(t, saw_end, "byte %zu", pos - body);
+                same_as_server(t, s, &c);
+                harmless++;
+            }
+        }
+        mts_stream_client_free(&c);
+    }
+    if (getenv("MTS_TEST_VERBOSE"))
+        fprintf(stderr,
+                "  %zu record bytes, every %zu damaged: %u refused at the batch (%u with the "
+                "runtime broken), %u caught later, %u harmless\n",
+                written, step, refused, broken, later, harmless);
+    CHECK(t, refused > later + harmless); /* most are caught at the batch itself */
+
+    /* the first split's parent step damaged: refused at that batch */
+    memcpy(copy, b.data, b.size);
+    copy[body] ^= 0x5a;
+    reseal(copy + at);
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    int saw_end;
+    mts_result rc = feed(&c, copy, b.size, 3, &saw_end, &err);
+    CHECKF(t, rc != MTS_OK && !saw_end && strncmp(err.msg, "BATCH 2", 7) == 0, "%s", err.msg);
+    CHECK(t, c.lod.broken ? c.lod.level >= first && c.lod.level < next
+                          : c.batches == k && c.lod.level == first);
+    mts_stream_client_free(&c);
+    free(copy);
+    mts_buf_free(&b);
+}
+
+/* A records-form batch with bytes after its vertices, or cut inside its
+ * last vertex (CRC resealed either way), is refused whole: the client stays
+ * at its last whole batch. */
+static void test_records_form_trailing_bytes(mts_test *t)
+{
+    const mts_stream *s = cow_with_records(t);
+    if (!s)
+        return;
+    const mts_stream *r = s->records_form;
+    mts_buf b = {0};
+    uint32_t stop;
+    connection_bytes(r, MTS_STOP_FULL, 0, &b, &stop);
+    const uint32_t k = 2;
+    size_t at, end, body;
+    batch_frame(r, &b, k, &at, &end, &body);
+    const size_t size = end - 4 - body; /* records and vertices */
+    uint8_t *longer = malloc(size + 3);
+    if (!longer) {
+        CHECK(t, 0);
+        mts_buf_free(&b);
+        return;
+    }
+    memcpy(longer, b.data + body, size);
+    struct {
+        size_t size;
+        mts_result want;
+        const char *says;
+    } cases[] = {{size + 1, MTS_ERR_FORMAT, "1 bytes after its records"},
+                 {size + 3, MTS_ERR_FORMAT, "3 bytes after its records"},
+                 {size - 1, MTS_ERR_RANGE, "cut short"}};
+    longer[size] = 0;
+    longer[size + 1] = 1;
+    longer[size + 2] = 0;
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        mts_error err = {0};
+        int saw_end;
+        mts_result rc = feed_with_batch(&c, r, &b, k, longer, cases[i].size, i, &saw_end, &err);
+        CHECKF(t, rc == cases[i].want && strncmp(err.msg, "BATCH 2", 7) == 0 &&
+                      strstr(err.msg, cases[i].says),
+               "case %zu: %d %s", i, rc, err.msg);
+        CHECK(t, !saw_end && !c.lod.broken);
+        CHECK(t, c.batches == k && c.lod.level == s->batch_first[k]);
+        same_as_server(t, s, &c);
+        mts_stream_client_free(&c);
+    }
+    /* the same batch as sent, through the same rebuilding: accepted */
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_error err = {0};
+    int saw_end;
+    CHECKF(t, feed_with_batch(&c, r, &b, k, longer, size, 7, &saw_end, &err) == MTS_OK && saw_end,
+           "%s", err.msg);
+    CHECK(t, c.lod.level == stop);
+    mts_stream_client_free(&c);
+    free(longer);
+    mts_buf_free(&b);
+}
+
+/* MODEL_INFO says one form, the batches are the other's (a broken server):
+ * refused at the first batch, never applied as the other. */
+static void test_records_form_flag_mismatch(mts_test *t)
+{
+    const mts_stream *s = cow_with_records(t);
+    if (!s)
+        return;
+    const mts_stream *r = s->records_form;
+    const uint32_t n = s->model.level_count;
+    const mts_stream *info_of[2] = {s, r}, *bytes_of[2] = {r, s};
+    for (int i = 0; i < 2; i++) {
+        mts_buf b = {0};
+        mts_stream_put_model_info(info_of[i], n, &b);
+        mts_buf_put(&b, bytes_of[i]->bytes, bytes_of[i]->size);
+        mts_stream_put_end(s, n, (uint32_t)b.size, &b);
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        mts_error err = {0};
+        int saw_end;
+        mts_result rc = feed(&c, b.data, b.size, 5, &saw_end, &err);
+        CHECKF(t, rc != MTS_OK && strncmp(err.msg, "BATCH 0", 7) == 0, "%s info: %d %s",
+               i ? "records" : "splits", rc, err.msg);
+        CHECK(t, c.records == i && !saw_end);
+        CHECK(t, c.lod.broken ? c.lod.level < s->batch_first[1] : c.lod.level == 0);
+        mts_stream_client_free(&c);
+        mts_buf_free(&b);
+    }
+}
+
+/* A records-form client moves down to the base and back up with the records
+ * it was sent (collapses undo what the splits checked), at every step the
+ * model; the splits form's derived records are the same words. */
+static void test_records_form_moves_both_ways(mts_test *t)
+{
+    const mts_stream *s = cow_with_records(t);
+    if (!s)
+        return;
+    const mts_model *sm = &s->model;
+    mts_buf b = {0};
+    uint32_t stop;
+    connection_bytes(s->records_form, MTS_STOP_FULL, 0, &b, &stop);
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_error err = {0};
+    int saw_end;
+    CHECKF(t, feed(&c, b.data, b.size, 17, &saw_end, &err) == MTS_OK && saw_end, "%s", err.msg);
+    CHECK(t, c.lod.level == sm->level_count && c.lod.available == sm->level_count);
+    CHECK(t, sm->key_count >= 3);
+    const uint32_t path[] = {0, sm->key_levels[1], sm->level_count / 2, 1, sm->level_count,
+                             sm->key_levels[sm->key_count - 1] - 1, sm->level_count};
+    for (size_t i = 0; i < sizeof path / sizeof path[0] && !t->case_failed; i++) {
+        CHECKF(t, mts_lod_set_level(&c.lod, path[i], &err) == MTS_OK, "to %u: %s", path[i],
+               err.msg);
+        CHECK(t, c.lod.level == path[i]);
+        same_as_server(t, s, &c);
+    }
+    CHECK(t, mts_stream_checksum(&c.lod, c.quantized) == s->level_checksum[sm->level_count]);
+    mts_stream_client_free(&c);
+    mts_buf_free(&b);
+}
+
 /* A model without split descriptions (one made by hand, or by an older
  * build) cannot be streamed, and says why. */
 static void test_model_without_descriptions_refused(mts_test *t)
@@ -469,6 +997,15 @@ int main(void)
     RUN(&t, test_garbage_frames);
     RUN(&t, test_client_derives_every_record);
     RUN(&t, test_model_without_descriptions_refused);
+    RUN(&t, test_records_form_every_stop);
+    RUN(&t, test_records_form_batch_layout);
+    RUN(&t, test_records_form_normals);
+    RUN(&t, test_records_form_damaged_record);
+    RUN(&t, test_records_form_trailing_bytes);
+    RUN(&t, test_records_form_flag_mismatch);
+    RUN(&t, test_records_form_moves_both_ways);
+    if (cow_rec_state > 0)
+        mts_stream_free(&cow_rec);
     RUN(&t, test_bunny_stops);
     RUN(&t, test_fandisk_stops);
     return mts_test_end(&t);

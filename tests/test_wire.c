@@ -69,6 +69,7 @@ static void test_hello_round_trip_and_errors(mts_test *t)
     for (uint8_t old = 1; old <= 3; old++) {
         memcpy(copy, p, n);
         copy[4] = old;
+        copy[6] = copy[7] = 0; /* an X.0 peer (this one writes MTS_WIRE_MINOR) */
         char want[8];
         snprintf(want, sizeof want, "%u.0", old);
         CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
@@ -76,6 +77,7 @@ static void test_hello_round_trip_and_errors(mts_test *t)
                err.msg);
     }
     copy[4] = 5;
+    copy[6] = copy[7] = 0;
     CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
     CHECKF(t, strstr(err.msg, "5.0") != NULL, "%s", err.msg);
     free(copy);
@@ -184,6 +186,111 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     CHECK(t, mts_wire_parse_model_info(p, n, &back, &err) == MTS_ERR_FORMAT);
     CHECKF(t, strstr(err.msg, "cannot fit") != NULL, "%s", err.msg);
     mts_buf_free(&e);
+}
+
+/* 4.1's HELLO flag: a client asking for the records form says so in HELLO's
+ * flags, which come back as sent (other bits too: a server ignores the ones
+ * it does not know, so a later client's wishes cost it nothing); a 4.0 peer
+ * (minor 0, flags 0) still parses. */
+static void test_hello_records_flag(mts_test *t)
+{
+    CHECK(t, MTS_WIRE_MINOR >= 1 && MTS_HELLO_RECORDS == 1u);
+    const uint32_t flags[] = {MTS_HELLO_RECORDS, 0, MTS_HELLO_RECORDS | 0x40u, 0x80u, 1u << 31};
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++) {
+        mts_buf b = {0};
+        mts_wire_hello h = sample_hello(), back;
+        h.flags = flags[i];
+        mts_wire_put_hello(&b, &h);
+        uint8_t type;
+        const uint8_t *p;
+        size_t n;
+        mts_error err = {0};
+        CHECK(t, one_frame(&b, &type, &p, &n) && type == MTS_MSG_HELLO);
+        CHECKF(t, mts_wire_parse_hello(p, n, &back, &err) == MTS_OK, "flags 0x%x: %s", flags[i],
+               err.msg);
+        CHECKF(t, back.flags == flags[i], "flags 0x%x came back 0x%x", flags[i], back.flags);
+        CHECK(t, back.minor == MTS_WIRE_MINOR && back.resume_batch == 7 &&
+                 back.stream_id == h.stream_id && strcmp(back.model, "bunny00") == 0);
+        CHECK(t, !!(back.flags & MTS_HELLO_RECORDS) == !!(flags[i] & MTS_HELLO_RECORDS));
+        /* cut anywhere, the flags included: refused */
+        for (size_t cut = 0; cut < n; cut++)
+            CHECKF(t, mts_wire_parse_hello(p, cut, &back, &err) != MTS_OK, "cut %zu accepted", cut);
+        mts_buf_free(&b);
+    }
+    /* a 4.0 client's HELLO: minor 0, no flags */
+    mts_buf b = {0};
+    mts_wire_hello h = sample_hello(), back;
+    h.minor = 0;
+    mts_wire_put_hello(&b, &h);
+    uint8_t type;
+    const uint8_t *p;
+    size_t n;
+    mts_error err = {0};
+    CHECK(t, one_frame(&b, &type, &p, &n));
+    CHECKF(t, mts_wire_parse_hello(p, n, &back, &err) == MTS_OK, "%s", err.msg);
+    CHECK(t, back.minor == 0 && back.flags == 0);
+    mts_buf_free(&b);
+}
+
+/* MODEL_INFO's flag for the records form parses alone and with the normals
+ * flag; a bit this version does not know is refused beside it. */
+static void test_model_info_records_flag(mts_test *t)
+{
+    uint32_t batches[2] = {20, 15}, caps[2] = {40, 60};
+    mts_wire_model_info mi = {0};
+    mi.minor = MTS_WIRE_MINOR;
+    mi.stream_id = 0x1122334455667788ull;
+    strcpy(mi.model, "cow");
+    mi.vertices = 40;
+    mi.base_vertices = 5;
+    mi.levels = 35;
+    mi.triangles = 76;
+    mi.strips = 2;
+    mi.stop_level = 35;
+    mi.stop_triangles = 76;
+    mi.bbox_max[0] = mi.bbox_max[1] = mi.bbox_max[2] = 1;
+    mi.quant_bits = 14;
+    mi.grid_range = 1;
+    mi.batch_count = 2;
+    mi.batch_splits = batches;
+    mi.capacities = caps;
+    CHECK(t, MTS_INFO_RECORDS == 2u &&
+             MTS_INFO_KNOWN_FLAGS == (MTS_INFO_NORMALS | MTS_INFO_RECORDS));
+    const struct {
+        uint8_t flags;
+        int ok;
+    } cases[] = {{MTS_INFO_RECORDS, 1},
+                 {MTS_INFO_RECORDS | MTS_INFO_NORMALS, 1},
+                 {0, 1},
+                 {4, 0},
+                 {MTS_INFO_RECORDS | 4, 0},
+                 {MTS_INFO_RECORDS | MTS_INFO_NORMALS | 0x40, 0}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        mi.flags = cases[i].flags;
+        mts_buf b = {0};
+        mts_wire_put_model_info(&b, &mi);
+        uint8_t type;
+        const uint8_t *p;
+        size_t n;
+        mts_error err = {0};
+        mts_wire_model_info back;
+        CHECK(t, one_frame(&b, &type, &p, &n) && type == MTS_MSG_MODEL_INFO);
+        mts_result rc = mts_wire_parse_model_info(p, n, &back, &err);
+        if (cases[i].ok) {
+            CHECKF(t, rc == MTS_OK, "flags 0x%02x: %s", cases[i].flags, err.msg);
+            CHECK(t, rc != MTS_OK || (back.flags == cases[i].flags && back.minor == MTS_WIRE_MINOR &&
+                                      back.stream_id == mi.stream_id && back.batch_count == 2 &&
+                                      back.batch_splits[1] == 15 && back.capacities[1] == 60));
+            if (rc == MTS_OK)
+                mts_wire_model_info_free(&back);
+        } else {
+            char want[40];
+            snprintf(want, sizeof want, "unknown flags 0x%02x", cases[i].flags);
+            CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, want), "flags 0x%02x: %d %s",
+                   cases[i].flags, rc, err.msg);
+        }
+        mts_buf_free(&b);
+    }
 }
 
 static void test_small_messages(mts_test *t)
@@ -317,6 +424,8 @@ int main(void)
     mts_test t = {0};
     RUN(&t, test_hello_round_trip_and_errors);
     RUN(&t, test_model_info_round_trip_and_bounds);
+    RUN(&t, test_hello_records_flag);
+    RUN(&t, test_model_info_records_flag);
     RUN(&t, test_small_messages);
     RUN(&t, test_reader_any_split);
     RUN(&t, test_reader_refuses_bad_lengths);

@@ -7,7 +7,9 @@
  * the MODEL_INFO (head and shared tail), range and END the server would send,
  * which must parse back on a client.
  *
- * The served stream is a small torus named "fuzz", built once. */
+ * The served stream is a small torus named "fuzz", built once with its
+ * records form, which a HELLO's flags pick as in server.c
+ * (mts_stream_for_hello). */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,7 +27,7 @@ static const mts_stream *mts_fuzz_request_stream(void)
     static int built;
     if (!built) {
         mts_error err = {0};
-        if (mts_fuzz_torus_stream(8, 10, 8, &s, &err) != MTS_OK) {
+        if (mts_fuzz_torus_stream(8, 10, 8, 1, &s, &err) != MTS_OK) {
             fprintf(stderr, "fuzz_request: cannot build the served stream: %s\n", err.msg);
             abort();
         }
@@ -41,6 +43,9 @@ static void mts_fuzz_answer_hello(const mts_wire_hello *h)
     MTS_FUZZ_CHECK(mts_wire_valid_name(h->model, strlen(h->model)));
     if (strcmp(h->model, st->name) != 0)
         return; /* ERROR unknown_model */
+    /* the form it asked for (this server has both) */
+    st = mts_stream_for_hello(st, h->flags);
+    MTS_FUZZ_CHECK(st->records == ((h->flags & MTS_HELLO_RECORDS) != 0));
     if (h->resume_batch > 0 && h->stream_id != st->stream_id)
         return; /* ERROR stale */
     uint32_t stop = mts_stream_stop_level(st, h->stop_kind, h->stop_value);
@@ -69,6 +74,7 @@ static void mts_fuzz_answer_hello(const mts_wire_hello *h)
     MTS_FUZZ_CHECK(mts_wire_parse_model_info(head.data + MTS_WIRE_HEADER,
                                              head.size - MTS_WIRE_HEADER, &mi, &err) == MTS_OK);
     MTS_FUZZ_CHECK(mi.stop_level == stop && mi.stream_id == st->stream_id);
+    MTS_FUZZ_CHECK(!!(mi.flags & MTS_INFO_RECORDS) == st->records);
     mts_wire_model_info_free(&mi);
     mts_wire_end e;
     MTS_FUZZ_CHECK(mts_wire_parse_end(tail.data + MTS_WIRE_HEADER, tail.size - MTS_WIRE_HEADER,

@@ -1,6 +1,8 @@
 /* The fuzz targets' seed corpora, made from real streams and files so the
  * fuzzer starts deep: a small torus model (fast to decode, every code path)
- * and tests/data/cow.off's model (the real thing), cut at a few stop levels.
+ * and tests/data/cow.off's model (the real thing), cut at a few stop levels,
+ * each in both forms of a stream (splits, and records: PROTOCOL.md "Records
+ * form"), and a torus whose normals travel (the one seed of that path).
  * `make fuzz` writes them with tests/fuzz/fuzz_seeds.c; the regression test
  * runs them through the targets in memory. Seeds stay small (the biggest are
  * cow's streams, under 10 KiB) so that each execution stays fast.
@@ -91,8 +93,10 @@ static inline void mts_fuzz_stream_seeds(mts_fuzz_seeder *sd, const char *tag, c
     }
 }
 
-/* Streams broken and resumed (MTS_FUZZ_CUT between the connections). */
-static inline void mts_fuzz_resume_seeds(mts_fuzz_seeder *sd, const mts_stream *s)
+/* Streams broken and resumed (MTS_FUZZ_CUT between the connections), named
+ * tag-cut-...: s's form throughout, as a client resumes the stream_id it was
+ * given. */
+static inline void mts_fuzz_resume_seeds(mts_fuzz_seeder *sd, const char *tag, const mts_stream *s)
 {
     const uint32_t n = s->model.level_count;
     if (s->batch_count < 5)
@@ -109,16 +113,17 @@ static inline void mts_fuzz_resume_seeds(mts_fuzz_seeder *sd, const mts_stream *
         uint32_t resume[3];  /* the batch each connection resumes from */
     } cases[] = {
         /* cut inside BASE: nothing applied, the second connection starts over */
-        {"torus-cut-in-base", {head + base_end / 2, 0}, {0, 0, 0}},
+        {"cut-in-base", {head + base_end / 2, 0}, {0, 0, 0}},
         /* cut inside batch 0: the base is in, the server sends it again */
-        {"torus-cut-in-batch0", {head + s->batch_offset[0] + 9, 0}, {0, 0, 0}},
+        {"cut-in-batch0", {head + s->batch_offset[0] + 9, 0}, {0, 0, 0}},
         /* cut inside batch 2: resumes from batch 2 */
-        {"torus-cut-in-batch2", {head + s->batch_offset[2] + 7, 0}, {0, 2, 0}},
+        {"cut-in-batch2", {head + s->batch_offset[2] + 7, 0}, {0, 2, 0}},
         /* two breaks: inside batch 1, then inside batch 4 of the resumed stream */
-        {"torus-cut-twice",
+        {"cut-twice",
          {head + s->batch_offset[1] + 3, head + s->batch_offset[4] - s->batch_offset[1] + 5},
          {0, 1, 4}},
     };
+    char name[96];
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         mts_buf b = {0};
         int conns = cases[i].keep[1] ? 3 : 2;
@@ -128,10 +133,11 @@ static inline void mts_fuzz_resume_seeds(mts_fuzz_seeder *sd, const mts_stream *
             mts_fuzz_conversation(s, cases[i].resume[k], n, k + 1 < conns ? cases[i].keep[k] : SIZE_MAX,
                                   &b);
         }
+        snprintf(name, sizeof name, "%s-%s", tag, cases[i].name);
         if (b.failed)
             sd->failed = 1;
         else
-            mts_fuzz_emit_mode(sd, "stream_client", cases[i].name, 0, b.data, b.size);
+            mts_fuzz_emit_mode(sd, "stream_client", name, 0, b.data, b.size);
         mts_buf_free(&b);
     }
 }
@@ -143,19 +149,28 @@ static inline void mts_fuzz_request_seeds(mts_fuzz_seeder *sd, const mts_stream 
         uint16_t major;
         uint8_t kind;
         uint32_t value, resume;
-        int right_id;
+        int right_id; /* 1: the splits form's stream_id, 2: the records form's */
+        uint32_t flags;
     } hellos[] = {
-        {"hello-full", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 0, 0},
-        {"hello-level", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 10, 0, 0},
-        {"hello-level-past", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 1000000, 0, 0},
-        {"hello-triangles", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_TRIANGLES, 100, 0, 0},
-        {"hello-fraction", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FRACTION, 500000, 0, 0},
-        {"hello-resume", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 40, 2, 1},
-        {"hello-resume-stale", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 1, 0},
-        {"hello-resume-past", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 10, 5, 1},
-        {"hello-unknown-model", "cow", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 0, 0},
-        {"hello-version-1", "fuzz", 1, MTS_STOP_FULL, 0, 0, 0}, /* an older peer */
-        {"hello-version-next", "fuzz", MTS_WIRE_MAJOR + 1, MTS_STOP_FULL, 0, 0, 0},
+        {"hello-full", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 0, 0, 0},
+        {"hello-level", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 10, 0, 0, 0},
+        {"hello-level-past", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 1000000, 0, 0, 0},
+        {"hello-triangles", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_TRIANGLES, 100, 0, 0, 0},
+        {"hello-fraction", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FRACTION, 500000, 0, 0, 0},
+        {"hello-resume", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 40, 2, 1, 0},
+        {"hello-resume-stale", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 1, 0, 0},
+        {"hello-resume-past", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 10, 5, 1, 0},
+        {"hello-unknown-model", "cow", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 0, 0, 0},
+        {"hello-version-1", "fuzz", 1, MTS_STOP_FULL, 0, 0, 0, 0}, /* an older peer */
+        {"hello-version-next", "fuzz", MTS_WIRE_MAJOR + 1, MTS_STOP_FULL, 0, 0, 0, 0},
+        /* 4.1: the records form asked for, resumed with its own stream_id or
+         * (stale) the splits form's; unknown flag bits, ignored */
+        {"hello-records", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 0, 0, MTS_HELLO_RECORDS},
+        {"hello-records-resume", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_LEVEL, 40, 2, 2,
+         MTS_HELLO_RECORDS},
+        {"hello-records-resume-stale", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 2, 1,
+         MTS_HELLO_RECORDS},
+        {"hello-unknown-flags", "fuzz", MTS_WIRE_MAJOR, MTS_STOP_FULL, 0, 0, 0, 0xfe},
     };
     for (size_t i = 0; i < sizeof hellos / sizeof hellos[0]; i++) {
         mts_wire_hello h = {0};
@@ -165,7 +180,10 @@ static inline void mts_fuzz_request_seeds(mts_fuzz_seeder *sd, const mts_stream 
         h.stop_kind = hellos[i].kind;
         h.stop_value = hellos[i].value;
         h.resume_batch = hellos[i].resume;
-        h.stream_id = hellos[i].right_id ? s->stream_id : 12345;
+        h.stream_id = hellos[i].right_id == 2 && s->records_form ? s->records_form->stream_id
+                      : hellos[i].right_id                         ? s->stream_id
+                                                                   : 12345;
+        h.flags = hellos[i].flags;
         mts_buf b = {0};
         mts_wire_put_hello(&b, &h);
         if (b.failed)
@@ -240,13 +258,36 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
                                              void *user, mts_error *err)
 {
     mts_fuzz_seeder sd = {emit, user, 0};
-    mts_stream torus, small, seq;
+    mts_stream torus, small, seq, normals;
     mts_result rc;
-    if ((rc = mts_fuzz_torus_stream(8, 10, 8, &torus, err)) != MTS_OK)
+    if ((rc = mts_fuzz_torus_stream(8, 10, 8, 1, &torus, err)) != MTS_OK)
         return mts_error_prefix(err, "torus");
-    if ((rc = mts_fuzz_torus_stream(5, 6, 4, &small, err)) != MTS_OK) {
+    if ((rc = mts_fuzz_torus_stream(5, 6, 4, 1, &small, err)) != MTS_OK) {
         mts_stream_free(&torus);
         return mts_error_prefix(err, "small torus");
+    }
+    /* the small torus again, its (computed) normals taken as the source's
+     * own, so that they travel (MODEL_INFO flags bit 0), in both forms */
+    {
+        size_t size = 0;
+        char *off = mts_fuzz_torus_off(5, 6, &size);
+        mts_model m;
+        rc = off ? mts_fuzz_build_model("torus.off", off, size, 0, &m, err)
+                 : mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
+        free(off);
+        if (rc == MTS_OK) {
+            m.flags |= MTS_MODEL_NORMALS_GIVEN;
+            mts_stream_options o = {0};
+            o.batch_splits = 4;
+            o.with_records = 1;
+            rc = mts_stream_build(&m, "fuzz", &o, &normals, err);
+            mts_model_free(&m);
+        }
+        if (rc != MTS_OK) {
+            mts_stream_free(&torus);
+            mts_stream_free(&small);
+            return mts_error_prefix(err, "torus with normals");
+        }
     }
     /* the same small torus, its base mesh Draco-encoded with the sequential method */
     {
@@ -266,6 +307,7 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
         if (rc != MTS_OK) {
             mts_stream_free(&torus);
             mts_stream_free(&small);
+            mts_stream_free(&normals);
             return mts_error_prefix(err, "sequential torus");
         }
     }
@@ -274,10 +316,23 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
     const uint32_t n = torus.model.level_count;
     const uint32_t torus_stops[] = {0, 9, n / 2, n};
     mts_fuzz_stream_seeds(&sd, "torus", &torus, torus_stops, 4, 1);
-    mts_fuzz_resume_seeds(&sd, &torus);
+    mts_fuzz_resume_seeds(&sd, "torus", &torus);
     const uint32_t small_stops[] = {small.model.level_count};
     mts_fuzz_stream_seeds(&sd, "small", &small, small_stops, 1, 0);
     mts_fuzz_stream_seeds(&sd, "sequential", &seq, small_stops, 1, 0);
+    /* the records form: the same stops, variants and breaks */
+    if (torus.records_form && small.records_form && normals.records_form) {
+        mts_fuzz_stream_seeds(&sd, "torus-records", torus.records_form, torus_stops, 4, 1);
+        mts_fuzz_resume_seeds(&sd, "torus-records", torus.records_form);
+        mts_fuzz_stream_seeds(&sd, "small-records", small.records_form, small_stops, 1, 0);
+        const uint32_t normals_stops[] = {normals.model.level_count / 2,
+                                          normals.model.level_count};
+        mts_fuzz_stream_seeds(&sd, "small-normals", &normals, normals_stops, 2, 0);
+        mts_fuzz_stream_seeds(&sd, "small-normals-records", normals.records_form, normals_stops,
+                              2, 0);
+    } else {
+        sd.failed = 1; /* with_records = 1 gave none: out of memory */
+    }
     {
         mts_buf b = {0};
         mts_wire_model_entry e[2] = {{"fuzz", 80, 160, 76, 4000}, {"cow.v2", 2904, 5804, 2875, 90000}};
@@ -330,6 +385,7 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
     mts_stream_free(&torus);
     mts_stream_free(&small);
     mts_stream_free(&seq);
+    mts_stream_free(&normals);
 
     /* cow: the real model, cut at its first batches (its full stream and
      * file are a few hundred KiB: too slow an input to mutate) */
@@ -338,13 +394,22 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
         if ((rc = mts_fuzz_build_model(cow_path, NULL, 0, 0, &m, err)) != MTS_OK)
             return rc;
         mts_stream cow;
-        rc = mts_stream_build(&m, "cow", NULL, &cow, err);
+        mts_stream_options o = {0};
+        o.with_records = 1;
+        rc = mts_stream_build(&m, "cow", &o, &cow, err);
         if (rc == MTS_OK) {
             uint32_t cow_stops[3] = {0, 0, 0};
             size_t nstops = 1;
             for (uint32_t k = 1; k <= 3 && k < cow.batch_count; k += 2)
                 cow_stops[nstops++] = cow.batch_first[k];
             mts_fuzz_stream_seeds(&sd, "cow", &cow, cow_stops, nstops, 0);
+            /* its records form to the first batch's end only: some 5 KiB a
+             * batch, 16 times the splits form's */
+            if (cow.records_form)
+                mts_fuzz_stream_seeds(&sd, "cow-records", cow.records_form, cow_stops,
+                                      nstops > 2 ? 2 : nstops, 0);
+            else
+                sd.failed = 1;
             if ((d = mts_fuzz_base_draco(&cow, &dsize)) != NULL)
                 sd.emit(sd.user, "draco", "cow-base-edgebreaker", d, dsize);
             mts_stream_free(&cow);

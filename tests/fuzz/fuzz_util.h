@@ -154,9 +154,10 @@ static inline mts_result mts_fuzz_build_model(const char *name, const char *data
     return rc;
 }
 
-/* A torus model and its stream (model name "fuzz"), batches of batch_splits. */
+/* A torus model and its stream (model name "fuzz"), batches of batch_splits;
+ * with_records: also its records form (s->records_form). */
 static inline mts_result mts_fuzz_torus_stream(int nu, int nv, uint32_t batch_splits,
-                                               mts_stream *s, mts_error *err)
+                                               int with_records, mts_stream *s, mts_error *err)
 {
     size_t size = 0;
     char *off = mts_fuzz_torus_off(nu, nv, &size);
@@ -169,6 +170,7 @@ static inline mts_result mts_fuzz_torus_stream(int nu, int nv, uint32_t batch_sp
         return rc;
     mts_stream_options o = {0};
     o.batch_splits = batch_splits;
+    o.with_records = with_records;
     rc = mts_stream_build(&m, "fuzz", &o, s, err);
     mts_model_free(&m);
     return rc;
