@@ -189,31 +189,30 @@ static void run_with_breaks(mts_test *t, const mts_stream *s, uint32_t stop, con
     mts_stream_client_free(&c);
 }
 
-static void test_cut_anywhere_then_resume(mts_test *t)
+/* Cuts at the edges, then `rounds` rounds of random cuts (one break and
+ * three, at the full level and a partial stop), in the form s is; label
+ * names it in failures. */
+static void cut_anywhere(mts_test *t, const mts_stream *s, int rounds, uint64_t seed,
+                         const char *label)
 {
-    mts_stream s;
-    if (!build_stream(t, NULL, &s))
-        return;
-    const uint32_t n = s.model.level_count;
+    const uint32_t n = s->model.level_count;
     mts_buf info = {0};
-    mts_stream_put_model_info(&s, n, &info);
+    mts_stream_put_model_info(s, n, &info);
     const size_t hi = info.size;
     mts_buf_free(&info);
     /* the edges: in and right after MODEL_INFO (a fresh start), inside and
      * right after BASE (base in, no batch: the server sends BASE again and
      * the client skips it), on a batch boundary, inside the last batch, in END */
-    size_t edges[] = {0, 1, 4, 5, hi - 1, hi, hi + 9, hi + s.batch_offset[0],
-                      hi + s.batch_offset[1], hi + s.batch_offset[3], hi + s.batch_offset[3] + 1,
-                      hi + s.batch_offset[s.batch_count] - 3, hi + s.size, hi + s.size + 3};
+    size_t edges[] = {0, 1, 4, 5, hi - 1, hi, hi + 9, hi + s->batch_offset[0],
+                      hi + s->batch_offset[1], hi + s->batch_offset[3], hi + s->batch_offset[3] + 1,
+                      hi + s->batch_offset[s->batch_count] - 3, hi + s->size, hi + s->size + 3};
     char what[128];
     for (size_t i = 0; i < sizeof edges / sizeof edges[0] && !t->case_failed; i++) {
-        snprintf(what, sizeof what, "cut at %zu", edges[i]);
-        run_with_breaks(t, &s, n, &edges[i], 1, i, what);
+        snprintf(what, sizeof what, "%s, cut at %zu", label, edges[i]);
+        run_with_breaks(t, s, n, &edges[i], 1, i, what);
     }
-    /* random cuts, one break and three, at the full level and a partial stop */
-    uint64_t seed = 42;
-    size_t total = hi + s.size + 20;
-    for (int round = 0; round < 40 && !t->case_failed; round++) {
+    size_t total = hi + s->size + 20;
+    for (int round = 0; round < rounds && !t->case_failed; round++) {
         size_t cuts[3];
         int k = round % 2 ? 3 : 1;
         for (int j = 0; j < k; j++) {
@@ -222,9 +221,18 @@ static void test_cut_anywhere_then_resume(mts_test *t)
             cuts[j] = (size_t)(seed >> 33) % (total / (size_t)(j + 1));
         }
         uint32_t stop = round % 4 < 2 ? n : n / 3;
-        snprintf(what, sizeof what, "round %d (stop %u, cut %zu...)", round, stop, cuts[0]);
-        run_with_breaks(t, &s, stop, cuts, k, seed, what);
+        snprintf(what, sizeof what, "%s, round %d (stop %u, cut %zu...)", label, round, stop,
+                 cuts[0]);
+        run_with_breaks(t, s, stop, cuts, k, seed, what);
     }
+}
+
+static void test_cut_anywhere_then_resume(mts_test *t)
+{
+    mts_stream s;
+    if (!build_stream(t, NULL, &s))
+        return;
+    cut_anywhere(t, &s, 40, 42, "splits");
     mts_stream_free(&s);
 }
 
@@ -311,37 +319,8 @@ static void test_cut_anywhere_then_resume_records(mts_test *t)
         return;
     const mts_stream *r = s.records_form;
     CHECK(t, r != NULL && r->stream_id != s.stream_id && r->batch_count > 4);
-    if (!r || r->batch_count <= 4) {
-        mts_stream_free(&s);
-        return;
-    }
-    const uint32_t n = s.model.level_count;
-    mts_buf info = {0};
-    mts_stream_put_model_info(r, n, &info);
-    const size_t hi = info.size;
-    mts_buf_free(&info);
-    size_t edges[] = {0, hi - 1, hi, hi + 9, hi + r->batch_offset[0],
-                      hi + r->batch_offset[1], hi + r->batch_offset[3], hi + r->batch_offset[3] + 1,
-                      hi + r->batch_offset[r->batch_count] - 3, hi + r->size, hi + r->size + 3};
-    char what[128];
-    for (size_t i = 0; i < sizeof edges / sizeof edges[0] && !t->case_failed; i++) {
-        snprintf(what, sizeof what, "records, cut at %zu", edges[i]);
-        run_with_breaks(t, r, n, &edges[i], 1, i, what);
-    }
-    uint64_t seed = 4242;
-    size_t total = hi + r->size + 20;
-    for (int round = 0; round < 16 && !t->case_failed; round++) {
-        size_t cuts[3];
-        int k = round % 2 ? 3 : 1;
-        for (int j = 0; j < k; j++) {
-            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-            cuts[j] = (size_t)(seed >> 33) % (total / (size_t)(j + 1));
-        }
-        uint32_t stop = round % 4 < 2 ? n : n / 3;
-        snprintf(what, sizeof what, "records, round %d (stop %u, cut %zu...)", round, stop,
-                 cuts[0]);
-        run_with_breaks(t, r, stop, cuts, k, seed, what);
-    }
+    if (r && r->batch_count > 4)
+        cut_anywhere(t, r, 16, 4242, "records");
     mts_stream_free(&s);
 }
 
