@@ -160,6 +160,7 @@ typedef struct model_result {
     double meshopt_seconds;         /* optimizeVertexCache + stripify */
     double list_acmr16, list_acmr32; /* meshopt-optimized triangle list */
     double list_acmr16_analyzer;     /* meshopt_analyzeVertexCache, to check our FIFO */
+    uint64_t cost_bound;             /* mts_stripify_cost_bound: 3 S + W no cover goes under */
 
     level_row level[LEVEL_ROWS];
     /* over every level, from the model's level table */
@@ -349,6 +350,11 @@ static int bench_full(model_result *r, const mts_mesh *mesh, const mts_model *mo
         }
         strips_figures(&greedy, mesh->triangle_count, &c16, &c32, &r->greedy);
         mts_strips_free(&greedy);
+        if (mts_stripify_cost_bound(mesh->triangles, mesh->triangle_count, mesh->vertex_count,
+                                    &r->cost_bound, &err) != MTS_OK) {
+            fail(r, "stripify bound", &err);
+            goto done;
+        }
     }
 
     /* meshoptimizer: its stripifier wants a cache-optimized list first */
@@ -726,10 +732,14 @@ static void print_tables(const model_result *res, int count, const bench_options
                r->meshopt.acmr32, r->meshopt_seconds * 1e3);
         printf("%-14s %-22s %7s %7s %9.3f %8.3f %8.3f %9s\n", "", "meshopt optimized list", "-",
                "-", 3.0, r->list_acmr16, r->list_acmr32, "-");
+        printf("%-14s %-22s %7s %7s %9.3f %8s %8s %9s\n", "", "bound (valences)", "-", "-",
+               r->triangles ? 1.0 + ((double)r->cost_bound - 1.0) / r->triangles : 0, "-", "-",
+               "-");
     }
     printf("(restarts = strips - 1, counted in idx/tri; mts greedy time: our stripify; tunnel "
            "time: the tunnelling pass on top, median; meshopt time: optimizeVertexCache + "
-           "stripify, one run)\n");
+           "stripify, one run; bound: no strips can do better, from the vertices whose valence "
+           "is not a multiple of 3, mts_stripify_cost_bound)\n");
 
     printf("\nLevels by fraction of the full vertex count (runtime strips)\n");
     printf("%-14s %7s %8s %9s %9s %7s %13s %8s %8s  %s\n", "model", "target", "level",
@@ -891,6 +901,9 @@ static void json_model(cli_json *j, const model_result *r)
     cli_json_num(j, "acmr32", r->list_acmr32, 4);
     cli_json_num(j, "acmr16_meshopt_analyzer", r->list_acmr16_analyzer, 4);
     cli_json_object_end(j);
+    cli_json_u64(j, "cost_bound", r->cost_bound);
+    cli_json_num(j, "indices_per_triangle_bound",
+                 r->triangles ? 1.0 + ((double)r->cost_bound - 1.0) / r->triangles : 0, 4);
     cli_json_object_end(j);
 
     cli_json_object_begin(j, "paper004_table1");

@@ -36,4 +36,16 @@ mts_result mts_stripify(const uint32_t *triangles, uint32_t triangle_count,
                         uint32_t vertex_count, mts_strips *out, mts_stripify_stats *stats,
                         mts_error *err);
 
+/* A lower bound on what any cover of these triangles pays over one index
+ * a triangle: 3 S + W (S strips, W swaps; strips.h's cost is triangles +
+ * 3 S + W - 1 indices with restarts). Counted from vertex valences alone:
+ * a strip passing a vertex without a swap holds 3 of its triangles, so a
+ * vertex whose valence is not a multiple of 3 needs a strip end or a swap
+ * next to it, and each end or swap serves at most two such vertices
+ * (stripify.c says why). Vertices on a border or a non-manifold,
+ * inconsistently oriented edge are left out, which only lowers it. For a
+ * benchmark: how far a stripification is from what the mesh allows. */
+mts_result mts_stripify_cost_bound(const uint32_t *triangles, uint32_t triangle_count,
+                                   uint32_t vertex_count, uint64_t *bound, mts_error *err);
+
 #endif

@@ -235,6 +235,15 @@ static void check_cover(mts_test *t, const tmesh *m, const mts_strips *s,
     /* every swap is one degenerate window; nothing else is degenerate */
     CHECK(t, fig.degenerate == st->swaps);
     CHECK(t, s->index_count == (uint64_t)m->tri_count + 2u * s->strip_count + st->swaps);
+    /* no cover pays less than the valence bound (stripify.h): checked on
+     * every mesh here, borders and non-manifold ones included */
+    uint64_t bound = 0;
+    mts_error berr;
+    CHECKF(t, mts_stripify_cost_bound(m->tri, m->tri_count, m->vertex_count, &bound, &berr) ==
+                  MTS_OK,
+           "%s", berr.msg);
+    CHECKF(t, 3ull * s->strip_count + st->swaps >= bound, "3 S + W = %llu under the bound %llu",
+           (unsigned long long)(3ull * s->strip_count + st->swaps), (unsigned long long)bound);
 
     uint32_t *want = malloc((size_t)m->tri_count * 3 * sizeof *want + 1);
     uint32_t *got = malloc((size_t)(fig.triangles + 1) * 3 * sizeof *got);
@@ -348,6 +357,51 @@ static void test_fan(mts_test *t)
     check_mesh(t, &m, &st, NULL);
     CHECK(t, st.strips == 1);
     tm_free(&m);
+}
+
+/* The valence bound on small closed meshes, by hand: every vertex of a
+ * tetrahedron has 3 triangles (bound 0; one strip of 4 costs 3), every
+ * vertex of an octahedron 4 (6 of them: at least 3), of an icosahedron 5
+ * (12: at least 6); cow.off, counted apart (python over the OFF file):
+ * 1,084 vertices of valence 1 mod 3 and 430 of 2 mod 3, so 757. */
+static void test_cost_bound(mts_test *t)
+{
+    tmesh m = {0};
+    uint64_t b = 99;
+    mts_error err;
+    m.vertex_count = 4;
+    CHECK(t, tm_add(&m, 0, 2, 1) && tm_add(&m, 0, 1, 3) && tm_add(&m, 1, 2, 3) &&
+                 tm_add(&m, 2, 0, 3));
+    CHECK(t, mts_stripify_cost_bound(m.tri, m.tri_count, m.vertex_count, &b, &err) == MTS_OK &&
+                 b == 0);
+    tm_free(&m);
+    m = (tmesh){0};
+    m.vertex_count = 6; /* octahedron: poles 0, 5; equator 1..4 */
+    for (uint32_t i = 0; i < 4; i++) {
+        uint32_t a = 1 + i, c = 1 + (i + 1) % 4;
+        CHECK(t, tm_add(&m, 0, a, c) && tm_add(&m, 5, c, a));
+    }
+    CHECK(t, mts_stripify_cost_bound(m.tri, m.tri_count, m.vertex_count, &b, &err) == MTS_OK &&
+                 b == 3);
+    /* a border leaves its vertices out: drop one face, 3 vertices go */
+    CHECK(t, mts_stripify_cost_bound(m.tri, m.tri_count - 1, m.vertex_count, &b, &err) ==
+                 MTS_OK &&
+             b == 2); /* the last face, (5, 1, 4), goes: 0, 2 and 3 are left, so ceil(3 / 2) */
+    uint32_t bad[3] = {0, 1, 9};
+    CHECK(t, mts_stripify_cost_bound(bad, 1, 6, &b, &err) == MTS_ERR_RANGE);
+    tm_free(&m);
+    CHECK(t, tm_icosphere(&m, 0));
+    CHECK(t, mts_stripify_cost_bound(m.tri, m.tri_count, m.vertex_count, &b, &err) == MTS_OK);
+    CHECKF(t, m.tri_count == 20 && b == 6, "icosahedron: bound %llu", (unsigned long long)b);
+    tm_free(&m);
+    if (tm_load_off(&m, "tests/data/cow.off")) {
+        CHECK(t, mts_stripify_cost_bound(m.tri, m.tri_count, m.vertex_count, &b, &err) ==
+                     MTS_OK &&
+                 b == 757);
+        tm_free(&m);
+    } else {
+        CHECK(t, 0);
+    }
 }
 
 static void test_tetrahedron(mts_test *t)
@@ -598,6 +652,7 @@ int main(void)
     RUN(&t, test_single_triangle);
     RUN(&t, test_quad);
     RUN(&t, test_fan);
+    RUN(&t, test_cost_bound);
     RUN(&t, test_tetrahedron);
     RUN(&t, test_cube);
     RUN(&t, test_icosphere);
