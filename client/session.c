@@ -493,6 +493,12 @@ int mts_session_poll(mts_session *s, int timeout_ms)
         mts_stream_client_resume_point(s->c, &batch, &id);
         s->hello.resume_batch = batch;
         s->hello.stream_id = id;
+        /* a resume asks for the form it holds, which MODEL_INFO said, not
+         * the one first asked for: a server without the records form sent
+         * splits, and the next server may have both */
+        if (batch > 0)
+            s->hello.flags = (s->hello.flags & ~MTS_HELLO_RECORDS) |
+                             (s->c->records ? MTS_HELLO_RECORDS : 0);
         s->ph = PH_CONNECT;
         break;
     }

@@ -545,6 +545,17 @@ static mts_result predict_all(mts_stream *s, const uint16_t *oct, int carry_norm
         uint32_t words;
         if ((rc = mts_grow_next(g, &sp, &given, &rec, &words, err)) != MTS_OK)
             break;
+        /* what a splits-form client will derive must be the model's record,
+         * which the records form sends: else the two forms part (a model
+         * from another builder, say) */
+        if (words != m->record_offsets[j + 1] - m->record_offsets[j] ||
+            memcmp(rec, m->record_data + m->record_offsets[j], (size_t)words * 4) != 0) {
+            rc = mts_error_set(err, MTS_ERR_INVARIANT,
+                               "split %u's record is not what its description grows; rebuild "
+                               "it with mts-build",
+                               j);
+            break;
+        }
         const uint32_t *around;
         uint32_t k;
         if ((rc = mts_grow_around_newest(g, &around, &k, err)) != MTS_OK)
@@ -1079,6 +1090,15 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     c->grid.range = mi->grid_range;
     c->stop_level = mi->stop_level;
     c->records = (mi->flags & MTS_INFO_RECORDS) != 0;
+    /* Records that pass mts_lod_split may still be padded (edits that
+     * change nothing, runs put back), so what a records-form client keeps
+     * is bounded here by the model: a key level's record rewrites every
+     * slot (erase and insert at most its capacity, 5 words of header), and
+     * 256 words a split on top. Built models use an eighth of it (bunny00:
+     * 1.73 M words of 13.7 M; 24 words a split between key levels, 650 at
+     * most). */
+    c->record_word_limit = 256ull * mi->levels +
+                           (mi->key_count + 1ull) * (2 * cap + 5ull * mi->strips);
     return MTS_OK;
 }
 
@@ -1104,9 +1124,10 @@ static mts_result check_resumed_info(mts_stream_client *c, const uint8_t *p, siz
         what = "counts";
     else if (mi.stop_level != a->stop_level || mi.stop_triangles != a->stop_triangles)
         what = "stop levels";
+    else if (mi.flags != a->flags)
+        what = "flags (normals, form)";
     else if (memcmp(mi.bbox_min, a->bbox_min, 12) != 0 ||
              memcmp(mi.bbox_max, a->bbox_max, 12) != 0 || mi.quant_bits != a->quant_bits ||
-             mi.flags != a->flags ||
              memcmp(mi.grid_origin, a->grid_origin, 12) != 0 ||
              memcmp(&mi.grid_range, &a->grid_range, 4) != 0)
         what = "grids";
@@ -1247,7 +1268,8 @@ static mts_result reserve_records(mts_stream_client *c, size_t at, size_t words,
 #ifdef MADV_HUGEPAGE
             madvise(w, cap * 4, MADV_HUGEPAGE);
 #endif
-            memcpy(w, m->record_data, at * 4);
+            if (at)
+                memcpy(w, m->record_data, at * 4);
             free(m->record_data);
         }
     } else {
@@ -1440,11 +1462,17 @@ static mts_result take_records(mts_stream_client *c, const uint8_t *p, size_t n,
     /* a split's words never outnumber its bytes (reccodec.h), so n more
      * words hold the batch whatever it says */
     size_t at = m->record_offsets[first];
-    mts_result rc = reserve_records(c, at, n, err);
+    if (at > c->record_word_limit)
+        return mts_error_set(err, MTS_ERR_LIMIT, "BATCH %u: records past the model's bound",
+                             index);
+    size_t room = c->record_word_limit - at < n ? (size_t)(c->record_word_limit - at) : n;
+    mts_result rc = reserve_records(c, at, room, err);
     if (rc != MTS_OK)
         return mts_error_prefix(err, "BATCH %u", index);
+    /* reccodec refuses to write past room: more words than the model's
+     * bound allows (MTS_ERR_LIMIT) */
     mts_reccodec_out out = {m->parents + first, m->record_offsets + first, m->record_data + at,
-                            c->record_capacity - at, (uint32_t)at};
+                            room, (uint32_t)at};
     size_t used = 0, words = 0;
     rc = mts_reccodec_decode(p, n, nb, first, count, &out, &used, &words, err);
     if (rc != MTS_OK)

@@ -255,12 +255,15 @@ int main(int argc, char **argv)
             continue;
         }
         list[ready] = &streams[ready];
-        if (!quiet)
+        if (!quiet) {
+            char rec[64] = "no records form";
+            if (streams[ready].records_form)
+                snprintf(rec, sizeof rec, "%zu as records", streams[ready].records_form->size);
             fprintf(stderr,
-                    "mts-server: serving %s: %u vertices, %u levels, %zu stream bytes (%zu as "
-                    "records)\n",
+                    "mts-server: serving %s: %u vertices, %u levels, %zu stream bytes (%s)\n",
                     e->name, e->model.vertex_count, e->model.level_count, streams[ready].size,
-                    streams[ready].records_form ? streams[ready].records_form->size : 0);
+                    rec);
+        }
         ready++;
     }
     if (ready == 0) {
