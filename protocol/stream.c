@@ -1260,6 +1260,10 @@ static mts_result reserve_records(mts_stream_client *c, size_t at, size_t words,
     size_t cap = c->record_capacity ? c->record_capacity : 4096;
     while (cap < at + words + 1)
         cap *= 2;
+    /* doubling stops at the records form's bound: memory stays within it */
+    if (c->record_word_limit && cap > c->record_word_limit + 1 &&
+        at + words + 1 <= c->record_word_limit + 1)
+        cap = (size_t)c->record_word_limit + 1;
     uint32_t *w = NULL;
     if (cap * 4 >= RECORDS_HUGE) {
         if (posix_memalign((void **)&w, RECORDS_HUGE, cap * 4) != 0)

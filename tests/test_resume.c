@@ -498,7 +498,8 @@ static void proxy_main(int lfd, int upstream, size_t cut, int tell, int wait, in
     }
 }
 
-static pid_t spawn_server(const char *models, int port, const char *log)
+/* flag: one more option for mts-server, or NULL */
+static pid_t spawn_server_with(const char *models, int port, const char *log, const char *flag)
 {
     char bin[600], listen[64];
     snprintf(bin, sizeof bin, "%s/mts-server", bin_dir);
@@ -507,10 +508,15 @@ static pid_t spawn_server(const char *models, int port, const char *log)
     if (pid == 0) {
         if (!freopen(log, "a", stderr) || !freopen("/dev/null", "w", stdout))
             _exit(126);
-        execl(bin, bin, "--models", models, "--listen", listen, (char *)NULL);
+        execl(bin, bin, "--models", models, "--listen", listen, flag, (char *)NULL);
         _exit(127);
     }
     return pid;
+}
+
+static pid_t spawn_server(const char *models, int port, const char *log)
+{
+    return spawn_server_with(models, port, log, NULL);
 }
 
 static int server_up(int port)
@@ -852,6 +858,42 @@ static void test_server_killed_and_restarted_records(mts_test *t)
         fprintf(stderr, "  resumed (records form) %.2f s after the cut:\n%s", secs, out);
 }
 
+/* A --records client first served by a server without the records form
+ * (mts-server --no-records-form) holds the splits form; after the break it
+ * resumes against a server that has both, and must ask for the form it
+ * holds, not the one it first asked for (else that server would answer
+ * stale). It ends complete, in the splits form, on the unbroken mesh. */
+static void test_resume_asks_for_the_form_held(mts_test *t)
+{
+    if (!have_programs(t))
+        return;
+    fixture *f;
+    pid_t server = -1;
+    if (!(f = get_fixture(t, &server))) {
+        stop_pid(server, SIGTERM);
+        return;
+    }
+    stop_pid(server, SIGTERM);
+    server = spawn_server_with(f->models, f->port, f->log, "--no-records-form");
+    CHECK(t, server_up(f->port));
+    char out[16384];
+    double secs;
+    int rc = broken_run(t, f, &server, AFTER_CUT_RESTART, f->cut, "--records", out, sizeof out,
+                        &secs);
+    stop_pid(server, SIGTERM);
+    CHECKF(t, rc == 0, "exit %d: %s", rc, out);
+    char want[64];
+    snprintf(want, sizeof want, "resuming at batch %u", f->cut_batch);
+    CHECKF(t, strstr(out, want) != NULL, "no resume reported: %s", out);
+    CHECKF(t, strstr(out, "\"complete\":true") && strstr(out, "\"verified\":true") &&
+                  strstr(out, "\"form\":\"splits\"") && !strstr(out, "stale"),
+           "%s", out);
+    char a[128], b[128];
+    json_get(f->unbroken, "checksum", a, sizeof a);
+    json_get(out, "checksum", b, sizeof b);
+    CHECKF(t, a[0] && strcmp(a, b) == 0, "checksum: %s unbroken, %s resumed", a, b);
+}
+
 static void test_server_never_back(mts_test *t)
 {
     if (!have_programs(t))
@@ -917,6 +959,7 @@ int main(int argc, char **argv)
     RUN(&t, test_other_form_refused);
     RUN(&t, test_server_killed_and_restarted);
     RUN(&t, test_server_killed_and_restarted_records);
+    RUN(&t, test_resume_asks_for_the_form_held);
     RUN(&t, test_server_never_back);
     RUN(&t, test_stale_stream_not_retried);
     if (cow_state > 0)

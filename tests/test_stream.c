@@ -899,6 +899,101 @@ static void test_records_form_trailing_bytes(mts_test *t)
     mts_buf_free(&b);
 }
 
+/* Records that pass every check of mts_lod_split can still be padded with
+ * edits that change nothing (the record format allows them). A records-form
+ * client keeps at most MODEL_INFO's bound of record words
+ * (c->record_word_limit, stream.c take_info): a little padding still fits
+ * and ends on the right checksum, padding past the bound is refused with
+ * MTS_ERR_LIMIT and the memory held stays within it. */
+static mts_result feed_padded(const mts_stream *r, const mts_buf *b, uint32_t pad,
+                              mts_stream_client *c, int *saw_end, mts_error *err)
+{
+    size_t at, end, body;
+    batch_frame(r, b, 0, &at, &end, &body);
+    /* split 0 opens the body: its parent (back) and edit count; no-op edits
+     * on strip 0 go first, so the original edits' strip deltas still hold */
+    mts_cursor cur = mts_cursor_make(b->data + body, end - 4 - body);
+    uint32_t back = mts_cursor_varint(&cur), edits = mts_cursor_varint(&cur);
+    mts_buf x = {0};
+    mts_buf_varint(&x, back);
+    mts_buf_varint(&x, edits + pad);
+    for (uint32_t i = 0; i < pad; i++)
+        mts_buf_u32(&x, 0); /* strip delta 0, no erase, no insert, no substitution */
+    mts_buf_put(&x, cur.p, mts_cursor_left(&cur));
+    mts_result rc = feed_with_batch(c, r, b, 0, x.data, x.size, 0, saw_end, err);
+    mts_buf_free(&x);
+    return rc;
+}
+
+static void test_records_form_padding_bounded(mts_test *t)
+{
+    const mts_stream *s = cow_with_records(t);
+    if (!s)
+        return;
+    const mts_stream *r = s->records_form;
+    mts_buf b = {0};
+    uint32_t stop;
+    connection_bytes(r, MTS_STOP_FULL, 0, &b, &stop);
+    mts_stream_client c;
+    mts_error err = {0};
+    int saw_end;
+
+    mts_stream_client_init(&c);
+    CHECKF(t, feed_padded(r, &b, 1000, &c, &saw_end, &err) == MTS_OK && saw_end, "%s",
+           err.msg);
+    CHECK(t, c.lod.level == stop && c.checksum == s->level_checksum[stop]);
+    /* the bound: 256 words a split and a full rewrite a key level */
+    uint64_t limit = c.record_word_limit;
+    CHECKF(t, limit > 4ull * s->model.record_word_count, "bound %llu, model %u words",
+           (unsigned long long)limit, s->model.record_word_count);
+    mts_stream_client_free(&c);
+
+    /* 4 words an edit: enough of them go past the bound */
+    uint32_t pad = (uint32_t)(limit / 4) + 1000;
+    mts_stream_client_init(&c);
+    mts_result rc = feed_padded(r, &b, pad, &c, &saw_end, &err);
+    CHECKF(t, rc == MTS_ERR_LIMIT && strncmp(err.msg, "BATCH 0", 7) == 0, "%d: %s", rc, err.msg);
+    CHECK(t, !saw_end && c.batches == 0 && c.lod.level == 0);
+    CHECKF(t, c.record_capacity <= limit + 1, "holds room for %zu words, bound %llu",
+           c.record_capacity, (unsigned long long)limit);
+    mts_stream_client_free(&c);
+    mts_buf_free(&b);
+}
+
+/* A model whose records are not what its split descriptions grow would make
+ * the two forms give different meshes: mts_stream_build refuses it, naming
+ * the split. */
+static void test_records_must_match_growth(mts_test *t)
+{
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_model m;
+    if (mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) != MTS_OK) {
+        CHECKF(t, 0, "%s", err.msg);
+        return;
+    }
+    mts_result rc = mts_build_model(&mesh, "cow", NULL, &m, NULL, &err);
+    mts_mesh_free(&mesh);
+    CHECKF(t, rc == MTS_OK, "%s", err.msg);
+    if (rc != MTS_OK)
+        return;
+    /* split j's first edit names another strip */
+    const uint32_t j = m.level_count / 2;
+    uint32_t *rec = m.record_data + m.record_offsets[j];
+    CHECK(t, rec[0] >= 1);
+    rec[1] = (rec[1] + 1) % m.strip_count;
+    mts_stream s;
+    mts_stream_options o = {0};
+    o.with_records = 1;
+    rc = mts_stream_build(&m, "cow", &o, &s, &err);
+    char want[64];
+    snprintf(want, sizeof want, "split %u's record", j);
+    CHECKF(t, rc == MTS_ERR_INVARIANT && strstr(err.msg, want), "%d: %s", rc, err.msg);
+    if (rc == MTS_OK)
+        mts_stream_free(&s);
+    mts_model_free(&m);
+}
+
 /* MODEL_INFO says one form, the batches are the other's (a broken server):
  * refused at the first batch, never applied as the other. */
 static void test_records_form_flag_mismatch(mts_test *t)
@@ -1004,6 +1099,8 @@ int main(void)
     RUN(&t, test_records_form_trailing_bytes);
     RUN(&t, test_records_form_flag_mismatch);
     RUN(&t, test_records_form_moves_both_ways);
+    RUN(&t, test_records_form_padding_bounded);
+    RUN(&t, test_records_must_match_growth);
     if (cow_rec_state > 0)
         mts_stream_free(&cow_rec);
     RUN(&t, test_bunny_stops);
