@@ -943,7 +943,13 @@ static void test_records_form_padding_bounded(mts_test *t)
            err.msg);
     CHECK(t, c.lod.level == stop && c.checksum == s->level_checksum[stop]);
     /* the bound: 256 words a split and a full rewrite a key level */
-    uint64_t limit = c.record_word_limit;
+    uint64_t limit = c.record_word_limit, cap = 0;
+    for (uint32_t st = 0; st < s->model.strip_count; st++)
+        cap += s->model.capacity[st];
+    uint64_t want = 256ull * s->model.level_count +
+                    (s->model.key_count + 1ull) * (2 * cap + 5ull * s->model.strip_count);
+    CHECKF(t, limit == want, "bound %llu, MODEL_INFO gives %llu", (unsigned long long)limit,
+           (unsigned long long)want);
     CHECKF(t, limit > 4ull * s->model.record_word_count, "bound %llu, model %u words",
            (unsigned long long)limit, s->model.record_word_count);
     mts_stream_client_free(&c);
@@ -962,7 +968,9 @@ static void test_records_form_padding_bounded(mts_test *t)
 
 /* A model whose records are not what its split descriptions grow would make
  * the two forms give different meshes: mts_stream_build refuses it, naming
- * the split. */
+ * the split. (This record no longer applies, so the level replay would refuse
+ * the model too, with another error; test_records_must_match_growth_same_mesh
+ * has a record that applies.) */
 static void test_records_must_match_growth(mts_test *t)
 {
     mts_error err = {0};
@@ -991,6 +999,75 @@ static void test_records_must_match_growth(mts_test *t)
     CHECKF(t, rc == MTS_ERR_INVARIANT && strstr(err.msg, want), "%d: %s", rc, err.msg);
     if (rc == MTS_OK)
         mts_stream_free(&s);
+    mts_model_free(&m);
+}
+
+/* The substituted positions of the first edit at or after split `from`
+ * that sets two or more (its split in *split), or NULL: walks the records as
+ * model.h lays them out. */
+static uint32_t *two_substitutions(const mts_model *m, uint32_t from, uint32_t *split)
+{
+    for (uint32_t j = from; j < m->level_count; j++) {
+        uint32_t *p = m->record_data + m->record_offsets[j];
+        uint32_t edits = *p++;
+        for (uint32_t e = 0; e < edits; e++) {
+            uint32_t erases = p[1], inserts = p[2], substs = p[3];
+            p += 4;
+            for (uint32_t k = 0; k < erases + inserts; k++)
+                p += 2 + p[1]; /* position, length, the run */
+            if (substs >= 2) {
+                *split = j;
+                return p;
+            }
+            p += substs;
+        }
+    }
+    return NULL;
+}
+
+/* A record that still gives the same mesh as what its description grows
+ * but is not word for word what it grows (two substituted positions
+ * swapped: v lands on the same slots): the model stays valid and every
+ * level's mesh is the same, so nothing but the comparison in predict_all
+ * sees it; the records form would send other records than a splits-form
+ * client derives, and mts_stream_build refuses it, in either form. */
+static void test_records_must_match_growth_same_mesh(mts_test *t)
+{
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_model m;
+    if (mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) != MTS_OK) {
+        CHECKF(t, 0, "%s", err.msg);
+        return;
+    }
+    mts_result rc = mts_build_model(&mesh, "cow", NULL, &m, NULL, &err);
+    mts_mesh_free(&mesh);
+    CHECKF(t, rc == MTS_OK, "%s", err.msg);
+    if (rc != MTS_OK)
+        return;
+    uint32_t j = 0;
+    uint32_t *pos = two_substitutions(&m, m.level_count / 2, &j);
+    CHECKF(t, pos != NULL, "no edit of splits %u.. substitutes twice", m.level_count / 2);
+    if (pos) {
+        CHECK(t, pos[0] != pos[1]);
+        uint32_t x = pos[0];
+        pos[0] = pos[1];
+        pos[1] = x;
+        /* still a model: every record applies, the replay ends on the full strips */
+        CHECKF(t, mts_model_validate(&m, &err) == MTS_OK, "%s", err.msg);
+        char want[96];
+        snprintf(want, sizeof want, "split %u's record is not what its description grows", j);
+        for (int with_records = 0; with_records < 2; with_records++) {
+            mts_stream s;
+            mts_stream_options o = {0};
+            o.with_records = with_records;
+            rc = mts_stream_build(&m, "cow", &o, &s, &err);
+            CHECKF(t, rc == MTS_ERR_INVARIANT && strstr(err.msg, want),
+                   "with_records %d: %d: %s", with_records, rc, rc ? err.msg : "built");
+            if (rc == MTS_OK)
+                mts_stream_free(&s);
+        }
+    }
     mts_model_free(&m);
 }
 
@@ -1101,6 +1178,7 @@ int main(void)
     RUN(&t, test_records_form_moves_both_ways);
     RUN(&t, test_records_form_padding_bounded);
     RUN(&t, test_records_must_match_growth);
+    RUN(&t, test_records_must_match_growth_same_mesh);
     if (cow_rec_state > 0)
         mts_stream_free(&cow_rec);
     RUN(&t, test_bunny_stops);
