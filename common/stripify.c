@@ -607,66 +607,31 @@ mts_result mts_stripify(const uint32_t *triangles, uint32_t triangle_count, uint
  * neighbour whose 2-triangle visit it makes); an end at most two (the first
  * triangle's vertex off its exit edge, and one on it). With N such vertices,
  * W swaps and S strips, N <= 2 (W + 2 S) <= 2 (3 S + W). */
-static int cmp_u64(const void *a, const void *b)
-{
-    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return x < y ? -1 : x > y;
-}
-
-static int has_edge(const uint64_t *keys, size_t n, uint64_t key, size_t *count)
-{
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (keys[mid] < key)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    size_t k = lo;
-    while (k < n && keys[k] == key)
-        k++;
-    *count = k - lo;
-    return k > lo;
-}
-
 mts_result mts_stripify_cost_bound(const uint32_t *tri, uint32_t n, uint32_t vertex_count,
                                    uint64_t *bound, mts_error *err)
 {
     *bound = 0;
     if (n > (UINT32_MAX - 2) / 3)
         return mts_error_set(err, MTS_ERR_LIMIT, "stripify bound: %u triangles", n);
-    uint64_t *keys = malloc(((size_t)3 * n + 1) * sizeof *keys);
+    for (size_t k = 0; k < (size_t)3 * n; k++)
+        if (tri[k] >= vertex_count)
+            return mts_error_set(err, MTS_ERR_RANGE,
+                                 "stripify bound: triangle %zu names vertex %u of %u", k / 3,
+                                 tri[k], vertex_count);
+    uint32_t *nb = malloc(((size_t)3 * n + 1) * sizeof *nb);
     uint32_t *valence = calloc((size_t)vertex_count + 1, 4);
     uint8_t *off = calloc((size_t)vertex_count + 1, 1);
-    if (!keys || !valence || !off) {
-        free(keys);
-        free(valence);
-        free(off);
-        return mts_error_set(err, MTS_ERR_NOMEM, "stripify bound: out of memory");
-    }
     mts_result rc = MTS_OK;
-    for (uint32_t t = 0; t < n && rc == MTS_OK; t++) {
-        for (int c = 0; c < 3; c++) {
-            uint32_t a = tri[3 * (size_t)t + c], b = tri[3 * (size_t)t + (c + 1) % 3];
-            if (a >= vertex_count || b >= vertex_count) {
-                rc = mts_error_set(err, MTS_ERR_RANGE, "stripify bound: triangle %u names "
-                                   "vertex %u of %u", t, a > b ? a : b, vertex_count);
-                break;
-            }
-            keys[3 * (size_t)t + c] = (uint64_t)a << 32 | b;
-            valence[a]++;
-        }
-    }
+    if (!nb || !valence || !off)
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "stripify bound: out of memory");
+    else
+        rc = mts__links_adjacency(tri, n, vertex_count, nb, "stripify bound", err);
     if (rc == MTS_OK) {
-        qsort(keys, (size_t)3 * n, sizeof *keys, cmp_u64);
-        /* an edge counts when it is there once each way: else a border */
-        for (size_t k = 0; k < (size_t)3 * n; k++) {
-            uint32_t a = (uint32_t)(keys[k] >> 32), b = (uint32_t)keys[k];
-            size_t same, back;
-            has_edge(keys, (size_t)3 * n, keys[k], &same);
-            if (same != 1 || !has_edge(keys, (size_t)3 * n, (uint64_t)b << 32 | a, &back) ||
-                back != 1)
+        /* the strips' own adjacency: an edge no strip may cross is a border */
+        for (size_t h = 0; h < (size_t)3 * n; h++) {
+            uint32_t a = tri[h], b = tri[h - h % 3 + (h + 1) % 3];
+            valence[a]++;
+            if (nb[h] == NONE)
                 off[a] = off[b] = 1;
         }
         uint64_t defects = 0;
@@ -674,7 +639,7 @@ mts_result mts_stripify_cost_bound(const uint32_t *tri, uint32_t n, uint32_t ver
             defects += !off[v] && valence[v] % 3 != 0;
         *bound = (defects + 1) / 2;
     }
-    free(keys);
+    free(nb);
     free(valence);
     free(off);
     return rc;
