@@ -44,6 +44,8 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
     if (opts->tunnel_length >= 0) {
         mts_tunnel_options to = {0};
         to.length = opts->tunnel_length ? opts->tunnel_length : MTS_TUNNEL_DEFAULT_LENGTH;
+        to.anneal = opts->strip_effort;
+        to.progress = opts->progress;
         mts_strips tunnelled = {0};
         mts_progress_report(&opts->progress, "tunnel", 0);
         rc = mts_tunnel(&strips, mesh->vertex_count, &to, &tunnelled, &report->tunnel, err);
@@ -52,6 +54,10 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
         mts_strips_free(&strips);
         strips = tunnelled;
         report->tunnel_length = to.length;
+        report->strip_effort = to.anneal == 0                     ? MTS_TUNNEL_DEFAULT_ANNEAL
+                               : to.anneal < 0                    ? 0
+                               : to.anneal > MTS_TUNNEL_MAX_ANNEAL ? MTS_TUNNEL_MAX_ANNEAL
+                                                                  : to.anneal;
         mts_progress_report(&opts->progress, "tunnel", 1);
     } else {
         mts_strip_stats st;

@@ -606,7 +606,20 @@ mts_result mts_stripify(const uint32_t *triangles, uint32_t triangle_count, uint
  * end or by a swap. A swap serves two vertices at most (its pivot, and the
  * neighbour whose 2-triangle visit it makes); an end at most two (the first
  * triangle's vertex off its exit edge, and one on it). With N such vertices,
- * W swaps and S strips, N <= 2 (W + 2 S) <= 2 (3 S + W). */
+ * W swaps and S strips, N <= 2 (W + 2 S) <= 2 (3 S + W).
+ *
+ * Exactly: call an edge at v a spoke, open unless two consecutive triangles
+ * of a strip cross it, and let j count the linked spokes between two
+ * consecutive open ones around v (a border fan is a line, both ends open).
+ * A run of j spokes is a visit of j + 1 triangles, j - 2 swaps on v when j
+ * >= 2; adding 3 per triangle, less 3 per link (at both its ends) and the
+ * swaps, vertex by vertex, gives
+ *     2 (3 S + W - W0) = sum over vertices and runs of |j - 2|,
+ * W0 the swaps a strip's second triangle takes at its start, which pivot on
+ * nothing. A vertex whose valence is not a multiple of 3 has a run other
+ * than 2, so it pays at least 1/2; and a strip's first vertex (j = 0) pays
+ * 1 on its own. tests/test_stripify.c checks the identity on every cover it
+ * makes; tunnel.c reads where the excess of its strips lies from it. */
 mts_result mts_stripify_cost_bound(const uint32_t *tri, uint32_t n, uint32_t vertex_count,
                                    uint64_t *bound, mts_error *err)
 {

@@ -68,19 +68,46 @@
  *   fandisk_large   867 strips  3564 swaps  1.1946 idx/tri  0.5 s
  *   cow             169 strips   721 swaps  1.2114 idx/tri  0.1 s
  * (1.2213 / 1.2012 / 1.2131 before). On bunny00 Loop-subdivided twice
- * (1.2 M triangles): 1.0891 -> 1.0696 in 21 s. Longer annealing pays
- * slowly and could not reach 1.20 on bunny00 in any time tried (moves a
- * triangle: 256 -> 1.2148 in 3 s, 1024 -> 1.2085, 4096 -> 1.2045 in 48 s,
- * before the start swaps); neither did the temperatures (0.6..1.0 down to
- * 0.07..0.15: all within 0.002), a bias of the walks towards joins, or
- * proposing from path ends more often than from links.
+ * (1.2 M triangles): 1.0891 -> 1.0696 in 21 s. Longer annealing
+ * (mts-build --strip-effort) pays slowly: bunny00 at 2048 moves a triangle
+ * 1.2011 in 31 s, 8192 1.1982 in 138 s, 16384 1.1977 (1982 strips, 8964
+ * swaps) in 220 s; 1.20 takes about 3000, some forty times the default.
+ * The temperatures (0.6..1.0 down to 0.07..0.15: all within 0.002), a bias
+ * of the walks towards joins, proposing from path ends more often than
+ * from links did not help.
+ *
+ * What else was tried on bunny00 against the default's 1.2163 (none kept):
+ *  - a better start: a greedy that turns where a vertex's visits would
+ *    leave it needing another event (stripify.c's bound: runs of 3) gave
+ *    1.369 before this pass and 1.2176 after it; the annealing forgets
+ *    where it started;
+ *  - after the annealing, linking two strips side by side across an open
+ *    edge, cutting each from a neighbour and searching two tunnels (one from
+ *    each new end) to pay for it: 11 to 19 changes, 1.2159;
+ *  - annealing perfect matchings of the dual graph (every triangle's one
+ *    open edge; no ends, so no cost-3 barriers) with random alternating
+ *    cycles on the run cost of stripify.c's identity, the cycles cut after:
+ *    cow 1.25-1.27 against 1.211 here;
+ *  - Metropolis needs the paths checked for loops: only 3% of the moves
+ *    that would pay fail that check, so it is not what holds the search.
+ * Where the excess lies, by that identity (a vertex whose valence is not a
+ * multiple of 3 must pay 1/2, the others 0): bunny00's 16,284 (3 S + W less
+ * its 25 start swaps) against a floor of 9,825: valence 1 mod 3 vertices
+ * pay 2,569 over theirs (4,496 of the 9,423 take two short visits, 2 + 2,
+ * rather than one of 4), valence 0 mod 3 ones 2,784, valence 2 mod 3 ones
+ * 1,106; two thirds of it lies on vertices of a strip's end triangles. The
+ * floor is out of reach anyway: there, every swap would pair a vertex of
+ * valence 1 mod 3 with a neighbour of valence 2 mod 3, but a maximum
+ * matching of such neighbours has 7,407 pairs for 9,423 and 10,227 of them
+ * (and a strip's first vertex alone pays 1).
  *
  * The read-out orders the strips for a FIFO vertex cache (order_greedy,
- * chain_links). A direction costs no extra index: of the two, the shorter
- * encoding is the only one tried. What the order can do is bounded by the
- * strips: their misses into an empty cache are 0.99 a triangle on
- * bunny00, and the best order found saves only 0.17 of that (ACMR-32 0.81;
- * meshopt's triangle list: 0.63). A strip of m triangles leaves only its
+ * chain_links, then order_refine). A direction costs no extra index: of the
+ * two, the shorter encoding is the only one tried. What the order can do is
+ * bounded by the strips: their misses into an empty cache are 0.99 a
+ * triangle on bunny00, and no order can save more than what each strip
+ * saves after its best neighbour, which leaves 0.780; the order found gets
+ * 0.801 (meshopt's triangle list: 0.63). A strip of m triangles leaves only its
  * last ~32 vertices for the next one, so shorter strips pay for the cache
  * and cost restarts; measured with max_strip (bunny00, defaults otherwise):
  *   max_strip     24     32     40     48     64     96    128    256
@@ -91,7 +118,12 @@
  * bought little (0.786 at 1.224, 6 s); so did strips grown in bands along
  * the previous strip (ACMR-32 0.78 at 1.37 idx/tri, before tunnelling,
  * which then undoes them) and bands along BFS rings (0.31 swaps a
- * triangle).
+ * triangle). Also lost: the annealing steered towards rows along a
+ * coordinate (each triangle's open edge the one most level in y; weight
+ * 0.1 to 1 a triangle): 0.823-0.837, worse; links only between triangles
+ * near in meshopt's cache order (within 64 to 4096 places): 1.298 / 0.724
+ * to 1.2535 / 0.765, under the max_strip curve above. (Those figures are
+ * from before order_refine, which takes 0.01-0.02 off each.)
  */
 #include "tunnel.h"
 
@@ -114,8 +146,8 @@ enum {
     DEFAULT_CACHE = 32,
     /* annealing moves per triangle: quality grows with it, slowly (bunny00,
      * idx/tri after: 64 -> 1.2184, 80 -> 1.2175, 96 -> 1.2163, 112 ->
-     * 1.2152; 1.0 / 1.2 / 1.3 / 1.6 s); 96 keeps the pass well under 2 s */
-    DEFAULT_ANNEAL = 96,
+     * 1.2152; 1.0 / 1.2 / 1.3 / 1.6 s); 96 keeps the pass under 2 s */
+    DEFAULT_ANNEAL = MTS_TUNNEL_DEFAULT_ANNEAL,
 };
 /* Temperatures (in units of 3 S + W) from the first to the last of the
  * annealing's stages, geometric between: measured on bunny00 at 60 moves a
@@ -459,7 +491,8 @@ static int random_walk(tun *o, uint32_t z, int depth, int cum, uint64_t *rs)
 /* Simulated annealing over the same moves as the search, picked at random
  * and kept by the Metropolis rule on 3 S + W: the exhaustive search stops
  * in a local minimum, a walk through slightly worse states gets out of it. */
-static void anneal(tun *o, uint64_t moves, double t0, double t1, int depth)
+static void anneal(tun *o, uint64_t moves, double t0, double t1, int depth,
+                   const mts_progress *progress)
 {
     mts__links *L = &o->L;
     uint64_t rs = 0x6d74732d74756eull; /* "mts-tun" */
@@ -468,6 +501,7 @@ static void anneal(tun *o, uint64_t moves, double t0, double t1, int depth)
     uint32_t thresh[8]; /* accept a cost of +d when a 32-bit draw is below thresh[d] */
     L->pass = 1;
     for (int stage = 0; stage < STAGES; stage++) {
+        mts_progress_report(progress, "tunnel", (double)stage / STAGES);
         double temp = t0 * pow(t1 / t0, (double)stage / (STAGES - 1));
         for (int d = 0; d < 8; d++)
             thresh[d] = (uint32_t)(exp(-(double)d / temp) * 4294967295.0);
@@ -774,6 +808,252 @@ static int chain_links(const order_ctx *c, uint32_t *succ, uint32_t *pred, uint8
     return ok;
 }
 
+/* ---- order refinement ---------------------------------------------------- */
+
+/* The greedy orders look one strip ahead. Or-opt then moves single strips:
+ * each strip is tried at every place next to a strip it shares a vertex
+ * with, up to about REFINE_SPAN indices away, in each allowed direction, and the
+ * best move that saves misses is made. A move is judged by replaying the
+ * cache over the strips between the two places and REFINE_TAIL after, from
+ * the cache contents kept for every position; after it, the replay goes on
+ * until the cache holds what it held before, so every figure stays exact.
+ * (bunny00: ACMR-32 0.814 -> 0.800; capped at 48, 0.770 -> 0.754; a strip
+ * set's best order cannot go under what each strip saves after its best
+ * neighbour alone, 0.780 here, so little more is to be had from the order.) */
+enum { REFINE_SPAN = 4096, REFINE_TAIL = 3, REFINE_SWEEPS = 4 };
+
+typedef struct refine {
+    const order_ctx *c;
+    uint32_t *emit;   /* the order being refined */
+    uint8_t *dir;     /* each one's direction */
+    uint32_t *posof;  /* path -> position */
+    uint32_t *snap;   /* (paths + 1) x size: cache contents before each position, oldest first */
+    uint32_t *snap_n; /* how many of them */
+    uint64_t *cm;     /* misses before each position (paths + 1) */
+    uint32_t *seq;    /* a trial's strips: range + REFINE_TAIL + 2 */
+    uint8_t *seq_dir;
+    uint32_t range;   /* farthest move, in places */
+} refine;
+
+/* The cache's contents, oldest first: stamp s sits in slot (s - 1) % size
+ * and still counts when the vertex there carries it. */
+static uint32_t fifo_contents(const fifo *f, uint32_t *out)
+{
+    uint32_t k = 0;
+    for (uint32_t j = 0; j < f->size; j++) {
+        uint64_t s = f->misses - f->size + j + 1;
+        uint32_t v = f->ring[(s - 1) % f->size];
+        if (f->stamp[v] == s)
+            out[k++] = v;
+    }
+    return k;
+}
+
+static void fifo_restore(fifo *f, const uint32_t *v, uint32_t k)
+{
+    fifo_clear(f);
+    for (uint32_t i = 0; i < k; i++) {
+        f->ring[f->misses % f->size] = v[i];
+        f->stamp[v[i]] = ++f->misses;
+    }
+}
+
+static void refine_feed(const refine *r, uint32_t p, int d)
+{
+    const enc *e = &r->c->encs[p];
+    fifo_feed(r->c->f, r->c->buf + e->at[d], e->len[d]);
+}
+
+/* Replays from position lo: contents and misses of every later position,
+ * until one past `settled` holds what it held before (then the misses after
+ * it move by the same amount) or the end. */
+static void refine_replay(refine *r, uint32_t lo, uint32_t settled)
+{
+    const order_ctx *c = r->c;
+    fifo *f = c->f;
+    uint32_t size = f->size, paths = c->paths;
+    uint32_t *tmp = r->snap + (size_t)paths * size; /* position `paths` is never compared */
+    fifo_restore(f, r->snap + (size_t)lo * size, r->snap_n[lo]);
+    uint64_t base = f->misses, at = r->cm[lo];
+    for (uint32_t x = lo; x < paths; x++) {
+        uint64_t now = at + (f->misses - base);
+        if (x > lo) {
+            uint32_t k = fifo_contents(f, tmp);
+            if (x > settled && k == r->snap_n[x] &&
+                memcmp(tmp, r->snap + (size_t)x * size, k * sizeof *tmp) == 0) {
+                uint64_t old = r->cm[x];
+                for (uint32_t y = x; y <= paths; y++)
+                    r->cm[y] = r->cm[y] - old + now;
+                return;
+            }
+            memcpy(r->snap + (size_t)x * size, tmp, k * sizeof *tmp);
+            r->snap_n[x] = k;
+        }
+        r->cm[x] = now;
+        refine_feed(r, r->emit[x], r->dir[x]);
+        r->posof[r->emit[x]] = x;
+    }
+    r->cm[paths] = at + (f->misses - base);
+}
+
+/* The misses of the strips from lo to end (exclusive, old positions) with p
+ * taken from position i and put before position j, read in direction d. */
+static int64_t refine_trial(refine *r, uint32_t i, uint32_t j, int d, uint32_t *lo_out,
+                            uint32_t *end_out)
+{
+    const order_ctx *c = r->c;
+    uint32_t paths = c->paths, p = r->emit[i], lo, end, n = 0;
+    if (j > i) {
+        lo = i;
+        end = j + REFINE_TAIL < paths ? j + REFINE_TAIL : paths;
+        for (uint32_t x = i + 1; x < end; x++) {
+            if (x == j) {
+                r->seq[n] = p;
+                r->seq_dir[n++] = (uint8_t)d;
+            }
+            r->seq[n] = r->emit[x];
+            r->seq_dir[n++] = r->dir[x];
+        }
+        if (j >= end) {
+            r->seq[n] = p;
+            r->seq_dir[n++] = (uint8_t)d;
+        }
+    } else {
+        lo = j;
+        end = i + 1 + REFINE_TAIL < paths ? i + 1 + REFINE_TAIL : paths;
+        r->seq[n] = p;
+        r->seq_dir[n++] = (uint8_t)d;
+        for (uint32_t x = j; x < end; x++) {
+            if (x != i) {
+                r->seq[n] = r->emit[x];
+                r->seq_dir[n++] = r->dir[x];
+            }
+        }
+    }
+    fifo *f = c->f;
+    fifo_restore(f, r->snap + (size_t)lo * f->size, r->snap_n[lo]);
+    uint64_t m0 = f->misses;
+    for (uint32_t k = 0; k < n; k++)
+        refine_feed(r, r->seq[k], r->seq_dir[k]);
+    *lo_out = lo;
+    *end_out = end;
+    return (int64_t)(f->misses - m0) - (int64_t)(r->cm[end] - r->cm[lo]);
+}
+
+static void refine_move(refine *r, uint32_t i, uint32_t j, int d)
+{
+    uint32_t p = r->emit[i];
+    if (j > i) {
+        memmove(r->emit + i, r->emit + i + 1, (size_t)(j - i - 1) * sizeof *r->emit);
+        memmove(r->dir + i, r->dir + i + 1, (size_t)(j - i - 1));
+        r->emit[j - 1] = p;
+        r->dir[j - 1] = (uint8_t)d;
+    } else {
+        memmove(r->emit + j + 1, r->emit + j, (size_t)(i - j) * sizeof *r->emit);
+        memmove(r->dir + j + 1, r->dir + j, (size_t)(i - j));
+        r->emit[j] = p;
+        r->dir[j] = (uint8_t)d;
+    }
+}
+
+/* Refines emit/emit_dir in place; returns the misses of the result (never
+ * more than `misses`, those of the order it was given: a worse result,
+ * which the tails could only make by a few misses, is dropped), or
+ * UINT64_MAX when out of memory (the order is left as it was). */
+static uint64_t order_refine(const order_ctx *c, uint32_t *emit, uint8_t *emit_dir,
+                             uint64_t misses)
+{
+    uint32_t paths = c->paths, size = c->f->size;
+    refine r = {c, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, 0};
+    uint64_t result = UINT64_MAX;
+    /* a move is judged by replaying what lies between: bound that work by
+     * indices, not places (a 1.2 M-triangle mesh has strips twice as long) */
+    uint64_t total = 0;
+    for (uint32_t p = 0; p < paths; p++)
+        total += c->encs[p].len[0];
+    uint64_t avg = paths ? total / paths + 1 : 1;
+    r.range = REFINE_SPAN / avg < 8 ? 8 : REFINE_SPAN / avg > 256 ? 256 : (uint32_t)(REFINE_SPAN / avg);
+    r.emit = malloc(((size_t)paths + 1) * sizeof *r.emit);
+    r.dir = malloc((size_t)paths + 1);
+    r.posof = malloc(((size_t)paths + 1) * sizeof *r.posof);
+    r.snap = malloc(((size_t)paths + 1) * size * sizeof *r.snap);
+    r.snap_n = malloc(((size_t)paths + 1) * sizeof *r.snap_n);
+    r.cm = malloc(((size_t)paths + 1) * sizeof *r.cm);
+    r.seq = malloc(((size_t)r.range + REFINE_TAIL + 2) * sizeof *r.seq);
+    r.seq_dir = malloc((size_t)r.range + REFINE_TAIL + 2);
+    if (!r.emit || !r.dir || !r.posof || !r.snap || !r.snap_n || !r.cm || !r.seq || !r.seq_dir)
+        goto done;
+    memcpy(r.emit, emit, (size_t)paths * sizeof *emit);
+    memcpy(r.dir, emit_dir, (size_t)paths);
+    fifo_clear(c->f);
+    r.snap_n[0] = 0;
+    r.cm[0] = 0;
+    refine_replay(&r, 0, paths);
+    for (uint32_t p = 0; p < paths; p++)
+        c->cand[p] = NONE;
+    uint32_t stamp = 0;
+    for (int sweep = 0; sweep < REFINE_SWEEPS; sweep++) {
+        uint32_t moved = 0;
+        for (uint32_t i = 0; i < paths; i++) {
+            uint32_t p = r.emit[i], best_j = NONE;
+            int best_d = 0;
+            int64_t best = 0;
+            const enc *e = &c->encs[p];
+            const uint32_t *s = c->buf + e->at[0];
+            stamp++;
+            for (uint32_t k = 0; k < e->len[0]; k++) {
+                uint32_t v = s[k];
+                for (uint32_t a = c->vstart[v]; a < c->vstart[v + 1]; a++) {
+                    uint32_t q = c->vpaths[a];
+                    if (q == p || c->cand[q] == stamp)
+                        continue;
+                    c->cand[q] = stamp;
+                    uint32_t pq = r.posof[q];
+                    for (uint32_t j = pq; j <= pq + 1; j++) {
+                        if (j == i || j == i + 1 || (j > i ? j - i : i - j) > r.range)
+                            continue;
+                        for (int d = 0; d < 2; d++) {
+                            if (!(e->dirs >> d & 1))
+                                continue;
+                            uint32_t lo, end;
+                            int64_t delta = refine_trial(&r, i, j, d, &lo, &end);
+                            if (delta < best) {
+                                best = delta;
+                                best_j = j;
+                                best_d = d;
+                            }
+                        }
+                    }
+                }
+            }
+            if (best_j == NONE)
+                continue;
+            refine_move(&r, i, best_j, best_d);
+            refine_replay(&r, i < best_j ? i : best_j, i > best_j ? i : best_j);
+            moved++;
+        }
+        if (!moved)
+            break;
+    }
+    result = r.cm[paths];
+    if (result < misses) {
+        memcpy(emit, r.emit, (size_t)paths * sizeof *emit);
+        memcpy(emit_dir, r.dir, (size_t)paths);
+    } else {
+        result = misses;
+    }
+done:
+    free(r.emit);
+    free(r.dir);
+    free(r.posof);
+    free(r.snap);
+    free(r.snap_n);
+    free(r.cm);
+    free(r.seq);
+    free(r.seq_dir);
+    return result;
+}
+
 /* ---- driver -------------------------------------------------------------- */
 
 mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
@@ -818,7 +1098,9 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
         length = MTS_TUNNEL_MAX_LENGTH;
     o.L.max_path = opts->max_strip ? opts->max_strip : MTS_STRIPIFY_MAX_STRIP;
     uint32_t csize = opts->cache_size ? opts->cache_size : DEFAULT_CACHE;
-    int effort = opts->anneal == 0 ? DEFAULT_ANNEAL : opts->anneal;
+    int effort = opts->anneal == 0                     ? DEFAULT_ANNEAL
+                 : opts->anneal > MTS_TUNNEL_MAX_ANNEAL ? MTS_TUNNEL_MAX_ANNEAL
+                                                        : opts->anneal;
 
     /* The drawn triangles, numbered in drawing order, and which one each
      * follows in its strip. */
@@ -876,7 +1158,7 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
             goto nomem;
         st.passes = improve(&o);
         if (effort > 0) {
-            anneal(&o, (uint64_t)effort * n, ANNEAL_T0, ANNEAL_T1, o.depth);
+            anneal(&o, (uint64_t)effort * n, ANNEAL_T0, ANNEAL_T1, o.depth, &opts->progress);
             /* and down to a local minimum again, exhaustively */
             memset(o.L.touched, 0, (size_t)n * sizeof *o.L.touched);
             st.passes += improve(&o);
@@ -1037,10 +1319,16 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
         emit_dir2 = malloc((size_t)paths + 1);
         if (!succ || !pred || !cdir || !emit2 || !emit_dir2 || !chain_links(&oc, succ, pred, cdir))
             goto nomem;
-        if (order_greedy(&oc, succ, pred, cdir, emit2, emit_dir2) < misses) {
+        uint64_t chained = order_greedy(&oc, succ, pred, cdir, emit2, emit_dir2);
+        if (chained < misses) {
             memcpy(emit, emit2, (size_t)paths * sizeof *emit);
             memcpy(emit_dir, emit_dir2, (size_t)paths);
+            misses = chained;
         }
+        misses = order_refine(&oc, emit, emit_dir, misses);
+        if (misses == UINT64_MAX)
+            goto nomem;
+        st.cache_misses = misses;
         emitted = paths;
     }
     for (uint32_t i = 0; i < emitted; i++)

@@ -13,12 +13,20 @@
 #include <stdint.h>
 
 #include "error.h"
+#include "progress.h"
 #include "strips.h"
 
 /* Longest tunnel searched by default, in dual-graph edges (odd): chosen by
  * measurement on bunny00 and fandisk_large (see tunnel.c). */
 #define MTS_TUNNEL_DEFAULT_LENGTH 7
 #define MTS_TUNNEL_DEFAULT_LENGTH_STR "7"
+/* Simulated-annealing moves per triangle by default: keeps the pass under
+ * 2 s on bunny00 (see tunnel.c for what more buys). */
+#define MTS_TUNNEL_DEFAULT_ANNEAL 96
+#define MTS_TUNNEL_DEFAULT_ANNEAL_STR "96"
+/* Most moves per triangle accepted: bunny00 at 16384 takes minutes. */
+#define MTS_TUNNEL_MAX_ANNEAL 1000000
+
 /* Longest tunnel accepted at all: the search is exponential in it. */
 #define MTS_TUNNEL_MAX_LENGTH 21
 #define MTS_TUNNEL_MAX_LENGTH_STR "21"
@@ -33,7 +41,9 @@ typedef struct mts_tunnel_options {
                           * order of the input */
     int anneal;          /* simulated-annealing moves per triangle after the
                           * exhaustive search (then searched again); 0: the
-                          * default (96); < 0: none */
+                          * default (MTS_TUNNEL_DEFAULT_ANNEAL); < 0: none;
+                          * more than MTS_TUNNEL_MAX_ANNEAL: that many */
+    mts_progress progress; /* "tunnel", through the annealing's stages */
 } mts_tunnel_options;
 
 /* Figures before (the input) and after, counted the way the benchmarks count:
@@ -46,6 +56,9 @@ typedef struct mts_tunnel_stats {
     uint32_t triangles;
     uint32_t changes; /* tunnels (and swap repairs) complemented */
     uint32_t passes;
+    uint64_t cache_misses; /* misses of out, in order, through the FIFO of
+                            * cache_size (empty at the start); 0 when the
+                            * input's order is kept */
 } mts_tunnel_stats;
 
 /* in: strips over vertices < vertex_count. out gets strips drawing exactly

@@ -4,10 +4,13 @@
  * (build/tests/.. -> build/bin). */
 #include <libgen.h>
 #include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
 #include <sys/wait.h>
 
 #include "test.h"
 #include "test_proc.h"
+#include "tunnel.h"
 
 static char bin_dir[512];
 static char tmp_dir[512];
@@ -36,6 +39,13 @@ static void test_help_and_usage(mts_test *t)
     }
     snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off --base-vertices abc", bin_dir);
     CHECK(t, mts_test_run(cmd, out, sizeof out) == 2);
+    const char *efforts[] = {"-1", "abc", "1000001", ""};
+    for (size_t i = 0; i < sizeof efforts / sizeof efforts[0]; i++) {
+        snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off --strip-effort '%s'", bin_dir,
+                 efforts[i]);
+        CHECKF(t, mts_test_run(cmd, out, sizeof out) == 2, "--strip-effort '%s'", efforts[i]);
+        CHECKF(t, strstr(out, "--strip-effort"), "message: %s", out);
+    }
     snprintf(cmd, sizeof cmd, "%s/mts-inspect x.mtsm --fraction 1.5", bin_dir);
     CHECK(t, mts_test_run(cmd, out, sizeof out) == 2);
 }
@@ -77,6 +87,22 @@ static void test_build_inspect_verify(mts_test *t)
         CHECKF(t, has_key(out, keys[i]), "mts-build --json lacks %s: %s", keys[i], out);
     CHECK(t, strstr(out, "\"vertices\":2904") != NULL);
     CHECK(t, strstr(out, "\"triangles\":5804") != NULL);
+    CHECKF(t, strstr(out, "\"strip_effort\":" MTS_TUNNEL_DEFAULT_ANNEAL_STR ","), "%s", out);
+    char *ipt = strstr(out, "\"indices_per_triangle_full\":");
+    double ipt_default = ipt ? atof(ipt + strlen("\"indices_per_triangle_full\":")) : 0;
+
+    /* --strip-effort reaches the tunnelling pass: none gives other strips
+     * (the greedy ones, tunnelled), as the JSON says */
+    char model0[1024];
+    snprintf(model0, sizeof model0, "%s/cow_effort0.mtsm", tmp_dir);
+    snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off -o %s --strip-effort 0 --json",
+             bin_dir, model0);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, strstr(out, "\"strip_effort\":0,"), "%s", out);
+    ipt = strstr(out, "\"indices_per_triangle_full\":");
+    double ipt_none = ipt ? atof(ipt + strlen("\"indices_per_triangle_full\":")) : 0;
+    CHECKF(t, ipt_default > 1 && ipt_none > ipt_default, "idx/tri %.4f without annealing, %.4f with",
+           ipt_none, ipt_default);
     /* one line */
     char *nl = strchr(out, '\n');
     CHECK(t, nl && nl[1] == 0);

@@ -157,20 +157,25 @@ static void test_empty_and_errors(mts_test *t)
     CHECK(t, out.offsets == NULL && out.indices == NULL);
 }
 
-static double fifo_acmr(const mts_strips *s, uint32_t vertex_count, uint32_t size, uint64_t tris)
+/* Misses of the strips, in order, through a FIFO cache of `size` (UINT64_MAX
+ * when out of memory). */
+static uint64_t fifo_misses(const mts_strips *s, uint32_t vertex_count, uint32_t size)
 {
     uint64_t *stamp = calloc((size_t)vertex_count + 1, sizeof *stamp), misses = 0;
-    if (!stamp || !tris) {
-        free(stamp);
-        return 0;
-    }
+    if (!stamp)
+        return UINT64_MAX;
     for (uint32_t k = 0; k < s->index_count; k++) {
         uint32_t v = s->indices[k];
         if (!(stamp[v] && stamp[v] + size > misses))
             stamp[v] = ++misses;
     }
     free(stamp);
-    return (double)misses / (double)tris;
+    return misses;
+}
+
+static double fifo_acmr(const mts_strips *s, uint32_t vertex_count, uint32_t size, uint64_t tris)
+{
+    return tris ? (double)fifo_misses(s, vertex_count, size) / (double)tris : 0;
 }
 
 static double now(void)
@@ -217,12 +222,28 @@ static void check_model(mts_test *t, const char *path)
         if (r == MTS_OK) {
             check_same_surface(t, &greedy, &a, &ta);
             CHECK(t, ta.triangles == mesh.triangle_count);
+            /* the order's own count, kept through every move of its
+             * refinement, is the cache's */
+            uint64_t m32 = fifo_misses(&a, mesh.vertex_count, 32);
+            CHECKF(t, ta.cache_misses == m32, "the order counts %llu misses, the cache %llu",
+                   (unsigned long long)ta.cache_misses, (unsigned long long)m32);
             r = mts_tunnel(&greedy, mesh.vertex_count, NULL, &b, &tb, &err);
             CHECK(t, r == MTS_OK);
             CHECKF(t, r == MTS_OK && same_strips(&a, &b), "two runs differ");
             uint32_t ss = start_swaps(&a);
             CHECKF(t, ss * 20 <= a.strip_count, "%u of %u strips start with a swap", ss,
                    a.strip_count);
+            mts_strips_free(&b);
+            /* and for another cache: the same strips, ordered for it */
+            mts_tunnel_options small = {0};
+            small.cache_size = 12;
+            r = mts_tunnel(&greedy, mesh.vertex_count, &small, &b, &tb, &err);
+            CHECK(t, r == MTS_OK && tb.draw_indices_after == ta.draw_indices_after);
+            if (r == MTS_OK) {
+                uint64_t m12 = fifo_misses(&b, mesh.vertex_count, 12);
+                CHECKF(t, tb.cache_misses == m12, "cache of 12: the order counts %llu, the cache %llu",
+                       (unsigned long long)tb.cache_misses, (unsigned long long)m12);
+            }
             mts_strips_free(&b);
             mts_tunnel_options keep = {0};
             keep.cache_size = 1;
