@@ -820,7 +820,7 @@ static int chain_links(const order_ctx *c, uint32_t *succ, uint32_t *pred, uint8
  * (bunny00: ACMR-32 0.814 -> 0.800; capped at 48, 0.770 -> 0.754; a strip
  * set's best order cannot go under what each strip saves after its best
  * neighbour alone, 0.780 here, so little more is to be had from the order.) */
-enum { REFINE_SPAN = 4096, REFINE_TAIL = 3, REFINE_SWEEPS = 4 };
+enum { REFINE_SPAN = 4096, REFINE_TAIL = 3, REFINE_SWEEPS = 4, REFINE_MAX_CONTENTS = 1 << 25 };
 
 typedef struct refine {
     const order_ctx *c;
@@ -966,6 +966,11 @@ static uint64_t order_refine(const order_ctx *c, uint32_t *emit, uint8_t *emit_d
     uint32_t paths = c->paths, size = c->f->size;
     refine r = {c, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, 0};
     uint64_t result = UINT64_MAX;
+    /* the contents kept per position: a cache far larger than any GPU's
+     * (cache_size is the caller's) keeps the greedy order rather than ask
+     * for gigabytes */
+    if (((uint64_t)paths + 1) * size > REFINE_MAX_CONTENTS)
+        return misses;
     /* a move is judged by replaying what lies between: bound that work by
      * indices, not places (a 1.2 M-triangle mesh has strips twice as long) */
     uint64_t total = 0;

@@ -282,6 +282,37 @@ static void test_cow(mts_test *t)
     check_model(t, "tests/data/cow.off");
 }
 
+/* A cache far larger than the mesh: the order is made (every vertex misses
+ * once, whatever the order) without the refinement's per-position copies
+ * of the cache, which would take gigabytes. */
+static void test_huge_cache(mts_test *t)
+{
+    mts_mesh mesh = {0};
+    mts_error err = {0};
+    mts_result r = mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r != MTS_OK)
+        return;
+    mts_strips greedy = {0}, out = {0};
+    mts_tunnel_stats ts = {0};
+    mts_tunnel_options o = {0};
+    o.cache_size = 1u << 22;
+    CHECK(t, mts_stripify(mesh.triangles, mesh.triangle_count, mesh.vertex_count, &greedy, NULL,
+                          &err) == MTS_OK);
+    r = mts_tunnel(&greedy, mesh.vertex_count, &o, &out, &ts, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK) {
+        check_same_surface(t, &greedy, &out, &ts);
+        CHECKF(t, ts.cache_misses == mesh.vertex_count &&
+                      fifo_misses(&out, mesh.vertex_count, o.cache_size) == mesh.vertex_count,
+               "%llu misses for %u vertices", (unsigned long long)ts.cache_misses,
+               mesh.vertex_count);
+    }
+    mts_strips_free(&greedy);
+    mts_strips_free(&out);
+    mts_mesh_free(&mesh);
+}
+
 static void test_bunny(mts_test *t)
 {
     char buf[512];
@@ -297,6 +328,7 @@ int main(void)
     RUN(&t, test_known_tunnel);
     RUN(&t, test_empty_and_errors);
     RUN(&t, test_cow);
+    RUN(&t, test_huge_cache);
     RUN(&t, test_bunny);
     return mts_test_end(&t);
 }
