@@ -57,7 +57,9 @@ sample_rss() {
   local pid=$1 file=$2 max=0 r
   while kill -0 "$pid" 2>/dev/null; do
     r=$(rss_kb "$pid" 2>/dev/null) || break
-    [ -n "$r" ] && [ "$r" -gt "$max" ] && { max=$r; echo "$max" >"$file"; }
+    # written aside and renamed: killed mid-write, it must not leave the
+    # file empty for measure() to read
+    [ -n "$r" ] && [ "$r" -gt "$max" ] && { max=$r; echo "$max" >"$file.new" && mv "$file.new" "$file"; }
     sleep 0.02
   done
 }
@@ -75,7 +77,8 @@ measure() {
   cpu1=$(cpu_s "$pid")
   kill "$sampler" 2>/dev/null
   wait "$sampler" 2>/dev/null
-  peak=$(cat "$out/rss.peak")
+  peak=$(cat "$out/rss.peak" 2>/dev/null)
+  [ -n "$peak" ] || peak=null
   [ -n "$result" ] || result='{"clients": '"$clients"', "succeeded": 0, "failed": '"$clients"'}'
   printf '{"server": "%s", "server_cpu_s": %s, "server_peak_rss_kb": %s, "stress": %s}\n' \
     "$name" "$(awk -v a="$cpu0" -v b="$cpu1" 'BEGIN { printf "%.3f", b - a }')" "$peak" "$result" \

@@ -54,10 +54,6 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
         mts_strips_free(&strips);
         strips = tunnelled;
         report->tunnel_length = to.length;
-        report->strip_effort = to.anneal == 0                     ? MTS_TUNNEL_DEFAULT_ANNEAL
-                               : to.anneal < 0                    ? 0
-                               : to.anneal > MTS_TUNNEL_MAX_ANNEAL ? MTS_TUNNEL_MAX_ANNEAL
-                                                                  : to.anneal;
         mts_progress_report(&opts->progress, "tunnel", 1);
     } else {
         mts_strip_stats st;

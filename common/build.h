@@ -32,7 +32,6 @@ typedef struct mts_build_report {
     double seconds_stripify, seconds_tunnel, seconds_simplify, seconds_records;
     mts_stripify_stats stripify; /* the greedy stripifier's own figures */
     int tunnel_length;           /* the length used, 0 when the pass was off */
-    int strip_effort;            /* annealing moves per triangle used, 0: none */
     mts_tunnel_stats tunnel;     /* strips/swaps/draw indices before and after
                                   * (after == before when the pass is off) */
     mts_lodbuild_stats records;

@@ -816,8 +816,9 @@ static int chain_links(const order_ctx *c, uint32_t *succ, uint32_t *pred, uint8
  * best move that saves misses is made. A move is judged by replaying the
  * cache over the strips between the two places and REFINE_TAIL after, from
  * the cache contents kept for every position; after it, the replay goes on
- * until the cache holds what it held before, so every figure stays exact.
- * (bunny00: ACMR-32 0.814 -> 0.800; capped at 48, 0.770 -> 0.754; a strip
+ * until the cache holds what it held before, so every figure stays exact
+ * (and a move whose cost lay past the tail is taken back).
+ * (bunny00: ACMR-32 0.814 -> 0.801; capped at 48, 0.770 -> 0.754; a strip
  * set's best order cannot go under what each strip saves after its best
  * neighbour alone, 0.780 here, so little more is to be had from the order.) */
 enum { REFINE_SPAN = 4096, REFINE_TAIL = 3, REFINE_SWEEPS = 4, REFINE_MAX_CONTENTS = 1 << 25 };
@@ -827,7 +828,8 @@ typedef struct refine {
     uint32_t *emit;   /* the order being refined */
     uint8_t *dir;     /* each one's direction */
     uint32_t *posof;  /* path -> position */
-    uint32_t *snap;   /* (paths + 1) x size: cache contents before each position, oldest first */
+    uint32_t *snap;   /* (paths + 1) x size: cache contents before each position,
+                       * oldest first; the last, at `paths`, is the replay's scratch */
     uint32_t *snap_n; /* how many of them */
     uint64_t *cm;     /* misses before each position (paths + 1) */
     uint32_t *seq;    /* a trial's strips: range + REFINE_TAIL + 2 */
@@ -956,19 +958,18 @@ static void refine_move(refine *r, uint32_t i, uint32_t j, int d)
     }
 }
 
-/* Refines emit/emit_dir in place; returns the misses of the result (never
- * more than `misses`, those of the order it was given: a worse result,
- * which the tails could only make by a few misses, is dropped), or
- * UINT64_MAX when out of memory (the order is left as it was). */
+/* Refines emit/emit_dir in place and returns the misses of the result,
+ * never more than `misses`, those of the order it was given. Out of memory
+ * it leaves the order as it was: the refinement is a bonus. */
 static uint64_t order_refine(const order_ctx *c, uint32_t *emit, uint8_t *emit_dir,
                              uint64_t misses)
 {
     uint32_t paths = c->paths, size = c->f->size;
     refine r = {c, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, 0};
-    uint64_t result = UINT64_MAX;
-    /* the contents kept per position: a cache far larger than any GPU's
-     * (cache_size is the caller's) keeps the greedy order rather than ask
-     * for gigabytes */
+    uint64_t result = misses;
+    /* the contents kept per position: past 2^25 entries (a cache far larger
+     * than a GPU's, or over a million strips at 32) the greedy order stays
+     * rather than ask for gigabytes */
     if (((uint64_t)paths + 1) * size > REFINE_MAX_CONTENTS)
         return misses;
     /* a move is judged by replaying what lies between: bound that work by
@@ -1033,19 +1034,28 @@ static uint64_t order_refine(const order_ctx *c, uint32_t *emit, uint8_t *emit_d
             }
             if (best_j == NONE)
                 continue;
+            /* the trial saw REFINE_TAIL strips past the move; the replay
+             * sees them all: a move that costs more there is taken back */
+            uint64_t before = r.cm[paths];
+            int old_d = r.dir[i];
+            uint32_t lo = i < best_j ? i : best_j, hi = i > best_j ? i : best_j;
             refine_move(&r, i, best_j, best_d);
-            refine_replay(&r, i < best_j ? i : best_j, i > best_j ? i : best_j);
+            refine_replay(&r, lo, hi);
+            if (r.cm[paths] >= before) {
+                uint32_t at = best_j > i ? best_j - 1 : best_j;
+                refine_move(&r, at, best_j > i ? i : i + 1, old_d);
+                refine_replay(&r, lo, hi);
+                continue;
+            }
             moved++;
         }
         if (!moved)
             break;
     }
-    result = r.cm[paths];
-    if (result < misses) {
+    if (r.cm[paths] < misses) {
+        result = r.cm[paths];
         memcpy(emit, r.emit, (size_t)paths * sizeof *emit);
         memcpy(emit_dir, r.dir, (size_t)paths);
-    } else {
-        result = misses;
     }
 done:
     free(r.emit);
@@ -1163,6 +1173,7 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
             goto nomem;
         st.passes = improve(&o);
         if (effort > 0) {
+            st.anneal = (uint32_t)effort;
             anneal(&o, (uint64_t)effort * n, ANNEAL_T0, ANNEAL_T1, o.depth, &opts->progress);
             /* and down to a local minimum again, exhaustively */
             memset(o.L.touched, 0, (size_t)n * sizeof *o.L.touched);
@@ -1330,10 +1341,7 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
             memcpy(emit_dir, emit_dir2, (size_t)paths);
             misses = chained;
         }
-        misses = order_refine(&oc, emit, emit_dir, misses);
-        if (misses == UINT64_MAX)
-            goto nomem;
-        st.cache_misses = misses;
+        st.cache_misses = order_refine(&oc, emit, emit_dir, misses);
         emitted = paths;
     }
     for (uint32_t i = 0; i < emitted; i++)
@@ -1361,6 +1369,7 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
             st.strips_after = st.strips_before;
             st.swaps_after = st.swaps_before;
             st.draw_indices_after = st.draw_indices_before;
+            st.cache_misses = 0; /* the input's order, not the one counted */
             if (stats)
                 *stats = st;
             goto cleanup;

@@ -56,6 +56,7 @@ typedef struct mts_tunnel_stats {
     uint32_t triangles;
     uint32_t changes; /* tunnels (and swap repairs) complemented */
     uint32_t passes;
+    uint32_t anneal;  /* annealing moves per triangle made, 0: none */
     uint64_t cache_misses; /* misses of out, in order, through the FIFO of
                             * cache_size (empty at the start); 0 when the
                             * input's order is kept */

@@ -215,8 +215,11 @@ static int tm_icosphere(tmesh *m, int level)
  * j >= 2.) It is stripify.c's lower bound made exact: a vertex whose valence
  * is not a multiple of 3 has a run other than 2. Checked here on every
  * cover the tests make, from the strips alone: it ties the swap count, the
- * strip count and the links together, and tunnel.c leans on it. Returns the
- * right side, or UINT64_MAX when a window is not a mesh triangle. */
+ * strip count and the links together, and tunnel.c leans on it. A link is
+ * read as strips.h encodes it: the last two indices of the window before
+ * (a swap repeats one index, p q r -> p q p r). Returns the right side, or
+ * UINT64_MAX when a window is not a mesh triangle, when linked spokes close
+ * around a vertex (a loop) or out of memory. */
 typedef struct corner_key {
     uint32_t a, b, t; /* directed edge a -> b of triangle t */
 } corner_key;
@@ -290,7 +293,8 @@ static uint64_t run_cost(const tmesh *m, const mts_strips *s)
     uint8_t *taken = calloc((size_t)m->tri_count + 1, 1);
     uint8_t *linked = calloc(ne + 1, 1); /* bit per corner edge k of t: 3 t + k */
     uint8_t *seen = calloc(ne + 1, 1);
-    if (!e || !keys || !taken || !linked || !seen)
+    uint8_t *open = malloc(ne + 2); /* one fan's spokes: at most its corners + 1 */
+    if (!e || !keys || !taken || !linked || !seen || !open)
         goto done;
     for (uint32_t t = 0; t < m->tri_count; t++) {
         const uint32_t *v = m->tri + 3 * (size_t)t;
@@ -372,18 +376,15 @@ static uint64_t run_cost(const tmesh *m, const mts_strips *s)
             c = 3 * (size_t)p + pk;
         }
         /* open (1) / linked (0) spokes in fan order */
-        uint8_t open[4096];
         size_t no = 0;
         size_t first = c;
         for (;;) {
             uint32_t t = (uint32_t)(c / 3), k = (uint32_t)(c % 3);
             seen[c] = 1;
-            if (no < sizeof open)
-                open[no++] = !linked[c];
+            open[no++] = !linked[c];
             uint32_t q = across(e, ne, v, m->tri[3 * (size_t)t + (k + 2) % 3]);
             if (q == UINT32_MAX) {
-                if (no < sizeof open)
-                    open[no++] = 1; /* the last in-spoke: a border */
+                open[no++] = 1; /* the last in-spoke: a border */
                 break;
             }
             uint32_t qk = 0;
@@ -417,6 +418,7 @@ done:
     free(taken);
     free(linked);
     free(seen);
+    free(open);
     return result;
 }
 

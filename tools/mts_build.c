@@ -173,7 +173,7 @@ int main(int argc, char **argv)
         cli_json_num(&j, "indices_per_triangle_full", ipt_full, 4);
         cli_json_u64(&j, "swaps", rep.tunnel.swaps_after);
         cli_json_u64(&j, "tunnel_length", (uint64_t)rep.tunnel_length);
-        cli_json_u64(&j, "strip_effort", (uint64_t)rep.strip_effort);
+        cli_json_u64(&j, "strip_effort", rep.tunnel.anneal);
         cli_json_u64(&j, "key_levels", rep.records.key_levels);
         cli_json_u64(&j, "explicit_splits", rep.records.explicit_splits);
         cli_json_num(&j, "indices_per_triangle_worst", ipt_worst, 4);
