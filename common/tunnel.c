@@ -1007,6 +1007,15 @@ static uint64_t order_refine(const order_ctx *c, uint32_t *emit, uint8_t *emit_d
             const enc *e = &c->encs[p];
             const uint32_t *s = c->buf + e->at[0];
             stamp++;
+            if (e->dirs == 3) { /* read the other way, where it is */
+                uint32_t lo, end;
+                int64_t delta = refine_trial(&r, i, i, !r.dir[i], &lo, &end);
+                if (delta < best) {
+                    best = delta;
+                    best_j = i;
+                    best_d = !r.dir[i];
+                }
+            }
             for (uint32_t k = 0; k < e->len[0]; k++) {
                 uint32_t v = s[k];
                 for (uint32_t a = c->vstart[v]; a < c->vstart[v + 1]; a++) {
