@@ -220,22 +220,10 @@ static int tm_icosphere(tmesh *m, int level)
  * (a swap repeats one index, p q r -> p q p r). Returns the right side, or
  * UINT64_MAX when a window is not a mesh triangle, when linked spokes close
  * around a vertex (a loop) or out of memory. */
-typedef struct corner_key {
-    uint32_t a, b, t; /* directed edge a -> b of triangle t */
-} corner_key;
-
-static int corner_key_compare(const void *pa, const void *pb)
-{
-    const corner_key *x = pa, *y = pb;
-    if (x->a != y->a)
-        return x->a < y->a ? -1 : 1;
-    if (x->b != y->b)
-        return x->b < y->b ? -1 : 1;
-    return (x->t > y->t) - (x->t < y->t);
-}
-
+/* Triangle t rotated to start at its lowest vertex (a, b, c); or, for the
+ * half-edge list, its directed edge a -> b with c = t. */
 typedef struct tri_key {
-    uint32_t a, b, c, t; /* triangle t, rotated to start at its lowest vertex */
+    uint32_t a, b, c, t;
 } tri_key;
 
 static tri_key tri_key_of(const uint32_t *v, uint32_t t)
@@ -244,7 +232,7 @@ static tri_key tri_key_of(const uint32_t *v, uint32_t t)
     return (tri_key){v[r], v[(r + 1) % 3], v[(r + 2) % 3], t};
 }
 
-/* by vertices only: lower_bound finds the first of equal triangles */
+/* by (a, b, c) only: lower_bound finds the first of equal triangles */
 static int tri_key_compare(const void *pa, const void *pb)
 {
     const tri_key *x = pa, *y = pb;
@@ -255,9 +243,8 @@ static int tri_key_compare(const void *pa, const void *pb)
     return (x->c > y->c) - (x->c < y->c);
 }
 
-/* the triangle with directed edge a -> b when exactly one has it and exactly
- * one has b -> a; else UINT32_MAX */
-static uint32_t across(const corner_key *e, size_t ne, uint32_t a, uint32_t b)
+/* The first half-edge a -> b in e (sorted), and how many there are. */
+static size_t half_edges(const tri_key *e, size_t ne, uint32_t a, uint32_t b, size_t *count)
 {
     size_t lo = 0, hi = ne;
     while (lo < hi) {
@@ -267,28 +254,27 @@ static uint32_t across(const corner_key *e, size_t ne, uint32_t a, uint32_t b)
         else
             hi = mid;
     }
-    size_t n = 0, m = 0;
+    *count = 0;
     for (size_t i = lo; i < ne && e[i].a == a && e[i].b == b; i++)
-        n++;
-    /* the reverse edge */
-    size_t lo2 = 0, hi2 = ne;
-    while (lo2 < hi2) {
-        size_t mid = (lo2 + hi2) / 2;
-        if (e[mid].a < b || (e[mid].a == b && e[mid].b < a))
-            lo2 = mid + 1;
-        else
-            hi2 = mid;
-    }
-    for (size_t i = lo2; i < ne && e[i].a == b && e[i].b == a; i++)
-        m++;
-    return n == 1 && m == 1 ? e[lo].t : UINT32_MAX;
+        (*count)++;
+    return lo;
+}
+
+/* the triangle with directed edge a -> b when exactly one has it and exactly
+ * one has b -> a; else UINT32_MAX */
+static uint32_t across(const tri_key *e, size_t ne, uint32_t a, uint32_t b)
+{
+    size_t n, m;
+    size_t at = half_edges(e, ne, a, b, &n);
+    half_edges(e, ne, b, a, &m);
+    return n == 1 && m == 1 ? e[at].t : UINT32_MAX;
 }
 
 static uint64_t run_cost(const tmesh *m, const mts_strips *s)
 {
     uint64_t result = UINT64_MAX;
     size_t ne = 3 * (size_t)m->tri_count;
-    corner_key *e = malloc((ne + 1) * sizeof *e);
+    tri_key *e = malloc((ne + 1) * sizeof *e);
     tri_key *keys = malloc(((size_t)m->tri_count + 1) * sizeof *keys);
     uint8_t *taken = calloc((size_t)m->tri_count + 1, 1);
     uint8_t *linked = calloc(ne + 1, 1); /* bit per corner edge k of t: 3 t + k */
@@ -299,10 +285,10 @@ static uint64_t run_cost(const tmesh *m, const mts_strips *s)
     for (uint32_t t = 0; t < m->tri_count; t++) {
         const uint32_t *v = m->tri + 3 * (size_t)t;
         for (int k = 0; k < 3; k++)
-            e[3 * (size_t)t + k] = (corner_key){v[k], v[(k + 1) % 3], t};
+            e[3 * (size_t)t + k] = (tri_key){v[k], v[(k + 1) % 3], t, t};
         keys[t] = tri_key_of(v, t);
     }
-    qsort(e, ne, sizeof *e, corner_key_compare);
+    qsort(e, ne, sizeof *e, tri_key_compare);
     qsort(keys, m->tri_count, sizeof *keys, tri_key_compare);
     /* links: consecutive drawn triangles of a strip, across the edge they share */
     for (uint32_t i = 0; i < s->strip_count; i++) {
