@@ -594,6 +594,12 @@ mts_result mts_stripify(const uint32_t *triangles, uint32_t triangle_count, uint
 
 /* ---- the lower bound -------------------------------------------------- */
 
+static int compare_u64(const void *pa, const void *pb)
+{
+    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
+    return (a > b) - (a < b);
+}
+
 /* Why it holds. Along a strip, let a "visit" of vertex v be a maximal run of
  * consecutive triangles of the strip that contain v; the triangles around v
  * split into visits. Inside a visit every triangle but the first and last
@@ -631,29 +637,42 @@ mts_result mts_stripify_cost_bound(const uint32_t *tri, uint32_t n, uint32_t ver
             return mts_error_set(err, MTS_ERR_RANGE,
                                  "stripify bound: triangle %zu names vertex %u of %u", k / 3,
                                  tri[k], vertex_count);
-    uint32_t *nb = malloc(((size_t)3 * n + 1) * sizeof *nb);
-    uint32_t *valence = calloc((size_t)vertex_count + 1, 4);
-    uint8_t *off = calloc((size_t)vertex_count + 1, 1);
+    /* Per vertex, its valence and whether a border touches it, gathered by
+     * sorting (vertex << 2 | counts toward the valence << 1 | on a border)
+     * entries rather than in arrays of vertex_count: the ids may be sparse
+     * up to 2^32 - 1, and memory must follow the triangles. */
+    size_t nh = (size_t)3 * n;
+    uint32_t *nb = malloc((nh + 1) * sizeof *nb);
+    uint64_t *ent = malloc((2 * nh + 1) * sizeof *ent);
     mts_result rc = MTS_OK;
-    if (!nb || !valence || !off)
+    if (!nb || !ent)
         rc = mts_error_set(err, MTS_ERR_NOMEM, "stripify bound: out of memory");
     else
         rc = mts__links_adjacency(tri, n, vertex_count, nb, "stripify bound", err);
     if (rc == MTS_OK) {
         /* the strips' own adjacency: an edge no strip may cross is a border */
-        for (size_t h = 0; h < (size_t)3 * n; h++) {
+        size_t ne = 0;
+        for (size_t h = 0; h < nh; h++) {
             uint32_t a = tri[h], b = tri[h - h % 3 + (h + 1) % 3];
-            valence[a]++;
-            if (nb[h] == NONE)
-                off[a] = off[b] = 1;
+            uint64_t border = nb[h] == NONE;
+            ent[ne++] = (uint64_t)a << 2 | 2u | border;
+            if (border)
+                ent[ne++] = (uint64_t)b << 2 | 1u;
         }
+        qsort(ent, ne, sizeof *ent, compare_u64);
         uint64_t defects = 0;
-        for (uint32_t v = 0; v < vertex_count; v++)
-            defects += !off[v] && valence[v] % 3 != 0;
+        for (size_t i = 0; i < ne;) {
+            uint64_t v = ent[i] >> 2, valence = 0;
+            int off = 0;
+            for (; i < ne && ent[i] >> 2 == v; i++) {
+                valence += ent[i] >> 1 & 1;
+                off |= (int)(ent[i] & 1);
+            }
+            defects += !off && valence % 3 != 0;
+        }
         *bound = (defects + 1) / 2;
     }
     free(nb);
-    free(valence);
-    free(off);
+    free(ent);
     return rc;
 }
