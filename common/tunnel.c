@@ -1083,9 +1083,9 @@ done:
 
 /* ---- driver -------------------------------------------------------------- */
 
-mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
-                      const mts_tunnel_options *opts, mts_strips *out, mts_tunnel_stats *stats,
-                      mts_error *err)
+static mts_result tunnel_dense(const mts_strips *in, uint32_t vertex_count,
+                               const mts_tunnel_options *opts, mts_strips *out,
+                               mts_tunnel_stats *stats, mts_error *err)
 {
     static const mts_tunnel_options defaults = {0};
     mts_result rc = MTS_OK;
@@ -1442,5 +1442,53 @@ cleanup:
     free(emit_dir2);
     free(f.stamp);
     free(f.ring);
+    return rc;
+}
+
+static int compare_u32(const void *pa, const void *pb)
+{
+    uint32_t a = *(const uint32_t *)pa, b = *(const uint32_t *)pb;
+    return (a > b) - (a < b);
+}
+
+/* The cache order keeps arrays per vertex id; ids far sparser than the
+ * strips' indices (a caller's vertex_count up to 2^32 - 1) are renumbered
+ * in order first, so that memory follows the strips. */
+mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
+                      const mts_tunnel_options *opts, mts_strips *out, mts_tunnel_stats *stats,
+                      mts_error *err)
+{
+    if (!out || !in || (uint64_t)vertex_count <= 2 * (uint64_t)in->index_count + 1024)
+        return tunnel_dense(in, vertex_count, opts, out, stats, err);
+    *out = (mts_strips){0};
+    for (uint32_t k = 0; k < in->index_count; k++) {
+        if (in->indices[k] >= vertex_count)
+            return mts_error_set(err, MTS_ERR_RANGE, "tunnel: index %u at %u is past %u vertices",
+                                 in->indices[k], k, vertex_count);
+    }
+    uint32_t n = in->index_count, used = 0;
+    uint32_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
+    uint32_t *local = malloc(((size_t)n + 1) * sizeof *local);
+    if (!ids || !local) {
+        free(ids);
+        free(local);
+        return mts_error_set(err, MTS_ERR_NOMEM, "tunnel: out of memory for %u indices", n);
+    }
+    memcpy(ids, in->indices, (size_t)n * sizeof *ids);
+    qsort(ids, n, sizeof *ids, compare_u32);
+    for (uint32_t k = 0; k < n; k++) {
+        if (used == 0 || ids[k] != ids[used - 1])
+            ids[used++] = ids[k];
+    }
+    for (uint32_t k = 0; k < n; k++) {
+        const uint32_t *at = bsearch(&in->indices[k], ids, used, sizeof *ids, compare_u32);
+        local[k] = (uint32_t)(at - ids);
+    }
+    mts_strips renamed = {in->strip_count, n, in->offsets, local};
+    mts_result rc = tunnel_dense(&renamed, used, opts, out, stats, err);
+    for (uint32_t k = 0; rc == MTS_OK && k < out->index_count; k++)
+        out->indices[k] = ids[out->indices[k]];
+    free(ids);
+    free(local);
     return rc;
 }

@@ -11,7 +11,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "error.h"
 #include "mesh.h"
@@ -320,6 +323,38 @@ static void test_huge_cache(mts_test *t)
     mts_mesh_free(&mesh);
 }
 
+/* Vertex ids up to 2^32 - 2 on two triangles: the same triangles come out,
+ * with the same ids, and (outside ASan, whose shadow memory needs terabytes
+ * of address space) a child limited to 1 GB manages it: memory follows the
+ * strips, not the ids. */
+static void test_huge_vertex_ids(mts_test *t)
+{
+    uint32_t hi = UINT32_MAX - 1;
+    uint32_t off[3] = {0, 3, 6}, idx[6] = {hi, hi - 1, 7, hi, 7, 0};
+    mts_strips in = {2, 6, off, idx}, out = {0};
+    mts_tunnel_stats ts = {0};
+    mts_error err = {0};
+    mts_result r = mts_tunnel(&in, UINT32_MAX, NULL, &out, &ts, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK)
+        check_same_surface(t, &in, &out, &ts);
+    mts_strips_free(&out);
+    CHECK(t, mts_tunnel(&in, hi, NULL, &out, NULL, &err) == MTS_ERR_RANGE);
+#ifndef __SANITIZE_ADDRESS__
+    pid_t pid = fork();
+    if (pid == 0) {
+        struct rlimit rl = {1u << 30, 1u << 30};
+        int ok = setrlimit(RLIMIT_AS, &rl) == 0 &&
+                 mts_tunnel(&in, UINT32_MAX, NULL, &out, NULL, &err) == MTS_OK;
+        _exit(ok ? 0 : 1);
+    }
+    int status = 0;
+    CHECK(t, pid > 0 && waitpid(pid, &status, 0) == pid);
+    CHECKF(t, WIFEXITED(status) && WEXITSTATUS(status) == 0,
+           "tunnelling 2 triangles with huge vertex ids needs more than 1 GB");
+#endif
+}
+
 static void test_bunny(mts_test *t)
 {
     char buf[512];
@@ -336,6 +371,7 @@ int main(void)
     RUN(&t, test_empty_and_errors);
     RUN(&t, test_cow);
     RUN(&t, test_huge_cache);
+    RUN(&t, test_huge_vertex_ids);
     RUN(&t, test_bunny);
     return mts_test_end(&t);
 }
