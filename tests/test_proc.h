@@ -13,10 +13,29 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
+
+/* Runs fn(arg) in a child process limited to `bytes` of address space:
+ * 1 when it returned nonzero there, 0 when it returned 0, ran out of
+ * memory in a way that killed it, or could not be started. Memory checks
+ * only: ASan's shadow needs terabytes of address space, so callers skip
+ * them under it (__SANITIZE_ADDRESS__). */
+static inline int mts_test_within_memory(int (*fn)(void *), void *arg, size_t bytes)
+{
+    pid_t pid = fork();
+    if (pid == 0) {
+        struct rlimit rl = {bytes, bytes};
+        _exit(setrlimit(RLIMIT_AS, &rl) == 0 && fn(arg) ? 0 : 1);
+    }
+    int status = 0;
+    if (pid < 0 || waitpid(pid, &status, 0) != pid)
+        return 0;
+    return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
 
 /* bin_dir gets "<dir of argv0>/../bin". */
 static inline void mts_test_bin_dir(const char *argv0, char *bin_dir, size_t size)
