@@ -45,6 +45,7 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
         mts_tunnel_options to = {0};
         to.length = opts->tunnel_length ? opts->tunnel_length : MTS_TUNNEL_DEFAULT_LENGTH;
         to.anneal = opts->strip_effort;
+        to.max_strip = opts->max_strip;
         to.progress = opts->progress;
         mts_strips tunnelled = {0};
         mts_progress_report(&opts->progress, "tunnel", 0);

@@ -25,6 +25,9 @@ typedef struct mts_build_options {
     int strip_effort;       /* annealing moves per triangle in the tunnelling
                              * pass (tunnel.h's anneal): 0: the default; < 0:
                              * none */
+    uint32_t max_strip;     /* most triangles in one full-level strip, set by
+                             * the tunnelling pass (none without it): 0:
+                             * MTS_STRIPIFY_MAX_STRIP */
     mts_progress progress;
 } mts_build_options;
 

@@ -20,6 +20,7 @@ typedef struct mts_stripify_stats {
 } mts_stripify_stats;
 
 #define MTS_STRIPIFY_MAX_STRIP 256u
+#define MTS_STRIPIFY_MAX_STRIP_STR "256"
 
 /* triangles: 3 indices per triangle, each < vertex_count. out is allocated
  * (free with mts_strips_free). stats may be NULL.

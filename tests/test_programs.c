@@ -10,6 +10,8 @@
 
 #include "test.h"
 #include "test_proc.h"
+#include "modelfile.h"
+#include "strips.h"
 #include "tunnel.h"
 
 static char bin_dir[512];
@@ -39,6 +41,16 @@ static void test_help_and_usage(mts_test *t)
     }
     snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off --base-vertices abc", bin_dir);
     CHECK(t, mts_test_run(cmd, out, sizeof out) == 2);
+    const char *caps[] = {"0", "257", "x"};
+    for (size_t i = 0; i < sizeof caps / sizeof caps[0]; i++) {
+        snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off --max-strip %s", bin_dir, caps[i]);
+        CHECKF(t, mts_test_run(cmd, out, sizeof out) == 2, "--max-strip %s", caps[i]);
+        CHECKF(t, strstr(out, "--max-strip"), "message: %s", out);
+    }
+    snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off --max-strip 16 --tunnel-length 0",
+             bin_dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 2);
+    CHECKF(t, strstr(out, "tunnelling"), "message: %s", out);
     const char *efforts[] = {"-1", "abc", "1000001", ""};
     for (size_t i = 0; i < sizeof efforts / sizeof efforts[0]; i++) {
         snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off --strip-effort '%s'", bin_dir,
@@ -103,6 +115,30 @@ static void test_build_inspect_verify(mts_test *t)
     double ipt_none = ipt ? atof(ipt + strlen("\"indices_per_triangle_full\":")) : 0;
     CHECKF(t, ipt_default > 1 && ipt_none > ipt_default, "idx/tri %.4f without annealing, %.4f with",
            ipt_none, ipt_default);
+
+    /* --max-strip: every full-level strip within it, the model still valid
+     * at every level */
+    snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off -o %s --max-strip 16 --json",
+             bin_dir, model0);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, strstr(out, "\"max_strip\":16,"), "%s", out);
+    mts_model capped = {0};
+    mts_error err = {0};
+    CHECKF(t, mts_modelfile_load(model0, &capped, &err) == MTS_OK, "%s", err.msg);
+    uint64_t longest = 0, drawn = 0;
+    for (uint32_t s = 0; s < capped.full.strip_count; s++) {
+        mts_strip_stats one = {0};
+        mts_strip_stats_add(&one, capped.full.indices + capped.full.offsets[s],
+                            capped.full.offsets[s + 1] - capped.full.offsets[s]);
+        longest = one.triangles > longest ? one.triangles : longest;
+        drawn += one.triangles;
+    }
+    CHECKF(t, drawn == 5804 && longest == 16, "%llu triangles, the longest strip %llu",
+           (unsigned long long)drawn, (unsigned long long)longest);
+    mts_model_free(&capped);
+    snprintf(cmd, sizeof cmd, "%s/mts-inspect %s --verify --json", bin_dir, model0);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0 && strstr(out, "\"verified\":true"), "%s",
+           out);
     /* one line */
     char *nl = strchr(out, '\n');
     CHECK(t, nl && nl[1] == 0);
