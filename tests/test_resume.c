@@ -697,6 +697,22 @@ static fixture *get_fixture(mts_test *t, pid_t *server)
     return &fx;
 }
 
+/* The fixture and its server for a case that runs the programs; NULL (no
+ * server left running) when they are not built (the case skips) or the
+ * set-up failed. */
+static fixture *start_fixture(mts_test *t, pid_t *server)
+{
+    *server = -1;
+    if (!have_programs(t))
+        return NULL;
+    fixture *f = get_fixture(t, server);
+    if (!f) {
+        stop_pid(*server, SIGTERM);
+        *server = -1;
+    }
+    return f;
+}
+
 enum { AFTER_CUT_RESTART, AFTER_CUT_NOTHING, AFTER_CUT_OTHER_MODEL };
 
 /* Starts the proxy and the client (--resume), cuts, kills the server, then
@@ -764,14 +780,10 @@ static int broken_run(mts_test *t, fixture *f, pid_t *server, int after, size_t 
 
 static void test_server_killed_and_restarted(mts_test *t)
 {
-    if (!have_programs(t))
+    pid_t server;
+    fixture *f = start_fixture(t, &server);
+    if (!f)
         return;
-    fixture *f;
-    pid_t server = -1;
-    if (!(f = get_fixture(t, &server))) {
-        stop_pid(server, SIGTERM);
-        return;
-    }
     char out[16384];
     double secs;
     int rc = broken_run(t, f, &server, AFTER_CUT_RESTART, f->cut, "", out, sizeof out, &secs);
@@ -813,14 +825,10 @@ static void test_server_killed_and_restarted(mts_test *t)
  * against the model file. */
 static void test_server_killed_and_restarted_records(mts_test *t)
 {
-    if (!have_programs(t))
+    pid_t server;
+    fixture *f = start_fixture(t, &server);
+    if (!f)
         return;
-    fixture *f;
-    pid_t server = -1;
-    if (!(f = get_fixture(t, &server))) {
-        stop_pid(server, SIGTERM);
-        return;
-    }
     char out[16384];
     double secs;
     int rc = broken_run(t, f, &server, AFTER_CUT_RESTART, f->cut_records, "--records", out,
@@ -865,14 +873,10 @@ static void test_server_killed_and_restarted_records(mts_test *t)
  * stale). It ends complete, in the splits form, on the unbroken mesh. */
 static void test_resume_asks_for_the_form_held(mts_test *t)
 {
-    if (!have_programs(t))
+    pid_t server;
+    fixture *f = start_fixture(t, &server);
+    if (!f)
         return;
-    fixture *f;
-    pid_t server = -1;
-    if (!(f = get_fixture(t, &server))) {
-        stop_pid(server, SIGTERM);
-        return;
-    }
     stop_pid(server, SIGTERM);
     server = spawn_server_with(f->models, f->port, f->log, "--no-records-form");
     CHECK(t, server_up(f->port));
@@ -896,14 +900,10 @@ static void test_resume_asks_for_the_form_held(mts_test *t)
 
 static void test_server_never_back(mts_test *t)
 {
-    if (!have_programs(t))
+    pid_t server;
+    fixture *f = start_fixture(t, &server);
+    if (!f)
         return;
-    fixture *f;
-    pid_t server = -1;
-    if (!(f = get_fixture(t, &server))) {
-        stop_pid(server, SIGTERM);
-        return;
-    }
     char out[16384];
     double secs;
     /* 3 tries: waits of 0.1, 0.2, 0.4 s, each at least half that (jitter) */
@@ -923,14 +923,10 @@ static void test_server_never_back(mts_test *t)
 
 static void test_stale_stream_not_retried(mts_test *t)
 {
-    if (!have_programs(t))
+    pid_t server;
+    fixture *f = start_fixture(t, &server);
+    if (!f)
         return;
-    fixture *f;
-    pid_t server = -1;
-    if (!(f = get_fixture(t, &server))) {
-        stop_pid(server, SIGTERM);
-        return;
-    }
     char out[16384];
     double secs;
     int rc = broken_run(t, f, &server, AFTER_CUT_OTHER_MODEL, f->cut, "", out, sizeof out, &secs);

@@ -18,24 +18,30 @@
 
 /* normals_given: treat the mesh's (computed) normals as the file's own, so
  * the stream carries them; opts may be NULL. */
-static int build_stream_opts(mts_test *t, const char *path, int normals_given,
-                             const mts_stream_options *opts, mts_stream *s)
+static int build_model(mts_test *t, const char *path, int normals_given, mts_model *m)
 {
     mts_error err = {0};
     mts_mesh mesh = {0};
-    mts_model m;
     if (mts_mesh_load(path, NULL, &mesh, NULL, &err) != MTS_OK) {
         CHECKF(t, 0, "%s", err.msg);
         return 0;
     }
     if (normals_given)
         mesh.normals_given = 1;
-    mts_result rc = mts_build_model(&mesh, path, NULL, &m, NULL, &err);
+    mts_result rc = mts_build_model(&mesh, path, NULL, m, NULL, &err);
     mts_mesh_free(&mesh);
     CHECKF(t, rc == MTS_OK, "%s", err.msg);
-    if (rc != MTS_OK)
+    return rc == MTS_OK;
+}
+
+static int build_stream_opts(mts_test *t, const char *path, int normals_given,
+                             const mts_stream_options *opts, mts_stream *s)
+{
+    mts_error err = {0};
+    mts_model m;
+    if (!build_model(t, path, normals_given, &m))
         return 0;
-    rc = mts_stream_build(&m, "cow", opts, s, &err);
+    mts_result rc = mts_stream_build(&m, "cow", opts, s, &err);
     mts_model_free(&m);
     CHECKF(t, rc == MTS_OK, "stream: %s", err.msg);
     return rc == MTS_OK;
@@ -974,17 +980,10 @@ static void test_records_form_padding_bounded(mts_test *t)
 static void test_records_must_match_growth(mts_test *t)
 {
     mts_error err = {0};
-    mts_mesh mesh = {0};
     mts_model m;
-    if (mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) != MTS_OK) {
-        CHECKF(t, 0, "%s", err.msg);
+    if (!build_model(t, "tests/data/cow.off", 0, &m))
         return;
-    }
-    mts_result rc = mts_build_model(&mesh, "cow", NULL, &m, NULL, &err);
-    mts_mesh_free(&mesh);
-    CHECKF(t, rc == MTS_OK, "%s", err.msg);
-    if (rc != MTS_OK)
-        return;
+    mts_result rc;
     /* split j's first edit names another strip */
     const uint32_t j = m.level_count / 2;
     uint32_t *rec = m.record_data + m.record_offsets[j];
@@ -1034,17 +1033,10 @@ static uint32_t *two_substitutions(const mts_model *m, uint32_t from, uint32_t *
 static void test_records_must_match_growth_same_mesh(mts_test *t)
 {
     mts_error err = {0};
-    mts_mesh mesh = {0};
     mts_model m;
-    if (mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) != MTS_OK) {
-        CHECKF(t, 0, "%s", err.msg);
+    if (!build_model(t, "tests/data/cow.off", 0, &m))
         return;
-    }
-    mts_result rc = mts_build_model(&mesh, "cow", NULL, &m, NULL, &err);
-    mts_mesh_free(&mesh);
-    CHECKF(t, rc == MTS_OK, "%s", err.msg);
-    if (rc != MTS_OK)
-        return;
+    mts_result rc;
     uint32_t j = 0;
     uint32_t *pos = two_substitutions(&m, m.level_count / 2, &j);
     CHECKF(t, pos != NULL, "no edit of splits %u.. substitutes twice", m.level_count / 2);
@@ -1139,16 +1131,9 @@ static void test_model_without_descriptions_refused(mts_test *t)
     mts_stream s;
     mts_error err = {0};
     mts_model m;
-    mts_mesh mesh = {0};
-    if (mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) != MTS_OK) {
-        CHECKF(t, 0, "%s", err.msg);
+    if (!build_model(t, "tests/data/cow.off", 0, &m))
         return;
-    }
-    mts_result rc = mts_build_model(&mesh, "cow", NULL, &m, NULL, &err);
-    mts_mesh_free(&mesh);
-    CHECKF(t, rc == MTS_OK, "%s", err.msg);
-    if (rc != MTS_OK)
-        return;
+    mts_result rc;
     free(m.growth_data);
     m.growth_data = NULL;
     rc = mts_stream_build(&m, "cow", NULL, &s, &err);
