@@ -72,6 +72,9 @@
  * (mts-build --strip-effort) pays slowly: bunny00 at 2048 moves a triangle
  * 1.2011 in 31 s, 8192 1.1982 in 138 s, 16384 1.1977 (1982 strips, 8964
  * swaps) in 220 s; 1.20 takes about 3000, some forty times the default.
+ * (Paper 000's 1.20, MTS on the Stanford bunny, Table 3: 83K vertices sent
+ * for 69.4K triangles, counts one draw per strip: no restarts. Counted that
+ * way bunny00's default strips send 1.186 a triangle; mts-bench prints both.)
  * The temperatures (0.6..1.0 down to 0.07..0.15: all within 0.002), a bias
  * of the walks towards joins, proposing from path ends more often than
  * from links did not help.
@@ -92,7 +95,26 @@
  *    that would pay fail that check, so it is not what holds the search;
  *  - moves spent where they are taken: blocks of 32 triangles with no move
  *    kept in the last stage visited a quarter as often (from stage 0, 16
- *    or 32 of 64): 1.2158 to 1.2161, within the seed's noise.
+ *    or 32 of 64): 1.2158 to 1.2161, within the seed's noise;
+ *  - a deeper exhaustive search after the annealing (K = 9, 11, 13 in the
+ *    last improve only): 1.2162, 1.2162, 1.2161. The annealed cover is a
+ *    local minimum for every alternating path up to 13 edges, so a
+ *    variable-depth (Lin-Kernighan style) search has little to find there;
+ *  - strips that end where the next one starts: when strip A's last index
+ *    is strip B's first, "A, that index again, B from its second index"
+ *    draws both (the two windows across the joint repeat an index) for one
+ *    index less than a restart, provided A leaves off at an even position
+ *    (B's winding). The end triangle's vertex off its link is the strip's
+ *    first (or last) index, so the annealing was given 1 a pair of path
+ *    ends sharing that vertex (counts kept per vertex in the moves). It made
+ *    1,165 such pairs (61 before), but from 2,941 strips instead of 2,270;
+ *    only 527 had the parity, and the joined count was 1.2198, worse. Unsteered
+ *    the output has 9 such neighbours in order, none at the right parity;
+ *  - a profile of bunny00 (perf, loading and greedy strips included):
+ *    random_walk 40 %, the annealing loop 20 %, relabelling kept moves
+ *    10 %, start swaps 6 %, the cache order 8 %: the moves themselves are
+ *    the cost, so no rewrite of them buys the ~30x that 1.20 needs at this
+ *    quality per move.
  * Where the excess lies, by that identity (a vertex whose valence is not a
  * multiple of 3 must pay 1/2, the others 0): bunny00's 16,284 (3 S + W less
  * its 25 start swaps) against a floor of 9,825: valence 1 mod 3 vertices
