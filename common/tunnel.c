@@ -138,6 +138,14 @@
  *   max_strip     24     32     40     48     64     96    128    256
  *   idx/tri    1.268  1.245  1.234  1.227  1.221  1.217  1.216  1.216
  *   ACMR-32    0.709  0.738  0.758  0.770  0.793  0.814  0.818  0.814
+ * (with order_refine: 40 -> 1.2339 / 0.740, 44 -> 1.2299 / 0.743, 48 ->
+ * 1.2270 / 0.754). More annealing does not close the gap from both sides:
+ * at 3000 moves a triangle (about 40 s) the caps give 32 -> 1.2229 / 0.728,
+ * 44 -> 1.2113 / 0.759, 64 -> 1.2048 / 0.787, none at once under 1.20 and
+ * 0.75; longer annealing winds the strips more (8192, cap 44: 1.2087 /
+ * 0.758). Cutting unannealed-for-it strips afterwards, at swaps near even
+ * pieces, is no better than the cap (64: 1.2276 / 0.764; 48: 1.2366 /
+ * 0.742).
  * Weighing each strip's own misses (Metropolis on 3 S + W + 0.1 x misses,
  * the strips re-simulated per move) made strips fold onto themselves but
  * bought little (0.786 at 1.224, 6 s); so did strips grown in bands along
