@@ -143,7 +143,7 @@
  * at 3000 moves a triangle (about 40 s) the caps give 32 -> 1.2229 / 0.728,
  * 44 -> 1.2113 / 0.759, 64 -> 1.2048 / 0.787, none at once under 1.20 and
  * 0.75; longer annealing winds the strips more (8192, cap 44: 1.2087 /
- * 0.758). Cutting unannealed-for-it strips afterwards, at swaps near even
+ * 0.758). Cutting the uncapped strips afterwards, at swaps near even
  * pieces, is no better than the cap (64: 1.2276 / 0.764; 48: 1.2366 /
  * 0.742).
  * Weighing each strip's own misses (Metropolis on 3 S + W + 0.1 x misses,
