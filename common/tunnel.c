@@ -145,7 +145,11 @@
  * 0.75; longer annealing winds the strips more (8192, cap 44: 1.2087 /
  * 0.758). Cutting the uncapped strips afterwards, at swaps near even
  * pieces, is no better than the cap (64: 1.2276 / 0.764; 48: 1.2366 /
- * 0.742).
+ * 0.742). Nor are short rows: the coordinate guide below with a cap (each
+ * triangle's most level edge, in x, y or z, left open at a weight of 0.25
+ * to 1 in the Metropolis rule) gave 1.229-1.247 / 0.767-0.775 at 48 and
+ * 1.247-1.264 / 0.739-0.744 at 32, against the plain cap's 1.227 / 0.754
+ * and 1.245 / 0.721.
  * Weighing each strip's own misses (Metropolis on 3 S + W + 0.1 x misses,
  * the strips re-simulated per move) made strips fold onto themselves but
  * bought little (0.786 at 1.224, 6 s); so did strips grown in bands along
