@@ -141,9 +141,9 @@
  * (with order_refine: 40 -> 1.2339 / 0.740, 44 -> 1.2299 / 0.743, 48 ->
  * 1.2270 / 0.754). More annealing does not close the gap from both sides:
  * at 3000 moves a triangle (about 40 s) the caps give 32 -> 1.2229 / 0.728,
- * 44 -> 1.2113 / 0.759, 64 -> 1.2048 / 0.787, none at once under 1.20 and
- * 0.75; longer annealing winds the strips more (8192, cap 44: 1.2087 /
- * 0.758). Cutting the uncapped strips afterwards, at swaps near even
+ * 44 -> 1.2113 / 0.759, 64 -> 1.2048 / 0.787, no cap 1.2005 / 0.814: none
+ * at once under 1.20 and 0.75; longer annealing winds the strips more
+ * (8192, cap 44: 1.2087 / 0.758). Cutting the uncapped strips afterwards, at swaps near even
  * pieces, is no better than the cap (64: 1.2276 / 0.764; 48: 1.2366 /
  * 0.742). Nor are short rows: the coordinate guide below with a cap (each
  * triangle's most level edge, in x, y or z, left open at a weight of 0.25
