@@ -17,6 +17,26 @@ static void test_parse_u32(mts_test *t)
     CHECK(t, !cli_parse_u32(NULL, &x));
 }
 
+/* An option's value, its range checked; the index moves onto the value. The
+ * failing cases print their usage line to stderr, as the programs do. */
+static void test_option_u32(mts_test *t)
+{
+    char *argv[] = {"prog", "--n", "5", "--n", "9", "--n", "x", "--n"};
+    int argc = (int)(sizeof argv / sizeof argv[0]), i = 1;
+    uint32_t v = 7;
+    CHECK(t, cli_option_u32(argc, argv, &i, "prog", 0, 8, &v) && v == 5 && i == 2);
+    i = 3;
+    CHECK(t, !cli_option_u32(argc, argv, &i, "prog", 0, 8, &v) && v == 5); /* over hi */
+    i = 3;
+    CHECK(t, cli_option_u32(argc, argv, &i, "prog", 9, UINT32_MAX, &v) && v == 9 && i == 4);
+    i = 3;
+    CHECK(t, !cli_option_u32(argc, argv, &i, "prog", 10, UINT32_MAX, &v) && v == 9); /* under lo */
+    i = 5;
+    CHECK(t, !cli_option_u32(argc, argv, &i, "prog", 0, 8, &v) && v == 9); /* not a number */
+    i = 7;
+    CHECK(t, !cli_option_u32(argc, argv, &i, "prog", 0, 8, &v) && v == 9); /* no value */
+}
+
 static void test_parse_double(mts_test *t)
 {
     double d = 0;
@@ -102,6 +122,7 @@ int main(void)
 {
     mts_test t = {0};
     RUN(&t, test_parse_u32);
+    RUN(&t, test_option_u32);
     RUN(&t, test_parse_double);
     RUN(&t, test_json_line);
     RUN(&t, test_stem);

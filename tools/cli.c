@@ -71,6 +71,22 @@ int cli_parse_u32(const char *s, uint32_t *out)
     return 1;
 }
 
+int cli_option_u32(int argc, char **argv, int *i, const char *prog, uint32_t lo, uint32_t hi,
+                   uint32_t *out)
+{
+    const char *opt = argv[*i];
+    uint32_t v;
+    if (++*i < argc && cli_parse_u32(argv[*i], &v) && v >= lo && v <= hi) {
+        *out = v;
+        return 1;
+    }
+    if (hi == UINT32_MAX)
+        fprintf(stderr, "%s: %s needs a whole number of at least %u\n", prog, opt, lo);
+    else
+        fprintf(stderr, "%s: %s needs a whole number from %u to %u\n", prog, opt, lo, hi);
+    return 0;
+}
+
 int cli_parse_double(const char *s, double *out)
 {
     if (!s || !*s || isspace((unsigned char)*s))

@@ -35,6 +35,13 @@ static inline mts_progress cli_bar_progress(cli_bar *bar)
 int cli_parse_u32(const char *s, uint32_t *out);
 int cli_parse_double(const char *s, double *out);
 
+/* The value of the option argv[*i] as a whole number from lo to hi: *i moves
+ * onto the value. A missing or bad value prints "prog: OPTION needs a whole
+ * number from lo to hi" to stderr and returns 0, for main() to exit with
+ * CLI_EXIT_USAGE. */
+int cli_option_u32(int argc, char **argv, int *i, const char *prog, uint32_t lo, uint32_t hi,
+                   uint32_t *out);
+
 /* One-line JSON: cli_json_begin, then keys, then cli_json_end (adds '\n'). */
 typedef struct cli_json {
     FILE *f;

@@ -67,31 +67,19 @@ int main(int argc, char **argv)
             }
             output = argv[i];
         } else if (!strcmp(a, "--base-vertices")) {
-            if (++i >= argc || !cli_parse_u32(argv[i], &base_vertices) || base_vertices == 0) {
-                fprintf(stderr, "mts-build: --base-vertices needs a positive whole number\n");
+            if (!cli_option_u32(argc, argv, &i, "mts-build", 1, UINT32_MAX, &base_vertices))
                 return CLI_EXIT_USAGE;
-            }
         } else if (!strcmp(a, "--tunnel-length")) {
-            if (++i >= argc || !cli_parse_u32(argv[i], &tunnel_length) ||
-                tunnel_length > MTS_TUNNEL_MAX_LENGTH) {
-                fprintf(stderr, "mts-build: --tunnel-length needs a whole number from 0 to %d\n",
-                        MTS_TUNNEL_MAX_LENGTH);
+            if (!cli_option_u32(argc, argv, &i, "mts-build", 0, MTS_TUNNEL_MAX_LENGTH,
+                                &tunnel_length))
                 return CLI_EXIT_USAGE;
-            }
         } else if (!strcmp(a, "--strip-effort")) {
-            if (++i >= argc || !cli_parse_u32(argv[i], &strip_effort) ||
-                strip_effort > MTS_TUNNEL_MAX_ANNEAL) {
-                fprintf(stderr, "mts-build: --strip-effort needs a whole number from 0 to %d\n",
-                        MTS_TUNNEL_MAX_ANNEAL);
+            if (!cli_option_u32(argc, argv, &i, "mts-build", 0, MTS_TUNNEL_MAX_ANNEAL,
+                                &strip_effort))
                 return CLI_EXIT_USAGE;
-            }
         } else if (!strcmp(a, "--max-strip")) {
-            if (++i >= argc || !cli_parse_u32(argv[i], &max_strip) || max_strip == 0 ||
-                max_strip > MTS_STRIPIFY_MAX_STRIP) {
-                fprintf(stderr, "mts-build: --max-strip needs a whole number from 1 to %u\n",
-                        MTS_STRIPIFY_MAX_STRIP);
+            if (!cli_option_u32(argc, argv, &i, "mts-build", 1, MTS_STRIPIFY_MAX_STRIP, &max_strip))
                 return CLI_EXIT_USAGE;
-            }
         } else if (!strcmp(a, "--key-ratio")) {
             if (++i >= argc || !cli_parse_double(argv[i], &key_ratio) ||
                 !(key_ratio == 0 || (key_ratio > 1 && key_ratio <= 1000))) {

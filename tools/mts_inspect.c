@@ -102,16 +102,12 @@ int main(int argc, char **argv)
         } else if (!strcmp(a, "--json")) {
             json = 1;
         } else if (!strcmp(a, "--sample")) {
-            if (++i >= argc || !cli_parse_u32(argv[i], &samples) || samples < 2) {
-                fprintf(stderr, "mts-inspect: --sample needs a whole number >= 2\n");
+            if (!cli_option_u32(argc, argv, &i, "mts-inspect", 2, UINT32_MAX, &samples))
                 return CLI_EXIT_USAGE;
-            }
             verify = 1;
         } else if (!strcmp(a, "--level")) {
-            if (++i >= argc || !cli_parse_u32(argv[i], &level)) {
-                fprintf(stderr, "mts-inspect: --level needs a whole number\n");
+            if (!cli_option_u32(argc, argv, &i, "mts-inspect", 0, UINT32_MAX, &level))
                 return CLI_EXIT_USAGE;
-            }
             have_level = 1;
         } else if (!strcmp(a, "--fraction")) {
             if (++i >= argc || !cli_parse_double(argv[i], &fraction) || fraction < 0 ||
