@@ -1,170 +1,61 @@
 /* Strip growth from vertex splits (see grow.h for the why, lodbuild.h for
  * the growth rules and the measurements behind key levels).
  *
- * State: the live triangles of the current level (ids in birth order; going
- * up, no triangle ever dies), a map from directed edges to the triangle
- * holding them, and the strips as paths on the dual graph, one per slot,
- * with each slot's indices as last derived. A split moves the fan of the
- * parent that the new vertex takes over, adds its new triangles, mends the
- * strip links the move broke, places the new triangles into strips, and
- * emits, per slot it touched, the smallest edit from the old indices to the
- * newly derived ones. A key level instead restripifies all live triangles
- * (the greedy stripifier, deterministic for the same triangle order). */
+ * Every client runs this on every split it receives, so a split must cost
+ * about what it changes, not what the strips it touches hold:
+ *  - the mesh is a corner table in flat arrays: per half-edge (3t + e, from
+ *    corner e of triangle t to corner e + 1) its twin, and per vertex one of
+ *    its corners. A fan split relabels the fan's corners and links two new
+ *    triangles in with O(1) twin updates; walking round a vertex is a twin
+ *    step, never a lookup. (Hash maps of directed edges took a third of a
+ *    client's time; per-vertex corner lists, another tenth.) Only what is
+ *    not a walk round one fan -- the base, whole strips adopted, the rare
+ *    explicit split -- sorts or scans the half-edges.
+ *  - the strips are paths on the dual graph (next/prev per triangle, one
+ *    path per slot), and each slot keeps its indices as last derived. A
+ *    split only changes a slot's indices in the stretch where the path runs
+ *    past the parent u -- from the first triangle with corner u to the
+ *    first one after the last -- so that stretch is found in the old indices
+ *    (the first and last u), re-derived from the path, and spliced in
+ *    (local_region). Whatever does not fit that pattern (a slot given new
+ *    content, a key level) is derived whole; both give the same indices,
+ *    which mts_grow_check verifies.
+ *  - a key level restripifies every live triangle with greedy.c, which
+ *    reads the twins directly.
+ * The record of a split is, per slot it touched, the smallest edit from the
+ * old indices to the new (emit_splice). */
 #include "grow.h"
 
 #include <stdlib.h>
 #include <string.h>
 
+#include "greedy.h"
 #include "stripify.h"
 #include "words.h"
 
+#define NONE MTS_GROW_NONE
 
-/* Directed edge (a, b) -> the triangle that holds it: linear probing that
- * doubles when half full. Deleting shifts the entries after a hole back
- * into it (Knuth's algorithm R) instead of leaving a tombstone: a split
- * deletes and inserts a dozen edges, and tombstones made the table rehash
- * itself every few thousand splits, 15% of a client's derivation time. */
-typedef struct edge_map {
-    uint64_t *key;
-    int32_t *tri;
-    uint32_t mask, live;
-} edge_map;
-
-#define EDGE_EMPTY UINT64_MAX
-
-static uint32_t edge_hash(uint64_t k)
-{
-    k ^= k >> 33;
-    k *= 0xff51afd7ed558ccdULL;
-    k ^= k >> 33;
-    return (uint32_t)k;
-}
-
-static int edge_map_alloc(edge_map *m, size_t entries)
-{
-    size_t cap = 64;
-    while (cap < entries * 2)
-        cap *= 2;
-    if (cap > (size_t)1 << 31)
-        return 0;
-    m->key = malloc(cap * sizeof *m->key);
-    m->tri = malloc(cap * sizeof *m->tri);
-    if (!m->key || !m->tri) {
-        free(m->key);
-        free(m->tri);
-        m->key = NULL;
-        m->tri = NULL;
-        return 0;
-    }
-    for (size_t i = 0; i < cap; i++)
-        m->key[i] = EDGE_EMPTY;
-    m->mask = (uint32_t)(cap - 1);
-    m->live = 0;
-    return 1;
-}
-
-static void edge_map_insert_new(edge_map *m, uint64_t k, int32_t t)
-{
-    uint32_t i = edge_hash(k) & m->mask;
-    while (m->key[i] != EDGE_EMPTY)
-        i = (i + 1) & m->mask;
-    m->key[i] = k;
-    m->tri[i] = t;
-    m->live++;
-}
-
-/* Makes room for one more entry: doubles once half full. */
-static int edge_map_room(edge_map *m)
-{
-    if ((size_t)(m->live + 1) * 2 <= (size_t)m->mask + 1)
-        return 1;
-    edge_map old = *m;
-    if (!edge_map_alloc(m, (size_t)old.mask + 1)) {
-        *m = old;
-        return 0;
-    }
-    for (size_t i = 0; i <= old.mask; i++) {
-        if (old.key[i] != EDGE_EMPTY)
-            edge_map_insert_new(m, old.key[i], old.tri[i]);
-    }
-    free(old.key);
-    free(old.tri);
-    return 1;
-}
-
-static int edge_map_put(edge_map *m, uint32_t a, uint32_t b, int32_t t)
-{
-    if (!edge_map_room(m))
-        return 0;
-    uint64_t k = (uint64_t)a << 32 | b;
-    uint32_t i = edge_hash(k) & m->mask;
-    while (m->key[i] != EDGE_EMPTY) {
-        if (m->key[i] == k) {
-            m->tri[i] = t;
-            return 1;
-        }
-        i = (i + 1) & m->mask;
-    }
-    m->key[i] = k;
-    m->tri[i] = t;
-    m->live++;
-    return 1;
-}
-
-static int32_t edge_map_get(const edge_map *m, uint32_t a, uint32_t b)
-{
-    uint64_t k = (uint64_t)a << 32 | b;
-    for (uint32_t i = edge_hash(k) & m->mask; m->key[i] != EDGE_EMPTY; i = (i + 1) & m->mask) {
-        if (m->key[i] == k)
-            return m->tri[i];
-    }
-    return -1;
-}
-
-/* Removes (a, b) only if t holds it: on a mesh that is not quite manifold
- * another triangle may have taken the edge over. */
-static void edge_map_del(edge_map *m, uint32_t a, uint32_t b, int32_t t)
-{
-    uint64_t k = (uint64_t)a << 32 | b;
-    uint32_t i = edge_hash(k) & m->mask;
-    while (m->key[i] != k) {
-        if (m->key[i] == EDGE_EMPTY)
-            return;
-        i = (i + 1) & m->mask;
-    }
-    if (m->tri[i] != t)
-        return;
-    /* close the hole: an entry further on moves into it unless its home
-     * slot lies cyclically in (hole, entry], where a lookup still finds it */
-    for (uint32_t j = (i + 1) & m->mask; m->key[j] != EDGE_EMPTY; j = (j + 1) & m->mask) {
-        uint32_t home = edge_hash(m->key[j]) & m->mask;
-        if (((j - home) & m->mask) >= ((j - i) & m->mask)) {
-            m->key[i] = m->key[j];
-            m->tri[i] = m->tri[j];
-            i = j;
-        }
-    }
-    m->key[i] = EDGE_EMPTY;
-    m->live--;
-}
+static const uint8_t NX[3] = {1, 2, 0}, PV[3] = {2, 0, 1};
 
 struct mts_grow {
     uint32_t nb, n, level;
     /* triangles, all live */
     uint32_t tri_count, tri_cap;
     uint32_t (*img)[3];
+    uint32_t *twin;  /* per half-edge: the one running the other way, NONE at a border */
+    uint32_t *vhead; /* per vertex: a corner of it (the newest but one split's), NONE */
     int32_t *next, *prev; /* strip paths on the dual graph */
     int32_t *tslot;       /* slot of each triangle's strip, -1 while unplaced */
-    edge_map edges;
-    int32_t *vtri; /* per vertex: a live triangle with that corner, or -1 */
     /* slots */
     uint32_t slot_count, slot_cap;
-    mts_words *seq;    /* indices of each slot as last derived */
-    int32_t *head; /* first triangle of each slot's path, -1 when empty */
+    mts_words *seq; /* indices of each slot as last derived */
+    int32_t *head;  /* first triangle of each slot's path, -1 when empty */
     uint32_t *ntri;
     uint32_t *capacity;
     uint32_t *free_slots, free_count;
-    uint32_t *stamp, stamp_now, *touched, touched_count;
+    /* == stamp_now: touched by this split (stamp), given other content
+     * (fresh: derived whole) */
+    uint32_t *stamp, *fresh, stamp_now, *touched, touched_count;
     uint64_t total_indices;
     uint32_t nonempty;
     /* keys */
@@ -174,104 +65,291 @@ struct mts_grow {
     mts_words keys;
     /* the last record, and scratch */
     mts_words rec, scratch;
-    mts_words affected;
-    mts_words ring; /* scratch of the fan codes */
+    mts_words affected; /* the triangles the last split moved */
+    mts_words cand;     /* pairs: the parent's corners before the split, the old next */
+    mts_words ring;     /* corners of ring_u in ring order, valid at ring_level */
+    uint32_t ring_u, ring_level, ring_count;
+    int ring_closed;
     uint32_t newest_born; /* the first triangle the last split brought back */
     mts_words around;     /* scratch of mts_grow_around_newest */
     mts_grow_figures fig;
 };
 
-static void tri_edges_del(mts_grow *g, uint32_t t)
+/* ---- the corner table ---- */
+
+static inline uint32_t he_from(const mts_grow *g, uint32_t h)
 {
-    for (int c = 0; c < 3; c++)
-        edge_map_del(&g->edges, g->img[t][c], g->img[t][(c + 1) % 3], (int32_t)t);
+    return g->img[h / 3][h % 3];
 }
 
-static int tri_edges_put(mts_grow *g, uint32_t t)
+static inline uint32_t he_to(const mts_grow *g, uint32_t h)
 {
-    for (int c = 0; c < 3; c++) {
-        if (!edge_map_put(&g->edges, g->img[t][c], g->img[t][(c + 1) % 3], (int32_t)t))
-            return 0;
+    return g->img[h / 3][NX[h % 3]];
+}
+
+static inline int corner_of(const uint32_t *t, uint32_t x)
+{
+    return t[0] == x ? 0 : t[1] == x ? 1 : t[2] == x ? 2 : -1;
+}
+
+/* Walking round a vertex: crossing a corner's out-edge (u -> a) backwards
+ * lands on the corner of u in the triangle holding a -> u, crossing its
+ * in-edge (b -> u) forwards on the one holding u -> b (a corner is also the
+ * half-edge it starts). */
+static inline uint32_t corner_back(const mts_grow *g, uint32_t c)
+{
+    uint32_t h = g->twin[c];
+    return h == NONE ? NONE : 3 * (h / 3) + NX[h % 3];
+}
+
+static inline uint32_t corner_fwd(const mts_grow *g, uint32_t c)
+{
+    return g->twin[3 * (c / 3) + PV[c % 3]];
+}
+
+/* The half-edge a -> b in the fan of a's listed corner, or NONE: a vertex
+ * of a manifold mesh has one fan, which is all growth makes. */
+static uint32_t find_half_edge(const mts_grow *g, uint32_t a, uint32_t b)
+{
+    const uint32_t c0 = g->vhead[a];
+    if (c0 == NONE)
+        return NONE;
+    uint32_t c = c0, steps = 0;
+    do {
+        if (he_to(g, c) == b)
+            return c;
+        c = corner_fwd(g, c);
+    } while (c != NONE && c != c0 && ++steps <= g->tri_count);
+    if (c == c0)
+        return NONE;
+    for (c = corner_back(g, c0), steps = 0; c != NONE && ++steps <= g->tri_count;
+         c = corner_back(g, c)) {
+        if (he_to(g, c) == b)
+            return c;
     }
+    return NONE;
+}
+
+static inline int adjacent(const mts_grow *g, int32_t ta, int32_t tb)
+{
+    if (ta < 0 || tb < 0)
+        return 0;
+    const uint32_t *h = g->twin + 3 * (size_t)ta;
+    uint32_t b = (uint32_t)tb;
+    return (h[0] != NONE && h[0] / 3 == b) || (h[1] != NONE && h[1] / 3 == b) ||
+           (h[2] != NONE && h[2] / 3 == b);
+}
+
+/* The edge of t that leads to its neighbour b (0..2), or 3. */
+static inline unsigned edge_to(const mts_grow *g, uint32_t t, uint32_t b)
+{
+    const uint32_t *h = g->twin + 3 * (size_t)t;
+    for (unsigned e = 0; e < 3; e++) {
+        if (h[e] != NONE && h[e] / 3 == b)
+            return e;
+    }
+    return 3;
+}
+
+static int tri_reserve(mts_grow *g, uint32_t extra)
+{
+    if (g->tri_count + (uint64_t)extra <= g->tri_cap)
+        return 1;
+    if (g->tri_count + (uint64_t)extra > (uint32_t)INT32_MAX / 2)
+        return 0;
+    uint32_t cap = g->tri_cap ? g->tri_cap : 64;
+    while (cap < g->tri_count + extra)
+        cap *= 2;
+    void *p;
+    if (!(p = realloc(g->img, (size_t)cap * 12)))
+        return 0;
+    g->img = p;
+    if (!(p = realloc(g->twin, (size_t)cap * 12)))
+        return 0;
+    g->twin = p;
+    if (!(p = realloc(g->next, (size_t)cap * 4)))
+        return 0;
+    g->next = p;
+    if (!(p = realloc(g->prev, (size_t)cap * 4)))
+        return 0;
+    g->prev = p;
+    if (!(p = realloc(g->tslot, (size_t)cap * 4)))
+        return 0;
+    g->tslot = p;
+    g->tri_cap = cap;
     return 1;
 }
 
-/* The edge x->y of triangle a whose reverse is in triangle b. */
-static int shared_edge(const mts_grow *g, uint32_t ta, uint32_t tb, uint32_t *x, uint32_t *y)
+/* Adds a live triangle, its edges borders for now, the corner of each of
+ * its vertices; -1 when out of memory. */
+static int32_t tri_add(mts_grow *g, uint32_t a, uint32_t b, uint32_t c)
 {
-    for (int c = 0; c < 3; c++) {
-        uint32_t p = g->img[ta][c], q = g->img[ta][(c + 1) % 3];
-        for (int d = 0; d < 3; d++) {
-            if (g->img[tb][d] == q && g->img[tb][(d + 1) % 3] == p) {
-                *x = p;
-                *y = q;
-                return 1;
-            }
-        }
+    if (!tri_reserve(g, 1))
+        return -1;
+    uint32_t t = g->tri_count++;
+    g->img[t][0] = a;
+    g->img[t][1] = b;
+    g->img[t][2] = c;
+    g->next[t] = g->prev[t] = g->tslot[t] = -1;
+    for (uint32_t k = 0; k < 3; k++) {
+        g->twin[3 * t + k] = NONE;
+        g->vhead[g->img[t][k]] = 3 * t + k;
     }
-    return 0;
+    return (int32_t)t;
 }
 
-static int adjacent(const mts_grow *g, int32_t ta, int32_t tb)
+/* Every half-edge sorted by (from, to): lookups of directed edges anywhere
+ * in the mesh, for what is not a walk round one fan (pairing the base's
+ * twins, adopting whole strips, checking). */
+typedef struct he_key {
+    uint64_t key;
+    uint32_t h;
+} he_key;
+
+static int cmp_he_key(const void *a, const void *b)
 {
-    uint32_t x, y;
-    return ta >= 0 && tb >= 0 && shared_edge(g, (uint32_t)ta, (uint32_t)tb, &x, &y);
+    const he_key *x = a, *y = b;
+    if (x->key != y->key)
+        return x->key < y->key ? -1 : 1;
+    return x->h < y->h ? -1 : x->h > y->h;
 }
+
+static he_key *he_index(const mts_grow *g)
+{
+    size_t m = 3 * (size_t)g->tri_count;
+    he_key *k = malloc((m + 1) * sizeof *k);
+    if (!k)
+        return NULL;
+    for (size_t h = 0; h < m; h++) {
+        k[h].key = (uint64_t)he_from(g, (uint32_t)h) << 32 | he_to(g, (uint32_t)h);
+        k[h].h = (uint32_t)h;
+    }
+    qsort(k, m, sizeof *k, cmp_he_key);
+    return k;
+}
+
+/* The first entry of k (m of them) for a -> b, or m. */
+static size_t he_index_find(const he_key *k, size_t m, uint32_t a, uint32_t b)
+{
+    uint64_t want = (uint64_t)a << 32 | b;
+    size_t lo = 0, hi = m;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (k[mid].key < want)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < m && k[lo].key == want ? lo : m;
+}
+
+/* Pairs every half-edge with its reverse, all at once (the base). A
+ * directed edge held twice is not a mesh growth can work on. */
+static mts_result twins_build(mts_grow *g, mts_error *err)
+{
+    size_t m = 3 * (size_t)g->tri_count;
+    he_key *k = he_index(g);
+    if (!k)
+        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    for (size_t i = 0; i + 1 < m; i++) {
+        if (k[i].key == k[i + 1].key) {
+            uint32_t a = (uint32_t)(k[i].key >> 32), b = (uint32_t)k[i].key;
+            free(k);
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "grow: base edge (%u %u) is held by two triangles", a, b);
+        }
+    }
+    for (size_t i = 0; i < m; i++) {
+        size_t r = he_index_find(k, m, (uint32_t)k[i].key, (uint32_t)(k[i].key >> 32));
+        g->twin[k[i].h] = r < m ? k[r].h : NONE;
+    }
+    free(k);
+    return MTS_OK;
+}
+
+/* ---- deriving indices ---- */
 
 static uint32_t third_vertex(const mts_grow *g, uint32_t t, uint32_t x, uint32_t y)
 {
-    for (int c = 0; c < 3; c++) {
-        if (g->img[t][c] != x && g->img[t][c] != y)
-            return g->img[t][c];
-    }
-    return g->img[t][0];
+    const uint32_t *v = g->img[t];
+    return v[0] != x && v[0] != y ? v[0] : v[1] != x && v[1] != y ? v[1] : v[2];
 }
 
-/* The indices of a path (lodbuild.h): the first triangle's third vertex and
- * the edge it shares with the second, then one index per triangle, plus a
- * swap where the path turns the same way twice. Links are always between
- * adjacent triangles (growth mends the ones a split breaks). */
-static int derive_indices(const mts_grow *g, int32_t head, mts_words *out)
+/* Appends the indices of a path's triangles from t on (lodbuild.h): with
+ * `first`, t starts the strip (its third vertex, then the edge it shares
+ * with the next); otherwise (*a, *c) are the strip's last two indices, the
+ * edge t is entered by, and t adds its third vertex, after a swap (a
+ * repeated a) where the path turns the same way twice. Stops after `stop`
+ * when it meets it (*met = 1), else at the path's end. (*a, *c) are the
+ * last two indices after. */
+static int derive_run(const mts_grow *g, int32_t t, int first, int32_t stop, uint32_t *a,
+                      uint32_t *c, mts_words *out, int *met)
 {
-    out->n = 0;
-    if (head < 0)
+    *met = 0;
+    if (t < 0)
         return 1;
-    uint32_t t = (uint32_t)head;
-    if (!mts_words_reserve(out, 3))
-        return 0;
-    if (g->next[t] < 0) {
-        memcpy(out->w, g->img[t], 12);
-        out->n = 3;
-        return 1;
+    if (first) {
+        if (!mts_words_reserve(out, 3))
+            return 0;
+        uint32_t *w = out->w + out->n;
+        const uint32_t *v = g->img[t];
+        unsigned e = g->next[t] >= 0 ? edge_to(g, (uint32_t)t, (uint32_t)g->next[t]) : 3;
+        if (e == 3) {
+            w[0] = v[0];
+            w[1] = v[1];
+            w[2] = v[2];
+        } else {
+            w[0] = v[PV[e]];
+            w[1] = v[e];
+            w[2] = v[NX[e]];
+        }
+        out->n += 3;
+        *a = w[1];
+        *c = w[2];
+        if (t == stop) {
+            *met = 1;
+            return 1;
+        }
+        t = g->next[t];
     }
-    uint32_t x = g->img[t][0], y = g->img[t][1];
-    shared_edge(g, t, (uint32_t)g->next[t], &x, &y);
-    out->w[0] = third_vertex(g, t, x, y);
-    out->w[1] = x;
-    out->w[2] = y;
-    out->n = 3;
-    uint32_t a = x, c = y; /* the last two indices, the edge into the next */
-    for (int32_t s = g->next[t]; s >= 0; s = g->next[s]) {
-        uint32_t w = third_vertex(g, (uint32_t)s, a, c);
+    for (; t >= 0; t = g->next[t]) {
         if (!mts_words_reserve(out, 2))
             return 0;
-        if (g->next[s] >= 0) {
-            uint32_t p = a, q = c;
-            shared_edge(g, (uint32_t)s, (uint32_t)g->next[s], &p, &q);
-            if (p != c && q != c) {
-                /* the path turns the same way again: a swap keeps a */
-                out->w[out->n++] = a;
-                out->w[out->n++] = w;
-                c = w;
-                continue;
+        uint32_t w = third_vertex(g, (uint32_t)t, *a, *c);
+        int32_t nx = g->next[t];
+        int swap = 0;
+        if (nx >= 0) {
+            unsigned e = edge_to(g, (uint32_t)t, (uint32_t)nx);
+            if (e < 3) {
+                uint32_t p = g->img[t][e], q = g->img[t][NX[e]];
+                swap = p != *c && q != *c;
             }
         }
+        if (swap) {
+            /* the path turns the same way again: a swap keeps a */
+            out->w[out->n++] = *a;
+        } else {
+            *a = *c;
+        }
         out->w[out->n++] = w;
-        a = c;
-        c = w;
+        *c = w;
+        if (t == stop) {
+            *met = 1;
+            return 1;
+        }
     }
     return 1;
 }
+
+static int derive_whole(const mts_grow *g, int32_t head, mts_words *out)
+{
+    uint32_t a, c;
+    int met;
+    out->n = 0;
+    return derive_run(g, head, 1, -1, &a, &c, out, &met);
+}
+
+/* ---- slots and paths ---- */
 
 static void touch(mts_grow *g, int32_t slot)
 {
@@ -294,26 +372,33 @@ static int grow_zeroed(void **p, size_t elem, uint32_t old, uint32_t cap)
     return 1;
 }
 
+/* A slot for new content: touched and fresh (derived whole). */
 static int32_t slot_new(mts_grow *g)
 {
-    if (g->free_count)
-        return (int32_t)g->free_slots[--g->free_count];
-    if (g->slot_count == g->slot_cap) {
-        uint32_t old = g->slot_cap, cap = old ? old * 2 : 64;
-        /* each array keeps its old block if its own growth fails */
-        if (!grow_zeroed((void **)&g->seq, sizeof *g->seq, old, cap) ||
-            !grow_zeroed((void **)&g->head, sizeof *g->head, old, cap) ||
-            !grow_zeroed((void **)&g->ntri, 4, old, cap) ||
-            !grow_zeroed((void **)&g->capacity, 4, old, cap) ||
-            !grow_zeroed((void **)&g->free_slots, 4, old, cap) ||
-            !grow_zeroed((void **)&g->stamp, 4, old, cap) ||
-            !grow_zeroed((void **)&g->touched, 4, old, cap))
-            return -1;
-        g->slot_cap = cap;
+    int32_t s;
+    if (g->free_count) {
+        s = (int32_t)g->free_slots[--g->free_count];
+    } else {
+        if (g->slot_count == g->slot_cap) {
+            uint32_t old = g->slot_cap, cap = old ? old * 2 : 64;
+            /* each array keeps its old block if its own growth fails */
+            if (!grow_zeroed((void **)&g->seq, sizeof *g->seq, old, cap) ||
+                !grow_zeroed((void **)&g->head, sizeof *g->head, old, cap) ||
+                !grow_zeroed((void **)&g->ntri, 4, old, cap) ||
+                !grow_zeroed((void **)&g->capacity, 4, old, cap) ||
+                !grow_zeroed((void **)&g->free_slots, 4, old, cap) ||
+                !grow_zeroed((void **)&g->stamp, 4, old, cap) ||
+                !grow_zeroed((void **)&g->fresh, 4, old, cap) ||
+                !grow_zeroed((void **)&g->touched, 4, old, cap))
+                return -1;
+            g->slot_cap = cap;
+        }
+        s = (int32_t)g->slot_count++;
     }
-    int32_t s = (int32_t)g->slot_count++;
     g->head[s] = -1;
     g->ntri[s] = 0;
+    g->fresh[s] = g->stamp_now;
+    touch(g, s);
     return s;
 }
 
@@ -321,6 +406,8 @@ static void slot_release(mts_grow *g, int32_t s)
 {
     g->head[s] = -1;
     g->ntri[s] = 0;
+    g->fresh[s] = g->stamp_now;
+    touch(g, s);
     g->free_slots[g->free_count++] = (uint32_t)s;
 }
 
@@ -366,7 +453,6 @@ static int mend_link(mts_grow *g, int32_t a, int32_t c, uint32_t first_new)
     g->head[ns] = c;
     g->ntri[ns] = path_claim(g, c, ns);
     g->ntri[s] -= g->ntri[ns];
-    touch(g, ns);
     g->fig.strips_cut++;
     return 1;
 }
@@ -377,8 +463,9 @@ static int place_newborn(mts_grow *g, int32_t f)
 {
     int32_t nbr[3];
     for (int c = 0; c < 3; c++) {
-        int32_t h = edge_map_get(&g->edges, g->img[f][(c + 1) % 3], g->img[f][c]);
-        nbr[c] = (h >= 0 && h != f && g->tslot[h] >= 0) ? h : -1;
+        uint32_t h = g->twin[3 * (size_t)f + c];
+        int32_t x = h == NONE ? -1 : (int32_t)(h / 3);
+        nbr[c] = x >= 0 && x != f && g->tslot[x] >= 0 ? x : -1;
     }
     int32_t tail = -1, head = -1;
     for (int c = 0; c < 3 && tail < 0; c++) {
@@ -403,7 +490,6 @@ static int place_newborn(mts_grow *g, int32_t f)
         g->prev[head] = f;
         g->tslot[f] = s;
         g->ntri[s] += 1 + path_claim(g, head, s);
-        touch(g, gone);
         slot_release(g, gone);
         g->fig.grown_joined++;
     } else if (tail >= 0) {
@@ -434,20 +520,18 @@ static int place_newborn(mts_grow *g, int32_t f)
     return 1;
 }
 
-/* Turns strips over live triangles into paths. Lenient (a key level's
- * fresh strips): paths go into slots 0.. in order, a strip whose windows do
- * not chain is split over several slots, and every other slot is left empty
- * and free. Strict (a client's base and full level): slot s gets strip s,
- * which must be one path. Every slot is touched. */
-static mts_result adopt_strips(mts_grow *g, const mts_strips *strips, int strict, mts_error *err)
+/* Empties every path and slot: all of them touched and fresh, room for at
+ * least `slots`. */
+static int paths_reset(mts_grow *g, uint32_t slots)
 {
-    while (g->slot_count < strips->strip_count) {
+    while (g->slot_count < slots) {
         if (slot_new(g) < 0)
-            return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+            return 0;
     }
     for (uint32_t s = 0; s < g->slot_count; s++) {
         g->head[s] = -1;
         g->ntri[s] = 0;
+        g->fresh[s] = g->stamp_now;
         touch(g, (int32_t)s);
     }
     for (uint32_t t = 0; t < g->tri_count; t++) {
@@ -455,6 +539,32 @@ static mts_result adopt_strips(mts_grow *g, const mts_strips *strips, int strict
         g->tslot[t] = -1;
     }
     g->free_count = 0;
+    return 1;
+}
+
+/* Frees the slots from `used` on and the empty ones below it. */
+static void slots_free_unused(mts_grow *g, uint32_t used)
+{
+    g->free_count = 0;
+    for (uint32_t s = g->slot_count; s-- > 0;) {
+        if (s >= used || g->head[s] < 0)
+            g->free_slots[g->free_count++] = s;
+    }
+}
+
+/* Turns strips over live triangles into paths. Lenient (the builder's full
+ * level): paths go into slots 0.. in order, a strip whose windows do not
+ * chain is split over several slots, and every other slot is left empty
+ * and free. Strict (a base): slot s gets strip s, which must be one path. */
+static mts_result adopt_strips(mts_grow *g, const mts_strips *strips, int strict, mts_error *err)
+{
+    const size_t m = 3 * (size_t)g->tri_count;
+    he_key *ix = he_index(g);
+    if (!ix || !paths_reset(g, strips->strip_count)) {
+        free(ix);
+        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    }
+    mts_result rc = MTS_OK;
     uint32_t used = 0;
     for (uint32_t k = 0; k < strips->strip_count; k++) {
         const uint32_t *str = strips->indices + strips->offsets[k];
@@ -464,25 +574,33 @@ static mts_result adopt_strips(mts_grow *g, const mts_strips *strips, int strict
             uint32_t tri[3];
             if (!mts_strip_window(str, w, tri))
                 continue;
-            int32_t t = edge_map_get(&g->edges, tri[0], tri[1]);
-            if (t < 0 || third_vertex(g, (uint32_t)t, tri[0], tri[1]) != tri[2])
-                return mts_error_set(err, MTS_ERR_FORMAT,
-                                     "grow: strip %u draws (%u %u %u), not a triangle of level %u",
-                                     k, tri[0], tri[1], tri[2], g->level);
-            if (g->tslot[t] >= 0)
-                return mts_error_set(err, MTS_ERR_FORMAT,
-                                     "grow: strip %u draws triangle (%u %u %u) a second time", k,
-                                     tri[0], tri[1], tri[2]);
+            size_t i = he_index_find(ix, m, tri[0], tri[1]);
+            int32_t t = i < m ? (int32_t)(ix[i].h / 3) : -1;
+            if (t < 0 || third_vertex(g, (uint32_t)t, tri[0], tri[1]) != tri[2]) {
+                rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                   "grow: strip %u draws (%u %u %u), not a triangle of level %u",
+                                   k, tri[0], tri[1], tri[2], g->level);
+                goto done;
+            }
+            if (g->tslot[t] >= 0) {
+                rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                   "grow: strip %u draws triangle (%u %u %u) a second time", k,
+                                   tri[0], tri[1], tri[2]);
+                goto done;
+            }
             if (prev >= 0 && adjacent(g, prev, t)) {
                 g->next[prev] = t;
                 g->prev[t] = prev;
             } else if (prev >= 0 && strict) {
-                return mts_error_set(err, MTS_ERR_FORMAT,
-                                     "grow: strip %u breaks at window %u (not one path)", k, w);
+                rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                   "grow: strip %u breaks at window %u (not one path)", k, w);
+                goto done;
             } else {
                 if (!strict) {
-                    if (used == g->slot_count && slot_new(g) < 0)
-                        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+                    if (used == g->slot_count && slot_new(g) < 0) {
+                        rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+                        goto done;
+                    }
                     s = (int32_t)used++;
                 }
                 g->head[s] = t;
@@ -493,13 +611,10 @@ static mts_result adopt_strips(mts_grow *g, const mts_strips *strips, int strict
             prev = t;
         }
     }
-    if (strict)
-        used = strips->strip_count;
-    for (uint32_t s = g->slot_count; s-- > 0;) {
-        if (s >= used || g->head[s] < 0)
-            g->free_slots[g->free_count++] = s;
-    }
-    return MTS_OK;
+    slots_free_unused(g, strict ? strips->strip_count : used);
+done:
+    free(ix);
+    return rc;
 }
 
 /* Sorts ids by key[id], largest first, ties by position (a stable merge
@@ -554,11 +669,7 @@ static int fit_slots(mts_grow *g)
             g->ntri[s] = ntri[paths[k]];
             path_claim(g, g->head[s], (int32_t)s);
         }
-        g->free_count = 0;
-        for (uint32_t k = n; k-- > 0;) {
-            if (g->head[k] < 0)
-                g->free_slots[g->free_count++] = k;
-        }
+        slots_free_unused(g, n);
     }
     free(paths);
     free(slots);
@@ -567,40 +678,161 @@ static int fit_slots(mts_grow *g)
     return ok;
 }
 
-/* Restripifies every live triangle, in id order, into the slots. */
+/* Restripifies every live triangle (greedy.c, in id order) into the slots. */
 static mts_result restrip(mts_grow *g, mts_error *err)
 {
-    mts_strips strips = {0};
-    mts_result rc = mts_stripify(&g->img[0][0], g->tri_count, g->nb + g->level, &strips, NULL,
-                                 err);
+    uint32_t n = g->tri_count, count = 0;
+    uint32_t *order = malloc(((size_t)n + 1) * 4), *starts = malloc(((size_t)n + 2) * 4);
+    mts_result rc = order && starts ? MTS_OK
+                                    : mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
     if (rc == MTS_OK)
-        rc = adopt_strips(g, &strips, 0, err);
-    mts_strips_free(&strips);
-    if (rc == MTS_OK && !fit_slots(g))
+        rc = mts_greedy_paths(n, g->twin, MTS_STRIPIFY_MAX_STRIP, order, starts, &count, err);
+    if (rc == MTS_OK && !paths_reset(g, count))
         rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    for (uint32_t k = 0; rc == MTS_OK && k < count; k++) {
+        int32_t prev = -1;
+        for (uint32_t i = starts[k]; i < starts[k + 1]; i++) {
+            int32_t t = (int32_t)order[i];
+            g->tslot[t] = (int32_t)k;
+            g->prev[t] = prev;
+            if (prev >= 0)
+                g->next[prev] = t;
+            prev = t;
+        }
+        g->head[k] = (int32_t)order[starts[k]];
+        g->ntri[k] = starts[k + 1] - starts[k];
+    }
+    if (rc == MTS_OK) {
+        slots_free_unused(g, count);
+        if (!fit_slots(g))
+            rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    }
+    free(order);
+    free(starts);
     return rc;
 }
 
-/* Appends the edit that turns slot s's stored indices into `to` (in which
- * the new vertex v appears; u is its parent), and stores `to`. The runs
- * carry u where `to` has v, and the positions of v are substitutions, so an
- * inserted run never names a vertex that does not exist yet. */
-static int emit_edit(mts_grow *g, uint32_t s, const mts_words *to, uint32_t u, uint32_t v,
-                     uint32_t *edits)
+/* Resolves a description of the full strips (mts_grow_full_describe) on
+ * the current (full) mesh straight into paths, slot by slot: each strip
+ * leaves a triangle across the edge of its last two indices, and a swap
+ * bit says which of them stays. */
+static mts_result resolve_full(mts_grow *g, const mts_grow_full *f, mts_error *err)
+{
+    uint64_t tris = 0, inner = 0;
+    for (uint32_t s = 0; s < f->slot_count; s++) {
+        const mts_grow_full_path *p = &f->paths[s];
+        tris += p->triangles;
+        inner += p->triangles >= 2 ? p->triangles - 2 : 0;
+        if (p->triangles && (p->first >= g->tri_count || p->rotation > 2))
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "full strips: strip %u starts at corner %u of triangle %u (of "
+                                 "%u)",
+                                 s, p->rotation, p->first, g->tri_count);
+    }
+    if (tris > g->tri_count || inner != f->swap_count)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "full strips: %llu triangles of %u, %llu swap bits for %llu",
+                             (unsigned long long)tris, g->tri_count,
+                             (unsigned long long)f->swap_count, (unsigned long long)inner);
+    if (!paths_reset(g, f->slot_count))
+        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    uint64_t bit = 0;
+    for (uint32_t s = 0; s < f->slot_count; s++) {
+        const mts_grow_full_path *p = &f->paths[s];
+        if (!p->triangles)
+            continue;
+        uint32_t t = p->first, r = p->rotation;
+        if (g->tslot[t] >= 0)
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "full strips: strip %u starts on triangle %u, which strip %d "
+                                 "holds",
+                                 s, t, g->tslot[t]);
+        g->head[s] = (int32_t)t;
+        g->tslot[t] = (int32_t)s;
+        g->ntri[s] = 1;
+        /* the strip's last two indices (a, c) and the half-edge between them */
+        uint32_t a = g->img[t][NX[r]], c = g->img[t][PV[r]], h = 3 * t + NX[r];
+        for (uint32_t i = 1; i < p->triangles; i++) {
+            uint32_t o = g->twin[h];
+            if (o == NONE)
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "full strips: strip %u runs off the mesh at triangle %u", s,
+                                     i);
+            uint32_t u = o / 3, e = o % 3;
+            if (g->tslot[u] >= 0)
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "full strips: strip %u crosses into triangle %u, which strip "
+                                     "%d holds",
+                                     s, u, g->tslot[u]);
+            g->next[t] = (int32_t)u;
+            g->prev[u] = (int32_t)t;
+            g->tslot[u] = (int32_t)s;
+            g->ntri[s]++;
+            /* corner e of u holds he_to(h), corner e + 1 he_from(h); the
+             * third corner is the index u adds */
+            uint32_t w = g->img[u][PV[e]];
+            int swap = i + 1 < p->triangles ? f->swaps[bit++] != 0 : 0;
+            uint32_t keep = swap ? a : c; /* with the new index, the next edge */
+            unsigned ck = g->img[u][e] == keep ? e : NX[e];
+            h = 3 * u + (NX[ck] == PV[e] ? ck : PV[e]);
+            if (swap) {
+                c = w;
+            } else {
+                a = c;
+                c = w;
+            }
+            t = u;
+        }
+    }
+    slots_free_unused(g, f->slot_count);
+    return MTS_OK;
+}
+
+/* ---- records ---- */
+
+/* A slot's new indices: old[0..p0) + r + old[p1..) when `suffix`, else
+ * old[0..p0) + r. */
+typedef struct splice {
+    uint32_t p0, p1;
+    int suffix;
+    const mts_words *r;
+} splice;
+
+static inline uint32_t splice_at(const uint32_t *old, const splice *sp, size_t k)
+{
+    if (k < sp->p0)
+        return old[k];
+    k -= sp->p0;
+    return k < sp->r->n ? sp->r->w[k] : old[sp->p1 + (k - sp->r->n)];
+}
+
+/* Appends the edit that turns slot s's stored indices into the spliced ones
+ * (in which the new vertex v appears; u is its parent), and stores them.
+ * The runs carry u where the new indices have v, and the positions of v are
+ * substitutions, so an inserted run never names a vertex that does not
+ * exist yet. Outside the splice nothing changed and v cannot appear, so the
+ * common prefix and suffix are sought from its edges. */
+static int emit_splice(mts_grow *g, uint32_t s, const splice *sp, uint32_t u, uint32_t v,
+                       uint32_t *edits)
 {
     mts_words *from = &g->seq[s];
-    const uint32_t *o = from->w, *nw = to->w;
-    size_t lo = from->n, ln = to->n;
+    const uint32_t *o = from->w;
+    const size_t lo = from->n, keep = sp->suffix ? lo - sp->p1 : 0,
+                 ln = sp->p0 + sp->r->n + keep;
 #define AS_BEFORE(x) ((x) == v ? u : (x))
-    size_t p = 0;
-    while (p < lo && p < ln && o[p] == AS_BEFORE(nw[p]))
+    size_t p = sp->p0;
+    while (p < lo && p < ln && o[p] == AS_BEFORE(splice_at(o, sp, p)))
         p++;
-    size_t q = 0;
-    while (q < lo - p && q < ln - p && o[lo - 1 - q] == AS_BEFORE(nw[ln - 1 - q]))
+    size_t q = keep;
+    if (q > lo - p)
+        q = lo - p;
+    if (q > ln - p)
+        q = ln - p;
+    while (q < lo - p && q < ln - p && o[lo - 1 - q] == AS_BEFORE(splice_at(o, sp, ln - 1 - q)))
         q++;
     size_t erase = lo - p - q, insert = ln - p - q, substs = 0;
-    for (size_t k = 0; k < ln; k++)
-        substs += nw[k] == v;
+    for (size_t k = 0; k < sp->r->n; k++)
+        substs += sp->r->w[k] == v;
     if (erase == 0 && insert == 0 && substs == 0)
         return 1;
     if (!mts_words_reserve(&g->rec, 4 + 2 + erase + 2 + insert + substs))
@@ -620,11 +852,11 @@ static int emit_edit(mts_grow *g, uint32_t s, const mts_words *to, uint32_t u, u
         *w++ = (uint32_t)p;
         *w++ = (uint32_t)insert;
         for (size_t k = 0; k < insert; k++)
-            *w++ = AS_BEFORE(nw[p + k]);
+            *w++ = AS_BEFORE(splice_at(o, sp, p + k));
     }
-    for (size_t k = 0; k < ln; k++) {
-        if (nw[k] == v)
-            *w++ = (uint32_t)k;
+    for (size_t k = 0; k < sp->r->n; k++) {
+        if (sp->r->w[k] == v)
+            *w++ = (uint32_t)(sp->p0 + k);
     }
 #undef AS_BEFORE
     g->rec.n = (size_t)(w - g->rec.w);
@@ -635,15 +867,94 @@ static int emit_edit(mts_grow *g, uint32_t s, const mts_words *to, uint32_t u, u
     g->fig.substitutions += substs;
     g->total_indices = g->total_indices - lo + ln;
     g->nonempty = g->nonempty - (lo > 0) + (ln > 0);
-    from->n = 0;
-    if (!mts_words_reserve(from, ln))
+    /* the splice in place: the kept tail moves, the new run goes in */
+    if (ln > lo && !mts_words_reserve(from, ln - lo))
         return 0;
-    if (ln) /* an emptied slot's new indices may have no buffer at all */
-        memcpy(from->w, nw, ln * 4);
+    uint32_t *x = from->w;
+    if (keep)
+        memmove(x + sp->p0 + sp->r->n, x + sp->p1, keep * 4);
+    if (sp->r->n)
+        memcpy(x + sp->p0, sp->r->w, sp->r->n * 4);
     from->n = ln;
     if (ln > g->capacity[s])
         g->capacity[s] = (uint32_t)ln;
     return 1;
+}
+
+/* The parent's triangle (before the split: g->cand) that window k of the
+ * old indices o draws, u being one of its corners; its old next in *next.
+ * -1 when none is (the slot is then derived whole). */
+static int32_t cand_at(const mts_grow *g, const uint32_t *o, uint32_t k, uint32_t u,
+                       int32_t *next)
+{
+    uint32_t tri[3];
+    if (!mts_strip_window(o, k, tri))
+        return -1;
+    int j = corner_of(tri, u);
+    if (j < 0)
+        return -1;
+    uint32_t after = tri[NX[j]], before = tri[PV[j]];
+    for (size_t i = 0; i < g->cand.n; i += 2) {
+        uint32_t c = g->cand.w[i], t = c / 3;
+        if (g->img[t][NX[c % 3]] == after && g->img[t][PV[c % 3]] == before) {
+            *next = (int32_t)g->cand.w[i + 1];
+            return (int32_t)t;
+        }
+    }
+    return -1;
+}
+
+/* The new indices of slot s where its path runs past u: from the first
+ * triangle with corner u (t_first) to the one after the last (t_n), the
+ * only stretch a split changes. Before t_first the path is as it was (t_first
+ * is entered by an edge without u, which nothing touches); t_n's own index
+ * may change (its entering edge is read the other way round when the
+ * stretch before it changed), but the strip leaves it as before. The
+ * stretch is found in the old indices: t_first's window ends at the first
+ * u, t_last's starts at the last. 0 when the slot does not look like that
+ * (it is then derived whole). */
+static int local_region(mts_grow *g, uint32_t s, uint32_t u, splice *sp)
+{
+    const uint32_t *o = g->seq[s].w;
+    const uint32_t L = (uint32_t)g->seq[s].n;
+    uint32_t lo = 0;
+    while (lo < L && o[lo] != u)
+        lo++;
+    if (lo == L)
+        return 0;
+    uint32_t hi = L - 1;
+    while (o[hi] != u)
+        hi--;
+    int32_t t, unused;
+    uint32_t a = 0, c = 0;
+    int first = lo < 3;
+    if (first) {
+        sp->p0 = 0;
+        t = g->head[s];
+    } else {
+        sp->p0 = lo - (o[lo - 1] == o[lo - 3]); /* t_first's swap, if it has one */
+        a = o[sp->p0 - 2];
+        c = o[sp->p0 - 1];
+        t = cand_at(g, o, lo - 2, u, &unused);
+        if (t < 0 || g->tslot[t] != (int32_t)s)
+            return 0;
+    }
+    int32_t tn = -1;
+    sp->p1 = L;
+    if (hi + 3 < L) {
+        if (cand_at(g, o, hi, u, &tn) < 0 || tn < 0)
+            return 0;
+        sp->p1 = hi + 4 + (hi + 4 < L && o[hi + 3] == o[hi + 1]);
+    }
+    mts_words *r = &g->scratch;
+    r->n = 0;
+    int met;
+    if (!derive_run(g, t, first, tn, &a, &c, r, &met))
+        return -1;
+    sp->suffix = met;
+    sp->r = r;
+    /* the strip leaves t_n as it did, or the stretch is not what it seems */
+    return !met || (a == o[sp->p1 - 2] && c == o[sp->p1 - 1]);
 }
 
 static int cmp_u32(const void *a, const void *c)
@@ -652,8 +963,9 @@ static int cmp_u32(const void *a, const void *c)
     return x < y ? -1 : x > y;
 }
 
-/* The record of the split to level g->level: one edit per touched slot, in
- * slot order. */
+/* The record of the split to level g->level (u the parent, v the new
+ * vertex): one edit per touched slot, in slot order. Without a split
+ * (the base), u = v = NONE and the slots are only derived. */
 static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
 {
     g->rec.n = 0;
@@ -661,14 +973,47 @@ static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
         return 0;
     g->rec.n = 1;
     uint32_t edits = 0;
-    qsort(g->touched, g->touched_count, 4, cmp_u32);
+    if (g->touched_count > 1)
+        qsort(g->touched, g->touched_count, 4, cmp_u32);
     for (uint32_t k = 0; k < g->touched_count; k++) {
         uint32_t s = g->touched[k];
-        if (!derive_indices(g, g->head[s], &g->scratch) ||
-            !emit_edit(g, s, &g->scratch, u, v, &edits))
+        splice sp = {0, (uint32_t)g->seq[s].n, 0, &g->scratch};
+        int local = 0;
+        if (u != NONE && g->fresh[s] != g->stamp_now && g->head[s] >= 0 && g->seq[s].n) {
+            local = local_region(g, s, u, &sp);
+            if (local < 0)
+                return 0;
+        }
+        if (!local) {
+            sp.p0 = 0;
+            sp.p1 = (uint32_t)g->seq[s].n;
+            sp.suffix = 0;
+            if (!derive_whole(g, g->head[s], &g->scratch))
+                return 0;
+        }
+        if (!emit_splice(g, s, &sp, u, v, &edits))
             return 0;
     }
     g->rec.w[0] = edits;
+    g->touched_count = 0;
+    g->stamp_now++;
+    return 1;
+}
+
+/* Derives every touched slot's indices into seq without a record (the base). */
+static int settle(mts_grow *g)
+{
+    for (uint32_t k = 0; k < g->touched_count; k++) {
+        uint32_t s = g->touched[k];
+        g->total_indices -= g->seq[s].n;
+        g->nonempty -= g->seq[s].n > 0;
+        if (!derive_whole(g, g->head[s], &g->seq[s]))
+            return 0;
+        if (g->seq[s].n > g->capacity[s])
+            g->capacity[s] = (uint32_t)g->seq[s].n;
+        g->total_indices += g->seq[s].n;
+        g->nonempty += g->seq[s].n > 0;
+    }
     g->touched_count = 0;
     g->stamp_now++;
     return 1;
@@ -745,134 +1090,16 @@ mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
     return MTS_OK;
 }
 
-/* The triangle across the edge {a, c} from t, or -1. */
-static int32_t across(const mts_grow *g, int32_t t, uint32_t a, uint32_t c)
-{
-    int32_t x = edge_map_get(&g->edges, a, c);
-    if (x >= 0 && x != t)
-        return x;
-    x = edge_map_get(&g->edges, c, a);
-    return x != t ? x : -1;
-}
-
-/* Resolves a description of the full strips (mts_grow_full_describe) on
- * the current (full) mesh into strips, slot by slot. */
-static mts_result resolve_full(mts_grow *g, const mts_grow_full *f, mts_strips *out,
-                               mts_error *err)
-{
-    uint64_t tris = 0, inner = 0;
-    for (uint32_t s = 0; s < f->slot_count; s++) {
-        const mts_grow_full_path *p = &f->paths[s];
-        tris += p->triangles;
-        inner += p->triangles >= 2 ? p->triangles - 2 : 0;
-        if (p->triangles && (p->first >= g->tri_count || p->rotation > 2))
-            return mts_error_set(err, MTS_ERR_FORMAT,
-                                 "full strips: strip %u starts at corner %u of triangle %u (of "
-                                 "%u)",
-                                 s, p->rotation, p->first, g->tri_count);
-    }
-    if (tris > g->tri_count || inner != f->swap_count)
-        return mts_error_set(err, MTS_ERR_FORMAT,
-                             "full strips: %llu triangles of %u, %llu swap bits for %llu",
-                             (unsigned long long)tris, g->tri_count,
-                             (unsigned long long)f->swap_count, (unsigned long long)inner);
-    /* each triangle costs at most 2 indices past the first 3 of a strip */
-    mts_result rc = mts_strips_alloc(out, f->slot_count, (uint32_t)(2 * tris + 3ull * f->slot_count),
-                                     err);
-    if (rc != MTS_OK)
-        return rc;
-    uint64_t bit = 0;
-    uint32_t o = 0;
-    for (uint32_t s = 0; s < f->slot_count; s++) {
-        const mts_grow_full_path *p = &f->paths[s];
-        out->offsets[s] = o;
-        if (!p->triangles)
-            continue;
-        int32_t t = (int32_t)p->first;
-        const uint32_t *v = g->img[t];
-        uint32_t r = p->rotation;
-        out->indices[o++] = v[r];
-        out->indices[o++] = v[(r + 1) % 3];
-        out->indices[o++] = v[(r + 2) % 3];
-        uint32_t a = v[(r + 1) % 3], c = v[(r + 2) % 3];
-        for (uint32_t i = 1; i < p->triangles; i++) {
-            t = across(g, t, a, c);
-            if (t < 0)
-                return mts_error_set(err, MTS_ERR_FORMAT,
-                                     "full strips: strip %u runs off the mesh at triangle %u", s,
-                                     i);
-            uint32_t w = third_vertex(g, (uint32_t)t, a, c);
-            int swap = i + 1 < p->triangles ? f->swaps[bit++] != 0 : 0;
-            if (swap)
-                out->indices[o++] = a;
-            out->indices[o++] = w;
-            if (swap) {
-                c = w;
-            } else {
-                a = c;
-                c = w;
-            }
-        }
-    }
-    out->offsets[f->slot_count] = o;
-    out->index_count = o;
-    return MTS_OK;
-}
-
-static int tri_reserve(mts_grow *g, uint32_t extra)
-{
-    if (g->tri_count + (uint64_t)extra <= g->tri_cap)
-        return 1;
-    if (g->tri_count + (uint64_t)extra > (uint32_t)INT32_MAX / 2)
-        return 0;
-    uint32_t cap = g->tri_cap ? g->tri_cap : 64;
-    while (cap < g->tri_count + extra)
-        cap *= 2;
-    void *img = realloc(g->img, (size_t)cap * 12);
-    if (!img)
-        return 0;
-    g->img = img;
-    int32_t *nx = realloc(g->next, (size_t)cap * 4);
-    if (!nx)
-        return 0;
-    g->next = nx;
-    int32_t *pv = realloc(g->prev, (size_t)cap * 4);
-    if (!pv)
-        return 0;
-    g->prev = pv;
-    int32_t *ts = realloc(g->tslot, (size_t)cap * 4);
-    if (!ts)
-        return 0;
-    g->tslot = ts;
-    g->tri_cap = cap;
-    return 1;
-}
-
-/* Adds a live triangle; 0 when out of memory. */
-static int tri_add(mts_grow *g, uint32_t a, uint32_t b, uint32_t c)
-{
-    if (!tri_reserve(g, 1))
-        return 0;
-    uint32_t t = g->tri_count++;
-    g->img[t][0] = a;
-    g->img[t][1] = b;
-    g->img[t][2] = c;
-    g->next[t] = g->prev[t] = g->tslot[t] = -1;
-    g->vtri[a] = g->vtri[b] = g->vtri[c] = (int32_t)t;
-    return tri_edges_put(g, t);
-}
-
 void mts_grow_free(mts_grow *g)
 {
     if (!g)
         return;
     free(g->img);
+    free(g->twin);
+    free(g->vhead);
     free(g->next);
     free(g->prev);
     free(g->tslot);
-    free(g->edges.key);
-    free(g->edges.tri);
-    free(g->vtri);
     if (g->seq) {
         for (uint32_t s = 0; s < g->slot_cap; s++)
             free(g->seq[s].w);
@@ -883,33 +1110,16 @@ void mts_grow_free(mts_grow *g)
     free(g->capacity);
     free(g->free_slots);
     free(g->stamp);
+    free(g->fresh);
     free(g->touched);
     free(g->keys.w);
     free(g->rec.w);
     free(g->scratch.w);
     free(g->affected.w);
+    free(g->cand.w);
     free(g->ring.w);
     free(g->around.w);
     free(g);
-}
-
-/* Derives every touched slot's indices into seq without a record (the base). */
-static int settle(mts_grow *g)
-{
-    for (uint32_t k = 0; k < g->touched_count; k++) {
-        uint32_t s = g->touched[k];
-        g->total_indices -= g->seq[s].n;
-        g->nonempty -= g->seq[s].n > 0;
-        if (!derive_indices(g, g->head[s], &g->seq[s]))
-            return 0;
-        if (g->seq[s].n > g->capacity[s])
-            g->capacity[s] = (uint32_t)g->seq[s].n;
-        g->total_indices += g->seq[s].n;
-        g->nonempty += g->seq[s].n > 0;
-    }
-    g->touched_count = 0;
-    g->stamp_now++;
-    return 1;
 }
 
 mts_result mts_grow_create(const mts_strips *base, uint32_t nb, uint32_t n,
@@ -947,34 +1157,22 @@ mts_result mts_grow_create(const mts_strips *base, uint32_t nb, uint32_t n,
             goto fail;
         }
     }
-    uint32_t windows = base->index_count;
-    g->vtri = malloc(((size_t)nb + n + 1) * sizeof *g->vtri);
-    if (!g->vtri)
+    g->vhead = malloc(((size_t)nb + n + 1) * sizeof *g->vhead);
+    if (!g->vhead || !tri_reserve(g, base->index_count + 1))
         goto nomem;
     for (size_t i = 0; i < (size_t)nb + n; i++)
-        g->vtri[i] = -1;
-    if (!edge_map_alloc(&g->edges, 3 * (size_t)windows + 64) || !tri_reserve(g, windows + 1))
-        goto nomem;
+        g->vhead[i] = NONE;
     for (uint32_t k = 0; k < base->strip_count; k++) {
         const uint32_t *str = base->indices + base->offsets[k];
         uint32_t len = base->offsets[k + 1] - base->offsets[k];
         for (uint32_t w = 0; w + 2 < len; w++) {
             uint32_t tri[3];
-            if (!mts_strip_window(str, w, tri))
-                continue;
-            if (edge_map_get(&g->edges, tri[0], tri[1]) >= 0 ||
-                edge_map_get(&g->edges, tri[1], tri[2]) >= 0 ||
-                edge_map_get(&g->edges, tri[2], tri[0]) >= 0) {
-                rc = mts_error_set(err, MTS_ERR_FORMAT,
-                                   "grow: base strip %u window %u (%u %u %u) repeats an edge "
-                                   "another triangle holds",
-                                   k, w, tri[0], tri[1], tri[2]);
-                goto fail;
-            }
-            if (!tri_add(g, tri[0], tri[1], tri[2]))
+            if (mts_strip_window(str, w, tri) && tri_add(g, tri[0], tri[1], tri[2]) < 0)
                 goto nomem;
         }
     }
+    if ((rc = twins_build(g, err)) != MTS_OK)
+        goto fail;
     int strict = !(opts && opts->normalise_base);
     if ((rc = adopt_strips(g, base, strict, err)) != MTS_OK)
         goto fail;
@@ -1004,10 +1202,17 @@ fail:
 
 int32_t mts_grow_find(const mts_grow *g, uint32_t a, uint32_t b, uint32_t c)
 {
-    int32_t t = edge_map_get(&g->edges, a, b);
-    if (t < 0 || third_vertex(g, (uint32_t)t, a, b) != c)
+    if (a >= g->nb + g->level)
         return -1;
-    return t;
+    uint32_t h = find_half_edge(g, a, b);
+    /* a vertex with more than one fan: the builder's rare explicit splits */
+    for (uint32_t x = 0; h == NONE && x < 3 * g->tri_count; x++) {
+        if (he_from(g, x) == a && he_to(g, x) == b)
+            h = x;
+    }
+    if (h == NONE || g->img[h / 3][PV[h % 3]] != c)
+        return -1;
+    return (int32_t)(h / 3);
 }
 
 void mts_grow_triangle(const mts_grow *g, uint32_t t, uint32_t out[3])
@@ -1015,157 +1220,171 @@ void mts_grow_triangle(const mts_grow *g, uint32_t t, uint32_t out[3])
     memcpy(out, g->img[t], 12);
 }
 
-/* The corner of t after u, or NONE when t has no corner u. */
-static uint32_t after(const mts_grow *g, uint32_t t, uint32_t u)
-{
-    for (int c = 0; c < 3; c++) {
-        if (g->img[t][c] == u)
-            return g->img[t][(c + 1) % 3];
-    }
-    return MTS_GROW_NONE;
-}
-
-static uint32_t before(const mts_grow *g, uint32_t t, uint32_t u)
-{
-    for (int c = 0; c < 3; c++) {
-        if (g->img[t][c] == u)
-            return g->img[t][(c + 2) % 3];
-    }
-    return MTS_GROW_NONE;
-}
+/* ---- fans ---- */
 
 int32_t mts_grow_fan(const mts_grow *g, uint32_t u, uint32_t left, uint32_t right, uint32_t *ids,
                      uint32_t cap)
 {
     uint32_t count = 0;
-    if (right != MTS_GROW_NONE) {
-        /* forward from the triangle holding u->right: (u, x, y) -> (u, y, .) */
-        int32_t t = edge_map_get(&g->edges, u, right);
-        if (t < 0)
+    if (u >= g->nb + g->level)
+        return -1;
+    if (right != NONE) {
+        /* forward from the corner whose out-edge is u -> right */
+        uint32_t c = find_half_edge(g, u, right);
+        if (c == NONE)
             return -1;
         for (;;) {
             if (count >= g->tri_count)
                 return -1; /* went round without meeting left */
             if (count < cap)
-                ids[count] = (uint32_t)t;
+                ids[count] = c / 3;
             count++;
-            uint32_t y = before(g, (uint32_t)t, u);
-            if (y == left)
+            if (g->img[c / 3][PV[c % 3]] == left)
                 return (int32_t)count;
-            t = edge_map_get(&g->edges, u, y);
-            if (t < 0)
-                return left == MTS_GROW_NONE ? (int32_t)count : -1;
+            c = corner_fwd(g, c);
+            if (c == NONE)
+                return left == NONE ? (int32_t)count : -1;
         }
     }
-    if (left == MTS_GROW_NONE)
+    if (left == NONE)
         return -1;
-    /* backward from the triangle holding left->u to the border */
-    int32_t t = edge_map_get(&g->edges, left, u);
-    while (t >= 0) {
+    /* backward from the corner whose in-edge is left -> u, to the border */
+    uint32_t h = find_half_edge(g, left, u);
+    uint32_t c = h == NONE ? NONE : 3 * (h / 3) + NX[h % 3];
+    while (c != NONE) {
         if (count >= g->tri_count)
             return -1;
         if (count < cap)
-            ids[count] = (uint32_t)t;
+            ids[count] = c / 3;
         count++;
-        t = edge_map_get(&g->edges, after(g, (uint32_t)t, u), u);
+        c = corner_back(g, c);
     }
     return count ? (int32_t)count : -1;
 }
 
-/* The parent's triangles in ring order (grow.h); -1 when the ring is not a
- * simple fan. *closed says whether it goes all the way round. */
-static int32_t ring(const mts_grow *g, uint32_t u, mts_words *out, int *closed)
+/* The parent's corners in ring order (grow.h: from the border when it is on
+ * one, else from its lowest triangle id, turning as the fan does), of the
+ * fan its first corner lies in; cached until the next split. -1 when they
+ * do not form a simple fan. */
+static int32_t ring(mts_grow *g, uint32_t u)
 {
-    out->n = 0;
-    *closed = 0;
-    if (u >= g->nb + g->level || g->vtri[u] < 0)
+    if (g->ring_level == g->level + 1 && g->ring_u == u)
+        return (int32_t)g->ring_count;
+    g->ring_level = 0;
+    if (u >= g->nb + g->level || g->vhead[u] == NONE)
         return -1;
-    int32_t t0 = g->vtri[u], t = t0, first = t0, lowest = t0;
-    uint32_t steps = 0;
-    /* back to the border, or round to t0 */
+    mts_words *out = &g->ring;
+    const uint32_t c0 = g->vhead[u];
+    uint32_t c = c0, first = c0, lowest = c0, steps = 0;
+    int closed = 0;
+    /* back to the border, or round to c0 */
     for (;;) {
-        int32_t p = edge_map_get(&g->edges, after(g, (uint32_t)t, u), u);
-        if (p < 0) {
-            first = t;
+        uint32_t p = corner_back(g, c);
+        if (p == NONE) {
+            first = c;
             break;
         }
-        if (p == t0) {
-            *closed = 1;
+        if (p == c0) {
+            closed = 1;
             first = lowest;
             break;
         }
         if (++steps > g->tri_count)
             return -1;
-        t = p;
-        if (t < lowest)
-            lowest = t;
+        c = p;
+        if (c / 3 < lowest / 3)
+            lowest = c;
     }
-    t = first;
+    out->n = 0;
+    c = first;
     for (;;) {
-        if (out->n >= g->tri_count)
+        if (out->n >= g->tri_count || !mts_words_reserve(out, 1))
             return -1;
-        if (!mts_words_reserve(out, 1))
-            return -1;
-        out->w[out->n++] = (uint32_t)t;
-        t = edge_map_get(&g->edges, u, before(g, (uint32_t)t, u));
-        if (t < 0 || t == first)
+        out->w[out->n++] = c;
+        c = corner_fwd(g, c);
+        if (c == NONE || c == first)
             break;
     }
-    if (*closed && t != first)
+    if (closed && c != first)
         return -1;
+    g->ring_u = u;
+    g->ring_count = (uint32_t)out->n;
+    g->ring_closed = closed;
+    g->ring_level = g->level + 1;
     return (int32_t)out->n;
+}
+
+/* The fan from u -> right round to left -> u as a stretch of u's ring:
+ * *start and *count. 0 when it is not one (or would give v all of a closed
+ * ring, which leaves left == right and two triangles on one edge). */
+static int fan_segment(mts_grow *g, uint32_t u, uint32_t left, uint32_t right, uint32_t *start,
+                       uint32_t *count)
+{
+    int32_t k = ring(g, u);
+    if (k <= 0 || (left == NONE && right == NONE) || (left != NONE && left == right))
+        return 0;
+    const uint32_t K = (uint32_t)k, *r = g->ring.w;
+    const int closed = g->ring_closed;
+    uint32_t i = 0;
+    if (right != NONE) {
+        while (i < K && he_to(g, r[i]) != right)
+            i++;
+        if (i == K)
+            return 0;
+    } else if (closed) {
+        return 0;
+    }
+    for (uint32_t j = 0; j < K; j++) {
+        if (!closed && i + j >= K)
+            break;
+        if (left != NONE && g->img[r[(i + j) % K] / 3][PV[r[(i + j) % K] % 3]] == left) {
+            if (closed && j + 1 >= K)
+                return 0;
+            *start = i;
+            *count = j + 1;
+            return 1;
+        }
+    }
+    if (left != NONE || closed)
+        return 0;
+    *start = i;
+    *count = K - i;
+    return 1;
 }
 
 int mts_grow_fan_encode(mts_grow *g, uint32_t u, uint32_t left, uint32_t right,
                         mts_grow_fan_code *code)
 {
-    mts_grow *mg = g;
-    int closed;
-    int32_t k = ring(g, u, &mg->ring, &closed);
-    int32_t m = mts_grow_fan(g, u, left, right, NULL, 0);
-    if (k <= 0 || m <= 0 || m > k)
+    uint32_t start, count;
+    if (!fan_segment(g, u, left, right, &start, &count))
         return 0;
-    uint32_t first;
-    if (mts_grow_fan(g, u, left, right, &first, 1) != m)
-        return 0;
-    /* the fan runs forward from `first` (mts_grow_fan walks backward only
-     * when right is absent, so then its first is the fan's far end) */
-    if (right == MTS_GROW_NONE) {
-        first = mg->ring.w[0];
-        if (closed)
-            return 0;
-    }
-    for (int32_t i = 0; i < k; i++) {
-        if (mg->ring.w[i] == first) {
-            code->start = (uint32_t)i;
-            code->count = (uint32_t)m;
-            code->sides = (right == MTS_GROW_NONE) | (left == MTS_GROW_NONE) << 1;
-            uint32_t l2, r2;
-            return mts_grow_fan_decode(g, u, code, &l2, &r2) && l2 == left && r2 == right;
-        }
-    }
-    return 0;
+    code->start = start;
+    code->count = count;
+    code->sides = (right == NONE) | (left == NONE) << 1;
+    uint32_t l2, r2;
+    return mts_grow_fan_decode(g, u, code, &l2, &r2) && l2 == left && r2 == right;
 }
 
 int mts_grow_fan_decode(mts_grow *g, uint32_t u, const mts_grow_fan_code *code,
                         uint32_t *left, uint32_t *right)
 {
-    mts_grow *mg = g;
-    int closed;
-    int32_t k = ring(g, u, &mg->ring, &closed);
-    if (k <= 0 || code->start >= (uint32_t)k || code->count == 0 || code->count > (uint32_t)k ||
-        code->sides > 3)
+    int32_t k = ring(g, u);
+    if (k <= 0 || code->start >= (uint32_t)k || code->count == 0 ||
+        code->count > (uint32_t)k || code->sides > 3)
         return 0;
-    if (!closed && code->start + code->count > (uint32_t)k)
+    const uint32_t K = (uint32_t)k;
+    const int closed = g->ring_closed;
+    if (closed ? code->count >= K : code->start + code->count > K)
         return 0;
-    uint32_t t_first = mg->ring.w[code->start];
-    uint32_t t_last = mg->ring.w[(code->start + code->count - 1) % (uint32_t)k];
-    *right = code->sides & 1 ? MTS_GROW_NONE : after(g, t_first, u);
-    *left = code->sides & 2 ? MTS_GROW_NONE : before(g, t_last, u);
-    if (*left == MTS_GROW_NONE && *right == MTS_GROW_NONE)
+    /* a missing new triangle is a border the fan reaches */
+    if ((code->sides & 1) && (closed || code->start != 0))
         return 0;
-    /* the fan rule must give back exactly these triangles */
-    return mts_grow_fan(g, u, *left, *right, NULL, 0) == (int32_t)code->count;
+    if ((code->sides & 2) && (closed || code->start + code->count != K))
+        return 0;
+    uint32_t cf = g->ring.w[code->start], cl = g->ring.w[(code->start + code->count - 1) % K];
+    *right = code->sides & 1 ? NONE : he_to(g, cf);
+    *left = code->sides & 2 ? NONE : g->img[cl / 3][PV[cl % 3]];
+    return !(*left == NONE && *right == NONE) && !(*left != NONE && *left == *right);
 }
 
 static int is_key(mts_grow *g)
@@ -1182,65 +1401,174 @@ static int is_key(mts_grow *g)
     return g->next_key > 0 && g->tri_count >= g->next_key;
 }
 
+/* Notes the parent's corners before a fan split, with each one's triangle's
+ * next on its path (g->cand: what local_region finds the changed stretch
+ * by): its ring, all the corners it has in a manifold mesh. */
+static int note_candidates(mts_grow *g)
+{
+    g->cand.n = 0;
+    if (!mts_words_reserve(&g->cand, 2 * (size_t)g->ring_count))
+        return 0;
+    for (uint32_t k = 0; k < g->ring_count; k++) {
+        uint32_t c = g->ring.w[k];
+        g->cand.w[g->cand.n++] = c;
+        g->cand.w[g->cand.n++] = (uint32_t)g->next[c / 3];
+    }
+    return 1;
+}
+
+/* An explicit split's twins: every half-edge of a moved or new triangle,
+ * and those that were its twins, paired anew in one pass over the mesh
+ * (explicit splits are the rare ones the fan rule misses, so O(triangles)
+ * is fine), which also finds u a corner if it lost the one listed.
+ * MTS_ERR_FORMAT when a directed edge ends up held twice. */
+static mts_result twins_redo(mts_grow *g, uint32_t u, uint32_t first_new, mts_error *err)
+{
+    const size_t moved = g->affected.n, total = moved + (g->tri_count - first_new);
+    he_key *k = malloc((3 * total + 1) * sizeof *k);
+    if (!k)
+        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    size_t m = 0;
+    for (size_t i = 0; i < total; i++) {
+        uint32_t t = i < moved ? g->affected.w[i] : first_new + (uint32_t)(i - moved);
+        for (uint32_t e = 0; e < 3; e++) {
+            uint32_t h = 3 * t + e, o = g->twin[h];
+            if (o != NONE && g->twin[o] == h)
+                g->twin[o] = NONE;
+            g->twin[h] = NONE;
+            k[m].key = (uint64_t)he_from(g, h) << 32 | he_to(g, h);
+            k[m++].h = h;
+        }
+    }
+    qsort(k, m, sizeof *k, cmp_he_key);
+    mts_result rc = MTS_OK;
+    for (size_t i = 0; i + 1 < m && rc == MTS_OK; i++) {
+        if (k[i].key == k[i + 1].key && k[i].h != k[i + 1].h)
+            rc = MTS_ERR_FORMAT;
+    }
+    int lost_u = g->vhead[u] == NONE || he_from(g, g->vhead[u]) != u;
+    if (lost_u)
+        g->vhead[u] = NONE;
+    for (uint32_t h = 0; h < 3 * g->tri_count && rc == MTS_OK; h++) {
+        uint32_t a = he_from(g, h), b = he_to(g, h);
+        if (lost_u && a == u) {
+            g->vhead[u] = h;
+            lost_u = 0;
+        }
+        size_t i = he_index_find(k, m, a, b);
+        if (i < m && k[i].h != h) {
+            rc = MTS_ERR_FORMAT; /* a moved or new edge that another triangle holds */
+            break;
+        }
+        size_t r = he_index_find(k, m, b, a);
+        if (r < m) {
+            g->twin[h] = k[r].h;
+            g->twin[k[r].h] = h;
+        }
+    }
+    free(k);
+    if (rc != MTS_OK)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "grow: split %u leaves a directed edge held by two triangles",
+                             g->level);
+    return MTS_OK;
+}
+
 mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_full *full,
                          const uint32_t **record, uint32_t *word_count, mts_error *err)
 {
     if (g->level >= g->n)
         return mts_error_set(err, MTS_ERR_ARG, "grow: every split is applied already");
     const uint32_t v = g->nb + g->level, u = sp->parent;
-    if (u >= v || (sp->left != MTS_GROW_NONE && sp->left >= v) ||
-        (sp->right != MTS_GROW_NONE && sp->right >= v) || sp->left == u || sp->right == u)
+    if (u >= v || (sp->left != NONE && sp->left >= v) || (sp->right != NONE && sp->right >= v) ||
+        sp->left == u || sp->right == u)
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "grow: split %u (vertex %u, parent %u, %u, %u) names a vertex out "
                              "of range",
                              g->level, v, u, sp->left, sp->right);
     if (g->level + 1 == g->n && (!full || (!full->strips && !full->paths)))
         return mts_error_set(err, MTS_ERR_ARG, "grow: the last split needs the full strips");
+    const int fan = !sp->moved_count && !sp->born_count;
 
-    /* the triangles v takes over */
+    /* the corners v takes over */
     g->affected.n = 0;
-    if (sp->moved_count || sp->born_count) {
+    uint32_t fs = 0, fc = 0;
+    if (fan) {
+        if (!fan_segment(g, u, sp->left, sp->right, &fs, &fc))
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "grow: split %u: no fan of %u from %u to %u", g->level, u,
+                                 sp->right, sp->left);
+        if (!mts_words_reserve(&g->affected, fc))
+            goto nomem;
+        for (uint32_t k = 0; k < fc; k++)
+            g->affected.w[k] = g->ring.w[(fs + k) % g->ring_count]; /* corners for now */
+        g->affected.n = fc;
+    } else {
         if (!mts_words_reserve(&g->affected, sp->moved_count))
             goto nomem;
         for (uint32_t k = 0; k < sp->moved_count; k++) {
             uint32_t t = sp->moved[k];
-            if (t >= g->tri_count || after(g, t, u) == MTS_GROW_NONE)
+            int c = t < g->tri_count ? corner_of(g->img[t], u) : -1;
+            if (c < 0)
                 return mts_error_set(err, MTS_ERR_FORMAT,
                                      "grow: split %u moves triangle %u, which has no corner %u",
                                      g->level, t, u);
-            g->affected.w[g->affected.n++] = t;
+            g->affected.w[k] = 3 * t + (uint32_t)c;
         }
-    } else {
-        /* one walk of the fan while the scratch is big enough (nearly
-         * always); a second only after growing it */
-        uint32_t cap = g->affected.cap > UINT32_MAX ? UINT32_MAX : (uint32_t)g->affected.cap;
-        int32_t k = mts_grow_fan(g, u, sp->left, sp->right, g->affected.w, cap);
-        if (k < 0)
+        g->affected.n = sp->moved_count;
+    }
+    g->cand.n = 0;
+    if (fan && !note_candidates(g))
+        goto nomem;
+    /* the fan's two edges to the rest of u's ring, before they change */
+    uint32_t hr = NONE, hl = NONE, opp_r = NONE, opp_l = NONE;
+    if (fan) {
+        uint32_t cr = g->affected.w[0], cl = g->affected.w[fc - 1];
+        hr = cr;                        /* u -> right, becomes v -> right */
+        hl = 3 * (cl / 3) + PV[cl % 3]; /* left -> u, becomes left -> v */
+        opp_r = g->twin[hr];
+        opp_l = g->twin[hl];
+    }
+    for (size_t k = 0; k < g->affected.n; k++) {
+        uint32_t c = g->affected.w[k];
+        if (g->img[c / 3][c % 3] != u) /* an explicit split naming a triangle twice */
             return mts_error_set(err, MTS_ERR_FORMAT,
-                                 "grow: split %u: no fan of %u from %u to %u", g->level, u,
-                                 sp->right, sp->left);
-        if ((uint32_t)k > cap) {
-            if (!mts_words_reserve(&g->affected, (uint32_t)k))
-                goto nomem;
-            k = mts_grow_fan(g, u, sp->left, sp->right, g->affected.w, (uint32_t)k);
-        }
-        g->affected.n = (size_t)k;
-    }
-    for (size_t k = 0; k < g->affected.n; k++) {
-        uint32_t t = g->affected.w[k];
-        tri_edges_del(g, t);
-        for (int c = 0; c < 3; c++) {
-            if (g->img[t][c] == u)
-                g->img[t][c] = v;
-        }
-    }
-    for (size_t k = 0; k < g->affected.n; k++) {
-        if (!tri_edges_put(g, g->affected.w[k]))
-            goto nomem;
+                                 "grow: split %u moves triangle %u twice", g->level, c / 3);
+        g->img[c / 3][c % 3] = v;
+        g->affected.w[k] = c / 3;
+        g->vhead[v] = c;
     }
     const uint32_t first_new = g->tri_count;
     g->newest_born = first_new;
-    if (sp->moved_count || sp->born_count) {
+    if (fan) {
+        int32_t nl = -1, nr = -1;
+        if (sp->left != NONE && (nl = tri_add(g, u, v, sp->left)) < 0)
+            goto nomem;
+        if (sp->right != NONE && (nr = tri_add(g, v, u, sp->right)) < 0)
+            goto nomem;
+        /* (u v left): v -> left meets the fan's left -> v, left -> u what
+         * held u -> left; (v u right) likewise; u -> v meets v -> u */
+        if (nl >= 0) {
+            uint32_t b = 3 * (uint32_t)nl;
+            g->twin[b + 1] = hl;
+            g->twin[hl] = b + 1;
+            g->twin[b + 2] = opp_l;
+            if (opp_l != NONE)
+                g->twin[opp_l] = b + 2;
+        }
+        if (nr >= 0) {
+            uint32_t b = 3 * (uint32_t)nr;
+            g->twin[b + 2] = hr;
+            g->twin[hr] = b + 2;
+            g->twin[b + 1] = opp_r;
+            if (opp_r != NONE)
+                g->twin[opp_r] = b + 1;
+        }
+        if (nl >= 0 && nr >= 0) {
+            g->twin[3 * (uint32_t)nl] = 3 * (uint32_t)nr;
+            g->twin[3 * (uint32_t)nr] = 3 * (uint32_t)nl;
+        }
+    } else {
         for (uint32_t k = 0; k < sp->born_count; k++) {
             const uint32_t *t = sp->born + 3 * (size_t)k;
             if (t[0] > v || t[1] > v || t[2] > v || t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
@@ -1248,40 +1576,23 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
                                      "grow: split %u brings back (%u %u %u), not a triangle of "
                                      "level %u",
                                      g->level, t[0], t[1], t[2], g->level + 1);
-            if (!tri_add(g, t[0], t[1], t[2]))
+            if (tri_add(g, t[0], t[1], t[2]) < 0)
                 goto nomem;
         }
-    } else {
-        if (sp->left != MTS_GROW_NONE && !tri_add(g, u, v, sp->left))
-            goto nomem;
-        if (sp->right != MTS_GROW_NONE && !tri_add(g, v, u, sp->right))
-            goto nomem;
-    }
-    if (g->affected.n)
-        g->vtri[v] = (int32_t)g->affected.w[0];
-    if (g->vtri[u] >= 0 && after(g, (uint32_t)g->vtri[u], u) == MTS_GROW_NONE) {
-        /* u's triangle moved to v and no new one has u: find another */
-        g->vtri[u] = -1;
-        for (uint32_t t = 0; t < g->tri_count && g->vtri[u] < 0; t++) {
-            if (after(g, t, u) != MTS_GROW_NONE)
-                g->vtri[u] = (int32_t)t;
-        }
+        mts_result rc = twins_redo(g, u, first_new, err);
+        if (rc != MTS_OK)
+            return rc;
     }
     g->level++;
 
     if (is_key(g)) {
         mts_result rc;
-        if (g->level < g->n) {
+        if (g->level < g->n)
             rc = restrip(g, err);
-        } else if (full->strips) {
+        else if (full->strips)
             rc = adopt_strips(g, full->strips, 0, err);
-        } else {
-            mts_strips decoded = {0};
-            rc = resolve_full(g, full, &decoded, err);
-            if (rc == MTS_OK)
-                rc = adopt_strips(g, &decoded, 1, err);
-            mts_strips_free(&decoded);
-        }
+        else
+            rc = resolve_full(g, full, err);
         if (rc != MTS_OK)
             return rc;
         if (!mts_words_reserve(&g->keys, 1))
@@ -1337,11 +1648,11 @@ mts_result mts_grow_around_newest(mts_grow *g, const uint32_t **ids, uint32_t *c
         uint32_t t = k < g->affected.n ? g->affected.w[k]
                                        : g->newest_born + (uint32_t)(k - g->affected.n);
         const uint32_t *c = g->img[t];
-        int at = c[0] == v ? 0 : c[1] == v ? 1 : c[2] == v ? 2 : -1;
+        int at = corner_of(c, v);
         if (at < 0)
             continue;
-        out[n++] = c[(at + 1) % 3];
-        out[n++] = c[(at + 2) % 3];
+        out[n++] = c[NX[at]];
+        out[n++] = c[PV[at]];
     }
     *ids = out;
     *count = n;
@@ -1359,7 +1670,7 @@ int mts_grow_model_split(mts_grow *g, const mts_model *m, uint32_t j, mts_grow_s
     if (w[2] == MTS_GROWTH_EXPLICIT) {
         if (len < 5 || (uint64_t)w[3] + 3ull * w[4] != len - 5)
             return 0;
-        sp->left = sp->right = MTS_GROW_NONE;
+        sp->left = sp->right = NONE;
         sp->moved_count = w[3];
         sp->born_count = w[4];
         sp->moved = w + 5;
@@ -1395,4 +1706,79 @@ const uint32_t *mts_grow_slot(const mts_grow *g, uint32_t s, uint32_t *length)
     }
     *length = (uint32_t)g->seq[s].n;
     return g->seq[s].w;
+}
+
+mts_result mts_grow_check(const mts_grow *g, mts_error *err)
+{
+    const uint32_t nv = g->nb + g->level, nh = 3 * g->tri_count;
+    mts_result rc = MTS_OK;
+    mts_words d = {0};
+    he_key *ix = he_index(g);
+    uint8_t *has = calloc((size_t)nv + 1, 1);
+    if (!ix || !has) {
+        free(ix);
+        free(has);
+        return mts_error_set(err, MTS_ERR_NOMEM, "grow check: out of memory");
+    }
+    for (uint32_t h = 0; h < nh && rc == MTS_OK; h++) {
+        uint32_t a = he_from(g, h), b = he_to(g, h), o = g->twin[h];
+        size_t i = he_index_find(ix, nh, a, b), r = he_index_find(ix, nh, b, a);
+        uint32_t want = r < nh ? ix[r].h : NONE;
+        if (a >= nv)
+            rc = mts_error_set(err, MTS_ERR_INTERNAL, "grow check: vertex %u at level %u", a,
+                               g->level);
+        else if (i + 1 < nh && ix[i + 1].key == ix[i].key)
+            rc = mts_error_set(err, MTS_ERR_INTERNAL, "grow check: edge (%u %u) held twice", a,
+                               b);
+        else if (o != want)
+            rc = mts_error_set(err, MTS_ERR_INTERNAL,
+                               "grow check: half-edge %u (%u %u) has twin %u, not %u", h, a, b, o,
+                               want);
+        else
+            has[a] = 1;
+    }
+    for (uint32_t x = 0; x < nv && rc == MTS_OK; x++) {
+        uint32_t c = g->vhead[x];
+        if (c == NONE ? has[x] : c >= nh || he_from(g, c) != x)
+            rc = mts_error_set(err, MTS_ERR_INTERNAL, "grow check: vertex %u lists corner %u", x,
+                               c);
+    }
+    uint64_t indices = 0;
+    uint32_t nonempty = 0, placed = 0;
+    for (uint32_t s = 0; s < g->slot_count && rc == MTS_OK; s++) {
+        uint32_t count = 0;
+        for (int32_t t = g->head[s], p = -1; t >= 0 && rc == MTS_OK; p = t, t = g->next[t]) {
+            if (g->tslot[t] != (int32_t)s || g->prev[t] != p || (p >= 0 && !adjacent(g, p, t)) ||
+                ++count > g->tri_count)
+                rc = mts_error_set(err, MTS_ERR_INTERNAL,
+                                   "grow check: slot %u's path is broken at triangle %d", s, t);
+        }
+        if (rc != MTS_OK)
+            break;
+        if (count != g->ntri[s])
+            rc = mts_error_set(err, MTS_ERR_INTERNAL,
+                               "grow check: slot %u holds %u triangles, counted %u", s, count,
+                               g->ntri[s]);
+        else if (!derive_whole(g, g->head[s], &d))
+            rc = mts_error_set(err, MTS_ERR_NOMEM, "grow check: out of memory");
+        else if (d.n != g->seq[s].n || (d.n && memcmp(d.w, g->seq[s].w, d.n * 4) != 0))
+            rc = mts_error_set(err, MTS_ERR_INTERNAL,
+                               "grow check: slot %u holds %zu indices where its path gives %zu "
+                               "(or others)",
+                               s, g->seq[s].n, d.n);
+        placed += count;
+        indices += g->seq[s].n;
+        nonempty += g->seq[s].n > 0;
+    }
+    if (rc == MTS_OK && (placed != g->tri_count || indices != g->total_indices ||
+                         nonempty != g->nonempty))
+        rc = mts_error_set(err, MTS_ERR_INTERNAL,
+                           "grow check: %u of %u triangles placed, %llu indices (kept %llu), %u "
+                           "strips (kept %u)",
+                           placed, g->tri_count, (unsigned long long)indices,
+                           (unsigned long long)g->total_indices, nonempty, g->nonempty);
+    free(ix);
+    free(has);
+    free(d.w);
+    return rc;
 }

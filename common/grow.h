@@ -158,6 +158,14 @@ mts_result mts_grow_around_newest(mts_grow *g, const uint32_t **ids, uint32_t *c
  * is malformed or names no fan of g's mesh. */
 int mts_grow_model_split(mts_grow *g, const mts_model *m, uint32_t j, mts_grow_split *sp);
 
+/* Checks g's whole state against what it stands for, for tests: every
+ * twin against the directed edges, every corner in its vertex's list, the
+ * paths (links between neighbours, slots, counts, every triangle placed)
+ * and every slot's indices against a derivation of its path from scratch
+ * (which a split does only where the path changed). MTS_ERR_INTERNAL names
+ * the first difference. O(triangles x valence). */
+mts_result mts_grow_check(const mts_grow *g, mts_error *err);
+
 /* Vertex ids of triangle t, as they are now. */
 void mts_grow_triangle(const mts_grow *g, uint32_t t, uint32_t out[3]);
 

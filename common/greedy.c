@@ -1,0 +1,276 @@
+/* Greedy strip paths in the manner of STRIPE:
+ *   F. Evans, S. Skiena, A. Varshney, "Optimizing Triangle Strips for Fast
+ *   Rendering", IEEE Visualization 1996,
+ * with NvTriStrip's trial of every way out of the seed (see greedy.h for why
+ * this exists beside stripify.c).
+ *
+ * A strip is walked as stripify.c walks it: at triangle t its last two
+ * indices sit at corners q and r, the third corner is p; leaving across edge
+ * (q, r) keeps the strip's alternation, leaving across (p, r) costs a swap.
+ * The seed is a free triangle with the fewest free neighbours (the most
+ * recently lowered first, so that strips lie side by side); from each of its
+ * edges a path grows, preferring, STRIPE's way, the neighbour with fewer
+ * free neighbours of its own (taking the swap for it), and the path with the
+ * fewest indices a triangle, restart included, wins. Everything is corner
+ * and half-edge indices: crossing half-edge e of t into t' = twin / 3 lands
+ * on edge e' = twin % 3 of t', whose corner e' is corner e + 1 of t. */
+#include "greedy.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define NONE MTS_GREEDY_NONE
+
+static const uint8_t NX[3] = {1, 2, 0}, PV[3] = {2, 0, 1};
+
+typedef struct ctx {
+    uint32_t n;
+    const uint32_t *twin;
+    uint8_t *used;
+    uint8_t *deg; /* free neighbours */
+    uint32_t *mark, stamp; /* mark == stamp: taken by the path being tried */
+    uint32_t *bucket[3];   /* seed candidates by degree 0..2 (stacks, lazily updated) */
+    uint32_t bucket_len[3];
+    uint32_t cursor; /* lowest id that may still have degree 3 */
+} ctx;
+
+static inline uint32_t neighbour(const ctx *c, uint32_t t, unsigned e)
+{
+    uint32_t h = c->twin[3 * (size_t)t + e];
+    return h == NONE ? NONE : h / 3;
+}
+
+static inline int avail(const ctx *c, uint32_t t)
+{
+    return t != NONE && !c->used[t] && c->mark[t] != c->stamp;
+}
+
+/* Free neighbours of x other than `from`. */
+static inline unsigned free_degree(const ctx *c, uint32_t x, uint32_t from)
+{
+    unsigned d = 0;
+    for (unsigned e = 0; e < 3; e++) {
+        uint32_t w = neighbour(c, x, e);
+        if (w != from && avail(c, w))
+            d++;
+    }
+    return d;
+}
+
+/* The half-edge of a triangle between its corners i and j. */
+static inline unsigned edge_of(unsigned i, unsigned j)
+{
+    return NX[i] == j ? i : j;
+}
+
+/* Crosses half-edge e of t, the strip's last index at corner lr of t (an end
+ * of e): the neighbour, and in it that index's corner (*q) and the corner
+ * the next index will be (*r). */
+static inline uint32_t cross(const ctx *c, uint32_t t, unsigned e, unsigned lr, unsigned *q,
+                             unsigned *r)
+{
+    uint32_t h = c->twin[3 * (size_t)t + e];
+    unsigned e2 = h % 3;
+    *q = lr == NX[e] ? e2 : NX[e2];
+    *r = PV[e2];
+    return h / 3;
+}
+
+/* Grows a path on from t, whose strip ends at corners (lq, lr): appends the
+ * triangles it takes to out, at most limit, marks them and returns their
+ * number; *swaps counts the swaps taken. */
+static uint32_t grow(ctx *c, uint32_t t, unsigned lq, unsigned lr, uint32_t *out, uint32_t limit,
+                     uint32_t *swaps)
+{
+    uint32_t len = 0, sw = 0;
+    while (len < limit) {
+        unsigned lp = 3 - lq - lr, ef = edge_of(lq, lr), es = edge_of(lp, lr);
+        uint32_t f = neighbour(c, t, ef), s = neighbour(c, t, es);
+        int fa = avail(c, f), sa = avail(c, s) && s != f;
+        if (!fa && !sa)
+            break;
+        /* go where fewer free neighbours remain, so that the other one is
+         * not left stranded; the swap only when strictly better */
+        int take_swap = !fa || (sa && free_degree(c, s, t) < free_degree(c, f, t));
+        uint32_t u = cross(c, t, take_swap ? es : ef, lr, &lq, &lr);
+        c->mark[u] = c->stamp;
+        out[len++] = u;
+        sw += (uint32_t)take_swap;
+        t = u;
+    }
+    *swaps = sw;
+    return len;
+}
+
+/* The swaps a strip read along path[0..m) needs (the first triangle leaving
+ * without one). */
+static uint32_t path_swaps(const ctx *c, const uint32_t *path, uint32_t m)
+{
+    if (m < 3)
+        return 0;
+    unsigned e = 0;
+    while (neighbour(c, path[0], e) != path[1])
+        e++;
+    unsigned lq, lr;
+    uint32_t t = cross(c, path[0], e, NX[e], &lq, &lr), sw = 0;
+    for (uint32_t k = 1; k + 1 < m; k++) {
+        unsigned lp = 3 - lq - lr, ef = edge_of(lq, lr);
+        unsigned x = neighbour(c, t, ef) == path[k + 1] ? ef : edge_of(lp, lr);
+        sw += x != ef;
+        t = cross(c, t, x, lr, &lq, &lr);
+    }
+    return sw;
+}
+
+static uint32_t next_seed(ctx *c)
+{
+    for (unsigned d = 0; d < 3; d++) {
+        while (c->bucket_len[d] > 0) {
+            uint32_t t = c->bucket[d][--c->bucket_len[d]];
+            if (!c->used[t] && c->deg[t] == d)
+                return t;
+        }
+    }
+    while (c->cursor < c->n && (c->used[c->cursor] || c->deg[c->cursor] != 3))
+        c->cursor++;
+    return c->cursor < c->n ? c->cursor : NONE;
+}
+
+static void commit(ctx *c, uint32_t t)
+{
+    c->used[t] = 1;
+    for (unsigned e = 0; e < 3; e++) {
+        uint32_t u = neighbour(c, t, e);
+        if (u != NONE && !c->used[u]) {
+            uint8_t d = --c->deg[u];
+            c->bucket[d][c->bucket_len[d]++] = u;
+        }
+    }
+}
+
+static void next_stamp(ctx *c)
+{
+    if (++c->stamp == 0) {
+        memset(c->mark, 0, (size_t)c->n * sizeof *c->mark);
+        c->stamp = 1;
+    }
+}
+
+mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, uint32_t max_path, uint32_t *order,
+                            uint32_t *starts, uint32_t *path_count, mts_error *err)
+{
+    *path_count = 0;
+    starts[0] = 0;
+    if (n == 0)
+        return MTS_OK;
+    if (n > (UINT32_MAX - 1) / 3)
+        return mts_error_set(err, MTS_ERR_LIMIT, "greedy: %u triangles is too many", n);
+    for (size_t h = 0; h < 3 * (size_t)n; h++) {
+        uint32_t o = twin[h];
+        if (o != NONE && (o >= 3 * (size_t)n || twin[o] != h || o / 3 == h / 3))
+            return mts_error_set(err, MTS_ERR_FORMAT, "greedy: half-edge %zu's twin %u does not "
+                                 "pair back", h, o);
+    }
+    if (max_path < 1)
+        max_path = 1;
+    if (max_path > n)
+        max_path = n;
+    mts_result rc = MTS_OK;
+    ctx c = {0};
+    c.n = n;
+    c.twin = twin;
+    c.used = calloc(n, 1);
+    c.deg = malloc(n);
+    c.mark = calloc(n, sizeof *c.mark);
+    for (int d = 0; d < 3; d++)
+        c.bucket[d] = malloc((size_t)n * sizeof *c.bucket[d]);
+    uint32_t *trial = malloc((size_t)max_path * sizeof *trial);
+    uint32_t *best = malloc((size_t)max_path * sizeof *best);
+    if (!c.used || !c.deg || !c.mark || !c.bucket[0] || !c.bucket[1] || !c.bucket[2] || !trial ||
+        !best) {
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "greedy: out of memory for %u triangles", n);
+        goto done;
+    }
+    for (uint32_t t = 0; t < n; t++) {
+        unsigned d = 0;
+        for (unsigned e = 0; e < 3; e++)
+            d += twin[3 * (size_t)t + e] != NONE;
+        c.deg[t] = (uint8_t)d;
+        if (d < 3)
+            c.bucket[d][c.bucket_len[d]++] = t;
+    }
+    /* the buckets pop from the top: lowest ids first among the initial ones */
+    for (int d = 0; d < 3; d++) {
+        for (uint32_t i = 0, j = c.bucket_len[d]; i + 1 < j; i++, j--) {
+            uint32_t x = c.bucket[d][i];
+            c.bucket[d][i] = c.bucket[d][j - 1];
+            c.bucket[d][j - 1] = x;
+        }
+    }
+
+    uint32_t placed = 0, paths = 0;
+    for (;;) {
+        uint32_t seed = next_seed(&c);
+        if (seed == NONE)
+            break;
+        /* the seed alone, then a path out of each of its edges */
+        uint32_t best_m = 1, best_cost = 4; /* 3 indices + the restart */
+        best[0] = seed;
+        for (unsigned e = 0; e < 3 && max_path > 1; e++) {
+            next_stamp(&c);
+            c.mark[seed] = c.stamp;
+            uint32_t u = neighbour(&c, seed, e);
+            if (!avail(&c, u))
+                continue;
+            unsigned lq, lr;
+            uint32_t sw;
+            cross(&c, seed, e, NX[e], &lq, &lr);
+            c.mark[u] = c.stamp;
+            trial[0] = seed;
+            trial[1] = u;
+            uint32_t m = 2 + grow(&c, u, lq, lr, trial + 2, max_path - 2, &sw);
+            uint32_t cost = m + 2 + sw + 1;
+            /* fewest indices a triangle, then the longer */
+            uint64_t lhs = (uint64_t)cost * best_m, rhs = (uint64_t)best_cost * m;
+            if (lhs < rhs || (lhs == rhs && m > best_m)) {
+                best_m = m;
+                best_cost = cost;
+                memcpy(best, trial, (size_t)m * sizeof *trial);
+            }
+        }
+        /* read from the end that swaps less (only the start can differ) */
+        if (best_m >= 3) {
+            uint32_t fwd = path_swaps(&c, best, best_m);
+            for (uint32_t i = 0, j = best_m - 1; i < j; i++, j--) {
+                uint32_t x = best[i];
+                best[i] = best[j];
+                best[j] = x;
+            }
+            if (path_swaps(&c, best, best_m) >= fwd) {
+                for (uint32_t i = 0, j = best_m - 1; i < j; i++, j--) {
+                    uint32_t x = best[i];
+                    best[i] = best[j];
+                    best[j] = x;
+                }
+            }
+        }
+        for (uint32_t k = 0; k < best_m; k++) {
+            commit(&c, best[k]);
+            order[placed++] = best[k];
+        }
+        starts[++paths] = placed;
+    }
+    if (placed != n)
+        rc = mts_error_set(err, MTS_ERR_INTERNAL, "greedy: paths hold %u of %u triangles", placed,
+                           n);
+    *path_count = paths;
+done:
+    free(c.used);
+    free(c.deg);
+    free(c.mark);
+    for (int d = 0; d < 3; d++)
+        free(c.bucket[d]);
+    free(trial);
+    free(best);
+    return rc;
+}

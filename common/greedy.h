@@ -1,0 +1,35 @@
+/* Greedy strip paths over a half-edge dual graph, in time linear in the
+ * triangles: the stripifier of the key levels that growth restripifies
+ * (grow.c), which every streaming client runs, so it must cost a small
+ * constant a triangle and need no adjacency built for it.
+ *
+ * It is the greedy phase of stripify.c (STRIPE's seeds and turns, see there),
+ * without the tunnelling that follows it there: tunnelling gains 0.02-0.04
+ * indices a triangle at a key level and costs a client 30 times as much.
+ * What it reads is only the twin of each half-edge, never a vertex id, so
+ * the same mesh gives the same paths whatever its numbering. */
+#ifndef MTS_GREEDY_H
+#define MTS_GREEDY_H
+
+#include <stdint.h>
+
+#include "error.h"
+
+#define MTS_GREEDY_NONE UINT32_MAX
+
+/* n triangles; twin (3n): for half-edge 3t + e (from corner e of t to corner
+ * e + 1), the half-edge 3t' + e' that runs the other way in the neighbour
+ * t', or MTS_GREEDY_NONE at a border. Twins must pair up (twin[twin[h]] ==
+ * h) and never join a triangle to itself; mts_greedy_paths checks both.
+ *
+ * Writes the paths one after another: path k is order[starts[k] ..
+ * starts[k + 1]), *path_count of them, every triangle in exactly one, each
+ * at most max_path (>= 1) long, consecutive triangles neighbours. A path is
+ * meant to be read from order[starts[k]]: the first triangle leaves towards
+ * the second without a swap, as strips.h's derived form does. order holds
+ * n entries, starts n + 1. Deterministic. MTS_ERR_FORMAT when the twins do
+ * not pair up, MTS_ERR_NOMEM. */
+mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, uint32_t max_path, uint32_t *order,
+                            uint32_t *starts, uint32_t *path_count, mts_error *err);
+
+#endif
