@@ -26,6 +26,7 @@ static const uint8_t NX[3] = {1, 2, 0}, PV[3] = {2, 0, 1};
 typedef struct ctx {
     uint32_t n;
     const uint32_t *twin;
+    size_t stride;
     uint8_t *used;
     uint8_t *deg; /* free neighbours */
     uint32_t *mark, stamp; /* mark == stamp: taken by the path being tried */
@@ -34,9 +35,14 @@ typedef struct ctx {
     uint32_t cursor; /* lowest id that may still have degree 3 */
 } ctx;
 
+static inline uint32_t twin_of(const ctx *c, uint32_t t, unsigned e)
+{
+    return c->twin[c->stride * t + e];
+}
+
 static inline uint32_t neighbour(const ctx *c, uint32_t t, unsigned e)
 {
-    uint32_t h = c->twin[3 * (size_t)t + e];
+    uint32_t h = twin_of(c, t, e);
     return h == NONE ? NONE : h / 3;
 }
 
@@ -69,7 +75,7 @@ static inline unsigned edge_of(unsigned i, unsigned j)
 static inline uint32_t cross(const ctx *c, uint32_t t, unsigned e, unsigned lr, unsigned *q,
                              unsigned *r)
 {
-    uint32_t h = c->twin[3 * (size_t)t + e];
+    uint32_t h = twin_of(c, t, e);
     unsigned e2 = h % 3;
     *q = lr == NX[e] ? e2 : NX[e2];
     *r = PV[e2];
@@ -156,8 +162,9 @@ static void next_stamp(ctx *c)
     }
 }
 
-mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, uint32_t max_path, uint32_t *order,
-                            uint32_t *starts, uint32_t *path_count, mts_error *err)
+mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uint32_t max_path,
+                            uint32_t *order, uint32_t *starts, uint32_t *path_count,
+                            mts_error *err)
 {
     *path_count = 0;
     starts[0] = 0;
@@ -165,9 +172,12 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, uint32_t max_path,
         return MTS_OK;
     if (n > (UINT32_MAX - 1) / 3)
         return mts_error_set(err, MTS_ERR_LIMIT, "greedy: %u triangles is too many", n);
+    if (stride < 3)
+        return mts_error_set(err, MTS_ERR_ARG, "greedy: twins %zu apart", stride);
     for (size_t h = 0; h < 3 * (size_t)n; h++) {
-        uint32_t o = twin[h];
-        if (o != NONE && (o >= 3 * (size_t)n || twin[o] != h || o / 3 == h / 3))
+        uint32_t o = twin[stride * (h / 3) + h % 3];
+        if (o != NONE && (o >= 3 * (size_t)n || twin[stride * (o / 3) + o % 3] != h ||
+                          o / 3 == h / 3))
             return mts_error_set(err, MTS_ERR_FORMAT, "greedy: half-edge %zu's twin %u does not "
                                  "pair back", h, o);
     }
@@ -179,6 +189,7 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, uint32_t max_path,
     ctx c = {0};
     c.n = n;
     c.twin = twin;
+    c.stride = stride;
     c.used = calloc(n, 1);
     c.deg = malloc(n);
     c.mark = calloc(n, sizeof *c.mark);
@@ -194,7 +205,7 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, uint32_t max_path,
     for (uint32_t t = 0; t < n; t++) {
         unsigned d = 0;
         for (unsigned e = 0; e < 3; e++)
-            d += twin[3 * (size_t)t + e] != NONE;
+            d += twin_of(&c, t, e) != NONE;
         c.deg[t] = (uint8_t)d;
         if (d < 3)
             c.bucket[d][c.bucket_len[d]++] = t;

@@ -11,16 +11,18 @@
 #ifndef MTS_GREEDY_H
 #define MTS_GREEDY_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "error.h"
 
 #define MTS_GREEDY_NONE UINT32_MAX
 
-/* n triangles; twin (3n): for half-edge 3t + e (from corner e of t to corner
- * e + 1), the half-edge 3t' + e' that runs the other way in the neighbour
- * t', or MTS_GREEDY_NONE at a border. Twins must pair up (twin[twin[h]] ==
- * h) and never join a triangle to itself; mts_greedy_paths checks both.
+/* n triangles; twin[stride * t + e]: for half-edge 3t + e (from corner e of
+ * t to corner e + 1), the half-edge 3t' + e' that runs the other way in the
+ * neighbour t', or MTS_GREEDY_NONE at a border (stride >= 3 lets the twins
+ * sit in a caller's per-triangle records). Twins must pair up and never
+ * join a triangle to itself; mts_greedy_paths checks both.
  *
  * Writes the paths one after another: path k is order[starts[k] ..
  * starts[k + 1]), *path_count of them, every triangle in exactly one, each
@@ -29,7 +31,8 @@
  * the second without a swap, as strips.h's derived form does. order holds
  * n entries, starts n + 1. Deterministic. MTS_ERR_FORMAT when the twins do
  * not pair up, MTS_ERR_NOMEM. */
-mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, uint32_t max_path, uint32_t *order,
-                            uint32_t *starts, uint32_t *path_count, mts_error *err);
+mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uint32_t max_path,
+                            uint32_t *order, uint32_t *starts, uint32_t *path_count,
+                            mts_error *err);
 
 #endif

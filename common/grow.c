@@ -37,25 +37,40 @@
 
 static const uint8_t NX[3] = {1, 2, 0}, PV[3] = {2, 0, 1};
 
+/* What a split and a derivation read of a triangle, in one place: a walk
+ * along a path or round a vertex is a cache miss a triangle, not three. */
+typedef struct grow_tri {
+    uint32_t v[3];
+    uint32_t tw[3]; /* per edge e: the twin half-edge, NONE at a border */
+    int32_t next;   /* on its strip's path on the dual graph */
+    int32_t slot;   /* of its strip, -1 while unplaced */
+} grow_tri;
+
+typedef struct grow_slot {
+    mts_words seq;     /* indices as last derived */
+    int32_t head;      /* first triangle of the path, -1 when empty */
+    uint32_t ntri;     /* triangles on it */
+    uint32_t stamp;    /* == stamp_now: touched by this split */
+    uint32_t fresh;    /* == stamp_now: given other content (derived whole) */
+    uint32_t capacity; /* longest it has been */
+} grow_slot;
+
+/* The twin of half-edge h (3t + e, from corner e of t to corner e + 1). */
+#define TWIN(g, h) ((g)->tri[(h) / 3].tw[(h) % 3])
+
 struct mts_grow {
     uint32_t nb, n, level;
     /* triangles, all live */
     uint32_t tri_count, tri_cap;
-    uint32_t (*img)[3];
-    uint32_t *twin;  /* per half-edge: the one running the other way, NONE at a border */
-    uint32_t *vhead; /* per vertex: a corner of it (the newest but one split's), NONE */
-    int32_t *next, *prev; /* strip paths on the dual graph */
-    int32_t *tslot;       /* slot of each triangle's strip, -1 while unplaced */
+    grow_tri *tri;   /* 64-byte aligned: two to a cache line */
+    int32_t *prev;   /* each triangle's previous on its path (read far less) */
+    uint32_t *vhead; /* per vertex: a corner of it, NONE when it has none */
     /* slots */
     uint32_t slot_count, slot_cap;
-    mts_words *seq; /* indices of each slot as last derived */
-    int32_t *head;  /* first triangle of each slot's path, -1 when empty */
-    uint32_t *ntri;
-    uint32_t *capacity;
+    grow_slot *slot;
+    uint32_t *capacity; /* the slots' capacities again, as figures give them */
     uint32_t *free_slots, free_count;
-    /* == stamp_now: touched by this split (stamp), given other content
-     * (fresh: derived whole) */
-    uint32_t *stamp, *fresh, stamp_now, *touched, touched_count;
+    uint32_t stamp_now, *touched, touched_count;
     uint64_t total_indices;
     uint32_t nonempty;
     /* keys */
@@ -79,12 +94,12 @@ struct mts_grow {
 
 static inline uint32_t he_from(const mts_grow *g, uint32_t h)
 {
-    return g->img[h / 3][h % 3];
+    return g->tri[h / 3].v[h % 3];
 }
 
 static inline uint32_t he_to(const mts_grow *g, uint32_t h)
 {
-    return g->img[h / 3][NX[h % 3]];
+    return g->tri[h / 3].v[NX[h % 3]];
 }
 
 static inline int corner_of(const uint32_t *t, uint32_t x)
@@ -98,13 +113,13 @@ static inline int corner_of(const uint32_t *t, uint32_t x)
  * half-edge it starts). */
 static inline uint32_t corner_back(const mts_grow *g, uint32_t c)
 {
-    uint32_t h = g->twin[c];
+    uint32_t h = TWIN(g, c);
     return h == NONE ? NONE : 3 * (h / 3) + NX[h % 3];
 }
 
 static inline uint32_t corner_fwd(const mts_grow *g, uint32_t c)
 {
-    return g->twin[3 * (c / 3) + PV[c % 3]];
+    return TWIN(g, 3 * (c / 3) + PV[c % 3]);
 }
 
 /* The half-edge a -> b in the fan of a's listed corner, or NONE: a vertex
@@ -134,7 +149,7 @@ static inline int adjacent(const mts_grow *g, int32_t ta, int32_t tb)
 {
     if (ta < 0 || tb < 0)
         return 0;
-    const uint32_t *h = g->twin + 3 * (size_t)ta;
+    const uint32_t *h = g->tri[ta].tw;
     uint32_t b = (uint32_t)tb;
     return (h[0] != NONE && h[0] / 3 == b) || (h[1] != NONE && h[1] / 3 == b) ||
            (h[2] != NONE && h[2] / 3 == b);
@@ -143,7 +158,7 @@ static inline int adjacent(const mts_grow *g, int32_t ta, int32_t tb)
 /* The edge of t that leads to its neighbour b (0..2), or 3. */
 static inline unsigned edge_to(const mts_grow *g, uint32_t t, uint32_t b)
 {
-    const uint32_t *h = g->twin + 3 * (size_t)t;
+    const uint32_t *h = g->tri[t].tw;
     for (unsigned e = 0; e < 3; e++) {
         if (h[e] != NONE && h[e] / 3 == b)
             return e;
@@ -161,39 +176,34 @@ static int tri_reserve(mts_grow *g, uint32_t extra)
     while (cap < g->tri_count + extra)
         cap *= 2;
     void *p;
-    if (!(p = realloc(g->img, (size_t)cap * 12)))
+    if (posix_memalign(&p, 64, (size_t)cap * sizeof *g->tri) != 0)
         return 0;
-    g->img = p;
-    if (!(p = realloc(g->twin, (size_t)cap * 12)))
-        return 0;
-    g->twin = p;
-    if (!(p = realloc(g->next, (size_t)cap * 4)))
-        return 0;
-    g->next = p;
+    if (g->tri_count)
+        memcpy(p, g->tri, (size_t)g->tri_count * sizeof *g->tri);
+    free(g->tri);
+    g->tri = p;
     if (!(p = realloc(g->prev, (size_t)cap * 4)))
         return 0;
     g->prev = p;
-    if (!(p = realloc(g->tslot, (size_t)cap * 4)))
-        return 0;
-    g->tslot = p;
     g->tri_cap = cap;
     return 1;
 }
 
-/* Adds a live triangle, its edges borders for now, the corner of each of
- * its vertices; -1 when out of memory. */
-static int32_t tri_add(mts_grow *g, uint32_t a, uint32_t b, uint32_t c)
+/* Adds a live triangle, its edges borders for now, and (with `list`) makes
+ * it the listed corner of each of its vertices; -1 when out of memory. */
+static int32_t tri_add(mts_grow *g, uint32_t a, uint32_t b, uint32_t c, int list)
 {
     if (!tri_reserve(g, 1))
         return -1;
     uint32_t t = g->tri_count++;
-    g->img[t][0] = a;
-    g->img[t][1] = b;
-    g->img[t][2] = c;
-    g->next[t] = g->prev[t] = g->tslot[t] = -1;
+    g->tri[t].v[0] = a;
+    g->tri[t].v[1] = b;
+    g->tri[t].v[2] = c;
+    g->tri[t].next = g->prev[t] = g->tri[t].slot = -1;
     for (uint32_t k = 0; k < 3; k++) {
-        g->twin[3 * t + k] = NONE;
-        g->vhead[g->img[t][k]] = 3 * t + k;
+        TWIN(g, 3 * t + k) = NONE;
+        if (list)
+            g->vhead[g->tri[t].v[k]] = 3 * t + k;
     }
     return (int32_t)t;
 }
@@ -261,7 +271,7 @@ static mts_result twins_build(mts_grow *g, mts_error *err)
     }
     for (size_t i = 0; i < m; i++) {
         size_t r = he_index_find(k, m, (uint32_t)k[i].key, (uint32_t)(k[i].key >> 32));
-        g->twin[k[i].h] = r < m ? k[r].h : NONE;
+        TWIN(g, k[i].h) = r < m ? k[r].h : NONE;
     }
     free(k);
     return MTS_OK;
@@ -271,7 +281,7 @@ static mts_result twins_build(mts_grow *g, mts_error *err)
 
 static uint32_t third_vertex(const mts_grow *g, uint32_t t, uint32_t x, uint32_t y)
 {
-    const uint32_t *v = g->img[t];
+    const uint32_t *v = g->tri[t].v;
     return v[0] != x && v[0] != y ? v[0] : v[1] != x && v[1] != y ? v[1] : v[2];
 }
 
@@ -292,8 +302,8 @@ static int derive_run(const mts_grow *g, int32_t t, int first, int32_t stop, uin
         if (!mts_words_reserve(out, 3))
             return 0;
         uint32_t *w = out->w + out->n;
-        const uint32_t *v = g->img[t];
-        unsigned e = g->next[t] >= 0 ? edge_to(g, (uint32_t)t, (uint32_t)g->next[t]) : 3;
+        const uint32_t *v = g->tri[t].v;
+        unsigned e = g->tri[t].next >= 0 ? edge_to(g, (uint32_t)t, (uint32_t)g->tri[t].next) : 3;
         if (e == 3) {
             w[0] = v[0];
             w[1] = v[1];
@@ -310,18 +320,18 @@ static int derive_run(const mts_grow *g, int32_t t, int first, int32_t stop, uin
             *met = 1;
             return 1;
         }
-        t = g->next[t];
+        t = g->tri[t].next;
     }
-    for (; t >= 0; t = g->next[t]) {
+    for (; t >= 0; t = g->tri[t].next) {
         if (!mts_words_reserve(out, 2))
             return 0;
         uint32_t w = third_vertex(g, (uint32_t)t, *a, *c);
-        int32_t nx = g->next[t];
+        int32_t nx = g->tri[t].next;
         int swap = 0;
         if (nx >= 0) {
             unsigned e = edge_to(g, (uint32_t)t, (uint32_t)nx);
             if (e < 3) {
-                uint32_t p = g->img[t][e], q = g->img[t][NX[e]];
+                uint32_t p = g->tri[t].v[e], q = g->tri[t].v[NX[e]];
                 swap = p != *c && q != *c;
             }
         }
@@ -355,8 +365,8 @@ static void touch(mts_grow *g, int32_t slot)
 {
     if (slot < 0)
         return;
-    if (g->stamp[slot] != g->stamp_now) {
-        g->stamp[slot] = g->stamp_now;
+    if (g->slot[slot].stamp != g->stamp_now) {
+        g->slot[slot].stamp = g->stamp_now;
         g->touched[g->touched_count++] = (uint32_t)slot;
     }
 }
@@ -382,31 +392,27 @@ static int32_t slot_new(mts_grow *g)
         if (g->slot_count == g->slot_cap) {
             uint32_t old = g->slot_cap, cap = old ? old * 2 : 64;
             /* each array keeps its old block if its own growth fails */
-            if (!grow_zeroed((void **)&g->seq, sizeof *g->seq, old, cap) ||
-                !grow_zeroed((void **)&g->head, sizeof *g->head, old, cap) ||
-                !grow_zeroed((void **)&g->ntri, 4, old, cap) ||
+            if (!grow_zeroed((void **)&g->slot, sizeof *g->slot, old, cap) ||
                 !grow_zeroed((void **)&g->capacity, 4, old, cap) ||
                 !grow_zeroed((void **)&g->free_slots, 4, old, cap) ||
-                !grow_zeroed((void **)&g->stamp, 4, old, cap) ||
-                !grow_zeroed((void **)&g->fresh, 4, old, cap) ||
                 !grow_zeroed((void **)&g->touched, 4, old, cap))
                 return -1;
             g->slot_cap = cap;
         }
         s = (int32_t)g->slot_count++;
     }
-    g->head[s] = -1;
-    g->ntri[s] = 0;
-    g->fresh[s] = g->stamp_now;
+    g->slot[s].head = -1;
+    g->slot[s].ntri = 0;
+    g->slot[s].fresh = g->stamp_now;
     touch(g, s);
     return s;
 }
 
 static void slot_release(mts_grow *g, int32_t s)
 {
-    g->head[s] = -1;
-    g->ntri[s] = 0;
-    g->fresh[s] = g->stamp_now;
+    g->slot[s].head = -1;
+    g->slot[s].ntri = 0;
+    g->slot[s].fresh = g->stamp_now;
     touch(g, s);
     g->free_slots[g->free_count++] = (uint32_t)s;
 }
@@ -415,8 +421,8 @@ static void slot_release(mts_grow *g, int32_t s)
 static uint32_t path_claim(mts_grow *g, int32_t t, int32_t s)
 {
     uint32_t count = 0;
-    for (; t >= 0; t = g->next[t]) {
-        g->tslot[t] = s;
+    for (; t >= 0; t = g->tri[t].next) {
+        g->tri[t].slot = s;
         count++;
     }
     return count;
@@ -432,27 +438,27 @@ static uint32_t path_claim(mts_grow *g, int32_t t, int32_t s)
 static int mend_link(mts_grow *g, int32_t a, int32_t c, uint32_t first_new)
 {
     for (uint32_t f = first_new; f < g->tri_count; f++) {
-        if (g->tslot[f] >= 0 || !adjacent(g, a, (int32_t)f) || !adjacent(g, (int32_t)f, c))
+        if (g->tri[f].slot >= 0 || !adjacent(g, a, (int32_t)f) || !adjacent(g, (int32_t)f, c))
             continue;
-        int32_t s = g->tslot[a];
-        g->next[a] = (int32_t)f;
+        int32_t s = g->tri[a].slot;
+        g->tri[a].next = (int32_t)f;
         g->prev[f] = a;
-        g->next[f] = c;
+        g->tri[f].next = c;
         g->prev[c] = (int32_t)f;
-        g->tslot[f] = s;
-        g->ntri[s]++;
+        g->tri[f].slot = s;
+        g->slot[s].ntri++;
         g->fig.grown_inserted++;
         return 1;
     }
-    int32_t s = g->tslot[a];
+    int32_t s = g->tri[a].slot;
     int32_t ns = slot_new(g);
     if (ns < 0)
         return 0;
-    g->next[a] = -1;
+    g->tri[a].next = -1;
     g->prev[c] = -1;
-    g->head[ns] = c;
-    g->ntri[ns] = path_claim(g, c, ns);
-    g->ntri[s] -= g->ntri[ns];
+    g->slot[ns].head = c;
+    g->slot[ns].ntri = path_claim(g, c, ns);
+    g->slot[s].ntri -= g->slot[ns].ntri;
     g->fig.strips_cut++;
     return 1;
 }
@@ -463,60 +469,61 @@ static int place_newborn(mts_grow *g, int32_t f)
 {
     int32_t nbr[3];
     for (int c = 0; c < 3; c++) {
-        uint32_t h = g->twin[3 * (size_t)f + c];
+        uint32_t h = TWIN(g, 3 * (size_t)f + c);
         int32_t x = h == NONE ? -1 : (int32_t)(h / 3);
-        nbr[c] = x >= 0 && x != f && g->tslot[x] >= 0 ? x : -1;
+        nbr[c] = x >= 0 && x != f && g->tri[x].slot >= 0 ? x : -1;
     }
     int32_t tail = -1, head = -1;
     for (int c = 0; c < 3 && tail < 0; c++) {
         int32_t h = nbr[c];
-        if (h >= 0 && g->next[h] < 0 && g->ntri[g->tslot[h]] < GROW_MAX_PATH)
+        if (h >= 0 && g->tri[h].next < 0 && g->slot[g->tri[h].slot].ntri < GROW_MAX_PATH)
             tail = h;
     }
     for (int c = 0; c < 3 && head < 0; c++) {
         int32_t h = nbr[c];
-        if (h < 0 || h == tail || g->prev[h] >= 0 || g->ntri[g->tslot[h]] >= GROW_MAX_PATH)
+        if (h < 0 || h == tail || g->slot[g->tri[h].slot].head != h ||
+            g->slot[g->tri[h].slot].ntri >= GROW_MAX_PATH)
             continue;
-        if (tail >= 0 && (g->tslot[h] == g->tslot[tail] ||
-                          g->ntri[g->tslot[h]] + g->ntri[g->tslot[tail]] >= GROW_MAX_PATH))
+        if (tail >= 0 && (g->tri[h].slot == g->tri[tail].slot ||
+                          g->slot[g->tri[h].slot].ntri + g->slot[g->tri[tail].slot].ntri >= GROW_MAX_PATH))
             continue; /* would close a loop, or make too long a strip */
         head = h;
     }
     if (tail >= 0 && head >= 0) {
-        int32_t s = g->tslot[tail], gone = g->tslot[head];
-        g->next[tail] = f;
+        int32_t s = g->tri[tail].slot, gone = g->tri[head].slot;
+        g->tri[tail].next = f;
         g->prev[f] = tail;
-        g->next[f] = head;
+        g->tri[f].next = head;
         g->prev[head] = f;
-        g->tslot[f] = s;
-        g->ntri[s] += 1 + path_claim(g, head, s);
+        g->tri[f].slot = s;
+        g->slot[s].ntri += 1 + path_claim(g, head, s);
         slot_release(g, gone);
         g->fig.grown_joined++;
     } else if (tail >= 0) {
-        int32_t s = g->tslot[tail];
-        g->next[tail] = f;
+        int32_t s = g->tri[tail].slot;
+        g->tri[tail].next = f;
         g->prev[f] = tail;
-        g->tslot[f] = s;
-        g->ntri[s]++;
+        g->tri[f].slot = s;
+        g->slot[s].ntri++;
         g->fig.grown_appended++;
     } else if (head >= 0) {
-        int32_t s = g->tslot[head];
-        g->next[f] = head;
+        int32_t s = g->tri[head].slot;
+        g->tri[f].next = head;
         g->prev[head] = f;
-        g->tslot[f] = s;
-        g->head[s] = f;
-        g->ntri[s]++;
+        g->tri[f].slot = s;
+        g->slot[s].head = f;
+        g->slot[s].ntri++;
         g->fig.grown_appended++;
     } else {
         int32_t s = slot_new(g);
         if (s < 0)
             return 0;
-        g->head[s] = f;
-        g->ntri[s] = 1;
-        g->tslot[f] = s;
+        g->slot[s].head = f;
+        g->slot[s].ntri = 1;
+        g->tri[f].slot = s;
         g->fig.grown_alone++;
     }
-    touch(g, g->tslot[f]);
+    touch(g, g->tri[f].slot);
     return 1;
 }
 
@@ -529,14 +536,14 @@ static int paths_reset(mts_grow *g, uint32_t slots)
             return 0;
     }
     for (uint32_t s = 0; s < g->slot_count; s++) {
-        g->head[s] = -1;
-        g->ntri[s] = 0;
-        g->fresh[s] = g->stamp_now;
+        g->slot[s].head = -1;
+        g->slot[s].ntri = 0;
+        g->slot[s].fresh = g->stamp_now;
         touch(g, (int32_t)s);
     }
     for (uint32_t t = 0; t < g->tri_count; t++) {
-        g->next[t] = g->prev[t] = -1;
-        g->tslot[t] = -1;
+        g->tri[t].next = g->prev[t] = -1;
+        g->tri[t].slot = -1;
     }
     g->free_count = 0;
     return 1;
@@ -547,7 +554,7 @@ static void slots_free_unused(mts_grow *g, uint32_t used)
 {
     g->free_count = 0;
     for (uint32_t s = g->slot_count; s-- > 0;) {
-        if (s >= used || g->head[s] < 0)
+        if (s >= used || g->slot[s].head < 0)
             g->free_slots[g->free_count++] = s;
     }
 }
@@ -582,14 +589,14 @@ static mts_result adopt_strips(mts_grow *g, const mts_strips *strips, int strict
                                    k, tri[0], tri[1], tri[2], g->level);
                 goto done;
             }
-            if (g->tslot[t] >= 0) {
+            if (g->tri[t].slot >= 0) {
                 rc = mts_error_set(err, MTS_ERR_FORMAT,
                                    "grow: strip %u draws triangle (%u %u %u) a second time", k,
                                    tri[0], tri[1], tri[2]);
                 goto done;
             }
             if (prev >= 0 && adjacent(g, prev, t)) {
-                g->next[prev] = t;
+                g->tri[prev].next = t;
                 g->prev[t] = prev;
             } else if (prev >= 0 && strict) {
                 rc = mts_error_set(err, MTS_ERR_FORMAT,
@@ -603,11 +610,11 @@ static mts_result adopt_strips(mts_grow *g, const mts_strips *strips, int strict
                     }
                     s = (int32_t)used++;
                 }
-                g->head[s] = t;
+                g->slot[s].head = t;
                 touch(g, s);
             }
-            g->tslot[t] = s;
-            g->ntri[s]++;
+            g->tri[t].slot = s;
+            g->slot[s].ntri++;
             prev = t;
         }
     }
@@ -657,17 +664,17 @@ static int fit_slots(mts_grow *g)
         for (uint32_t s = 0; s < n; s++) {
             paths[s] = s;
             slots[s] = s;
-            head[s] = g->head[s];
-            ntri[s] = g->ntri[s];
+            head[s] = g->slot[s].head;
+            ntri[s] = g->slot[s].ntri;
         }
-        ok = sort_desc(paths, n, g->ntri) && sort_desc(slots, n, g->capacity);
+        ok = sort_desc(paths, n, ntri) && sort_desc(slots, n, g->capacity);
     }
     if (ok) {
         for (uint32_t k = 0; k < n; k++) {
             uint32_t s = slots[k];
-            g->head[s] = head[paths[k]];
-            g->ntri[s] = ntri[paths[k]];
-            path_claim(g, g->head[s], (int32_t)s);
+            g->slot[s].head = head[paths[k]];
+            g->slot[s].ntri = ntri[paths[k]];
+            path_claim(g, g->slot[s].head, (int32_t)s);
         }
         slots_free_unused(g, n);
     }
@@ -686,21 +693,21 @@ static mts_result restrip(mts_grow *g, mts_error *err)
     mts_result rc = order && starts ? MTS_OK
                                     : mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
     if (rc == MTS_OK)
-        rc = mts_greedy_paths(n, g->twin, MTS_STRIPIFY_MAX_STRIP, order, starts, &count, err);
+        rc = mts_greedy_paths(n, g->tri[0].tw, sizeof *g->tri / 4, MTS_STRIPIFY_MAX_STRIP, order, starts, &count, err);
     if (rc == MTS_OK && !paths_reset(g, count))
         rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
     for (uint32_t k = 0; rc == MTS_OK && k < count; k++) {
         int32_t prev = -1;
         for (uint32_t i = starts[k]; i < starts[k + 1]; i++) {
             int32_t t = (int32_t)order[i];
-            g->tslot[t] = (int32_t)k;
+            g->tri[t].slot = (int32_t)k;
             g->prev[t] = prev;
             if (prev >= 0)
-                g->next[prev] = t;
+                g->tri[prev].next = t;
             prev = t;
         }
-        g->head[k] = (int32_t)order[starts[k]];
-        g->ntri[k] = starts[k + 1] - starts[k];
+        g->slot[k].head = (int32_t)order[starts[k]];
+        g->slot[k].ntri = starts[k + 1] - starts[k];
     }
     if (rc == MTS_OK) {
         slots_free_unused(g, count);
@@ -742,38 +749,38 @@ static mts_result resolve_full(mts_grow *g, const mts_grow_full *f, mts_error *e
         if (!p->triangles)
             continue;
         uint32_t t = p->first, r = p->rotation;
-        if (g->tslot[t] >= 0)
+        if (g->tri[t].slot >= 0)
             return mts_error_set(err, MTS_ERR_FORMAT,
                                  "full strips: strip %u starts on triangle %u, which strip %d "
                                  "holds",
-                                 s, t, g->tslot[t]);
-        g->head[s] = (int32_t)t;
-        g->tslot[t] = (int32_t)s;
-        g->ntri[s] = 1;
+                                 s, t, g->tri[t].slot);
+        g->slot[s].head = (int32_t)t;
+        g->tri[t].slot = (int32_t)s;
+        g->slot[s].ntri = 1;
         /* the strip's last two indices (a, c) and the half-edge between them */
-        uint32_t a = g->img[t][NX[r]], c = g->img[t][PV[r]], h = 3 * t + NX[r];
+        uint32_t a = g->tri[t].v[NX[r]], c = g->tri[t].v[PV[r]], h = 3 * t + NX[r];
         for (uint32_t i = 1; i < p->triangles; i++) {
-            uint32_t o = g->twin[h];
+            uint32_t o = TWIN(g, h);
             if (o == NONE)
                 return mts_error_set(err, MTS_ERR_FORMAT,
                                      "full strips: strip %u runs off the mesh at triangle %u", s,
                                      i);
             uint32_t u = o / 3, e = o % 3;
-            if (g->tslot[u] >= 0)
+            if (g->tri[u].slot >= 0)
                 return mts_error_set(err, MTS_ERR_FORMAT,
                                      "full strips: strip %u crosses into triangle %u, which strip "
                                      "%d holds",
-                                     s, u, g->tslot[u]);
-            g->next[t] = (int32_t)u;
+                                     s, u, g->tri[u].slot);
+            g->tri[t].next = (int32_t)u;
             g->prev[u] = (int32_t)t;
-            g->tslot[u] = (int32_t)s;
-            g->ntri[s]++;
+            g->tri[u].slot = (int32_t)s;
+            g->slot[s].ntri++;
             /* corner e of u holds he_to(h), corner e + 1 he_from(h); the
              * third corner is the index u adds */
-            uint32_t w = g->img[u][PV[e]];
+            uint32_t w = g->tri[u].v[PV[e]];
             int swap = i + 1 < p->triangles ? f->swaps[bit++] != 0 : 0;
             uint32_t keep = swap ? a : c; /* with the new index, the next edge */
-            unsigned ck = g->img[u][e] == keep ? e : NX[e];
+            unsigned ck = g->tri[u].v[e] == keep ? e : NX[e];
             h = 3 * u + (NX[ck] == PV[e] ? ck : PV[e]);
             if (swap) {
                 c = w;
@@ -815,12 +822,16 @@ static inline uint32_t splice_at(const uint32_t *old, const splice *sp, size_t k
 static int emit_splice(mts_grow *g, uint32_t s, const splice *sp, uint32_t u, uint32_t v,
                        uint32_t *edits)
 {
-    mts_words *from = &g->seq[s];
+    mts_words *from = &g->slot[s].seq;
     const uint32_t *o = from->w;
     const size_t lo = from->n, keep = sp->suffix ? lo - sp->p1 : 0,
                  ln = sp->p0 + sp->r->n + keep;
 #define AS_BEFORE(x) ((x) == v ? u : (x))
-    size_t p = sp->p0;
+    size_t p = sp->p0, end = sp->p0 + sp->r->n;
+    while (p < end && p < lo && o[p] == AS_BEFORE(sp->r->w[p - sp->p0]))
+        p++;
+    if (p == end && keep && end == sp->p1)
+        p = lo; /* only substitutions: the kept tail is the same too */
     while (p < lo && p < ln && o[p] == AS_BEFORE(splice_at(o, sp, p)))
         p++;
     size_t q = keep;
@@ -876,9 +887,47 @@ static int emit_splice(mts_grow *g, uint32_t s, const splice *sp, uint32_t u, ui
     if (sp->r->n)
         memcpy(x + sp->p0, sp->r->w, sp->r->n * 4);
     from->n = ln;
-    if (ln > g->capacity[s])
-        g->capacity[s] = (uint32_t)ln;
+    if (ln > g->slot[s].capacity)
+        g->slot[s].capacity = g->capacity[s] = (uint32_t)ln;
     return 1;
+}
+
+/* The first and last position of x in a[0..n) (n when there is none). A
+ * slot is mostly far longer than the stretch a split changes, so this scan
+ * is most of what a split costs; in blocks of 16 the compiler makes it 4 or
+ * 8 compares an instruction. */
+enum { SCAN_BLOCK = 16 };
+
+static uint32_t find_first(const uint32_t *a, uint32_t n, uint32_t x)
+{
+    uint32_t k = 0;
+    for (; k + SCAN_BLOCK <= n; k += SCAN_BLOCK) {
+        const uint32_t *b = a + k;
+        unsigned any = 0;
+        for (unsigned i = 0; i < SCAN_BLOCK; i++)
+            any |= b[i] == x;
+        if (any)
+            break;
+    }
+    while (k < n && a[k] != x)
+        k++;
+    return k;
+}
+
+static uint32_t find_last(const uint32_t *a, uint32_t n, uint32_t x)
+{
+    uint32_t k = n;
+    for (; k >= SCAN_BLOCK; k -= SCAN_BLOCK) {
+        const uint32_t *b = a + k - SCAN_BLOCK;
+        unsigned any = 0;
+        for (unsigned i = 0; i < SCAN_BLOCK; i++)
+            any |= b[i] == x;
+        if (any)
+            break;
+    }
+    while (k > 0 && a[k - 1] != x)
+        k--;
+    return k ? k - 1 : n;
 }
 
 /* The parent's triangle (before the split: g->cand) that window k of the
@@ -896,7 +945,7 @@ static int32_t cand_at(const mts_grow *g, const uint32_t *o, uint32_t k, uint32_
     uint32_t after = tri[NX[j]], before = tri[PV[j]];
     for (size_t i = 0; i < g->cand.n; i += 2) {
         uint32_t c = g->cand.w[i], t = c / 3;
-        if (g->img[t][NX[c % 3]] == after && g->img[t][PV[c % 3]] == before) {
+        if (g->tri[t].v[NX[c % 3]] == after && g->tri[t].v[PV[c % 3]] == before) {
             *next = (int32_t)g->cand.w[i + 1];
             return (int32_t)t;
         }
@@ -915,28 +964,24 @@ static int32_t cand_at(const mts_grow *g, const uint32_t *o, uint32_t k, uint32_
  * (it is then derived whole). */
 static int local_region(mts_grow *g, uint32_t s, uint32_t u, splice *sp)
 {
-    const uint32_t *o = g->seq[s].w;
-    const uint32_t L = (uint32_t)g->seq[s].n;
-    uint32_t lo = 0;
-    while (lo < L && o[lo] != u)
-        lo++;
+    const uint32_t *o = g->slot[s].seq.w;
+    const uint32_t L = (uint32_t)g->slot[s].seq.n;
+    uint32_t lo = find_first(o, L, u);
     if (lo == L)
         return 0;
-    uint32_t hi = L - 1;
-    while (o[hi] != u)
-        hi--;
+    uint32_t hi = find_last(o, L, u);
     int32_t t, unused;
     uint32_t a = 0, c = 0;
     int first = lo < 3;
     if (first) {
         sp->p0 = 0;
-        t = g->head[s];
+        t = g->slot[s].head;
     } else {
         sp->p0 = lo - (o[lo - 1] == o[lo - 3]); /* t_first's swap, if it has one */
         a = o[sp->p0 - 2];
         c = o[sp->p0 - 1];
         t = cand_at(g, o, lo - 2, u, &unused);
-        if (t < 0 || g->tslot[t] != (int32_t)s)
+        if (t < 0 || g->tri[t].slot != (int32_t)s)
             return 0;
     }
     int32_t tn = -1;
@@ -977,18 +1022,18 @@ static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
         qsort(g->touched, g->touched_count, 4, cmp_u32);
     for (uint32_t k = 0; k < g->touched_count; k++) {
         uint32_t s = g->touched[k];
-        splice sp = {0, (uint32_t)g->seq[s].n, 0, &g->scratch};
+        splice sp = {0, (uint32_t)g->slot[s].seq.n, 0, &g->scratch};
         int local = 0;
-        if (u != NONE && g->fresh[s] != g->stamp_now && g->head[s] >= 0 && g->seq[s].n) {
+        if (u != NONE && g->slot[s].fresh != g->stamp_now && g->slot[s].head >= 0 && g->slot[s].seq.n) {
             local = local_region(g, s, u, &sp);
             if (local < 0)
                 return 0;
         }
         if (!local) {
             sp.p0 = 0;
-            sp.p1 = (uint32_t)g->seq[s].n;
+            sp.p1 = (uint32_t)g->slot[s].seq.n;
             sp.suffix = 0;
-            if (!derive_whole(g, g->head[s], &g->scratch))
+            if (!derive_whole(g, g->slot[s].head, &g->scratch))
                 return 0;
         }
         if (!emit_splice(g, s, &sp, u, v, &edits))
@@ -1005,14 +1050,14 @@ static int settle(mts_grow *g)
 {
     for (uint32_t k = 0; k < g->touched_count; k++) {
         uint32_t s = g->touched[k];
-        g->total_indices -= g->seq[s].n;
-        g->nonempty -= g->seq[s].n > 0;
-        if (!derive_whole(g, g->head[s], &g->seq[s]))
+        g->total_indices -= g->slot[s].seq.n;
+        g->nonempty -= g->slot[s].seq.n > 0;
+        if (!derive_whole(g, g->slot[s].head, &g->slot[s].seq))
             return 0;
-        if (g->seq[s].n > g->capacity[s])
-            g->capacity[s] = (uint32_t)g->seq[s].n;
-        g->total_indices += g->seq[s].n;
-        g->nonempty += g->seq[s].n > 0;
+        if (g->slot[s].seq.n > g->slot[s].capacity)
+            g->slot[s].capacity = g->capacity[s] = (uint32_t)g->slot[s].seq.n;
+        g->total_indices += g->slot[s].seq.n;
+        g->nonempty += g->slot[s].seq.n > 0;
     }
     g->touched_count = 0;
     g->stamp_now++;
@@ -1084,7 +1129,7 @@ mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
                                  "level %u",
                                  st, s[0], s[1], s[2], g->level);
         p->first = (uint32_t)t;
-        while (g->img[t][p->rotation] != s[0])
+        while (g->tri[t].v[p->rotation] != s[0])
             p->rotation++;
     }
     return MTS_OK;
@@ -1094,23 +1139,16 @@ void mts_grow_free(mts_grow *g)
 {
     if (!g)
         return;
-    free(g->img);
-    free(g->twin);
+    free(g->tri);
     free(g->vhead);
-    free(g->next);
     free(g->prev);
-    free(g->tslot);
-    if (g->seq) {
+    if (g->slot) {
         for (uint32_t s = 0; s < g->slot_cap; s++)
-            free(g->seq[s].w);
+            free(g->slot[s].seq.w);
     }
-    free(g->seq);
-    free(g->head);
-    free(g->ntri);
+    free(g->slot);
     free(g->capacity);
     free(g->free_slots);
-    free(g->stamp);
-    free(g->fresh);
     free(g->touched);
     free(g->keys.w);
     free(g->rec.w);
@@ -1167,7 +1205,7 @@ mts_result mts_grow_create(const mts_strips *base, uint32_t nb, uint32_t n,
         uint32_t len = base->offsets[k + 1] - base->offsets[k];
         for (uint32_t w = 0; w + 2 < len; w++) {
             uint32_t tri[3];
-            if (mts_strip_window(str, w, tri) && tri_add(g, tri[0], tri[1], tri[2]) < 0)
+            if (mts_strip_window(str, w, tri) && tri_add(g, tri[0], tri[1], tri[2], 1) < 0)
                 goto nomem;
         }
     }
@@ -1182,8 +1220,8 @@ mts_result mts_grow_create(const mts_strips *base, uint32_t nb, uint32_t n,
         goto nomem;
     for (uint32_t s = 0; strict && s < base->strip_count; s++) {
         uint32_t len = base->offsets[s + 1] - base->offsets[s];
-        if (len != g->seq[s].n ||
-            (len && memcmp(g->seq[s].w, base->indices + base->offsets[s], (size_t)len * 4) != 0)) {
+        if (len != g->slot[s].seq.n ||
+            (len && memcmp(g->slot[s].seq.w, base->indices + base->offsets[s], (size_t)len * 4) != 0)) {
             rc = mts_error_set(err, MTS_ERR_FORMAT,
                                "grow: base strip %u is not in the form growth derives", s);
             goto fail;
@@ -1210,14 +1248,14 @@ int32_t mts_grow_find(const mts_grow *g, uint32_t a, uint32_t b, uint32_t c)
         if (he_from(g, x) == a && he_to(g, x) == b)
             h = x;
     }
-    if (h == NONE || g->img[h / 3][PV[h % 3]] != c)
+    if (h == NONE || g->tri[h / 3].v[PV[h % 3]] != c)
         return -1;
     return (int32_t)(h / 3);
 }
 
 void mts_grow_triangle(const mts_grow *g, uint32_t t, uint32_t out[3])
 {
-    memcpy(out, g->img[t], 12);
+    memcpy(out, g->tri[t].v, 12);
 }
 
 /* ---- fans ---- */
@@ -1239,7 +1277,7 @@ int32_t mts_grow_fan(const mts_grow *g, uint32_t u, uint32_t left, uint32_t righ
             if (count < cap)
                 ids[count] = c / 3;
             count++;
-            if (g->img[c / 3][PV[c % 3]] == left)
+            if (g->tri[c / 3].v[PV[c % 3]] == left)
                 return (int32_t)count;
             c = corner_fwd(g, c);
             if (c == NONE)
@@ -1337,7 +1375,7 @@ static int fan_segment(mts_grow *g, uint32_t u, uint32_t left, uint32_t right, u
     for (uint32_t j = 0; j < K; j++) {
         if (!closed && i + j >= K)
             break;
-        if (left != NONE && g->img[r[(i + j) % K] / 3][PV[r[(i + j) % K] % 3]] == left) {
+        if (left != NONE && g->tri[r[(i + j) % K] / 3].v[PV[r[(i + j) % K] % 3]] == left) {
             if (closed && j + 1 >= K)
                 return 0;
             *start = i;
@@ -1383,7 +1421,7 @@ int mts_grow_fan_decode(mts_grow *g, uint32_t u, const mts_grow_fan_code *code,
         return 0;
     uint32_t cf = g->ring.w[code->start], cl = g->ring.w[(code->start + code->count - 1) % K];
     *right = code->sides & 1 ? NONE : he_to(g, cf);
-    *left = code->sides & 2 ? NONE : g->img[cl / 3][PV[cl % 3]];
+    *left = code->sides & 2 ? NONE : g->tri[cl / 3].v[PV[cl % 3]];
     return !(*left == NONE && *right == NONE) && !(*left != NONE && *left == *right);
 }
 
@@ -1412,7 +1450,7 @@ static int note_candidates(mts_grow *g)
     for (uint32_t k = 0; k < g->ring_count; k++) {
         uint32_t c = g->ring.w[k];
         g->cand.w[g->cand.n++] = c;
-        g->cand.w[g->cand.n++] = (uint32_t)g->next[c / 3];
+        g->cand.w[g->cand.n++] = (uint32_t)g->tri[c / 3].next;
     }
     return 1;
 }
@@ -1432,10 +1470,10 @@ static mts_result twins_redo(mts_grow *g, uint32_t u, uint32_t first_new, mts_er
     for (size_t i = 0; i < total; i++) {
         uint32_t t = i < moved ? g->affected.w[i] : first_new + (uint32_t)(i - moved);
         for (uint32_t e = 0; e < 3; e++) {
-            uint32_t h = 3 * t + e, o = g->twin[h];
-            if (o != NONE && g->twin[o] == h)
-                g->twin[o] = NONE;
-            g->twin[h] = NONE;
+            uint32_t h = 3 * t + e, o = TWIN(g, h);
+            if (o != NONE && TWIN(g, o) == h)
+                TWIN(g, o) = NONE;
+            TWIN(g, h) = NONE;
             k[m].key = (uint64_t)he_from(g, h) << 32 | he_to(g, h);
             k[m++].h = h;
         }
@@ -1462,8 +1500,8 @@ static mts_result twins_redo(mts_grow *g, uint32_t u, uint32_t first_new, mts_er
         }
         size_t r = he_index_find(k, m, b, a);
         if (r < m) {
-            g->twin[h] = k[r].h;
-            g->twin[k[r].h] = h;
+            TWIN(g, h) = k[r].h;
+            TWIN(g, k[r].h) = h;
         }
     }
     free(k);
@@ -1508,7 +1546,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
             goto nomem;
         for (uint32_t k = 0; k < sp->moved_count; k++) {
             uint32_t t = sp->moved[k];
-            int c = t < g->tri_count ? corner_of(g->img[t], u) : -1;
+            int c = t < g->tri_count ? corner_of(g->tri[t].v, u) : -1;
             if (c < 0)
                 return mts_error_set(err, MTS_ERR_FORMAT,
                                      "grow: split %u moves triangle %u, which has no corner %u",
@@ -1526,15 +1564,15 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
         uint32_t cr = g->affected.w[0], cl = g->affected.w[fc - 1];
         hr = cr;                        /* u -> right, becomes v -> right */
         hl = 3 * (cl / 3) + PV[cl % 3]; /* left -> u, becomes left -> v */
-        opp_r = g->twin[hr];
-        opp_l = g->twin[hl];
+        opp_r = TWIN(g, hr);
+        opp_l = TWIN(g, hl);
     }
     for (size_t k = 0; k < g->affected.n; k++) {
         uint32_t c = g->affected.w[k];
-        if (g->img[c / 3][c % 3] != u) /* an explicit split naming a triangle twice */
+        if (g->tri[c / 3].v[c % 3] != u) /* an explicit split naming a triangle twice */
             return mts_error_set(err, MTS_ERR_FORMAT,
                                  "grow: split %u moves triangle %u twice", g->level, c / 3);
-        g->img[c / 3][c % 3] = v;
+        g->tri[c / 3].v[c % 3] = v;
         g->affected.w[k] = c / 3;
         g->vhead[v] = c;
     }
@@ -1542,31 +1580,35 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
     g->newest_born = first_new;
     if (fan) {
         int32_t nl = -1, nr = -1;
-        if (sp->left != NONE && (nl = tri_add(g, u, v, sp->left)) < 0)
+        if (sp->left != NONE && (nl = tri_add(g, u, v, sp->left, 0)) < 0)
             goto nomem;
-        if (sp->right != NONE && (nr = tri_add(g, v, u, sp->right)) < 0)
+        if (sp->right != NONE && (nr = tri_add(g, v, u, sp->right, 0)) < 0)
             goto nomem;
+        /* u may have lent v its listed corner; left and right keep theirs */
+        uint32_t nu = nr >= 0 ? 3 * (uint32_t)nr + 1 : 3 * (uint32_t)nl;
+        g->vhead[u] = nu;
+        g->vhead[v] = nr >= 0 ? 3 * (uint32_t)nr : 3 * (uint32_t)nl + 1;
         /* (u v left): v -> left meets the fan's left -> v, left -> u what
          * held u -> left; (v u right) likewise; u -> v meets v -> u */
         if (nl >= 0) {
             uint32_t b = 3 * (uint32_t)nl;
-            g->twin[b + 1] = hl;
-            g->twin[hl] = b + 1;
-            g->twin[b + 2] = opp_l;
+            TWIN(g, b + 1) = hl;
+            TWIN(g, hl) = b + 1;
+            TWIN(g, b + 2) = opp_l;
             if (opp_l != NONE)
-                g->twin[opp_l] = b + 2;
+                TWIN(g, opp_l) = b + 2;
         }
         if (nr >= 0) {
             uint32_t b = 3 * (uint32_t)nr;
-            g->twin[b + 2] = hr;
-            g->twin[hr] = b + 2;
-            g->twin[b + 1] = opp_r;
+            TWIN(g, b + 2) = hr;
+            TWIN(g, hr) = b + 2;
+            TWIN(g, b + 1) = opp_r;
             if (opp_r != NONE)
-                g->twin[opp_r] = b + 1;
+                TWIN(g, opp_r) = b + 1;
         }
         if (nl >= 0 && nr >= 0) {
-            g->twin[3 * (uint32_t)nl] = 3 * (uint32_t)nr;
-            g->twin[3 * (uint32_t)nr] = 3 * (uint32_t)nl;
+            TWIN(g, 3 * (uint32_t)nl) = 3 * (uint32_t)nr;
+            TWIN(g, 3 * (uint32_t)nr) = 3 * (uint32_t)nl;
         }
     } else {
         for (uint32_t k = 0; k < sp->born_count; k++) {
@@ -1576,7 +1618,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
                                      "grow: split %u brings back (%u %u %u), not a triangle of "
                                      "level %u",
                                      g->level, t[0], t[1], t[2], g->level + 1);
-            if (tri_add(g, t[0], t[1], t[2]) < 0)
+            if (tri_add(g, t[0], t[1], t[2], 1) < 0)
                 goto nomem;
         }
         mts_result rc = twins_redo(g, u, first_new, err);
@@ -1604,16 +1646,20 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
         /* links the split broke: only next to a moved triangle */
         for (size_t k = 0; k < g->affected.n; k++) {
             int32_t t = (int32_t)g->affected.w[k];
-            touch(g, g->tslot[t]);
+            touch(g, g->tri[t].slot);
+            /* a fan's inner triangles keep every neighbour: only its ends
+             * can have lost a link, across u -> right and left -> u */
+            if (fan && k != 0 && k + 1 != g->affected.n)
+                continue;
             if (g->prev[t] >= 0 && !adjacent(g, g->prev[t], t) &&
                 !mend_link(g, g->prev[t], t, first_new))
                 goto nomem;
-            if (g->next[t] >= 0 && !adjacent(g, t, g->next[t]) &&
-                !mend_link(g, t, g->next[t], first_new))
+            if (g->tri[t].next >= 0 && !adjacent(g, t, g->tri[t].next) &&
+                !mend_link(g, t, g->tri[t].next, first_new))
                 goto nomem;
         }
         for (uint32_t f = first_new; f < g->tri_count; f++) {
-            if (g->tslot[f] < 0 && !place_newborn(g, (int32_t)f))
+            if (g->tri[f].slot < 0 && !place_newborn(g, (int32_t)f))
                 goto nomem;
         }
     }
@@ -1647,7 +1693,7 @@ mts_result mts_grow_around_newest(mts_grow *g, const uint32_t **ids, uint32_t *c
     for (size_t k = 0, total = g->affected.n + (g->tri_count - g->newest_born); k < total; k++) {
         uint32_t t = k < g->affected.n ? g->affected.w[k]
                                        : g->newest_born + (uint32_t)(k - g->affected.n);
-        const uint32_t *c = g->img[t];
+        const uint32_t *c = g->tri[t].v;
         int at = corner_of(c, v);
         if (at < 0)
             continue;
@@ -1704,8 +1750,8 @@ const uint32_t *mts_grow_slot(const mts_grow *g, uint32_t s, uint32_t *length)
         *length = 0;
         return NULL;
     }
-    *length = (uint32_t)g->seq[s].n;
-    return g->seq[s].w;
+    *length = (uint32_t)g->slot[s].seq.n;
+    return g->slot[s].seq.w;
 }
 
 mts_result mts_grow_check(const mts_grow *g, mts_error *err)
@@ -1721,7 +1767,7 @@ mts_result mts_grow_check(const mts_grow *g, mts_error *err)
         return mts_error_set(err, MTS_ERR_NOMEM, "grow check: out of memory");
     }
     for (uint32_t h = 0; h < nh && rc == MTS_OK; h++) {
-        uint32_t a = he_from(g, h), b = he_to(g, h), o = g->twin[h];
+        uint32_t a = he_from(g, h), b = he_to(g, h), o = TWIN(g, h);
         size_t i = he_index_find(ix, nh, a, b), r = he_index_find(ix, nh, b, a);
         uint32_t want = r < nh ? ix[r].h : NONE;
         if (a >= nv)
@@ -1747,28 +1793,28 @@ mts_result mts_grow_check(const mts_grow *g, mts_error *err)
     uint32_t nonempty = 0, placed = 0;
     for (uint32_t s = 0; s < g->slot_count && rc == MTS_OK; s++) {
         uint32_t count = 0;
-        for (int32_t t = g->head[s], p = -1; t >= 0 && rc == MTS_OK; p = t, t = g->next[t]) {
-            if (g->tslot[t] != (int32_t)s || g->prev[t] != p || (p >= 0 && !adjacent(g, p, t)) ||
+        for (int32_t t = g->slot[s].head, p = -1; t >= 0 && rc == MTS_OK; p = t, t = g->tri[t].next) {
+            if (g->tri[t].slot != (int32_t)s || g->prev[t] != p || (p >= 0 && !adjacent(g, p, t)) ||
                 ++count > g->tri_count)
                 rc = mts_error_set(err, MTS_ERR_INTERNAL,
                                    "grow check: slot %u's path is broken at triangle %d", s, t);
         }
         if (rc != MTS_OK)
             break;
-        if (count != g->ntri[s])
+        if (count != g->slot[s].ntri)
             rc = mts_error_set(err, MTS_ERR_INTERNAL,
                                "grow check: slot %u holds %u triangles, counted %u", s, count,
-                               g->ntri[s]);
-        else if (!derive_whole(g, g->head[s], &d))
+                               g->slot[s].ntri);
+        else if (!derive_whole(g, g->slot[s].head, &d))
             rc = mts_error_set(err, MTS_ERR_NOMEM, "grow check: out of memory");
-        else if (d.n != g->seq[s].n || (d.n && memcmp(d.w, g->seq[s].w, d.n * 4) != 0))
+        else if (d.n != g->slot[s].seq.n || (d.n && memcmp(d.w, g->slot[s].seq.w, d.n * 4) != 0))
             rc = mts_error_set(err, MTS_ERR_INTERNAL,
                                "grow check: slot %u holds %zu indices where its path gives %zu "
                                "(or others)",
-                               s, g->seq[s].n, d.n);
+                               s, g->slot[s].seq.n, d.n);
         placed += count;
-        indices += g->seq[s].n;
-        nonempty += g->seq[s].n > 0;
+        indices += g->slot[s].seq.n;
+        nonempty += g->slot[s].seq.n > 0;
     }
     if (rc == MTS_OK && (placed != g->tri_count || indices != g->total_indices ||
                          nonempty != g->nonempty))
