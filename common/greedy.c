@@ -1,17 +1,16 @@
 /* Greedy strip paths in the manner of STRIPE:
  *   F. Evans, S. Skiena, A. Varshney, "Optimizing Triangle Strips for Fast
  *   Rendering", IEEE Visualization 1996,
- * with NvTriStrip's trial of every way out of the seed (see greedy.h for why
- * this exists beside stripify.c).
+ * (see greedy.h for why this exists beside stripify.c).
  *
  * A strip is walked as stripify.c walks it: at triangle t its last two
  * indices sit at corners q and r, the third corner is p; leaving across edge
  * (q, r) keeps the strip's alternation, leaving across (p, r) costs a swap.
  * The seed is a free triangle with the fewest free neighbours (the most
- * recently lowered first, so that strips lie side by side); from each of its
- * edges a path grows, preferring, STRIPE's way, the neighbour with fewer
- * free neighbours of its own (taking the swap for it), and the path with the
- * fewest indices a triangle, restart included, wins. Everything is corner
+ * recently lowered first, so that strips lie side by side); the path leaves
+ * it towards its neighbour with the fewest free neighbours and grows on,
+ * preferring, STRIPE's way, the neighbour with fewer free neighbours of its
+ * own (taking the swap for it). Everything is corner
  * and half-edge indices: crossing half-edge e of t into t' = twin / 3 lands
  * on edge e' = twin % 3 of t', whose corner e' is corner e + 1 of t. */
 #include "greedy.h"
@@ -23,14 +22,17 @@
 
 static const uint8_t NX[3] = {1, 2, 0}, PV[3] = {2, 0, 1};
 
+/* Per triangle one byte, so that looking at a neighbour costs one cache
+ * line besides its twins: its free neighbours (bits 0-1), whether a path
+ * holds it, whether the path being tried does. */
+enum { DEG = 3, USED = 4, TRIED = 8 };
+
 typedef struct ctx {
     uint32_t n;
     const uint32_t *twin;
     size_t stride;
-    uint8_t *used;
-    uint8_t *deg; /* free neighbours */
-    uint32_t *mark, stamp; /* mark == stamp: taken by the path being tried */
-    uint32_t *bucket[3];   /* seed candidates by degree 0..2 (stacks, lazily updated) */
+    uint8_t *flag;
+    uint32_t *bucket[3]; /* seed candidates by degree 0..2 (stacks, lazily updated) */
     uint32_t bucket_len[3];
     uint32_t cursor; /* lowest id that may still have degree 3 */
 } ctx;
@@ -48,7 +50,7 @@ static inline uint32_t neighbour(const ctx *c, uint32_t t, unsigned e)
 
 static inline int avail(const ctx *c, uint32_t t)
 {
-    return t != NONE && !c->used[t] && c->mark[t] != c->stamp;
+    return t != NONE && !(c->flag[t] & (USED | TRIED));
 }
 
 /* Free neighbours of x other than `from`. */
@@ -99,7 +101,7 @@ static uint32_t grow(ctx *c, uint32_t t, unsigned lq, unsigned lr, uint32_t *out
          * not left stranded; the swap only when strictly better */
         int take_swap = !fa || (sa && free_degree(c, s, t) < free_degree(c, f, t));
         uint32_t u = cross(c, t, take_swap ? es : ef, lr, &lq, &lr);
-        c->mark[u] = c->stamp;
+        c->flag[u] |= TRIED;
         out[len++] = u;
         sw += (uint32_t)take_swap;
         t = u;
@@ -133,33 +135,32 @@ static uint32_t next_seed(ctx *c)
     for (unsigned d = 0; d < 3; d++) {
         while (c->bucket_len[d] > 0) {
             uint32_t t = c->bucket[d][--c->bucket_len[d]];
-            if (!c->used[t] && c->deg[t] == d)
+            if (c->flag[t] == d) /* not used, degree d */
                 return t;
         }
     }
-    while (c->cursor < c->n && (c->used[c->cursor] || c->deg[c->cursor] != 3))
+    while (c->cursor < c->n && c->flag[c->cursor] != 3)
         c->cursor++;
     return c->cursor < c->n ? c->cursor : NONE;
 }
 
 static void commit(ctx *c, uint32_t t)
 {
-    c->used[t] = 1;
+    c->flag[t] = USED;
     for (unsigned e = 0; e < 3; e++) {
         uint32_t u = neighbour(c, t, e);
-        if (u != NONE && !c->used[u]) {
-            uint8_t d = --c->deg[u];
+        if (u != NONE && !(c->flag[u] & USED)) {
+            unsigned d = (c->flag[u] & DEG) - 1u;
+            c->flag[u] = (uint8_t)((c->flag[u] & ~DEG) | d);
             c->bucket[d][c->bucket_len[d]++] = u;
         }
     }
 }
 
-static void next_stamp(ctx *c)
+static void untry(ctx *c, const uint32_t *path, uint32_t m)
 {
-    if (++c->stamp == 0) {
-        memset(c->mark, 0, (size_t)c->n * sizeof *c->mark);
-        c->stamp = 1;
-    }
+    for (uint32_t k = 0; k < m; k++)
+        c->flag[path[k]] &= (uint8_t)~TRIED;
 }
 
 mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uint32_t max_path,
@@ -190,15 +191,11 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uin
     c.n = n;
     c.twin = twin;
     c.stride = stride;
-    c.used = calloc(n, 1);
-    c.deg = malloc(n);
-    c.mark = calloc(n, sizeof *c.mark);
+    c.flag = malloc(n);
     for (int d = 0; d < 3; d++)
         c.bucket[d] = malloc((size_t)n * sizeof *c.bucket[d]);
-    uint32_t *trial = malloc((size_t)max_path * sizeof *trial);
     uint32_t *best = malloc((size_t)max_path * sizeof *best);
-    if (!c.used || !c.deg || !c.mark || !c.bucket[0] || !c.bucket[1] || !c.bucket[2] || !trial ||
-        !best) {
+    if (!c.flag || !c.bucket[0] || !c.bucket[1] || !c.bucket[2] || !best) {
         rc = mts_error_set(err, MTS_ERR_NOMEM, "greedy: out of memory for %u triangles", n);
         goto done;
     }
@@ -206,7 +203,7 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uin
         unsigned d = 0;
         for (unsigned e = 0; e < 3; e++)
             d += twin_of(&c, t, e) != NONE;
-        c.deg[t] = (uint8_t)d;
+        c.flag[t] = (uint8_t)d;
         if (d < 3)
             c.bucket[d][c.bucket_len[d]++] = t;
     }
@@ -224,30 +221,28 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uin
         uint32_t seed = next_seed(&c);
         if (seed == NONE)
             break;
-        /* the seed alone, then a path out of each of its edges */
-        uint32_t best_m = 1, best_cost = 4; /* 3 indices + the restart */
-        best[0] = seed;
+        /* out of the seed towards its neighbour with the fewest free
+         * neighbours of its own (STRIPE's start; trying every way out, as
+         * NvTriStrip does, made more strips here and took twice as long) */
+        uint32_t best_m = 1, way = 3;
+        unsigned fewest = 4;
         for (unsigned e = 0; e < 3 && max_path > 1; e++) {
-            next_stamp(&c);
-            c.mark[seed] = c.stamp;
             uint32_t u = neighbour(&c, seed, e);
-            if (!avail(&c, u))
-                continue;
+            unsigned d = avail(&c, u) ? free_degree(&c, u, seed) : 4;
+            if (d < fewest) {
+                fewest = d;
+                way = e;
+            }
+        }
+        best[0] = seed;
+        if (way < 3) {
             unsigned lq, lr;
             uint32_t sw;
-            cross(&c, seed, e, NX[e], &lq, &lr);
-            c.mark[u] = c.stamp;
-            trial[0] = seed;
-            trial[1] = u;
-            uint32_t m = 2 + grow(&c, u, lq, lr, trial + 2, max_path - 2, &sw);
-            uint32_t cost = m + 2 + sw + 1;
-            /* fewest indices a triangle, then the longer */
-            uint64_t lhs = (uint64_t)cost * best_m, rhs = (uint64_t)best_cost * m;
-            if (lhs < rhs || (lhs == rhs && m > best_m)) {
-                best_m = m;
-                best_cost = cost;
-                memcpy(best, trial, (size_t)m * sizeof *trial);
-            }
+            best[1] = cross(&c, seed, way, NX[way], &lq, &lr);
+            c.flag[seed] |= TRIED;
+            c.flag[best[1]] |= TRIED;
+            best_m = 2 + grow(&c, best[1], lq, lr, best + 2, max_path - 2, &sw);
+            untry(&c, best, best_m);
         }
         /* read from the end that swaps less (only the start can differ) */
         if (best_m >= 3) {
@@ -276,12 +271,9 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uin
                            n);
     *path_count = paths;
 done:
-    free(c.used);
-    free(c.deg);
-    free(c.mark);
+    free(c.flag);
     for (int d = 0; d < 3; d++)
         free(c.bucket[d]);
-    free(trial);
     free(best);
     return rc;
 }

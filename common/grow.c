@@ -76,7 +76,8 @@ struct mts_grow {
     /* keys */
     const uint32_t *key_given;
     uint32_t key_given_count, key_given_at;
-    double key_ratio, next_key;
+    double key_ratio, key_quality, key_min_ratio;
+    uint32_t key_triangles; /* at the last key */
     mts_words keys;
     /* the last record, and scratch */
     mts_words rec, scratch;
@@ -1187,6 +1188,8 @@ mts_result mts_grow_create(const mts_strips *base, uint32_t nb, uint32_t n,
         g->key_given_count = opts->key_count;
     } else {
         g->key_ratio = opts && opts->key_ratio > 1 ? opts->key_ratio : -1;
+        g->key_quality = opts && opts->key_quality > 0 ? opts->key_quality : -1;
+        g->key_min_ratio = opts && opts->key_min_ratio > 1 ? opts->key_min_ratio : 1;
     }
     for (uint32_t i = 0; i < base->index_count; i++) {
         if (base->indices[i] >= nb) {
@@ -1228,7 +1231,7 @@ mts_result mts_grow_create(const mts_strips *base, uint32_t nb, uint32_t n,
         }
     }
     g->fig.key_count = 1;
-    g->next_key = g->key_ratio > 1 ? g->tri_count * g->key_ratio : -1;
+    g->key_triangles = g->tri_count;
     *out = g;
     return MTS_OK;
 nomem:
@@ -1436,7 +1439,13 @@ static int is_key(mts_grow *g)
         }
         return 0;
     }
-    return g->next_key > 0 && g->tri_count >= g->next_key;
+    const double grown = g->key_triangles ? (double)g->tri_count / g->key_triangles : 0;
+    if (g->key_ratio > 1 && grown >= g->key_ratio)
+        return 1;
+    /* the strips as the last split left them */
+    return g->key_quality > 0 && grown >= g->key_min_ratio && g->tri_count &&
+           (double)(g->total_indices + g->nonempty - (g->nonempty > 0)) / g->tri_count >
+               g->key_quality;
 }
 
 /* Notes the parent's corners before a fan split, with each one's triangle's
@@ -1641,7 +1650,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
             goto nomem;
         g->keys.w[g->keys.n++] = g->level;
         g->fig.key_count++;
-        g->next_key = g->key_ratio > 1 ? g->tri_count * g->key_ratio : -1;
+        g->key_triangles = g->tri_count;
     } else {
         /* links the split broke: only next to a moved triangle */
         for (size_t k = 0; k < g->affected.n; k++) {

@@ -51,12 +51,15 @@ typedef struct mts_grow_split {
 /* Zero-initialised means defaults. */
 typedef struct mts_grow_options {
     /* Ascending levels in 1..n-1 that are restripified afresh. With
-     * key_levels NULL and key_ratio > 1, a level is a key once its triangles
-     * have grown by key_ratio since the last key; mts_grow_keys() lists the
-     * keys so chosen. */
+     * key_levels NULL, a level is a key once its triangles have grown by
+     * key_ratio (> 1) since the last key, or, with key_quality > 0, once
+     * they have grown by key_min_ratio and the strips draw more than
+     * key_quality indices a triangle (restarts counted); mts_grow_keys()
+     * lists the keys so chosen. */
     const uint32_t *key_levels;
     uint32_t key_count;
     double key_ratio;
+    double key_quality, key_min_ratio;
     /* The builder's first pass: base strips in any form (a strip that does
      * not chain is split over slots, the longest go first); the form growth
      * derives is then what mts_grow_slot() gives at level 0. Otherwise slot s

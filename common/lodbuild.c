@@ -393,6 +393,10 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
         goto fail;
     mts_grow_options go = {0};
     go.key_ratio = ratio > 1 ? ratio : -1;
+    if (ratio > 1) {
+        go.key_quality = MTS_LODBUILD_KEY_QUALITY;
+        go.key_min_ratio = MTS_LODBUILD_KEY_MIN_RATIO;
+    }
     if ((rc = mts_grow_create(&model->base, nb, n, &go, &g, err)) != MTS_OK)
         goto fail;
     mts_grow_figures fig;

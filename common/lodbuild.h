@@ -42,16 +42,21 @@
 #include "simplify.h"
 #include "strips.h"
 
-/* Growth between key levels of this ratio of triangles: chosen by
- * measurement on cow, bunny00 and fandisk_large (see lodbuild.c). */
-#define MTS_LODBUILD_DEFAULT_KEY_RATIO 1.5
-#define MTS_LODBUILD_DEFAULT_KEY_RATIO_STR "1.5"
+/* Key levels: one once the strips draw more than MTS_LODBUILD_KEY_QUALITY
+ * indices a triangle (restarts counted) and the triangles have grown by
+ * MTS_LODBUILD_KEY_MIN_RATIO since the last key, or once they have grown by
+ * the key ratio. Chosen by measurement on cow, bunny00 and fandisk_large
+ * (see lodbuild.c). */
+#define MTS_LODBUILD_DEFAULT_KEY_RATIO 1.7
+#define MTS_LODBUILD_DEFAULT_KEY_RATIO_STR "1.7"
+#define MTS_LODBUILD_KEY_QUALITY 1.55
+#define MTS_LODBUILD_KEY_MIN_RATIO 1.2
 
 /* Zero-initialised means the defaults. */
 typedef struct mts_lodbuild_options {
-    double key_ratio; /* 0: the default; > 1: a key level each time the
-                       * triangles grow by this factor; < 0 (or in (0, 1]):
-                       * only the base and the full level are keys */
+    double key_ratio; /* 0: the default; > 1: a key level at the latest each
+                       * time the triangles grow by this factor; < 0 (or in
+                       * (0, 1]): only the base and the full level are keys */
 } mts_lodbuild_options;
 
 typedef struct mts_lodbuild_stats {
