@@ -86,7 +86,7 @@ struct mts_grow {
     mts_words ring;     /* corners of ring_u in ring order, valid at ring_level */
     uint32_t ring_u, ring_level, ring_count;
     int ring_closed;
-    uint32_t newest_born; /* the first triangle the last split brought back */
+    mts_words born;       /* the triangles the last split brought back */
     mts_words around;     /* scratch of mts_grow_around_newest */
     mts_grow_figures fig;
 };
@@ -686,7 +686,43 @@ static int fit_slots(mts_grow *g)
     return ok;
 }
 
-/* Restripifies every live triangle (greedy.c, in id order) into the slots. */
+/* Gives every triangle a new id, perm[old] (the paths are reset after: only
+ * the mesh, the listed corners and the last split's triangles move). */
+static int renumber(mts_grow *g, const uint32_t *perm)
+{
+    void *p;
+    if (posix_memalign(&p, 64, (size_t)g->tri_cap * sizeof *g->tri) != 0)
+        return 0;
+    grow_tri *nt = p;
+    for (uint32_t t = 0; t < g->tri_count; t++) {
+        grow_tri *x = &nt[perm[t]];
+        const grow_tri *o = &g->tri[t];
+        for (int e = 0; e < 3; e++) {
+            uint32_t h = o->tw[e];
+            x->v[e] = o->v[e];
+            x->tw[e] = h == NONE ? NONE : 3 * perm[h / 3] + h % 3;
+        }
+        x->next = x->slot = -1;
+    }
+    free(g->tri);
+    g->tri = nt;
+    for (size_t x = 0; x < (size_t)g->nb + g->level; x++) {
+        uint32_t c = g->vhead[x];
+        if (c != NONE)
+            g->vhead[x] = 3 * perm[c / 3] + c % 3;
+    }
+    for (size_t k = 0; k < g->affected.n; k++)
+        g->affected.w[k] = perm[g->affected.w[k]];
+    for (size_t k = 0; k < g->born.n; k++)
+        g->born.w[k] = perm[g->born.w[k]];
+    g->ring_level = 0;
+    return 1;
+}
+
+/* Restripifies every live triangle (greedy.c, in id order) into the slots,
+ * renumbering the triangles in the order the paths were made: strips lie
+ * side by side there, so the triangles round a vertex, which every later
+ * split walks, come to sit in a few cache lines, not one each. */
 static mts_result restrip(mts_grow *g, mts_error *err)
 {
     uint32_t n = g->tri_count, count = 0;
@@ -694,20 +730,25 @@ static mts_result restrip(mts_grow *g, mts_error *err)
     mts_result rc = order && starts ? MTS_OK
                                     : mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
     if (rc == MTS_OK)
-        rc = mts_greedy_paths(n, g->tri[0].tw, sizeof *g->tri / 4, MTS_STRIPIFY_MAX_STRIP, order, starts, &count, err);
-    if (rc == MTS_OK && !paths_reset(g, count))
-        rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
-    for (uint32_t k = 0; rc == MTS_OK && k < count; k++) {
-        int32_t prev = -1;
-        for (uint32_t i = starts[k]; i < starts[k + 1]; i++) {
-            int32_t t = (int32_t)order[i];
-            g->tri[t].slot = (int32_t)k;
-            g->prev[t] = prev;
-            if (prev >= 0)
-                g->tri[prev].next = t;
-            prev = t;
+        rc = mts_greedy_paths(n, g->tri[0].tw, sizeof *g->tri / 4, MTS_STRIPIFY_MAX_STRIP, order,
+                              starts, &count, err);
+    if (rc == MTS_OK) {
+        uint32_t *perm = malloc(((size_t)n + 1) * 4);
+        if (perm) {
+            for (uint32_t i = 0; i < n; i++)
+                perm[order[i]] = i;
         }
-        g->slot[k].head = (int32_t)order[starts[k]];
+        if (!perm || !renumber(g, perm) || !paths_reset(g, count))
+            rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+        free(perm);
+    }
+    for (uint32_t k = 0; rc == MTS_OK && k < count; k++) {
+        for (uint32_t i = starts[k]; i < starts[k + 1]; i++) {
+            g->tri[i].slot = (int32_t)k;
+            g->prev[i] = i > starts[k] ? (int32_t)i - 1 : -1;
+            g->tri[i].next = i + 1 < starts[k + 1] ? (int32_t)i + 1 : -1;
+        }
+        g->slot[k].head = (int32_t)starts[k];
         g->slot[k].ntri = starts[k + 1] - starts[k];
     }
     if (rc == MTS_OK) {
@@ -1155,6 +1196,7 @@ void mts_grow_free(mts_grow *g)
     free(g->rec.w);
     free(g->scratch.w);
     free(g->affected.w);
+    free(g->born.w);
     free(g->cand.w);
     free(g->ring.w);
     free(g->around.w);
@@ -1586,7 +1628,6 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
         g->vhead[v] = c;
     }
     const uint32_t first_new = g->tri_count;
-    g->newest_born = first_new;
     if (fan) {
         int32_t nl = -1, nr = -1;
         if (sp->left != NONE && (nl = tri_add(g, u, v, sp->left, 0)) < 0)
@@ -1634,6 +1675,11 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
         if (rc != MTS_OK)
             return rc;
     }
+    g->born.n = 0;
+    if (!mts_words_reserve(&g->born, g->tri_count - first_new))
+        goto nomem;
+    for (uint32_t f = first_new; f < g->tri_count; f++)
+        g->born.w[g->born.n++] = f;
     g->level++;
 
     if (is_key(g)) {
@@ -1691,7 +1737,7 @@ mts_result mts_grow_around_newest(mts_grow *g, const uint32_t **ids, uint32_t *c
     if (g->level == 0)
         return mts_error_set(err, MTS_ERR_ARG, "grow: no split applied yet");
     const uint32_t v = g->nb + g->level - 1;
-    size_t want = 2 * (g->affected.n + (size_t)(g->tri_count - g->newest_born));
+    size_t want = 2 * (g->affected.n + g->born.n);
     if (!mts_words_reserve(&g->around, want))
         return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
     uint32_t *out = g->around.w, n = 0;
@@ -1699,9 +1745,8 @@ mts_result mts_grow_around_newest(mts_grow *g, const uint32_t **ids, uint32_t *c
      * explicit split may bring back others); each triangle's two other
      * corners in its own order after v, so (v, a, b) is the triangle as
      * drawn and its normal is (a - v) x (b - v) */
-    for (size_t k = 0, total = g->affected.n + (g->tri_count - g->newest_born); k < total; k++) {
-        uint32_t t = k < g->affected.n ? g->affected.w[k]
-                                       : g->newest_born + (uint32_t)(k - g->affected.n);
+    for (size_t k = 0, total = g->affected.n + g->born.n; k < total; k++) {
+        uint32_t t = k < g->affected.n ? g->affected.w[k] : g->born.w[k - g->affected.n];
         const uint32_t *c = g->tri[t].v;
         int at = corner_of(c, v);
         if (at < 0)
