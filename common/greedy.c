@@ -110,24 +110,19 @@ static uint32_t grow(ctx *c, uint32_t t, unsigned lq, unsigned lr, uint32_t *out
     return len;
 }
 
-/* The swaps a strip read along path[0..m) needs (the first triangle leaving
- * without one). */
-static uint32_t path_swaps(const ctx *c, const uint32_t *path, uint32_t m)
+/* Whether a strip read along a, b, c needs a swap at b, the first
+ * triangle's rotation being the one that leaves it without one. Only this
+ * swap depends on the way a path is read: inside it, a swap is where two
+ * consecutive triangles turn round the same vertex, either way round
+ * (stripify.c). */
+static int start_swap(const ctx *c, uint32_t a, uint32_t b, uint32_t d)
 {
-    if (m < 3)
-        return 0;
     unsigned e = 0;
-    while (neighbour(c, path[0], e) != path[1])
+    while (neighbour(c, a, e) != b)
         e++;
     unsigned lq, lr;
-    uint32_t t = cross(c, path[0], e, NX[e], &lq, &lr), sw = 0;
-    for (uint32_t k = 1; k + 1 < m; k++) {
-        unsigned lp = 3 - lq - lr, ef = edge_of(lq, lr);
-        unsigned x = neighbour(c, t, ef) == path[k + 1] ? ef : edge_of(lp, lr);
-        sw += x != ef;
-        t = cross(c, t, x, lr, &lq, &lr);
-    }
-    return sw;
+    cross(c, a, e, NX[e], &lq, &lr);
+    return neighbour(c, b, edge_of(lq, lr)) != d;
 }
 
 static uint32_t next_seed(ctx *c)
@@ -175,13 +170,6 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uin
         return mts_error_set(err, MTS_ERR_LIMIT, "greedy: %u triangles is too many", n);
     if (stride < 3)
         return mts_error_set(err, MTS_ERR_ARG, "greedy: twins %zu apart", stride);
-    for (size_t h = 0; h < 3 * (size_t)n; h++) {
-        uint32_t o = twin[stride * (h / 3) + h % 3];
-        if (o != NONE && (o >= 3 * (size_t)n || twin[stride * (o / 3) + o % 3] != h ||
-                          o / 3 == h / 3))
-            return mts_error_set(err, MTS_ERR_FORMAT, "greedy: half-edge %zu's twin %u does not "
-                                 "pair back", h, o);
-    }
     if (max_path < 1)
         max_path = 1;
     if (max_path > n)
@@ -244,20 +232,13 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uin
             best_m = 2 + grow(&c, best[1], lq, lr, best + 2, max_path - 2, &sw);
             untry(&c, best, best_m);
         }
-        /* read from the end that swaps less (only the start can differ) */
-        if (best_m >= 3) {
-            uint32_t fwd = path_swaps(&c, best, best_m);
+        /* read from the end that does not start with a swap, if one does */
+        if (best_m >= 3 && start_swap(&c, best[0], best[1], best[2]) &&
+            !start_swap(&c, best[best_m - 1], best[best_m - 2], best[best_m - 3])) {
             for (uint32_t i = 0, j = best_m - 1; i < j; i++, j--) {
                 uint32_t x = best[i];
                 best[i] = best[j];
                 best[j] = x;
-            }
-            if (path_swaps(&c, best, best_m) >= fwd) {
-                for (uint32_t i = 0, j = best_m - 1; i < j; i++, j--) {
-                    uint32_t x = best[i];
-                    best[i] = best[j];
-                    best[j] = x;
-                }
             }
         }
         for (uint32_t k = 0; k < best_m; k++) {

@@ -26,15 +26,16 @@
  * t to corner e + 1), the half-edge 3t' + e' that runs the other way in the
  * neighbour t', or MTS_GREEDY_NONE at a border (stride >= 3 lets the twins
  * sit in a caller's per-triangle records). Twins must pair up and never
- * join a triangle to itself; mts_greedy_paths checks both.
+ * join a triangle to itself: the caller's own state, which it keeps so
+ * (mts_grow_check verifies grow.c's), not input, so it is not re-checked
+ * at a cost of a fifth of the call.
  *
  * Writes the paths one after another: path k is order[starts[k] ..
  * starts[k + 1]), *path_count of them, every triangle in exactly one, each
  * at most max_path (>= 1) long, consecutive triangles neighbours. A path is
  * meant to be read from order[starts[k]]: the first triangle leaves towards
  * the second without a swap, as strips.h's derived form does. order holds
- * n entries, starts n + 1. Deterministic. MTS_ERR_FORMAT when the twins do
- * not pair up, MTS_ERR_NOMEM. */
+ * n entries, starts n + 1. Deterministic. MTS_ERR_NOMEM. */
 mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uint32_t max_path,
                             uint32_t *order, uint32_t *starts, uint32_t *path_count,
                             mts_error *err);

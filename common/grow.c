@@ -625,13 +625,34 @@ done:
     return rc;
 }
 
-/* Sorts ids by key[id], largest first, ties by position (a stable merge
- * sort: deterministic, and insertion sort is too slow for 10^4 slots). */
+/* Sorts ids by key[id], largest first, ties by position: stable, so
+ * deterministic. A counting sort while the keys are small (they are strip
+ * lengths, every key level sorts every slot twice), else a merge sort. */
 static int sort_desc(uint32_t *ids, uint32_t n, const uint32_t *key)
 {
+    uint32_t top = 0;
+    for (uint32_t i = 0; i < n; i++)
+        top = key[ids[i]] > top ? key[ids[i]] : top;
     uint32_t *tmp = malloc(((size_t)n + 1) * 4);
     if (!tmp)
         return 0;
+    if (top < 4 * (n + 1024)) {
+        uint32_t *at = calloc((size_t)top + 2, 4);
+        if (!at) {
+            free(tmp);
+            return 0;
+        }
+        for (uint32_t i = 0; i < n; i++)
+            at[top - key[ids[i]] + 1]++;
+        for (uint32_t k = 1; k <= top + 1; k++)
+            at[k] += at[k - 1];
+        for (uint32_t i = 0; i < n; i++)
+            tmp[at[top - key[ids[i]]]++] = ids[i];
+        free(at);
+        memcpy(ids, tmp, (size_t)n * 4);
+        free(tmp);
+        return 1;
+    }
     for (uint32_t width = 1; width < n; width *= 2) {
         for (uint32_t lo = 0; lo < n; lo += 2 * width) {
             uint32_t mid = lo + width < n ? lo + width : n;
