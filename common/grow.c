@@ -42,7 +42,8 @@ static const uint8_t NX[3] = {1, 2, 0}, PV[3] = {2, 0, 1};
 typedef struct grow_tri {
     uint32_t v[3];
     uint32_t tw[3]; /* per edge e: the twin half-edge, NONE at a border */
-    int32_t next;   /* on its strip's path on the dual graph */
+    int32_t nx;     /* the next on its strip's path, times 4, plus the edge
+                     * to it (3: none found); -1 at the path's end */
     int32_t slot;   /* of its strip, -1 while unplaced */
 } grow_tri;
 
@@ -167,6 +168,17 @@ static inline unsigned edge_to(const mts_grow *g, uint32_t t, uint32_t b)
     return 3;
 }
 
+static inline int32_t next_of(const mts_grow *g, int32_t t)
+{
+    return g->tri[t].nx < 0 ? -1 : g->tri[t].nx >> 2;
+}
+
+/* Links t to n (-1: t ends its path), noting the edge between them. */
+static inline void set_next(mts_grow *g, int32_t t, int32_t n)
+{
+    g->tri[t].nx = n < 0 ? -1 : (int32_t)((uint32_t)n << 2 | edge_to(g, (uint32_t)t, (uint32_t)n));
+}
+
 static int tri_reserve(mts_grow *g, uint32_t extra)
 {
     if (g->tri_count + (uint64_t)extra <= g->tri_cap)
@@ -200,7 +212,7 @@ static int32_t tri_add(mts_grow *g, uint32_t a, uint32_t b, uint32_t c, int list
     g->tri[t].v[0] = a;
     g->tri[t].v[1] = b;
     g->tri[t].v[2] = c;
-    g->tri[t].next = g->prev[t] = g->tri[t].slot = -1;
+    g->tri[t].nx = g->prev[t] = g->tri[t].slot = -1;
     for (uint32_t k = 0; k < 3; k++) {
         TWIN(g, 3 * t + k) = NONE;
         if (list)
@@ -299,20 +311,22 @@ static int derive_run(const mts_grow *g, int32_t t, int first, int32_t stop, uin
     *met = 0;
     if (t < 0)
         return 1;
+    uint32_t hin = NONE; /* the half-edge t was entered by, once known */
     if (first) {
         if (!mts_words_reserve(out, 3))
             return 0;
         uint32_t *w = out->w + out->n;
-        const uint32_t *v = g->tri[t].v;
-        unsigned e = g->tri[t].next >= 0 ? edge_to(g, (uint32_t)t, (uint32_t)g->tri[t].next) : 3;
+        const grow_tri *x = &g->tri[t];
+        unsigned e = x->nx >= 0 ? (unsigned)(x->nx & 3) : 3;
         if (e == 3) {
-            w[0] = v[0];
-            w[1] = v[1];
-            w[2] = v[2];
+            w[0] = x->v[0];
+            w[1] = x->v[1];
+            w[2] = x->v[2];
         } else {
-            w[0] = v[PV[e]];
-            w[1] = v[e];
-            w[2] = v[NX[e]];
+            w[0] = x->v[PV[e]];
+            w[1] = x->v[e];
+            w[2] = x->v[NX[e]];
+            hin = x->tw[e];
         }
         out->n += 3;
         *a = w[1];
@@ -321,34 +335,51 @@ static int derive_run(const mts_grow *g, int32_t t, int first, int32_t stop, uin
             *met = 1;
             return 1;
         }
-        t = g->tri[t].next;
+        t = next_of(g, t);
     }
-    for (; t >= 0; t = g->tri[t].next) {
-        if (!mts_words_reserve(out, 2))
-            return 0;
-        uint32_t w = third_vertex(g, (uint32_t)t, *a, *c);
-        int32_t nx = g->tri[t].next;
+    /* a triangle adds at most 2; room for the path's slot's triangles at
+     * once, more only if that ran out */
+    int32_t sl = g->tri[t].slot;
+    if (!mts_words_reserve(out, 2 * (size_t)(sl >= 0 ? g->slot[sl].ntri + 1 : 8)))
+        return 0;
+    uint32_t *o = out->w;
+    size_t n = out->n;
+    uint32_t ca = *a, cc = *c;
+    while (t >= 0) {
+        if (n + 2 > out->cap) {
+            out->n = n;
+            if (!mts_words_reserve(out, 2 * n + 2))
+                return 0;
+            o = out->w;
+        }
+        const grow_tri *x = &g->tri[t];
+        /* its new index: the corner off the edge it was entered by */
+        uint32_t w = hin != NONE && hin / 3 == (uint32_t)t ? x->v[PV[hin % 3]]
+                                                            : third_vertex(g, (uint32_t)t, ca, cc);
+        int32_t nx = x->nx < 0 ? -1 : x->nx >> 2;
+        unsigned e = x->nx < 0 ? 3 : (unsigned)(x->nx & 3);
         int swap = 0;
-        if (nx >= 0) {
-            unsigned e = edge_to(g, (uint32_t)t, (uint32_t)nx);
-            if (e < 3) {
-                uint32_t p = g->tri[t].v[e], q = g->tri[t].v[NX[e]];
-                swap = p != *c && q != *c;
-            }
+        hin = NONE;
+        if (e < 3) {
+            uint32_t p = x->v[e], q = x->v[NX[e]];
+            swap = p != cc && q != cc;
+            hin = x->tw[e];
         }
-        if (swap) {
-            /* the path turns the same way again: a swap keeps a */
-            out->w[out->n++] = *a;
-        } else {
-            *a = *c;
-        }
-        out->w[out->n++] = w;
-        *c = w;
+        if (swap)
+            o[n++] = ca; /* the path turns the same way again: a swap keeps a */
+        else
+            ca = cc;
+        o[n++] = w;
+        cc = w;
         if (t == stop) {
             *met = 1;
-            return 1;
+            break;
         }
+        t = nx;
     }
+    out->n = n;
+    *a = ca;
+    *c = cc;
     return 1;
 }
 
@@ -422,7 +453,7 @@ static void slot_release(mts_grow *g, int32_t s)
 static uint32_t path_claim(mts_grow *g, int32_t t, int32_t s)
 {
     uint32_t count = 0;
-    for (; t >= 0; t = g->tri[t].next) {
+    for (; t >= 0; t = next_of(g, t)) {
         g->tri[t].slot = s;
         count++;
     }
@@ -442,9 +473,9 @@ static int mend_link(mts_grow *g, int32_t a, int32_t c, uint32_t first_new)
         if (g->tri[f].slot >= 0 || !adjacent(g, a, (int32_t)f) || !adjacent(g, (int32_t)f, c))
             continue;
         int32_t s = g->tri[a].slot;
-        g->tri[a].next = (int32_t)f;
+        set_next(g, a, (int32_t)f);
         g->prev[f] = a;
-        g->tri[f].next = c;
+        set_next(g, f, c);
         g->prev[c] = (int32_t)f;
         g->tri[f].slot = s;
         g->slot[s].ntri++;
@@ -455,7 +486,7 @@ static int mend_link(mts_grow *g, int32_t a, int32_t c, uint32_t first_new)
     int32_t ns = slot_new(g);
     if (ns < 0)
         return 0;
-    g->tri[a].next = -1;
+    set_next(g, a, -1);
     g->prev[c] = -1;
     g->slot[ns].head = c;
     g->slot[ns].ntri = path_claim(g, c, ns);
@@ -477,7 +508,7 @@ static int place_newborn(mts_grow *g, int32_t f)
     int32_t tail = -1, head = -1;
     for (int c = 0; c < 3 && tail < 0; c++) {
         int32_t h = nbr[c];
-        if (h >= 0 && g->tri[h].next < 0 && g->slot[g->tri[h].slot].ntri < GROW_MAX_PATH)
+        if (h >= 0 && next_of(g, h) < 0 && g->slot[g->tri[h].slot].ntri < GROW_MAX_PATH)
             tail = h;
     }
     for (int c = 0; c < 3 && head < 0; c++) {
@@ -492,9 +523,9 @@ static int place_newborn(mts_grow *g, int32_t f)
     }
     if (tail >= 0 && head >= 0) {
         int32_t s = g->tri[tail].slot, gone = g->tri[head].slot;
-        g->tri[tail].next = f;
+        set_next(g, tail, f);
         g->prev[f] = tail;
-        g->tri[f].next = head;
+        set_next(g, f, head);
         g->prev[head] = f;
         g->tri[f].slot = s;
         g->slot[s].ntri += 1 + path_claim(g, head, s);
@@ -502,14 +533,14 @@ static int place_newborn(mts_grow *g, int32_t f)
         g->fig.grown_joined++;
     } else if (tail >= 0) {
         int32_t s = g->tri[tail].slot;
-        g->tri[tail].next = f;
+        set_next(g, tail, f);
         g->prev[f] = tail;
         g->tri[f].slot = s;
         g->slot[s].ntri++;
         g->fig.grown_appended++;
     } else if (head >= 0) {
         int32_t s = g->tri[head].slot;
-        g->tri[f].next = head;
+        set_next(g, f, head);
         g->prev[head] = f;
         g->tri[f].slot = s;
         g->slot[s].head = f;
@@ -543,7 +574,7 @@ static int paths_reset(mts_grow *g, uint32_t slots)
         touch(g, (int32_t)s);
     }
     for (uint32_t t = 0; t < g->tri_count; t++) {
-        g->tri[t].next = g->prev[t] = -1;
+        g->tri[t].nx = g->prev[t] = -1;
         g->tri[t].slot = -1;
     }
     g->free_count = 0;
@@ -597,7 +628,7 @@ static mts_result adopt_strips(mts_grow *g, const mts_strips *strips, int strict
                 goto done;
             }
             if (prev >= 0 && adjacent(g, prev, t)) {
-                g->tri[prev].next = t;
+                set_next(g, prev, t);
                 g->prev[t] = prev;
             } else if (prev >= 0 && strict) {
                 rc = mts_error_set(err, MTS_ERR_FORMAT,
@@ -723,7 +754,7 @@ static int renumber(mts_grow *g, const uint32_t *perm)
             x->v[e] = o->v[e];
             x->tw[e] = h == NONE ? NONE : 3 * perm[h / 3] + h % 3;
         }
-        x->next = x->slot = -1;
+        x->nx = x->slot = -1;
     }
     free(g->tri);
     g->tri = nt;
@@ -767,7 +798,7 @@ static mts_result restrip(mts_grow *g, mts_error *err)
         for (uint32_t i = starts[k]; i < starts[k + 1]; i++) {
             g->tri[i].slot = (int32_t)k;
             g->prev[i] = i > starts[k] ? (int32_t)i - 1 : -1;
-            g->tri[i].next = i + 1 < starts[k + 1] ? (int32_t)i + 1 : -1;
+            set_next(g, i, i + 1 < starts[k + 1] ? (int32_t)i + 1 : -1);
         }
         g->slot[k].head = (int32_t)starts[k];
         g->slot[k].ntri = starts[k + 1] - starts[k];
@@ -834,7 +865,7 @@ static mts_result resolve_full(mts_grow *g, const mts_grow_full *f, mts_error *e
                                      "full strips: strip %u crosses into triangle %u, which strip "
                                      "%d holds",
                                      s, u, g->tri[u].slot);
-            g->tri[t].next = (int32_t)u;
+            set_next(g, t, (int32_t)u);
             g->prev[u] = (int32_t)t;
             g->tri[u].slot = (int32_t)s;
             g->slot[s].ntri++;
@@ -1081,8 +1112,18 @@ static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
         return 0;
     g->rec.n = 1;
     uint32_t edits = 0;
-    if (g->touched_count > 1)
+    /* slot order: a split touches two or three (insertion sort), a key
+     * level every slot, already in order */
+    if (g->touched_count > 64) {
         qsort(g->touched, g->touched_count, 4, cmp_u32);
+    } else {
+        for (uint32_t i = 1; i < g->touched_count; i++) {
+            uint32_t x = g->touched[i], j = i;
+            for (; j > 0 && g->touched[j - 1] > x; j--)
+                g->touched[j] = g->touched[j - 1];
+            g->touched[j] = x;
+        }
+    }
     for (uint32_t k = 0; k < g->touched_count; k++) {
         uint32_t s = g->touched[k];
         splice sp = {0, (uint32_t)g->slot[s].seq.n, 0, &g->scratch};
@@ -1379,38 +1420,42 @@ static int32_t ring(mts_grow *g, uint32_t u)
         return -1;
     mts_words *out = &g->ring;
     const uint32_t c0 = g->vhead[u];
-    uint32_t c = c0, first = c0, lowest = c0, steps = 0;
-    int closed = 0;
-    /* back to the border, or round to c0 */
-    for (;;) {
-        uint32_t p = corner_back(g, c);
-        if (p == NONE) {
-            first = c;
-            break;
-        }
-        if (p == c0) {
-            closed = 1;
-            first = lowest;
-            break;
-        }
-        if (++steps > g->tri_count)
-            return -1;
-        c = p;
-        if (c / 3 < lowest / 3)
-            lowest = c;
-    }
+    if (!mts_words_reserve(out, 16))
+        return -1;
+    /* forward from the listed corner: round to it (an inner vertex, the
+     * ring starts there), or to a border */
+    uint32_t c = c0;
     out->n = 0;
-    c = first;
     for (;;) {
-        if (out->n >= g->tri_count || !mts_words_reserve(out, 1))
+        if (out->n >= g->tri_count || (out->n == out->cap && !mts_words_reserve(out, 1)))
             return -1;
         out->w[out->n++] = c;
         c = corner_fwd(g, c);
-        if (c == NONE || c == first)
+        if (c == NONE || c == c0)
             break;
     }
-    if (closed && c != first)
-        return -1;
+    int closed = c == c0;
+    if (!closed) {
+        /* on a border: the ring starts at the other one, behind c0 */
+        size_t ahead = out->n;
+        for (c = corner_back(g, c0); c != NONE; c = corner_back(g, c)) {
+            if (out->n >= g->tri_count || (out->n == out->cap && !mts_words_reserve(out, 1)))
+                return -1;
+            out->w[out->n++] = c;
+        }
+        /* out: c0 .. border, then the corners behind c0 nearest first */
+        size_t behind = out->n - ahead;
+        if (behind) {
+            mts_words *t = &g->scratch; /* free between splits */
+            t->n = 0;
+            if (!mts_words_reserve(t, out->n))
+                return -1;
+            for (size_t i = 0; i < behind; i++)
+                t->w[i] = out->w[out->n - 1 - i];
+            memcpy(t->w + behind, out->w, ahead * 4);
+            memcpy(out->w, t->w, out->n * 4);
+        }
+    }
     g->ring_u = u;
     g->ring_count = (uint32_t)out->n;
     g->ring_closed = closed;
@@ -1522,7 +1567,7 @@ static int note_candidates(mts_grow *g)
     for (uint32_t k = 0; k < g->ring_count; k++) {
         uint32_t c = g->ring.w[k];
         g->cand.w[g->cand.n++] = c;
-        g->cand.w[g->cand.n++] = (uint32_t)g->tri[c / 3].next;
+        g->cand.w[g->cand.n++] = (uint32_t)next_of(g, c / 3);
     }
     return 1;
 }
@@ -1730,8 +1775,8 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
             if (g->prev[t] >= 0 && !adjacent(g, g->prev[t], t) &&
                 !mend_link(g, g->prev[t], t, first_new))
                 goto nomem;
-            if (g->tri[t].next >= 0 && !adjacent(g, t, g->tri[t].next) &&
-                !mend_link(g, t, g->tri[t].next, first_new))
+            if (next_of(g, t) >= 0 && !adjacent(g, t, next_of(g, t)) &&
+                !mend_link(g, t, next_of(g, t), first_new))
                 goto nomem;
         }
         for (uint32_t f = first_new; f < g->tri_count; f++) {
@@ -1868,8 +1913,9 @@ mts_result mts_grow_check(const mts_grow *g, mts_error *err)
     uint32_t nonempty = 0, placed = 0;
     for (uint32_t s = 0; s < g->slot_count && rc == MTS_OK; s++) {
         uint32_t count = 0;
-        for (int32_t t = g->slot[s].head, p = -1; t >= 0 && rc == MTS_OK; p = t, t = g->tri[t].next) {
+        for (int32_t t = g->slot[s].head, p = -1; t >= 0 && rc == MTS_OK; p = t, t = next_of(g, t)) {
             if (g->tri[t].slot != (int32_t)s || g->prev[t] != p || (p >= 0 && !adjacent(g, p, t)) ||
+                (p >= 0 && (g->tri[p].nx & 3) != (int32_t)edge_to(g, (uint32_t)p, (uint32_t)t)) ||
                 ++count > g->tri_count)
                 rc = mts_error_set(err, MTS_ERR_INTERNAL,
                                    "grow check: slot %u's path is broken at triangle %d", s, t);
