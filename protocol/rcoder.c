@@ -119,23 +119,75 @@ int mts_rc_decoder_finished(const mts_rc_decoder *d)
     return d->ok && d->p == d->end && d->past_end == MTS_RC_TAIL_BYTES;
 }
 
-uint32_t mts_rc_decode_direct(mts_rc_decoder *d, unsigned nbits)
+/* The decoders below keep the coder's state in locals while they work (a
+ * value is a dozen decisions, and through d the compiler would reload and
+ * store range and code at each, as other stores may alias d) and put it
+ * back at the end; rc_bit is mts_rc_decode_bit on that state. */
+typedef struct rc_state {
+    uint32_t range, code;
+    const uint8_t *p;
+} rc_state;
+
+static inline rc_state rc_load(const mts_rc_decoder *d)
 {
-    if (nbits > 32)
-        nbits = 32;
+    rc_state r = {d->range, d->code, d->p};
+    return r;
+}
+
+static inline void rc_store(mts_rc_decoder *d, rc_state r)
+{
+    d->range = r.range;
+    d->code = r.code;
+    d->p = r.p;
+}
+
+static inline void rc_norm(mts_rc_decoder *d, rc_state *r)
+{
+    if (r->range < MTS_RC_TOP) {
+        r->range <<= 8;
+        r->code = (r->code << 8) | (r->p < d->end ? *r->p++ : mts_rc_decoder_past_end(d));
+    }
+}
+
+static inline unsigned rc_bit(mts_rc_decoder *d, rc_state *r, uint16_t *prob)
+{
+    uint32_t p = *prob, bound = (r->range >> MTS_RC_PROB_BITS) * p;
+    unsigned bit = r->code >= bound;
+    if (!bit) {
+        r->range = bound;
+        *prob = (uint16_t)(p + ((MTS_RC_PROB_ONE - p) >> MTS_RC_ADAPT_SHIFT));
+    } else {
+        r->code -= bound;
+        r->range -= bound;
+        *prob = (uint16_t)(p - (p >> MTS_RC_ADAPT_SHIFT));
+    }
+    rc_norm(d, r);
+    return bit;
+}
+
+static inline uint32_t rc_direct(mts_rc_decoder *d, rc_state *r, unsigned nbits)
+{
     uint32_t v = 0, bad = 0;
     while (nbits--) {
-        d->range >>= 1;
-        uint32_t bit = d->code >= d->range;
-        d->code -= d->range & (0u - bit);
+        r->range >>= 1;
+        uint32_t bit = r->code >= r->range;
+        r->code -= r->range & (0u - bit);
         /* halving an odd range drops its last value, which no encoder
          * reaches: code landing there means the input is not a stream */
-        bad |= d->code >= d->range;
+        bad |= r->code >= r->range;
         v = (v << 1) | bit;
-        mts_rc_decoder_normalize(d);
+        rc_norm(d, r);
     }
     if (bad)
         d->ok = 0;
+    return v;
+}
+
+uint32_t mts_rc_decode_direct(mts_rc_decoder *d, unsigned nbits)
+{
+    rc_state r = rc_load(d);
+    uint32_t v = rc_direct(d, &r, nbits > 32 ? 32 : nbits);
+    rc_store(d, r);
     return v;
 }
 
@@ -170,25 +222,28 @@ void mts_rc_encode_uint(mts_rc_encoder *e, mts_rc_uint_model *m, uint32_t v)
 
 uint32_t mts_rc_decode_uint(mts_rc_decoder *d, mts_rc_uint_model *m)
 {
+    rc_state r = rc_load(d);
     unsigned node = 1;
     for (int i = 0; i < MTS_RC_BUCKET_BITS; i++)
-        node = 2 * node + mts_rc_decode_bit(d, &m->bucket[node]);
+        node = 2 * node + rc_bit(d, &r, &m->bucket[node]);
     unsigned b = node - (1u << MTS_RC_BUCKET_BITS);
-    if (b < 2)
-        return b;
+    uint32_t v = b;
     if (b >= MTS_RC_BUCKETS) {
         d->ok = 0;
-        return 0;
+        v = 0;
+    } else if (b >= 2) {
+        unsigned below = b - 1;
+        unsigned modelled = below < MTS_RC_CONTEXT_BITS ? below : MTS_RC_CONTEXT_BITS;
+        uint16_t *probs = m->mantissa[b];
+        node = 1;
+        for (unsigned i = 0; i < modelled; i++)
+            node = 2 * node + rc_bit(d, &r, &probs[node]);
+        uint32_t top = node - (1u << modelled);
+        unsigned rest = below - modelled;
+        v = (1u << below) | (top << rest) | rc_direct(d, &r, rest);
     }
-    unsigned below = b - 1;
-    unsigned modelled = below < MTS_RC_CONTEXT_BITS ? below : MTS_RC_CONTEXT_BITS;
-    uint16_t *probs = m->mantissa[b];
-    node = 1;
-    for (unsigned i = 0; i < modelled; i++)
-        node = 2 * node + mts_rc_decode_bit(d, &probs[node]);
-    uint32_t top = node - (1u << modelled);
-    unsigned rest = below - modelled;
-    return (1u << below) | (top << rest) | mts_rc_decode_direct(d, rest);
+    rc_store(d, r);
+    return v;
 }
 
 void mts_rc_encode_sint(mts_rc_encoder *e, mts_rc_uint_model *m, int32_t v)
@@ -226,8 +281,10 @@ void mts_rc_encode_tree(mts_rc_encoder *e, mts_rc_tree_model *m, unsigned symbol
 
 unsigned mts_rc_decode_tree(mts_rc_decoder *d, mts_rc_tree_model *m)
 {
+    rc_state r = rc_load(d);
     unsigned n = tree_bits(m), node = 1;
     for (unsigned i = 0; i < n; i++)
-        node = 2 * node + mts_rc_decode_bit(d, &m->probs[node]);
+        node = 2 * node + rc_bit(d, &r, &m->probs[node]);
+    rc_store(d, r);
     return node - (1u << n);
 }
