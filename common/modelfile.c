@@ -394,8 +394,9 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     uint16_t major = get_u16(buf + 4), minor = get_u16(buf + 6);
     /* version 1's records have no erase runs and its strips no capacities,
      * version 2's splits no descriptions a stream can send, version 3's
-     * INFO no flags: nothing here can read them, but mts-build makes the
-     * same model anew */
+     * INFO no flags, version 4's records came from the growth rules of
+     * protocol 4.x: nothing here can use them, but mts-build makes the
+     * model anew */
     if (major >= 1 && major < MTS_MODELFILE_MAJOR)
         return mts_error_set(err, MTS_ERR_VERSION,
                              "%s: model file version %u is from an older mtstream; rebuild it "

@@ -53,7 +53,7 @@
 #include "error.h"
 #include "model.h"
 
-#define MTS_MODELFILE_MAJOR 4
+#define MTS_MODELFILE_MAJOR 5
 #define MTS_MODELFILE_MINOR 0
 
 /* Serialises a model into a new buffer (free with free()). */

@@ -16,8 +16,8 @@
  * 4.1: the records form, asked for by a HELLO flag (PROTOCOL.md,
  * "Changes"); a peer of another major version is refused at HELLO with
  * ERROR version. */
-#define MTS_WIRE_MAJOR 4
-#define MTS_WIRE_MINOR 1
+#define MTS_WIRE_MAJOR 5
+#define MTS_WIRE_MINOR 0
 
 /* Each key level costs a client a stripification of the whole mesh there, so
  * a client bounds how many it takes (the builder makes about 13 on bunny00

@@ -312,11 +312,11 @@ static void test_specific_errors(mts_test *t)
     expect_error(t, f, size, MTS_ERR_FORMAT, "magic");
 
     memcpy(f, file, size);
-    f[4] = 5;
-    expect_error(t, f, size, MTS_ERR_VERSION, "version 5.0");
+    f[4] = 6;
+    expect_error(t, f, size, MTS_ERR_VERSION, "version 6.0");
 
-    /* versions 1 to 3 (no erase runs, no capacities; no split
-     * descriptions; no flags): rebuild */
+    /* versions 1 to 4 (no erase runs, no capacities; no split
+     * descriptions; no flags; other growth rules): rebuild */
     memcpy(f, file, size);
     f[4] = 1;
     reseal(f);
@@ -332,6 +332,11 @@ static void test_specific_errors(mts_test *t)
     reseal(f);
     expect_error(t, f, size, MTS_ERR_VERSION,
                  "model file version 3 is from an older mtstream; rebuild it with mts-build");
+    memcpy(f, file, size);
+    f[4] = 4;
+    reseal(f);
+    expect_error(t, f, size, MTS_ERR_VERSION,
+                 "model file version 4 is from an older mtstream; rebuild it with mts-build");
 
     memcpy(f, file, size);
     f[section_offset(f, 2) + 5] ^= 0x40; /* inside the positions */

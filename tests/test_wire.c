@@ -64,22 +64,22 @@ static void test_hello_round_trip_and_errors(mts_test *t)
     CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_FORMAT);
     CHECK(t, strstr(err.msg, "magic") != NULL);
     /* 1.0 and 2.0 peers (records on the wire), 3.0 (splits not
-     * entropy-coded) and a future major */
-    CHECK(t, MTS_WIRE_MAJOR == 4);
-    for (uint8_t old = 1; old <= 3; old++) {
+     * entropy-coded), 4.0 (other growth rules) and a future major */
+    CHECK(t, MTS_WIRE_MAJOR == 5);
+    for (uint8_t old = 1; old <= 4; old++) {
         memcpy(copy, p, n);
         copy[4] = old;
         copy[6] = copy[7] = 0; /* an X.0 peer (this one writes MTS_WIRE_MINOR) */
         char want[8];
         snprintf(want, sizeof want, "%u.0", old);
         CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
-        CHECKF(t, strstr(err.msg, want) != NULL && strstr(err.msg, "speaks 4.x") != NULL, "%s",
+        CHECKF(t, strstr(err.msg, want) != NULL && strstr(err.msg, "speaks 5.x") != NULL, "%s",
                err.msg);
     }
-    copy[4] = 5;
+    copy[4] = 6;
     copy[6] = copy[7] = 0;
     CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
-    CHECKF(t, strstr(err.msg, "5.0") != NULL, "%s", err.msg);
+    CHECKF(t, strstr(err.msg, "6.0") != NULL, "%s", err.msg);
     free(copy);
     /* names that could reach a file system are refused */
     const char *bad[] = {"../etc/passwd", "a/b", ".hidden", "", "sp ace",
@@ -190,11 +190,11 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
 
 /* 4.1's HELLO flag: a client asking for the records form says so in HELLO's
  * flags, which come back as sent (other bits too: a server ignores the ones
- * it does not know, so a later client's wishes cost it nothing); a 4.0 peer
- * (minor 0, flags 0) still parses. */
+ * it does not know, so a later client's wishes cost it nothing); a peer
+ * that asks for nothing (flags 0) still parses. */
 static void test_hello_records_flag(mts_test *t)
 {
-    CHECK(t, MTS_WIRE_MINOR >= 1 && MTS_HELLO_RECORDS == 1u);
+    CHECK(t, MTS_HELLO_RECORDS == 1u);
     const uint32_t flags[] = {MTS_HELLO_RECORDS, 0, MTS_HELLO_RECORDS | 0x40u, 0x80u, 1u << 31};
     for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++) {
         mts_buf b = {0};
