@@ -237,17 +237,44 @@ static int cmp_he_key(const void *a, const void *b)
     return x->h < y->h ? -1 : x->h > y->h;
 }
 
+/* Sorted by a least-significant-digit radix sort, 16 bits a pass, stable
+ * (so equal keys keep half-edge order) and skipping passes whose digit is
+ * the same everywhere: the full level of a 1.2M-triangle mesh is 3.6M keys,
+ * which qsort took seconds over. */
 static he_key *he_index(const mts_grow *g)
 {
     size_t m = 3 * (size_t)g->tri_count;
-    he_key *k = malloc((m + 1) * sizeof *k);
-    if (!k)
+    he_key *k = malloc((m + 1) * sizeof *k), *tmp = malloc((m + 1) * sizeof *tmp);
+    uint32_t *count = malloc(65537 * sizeof *count);
+    if (!k || !tmp || !count) {
+        free(k);
+        free(tmp);
+        free(count);
         return NULL;
+    }
+    uint64_t all_or = 0, all_and = ~(uint64_t)0;
     for (size_t h = 0; h < m; h++) {
         k[h].key = (uint64_t)he_from(g, (uint32_t)h) << 32 | he_to(g, (uint32_t)h);
         k[h].h = (uint32_t)h;
+        all_or |= k[h].key;
+        all_and &= k[h].key;
     }
-    qsort(k, m, sizeof *k, cmp_he_key);
+    for (unsigned shift = 0; shift < 64; shift += 16) {
+        if ((((all_or ^ all_and) >> shift) & 0xFFFF) == 0)
+            continue; /* this digit never differs */
+        memset(count, 0, 65537 * sizeof *count);
+        for (size_t i = 0; i < m; i++)
+            count[((k[i].key >> shift) & 0xFFFF) + 1]++;
+        for (size_t d = 1; d <= 65536; d++)
+            count[d] += count[d - 1];
+        for (size_t i = 0; i < m; i++)
+            tmp[count[(k[i].key >> shift) & 0xFFFF]++] = k[i];
+        he_key *x = k;
+        k = tmp;
+        tmp = x;
+    }
+    free(tmp);
+    free(count);
     return k;
 }
 
@@ -595,14 +622,42 @@ static void slots_free_unused(mts_grow *g, uint32_t used)
  * level): paths go into slots 0.. in order, a strip whose windows do not
  * chain is split over several slots, and every other slot is left empty
  * and free. Strict (a base): slot s gets strip s, which must be one path. */
-static mts_result adopt_strips(mts_grow *g, const mts_strips *strips, int strict, mts_error *err)
+/* The live triangle a window (oriented as drawn) is: a neighbour of the
+ * previous window's (a strip that chains), else found round its first
+ * vertex, else (a vertex of several fans) in a sorted index of every
+ * half-edge, made the first time one is needed. -1: none; -2: no memory. */
+static int32_t window_triangle(const mts_grow *g, int32_t prev, const uint32_t tri[3],
+                               he_key **ix)
 {
     const size_t m = 3 * (size_t)g->tri_count;
-    he_key *ix = he_index(g);
-    if (!ix || !paths_reset(g, strips->strip_count)) {
-        free(ix);
-        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    for (int e = 0; prev >= 0 && e < 3; e++) {
+        uint32_t h = g->tri[prev].tw[e];
+        if (h == NONE)
+            continue;
+        const uint32_t *v = g->tri[h / 3].v;
+        int k = corner_of(v, tri[0]);
+        if (k >= 0 && v[NX[k]] == tri[1] && v[PV[k]] == tri[2])
+            return (int32_t)(h / 3);
     }
+    if (tri[0] < g->nb + g->level) {
+        uint32_t h = find_half_edge(g, tri[0], tri[1]);
+        if (h != NONE)
+            return g->tri[h / 3].v[PV[h % 3]] == tri[2] ? (int32_t)(h / 3) : -1;
+    }
+    if (!*ix && !(*ix = he_index(g)))
+        return -2;
+    size_t i = he_index_find(*ix, m, tri[0], tri[1]);
+    if (i == m)
+        return -1;
+    uint32_t t = (*ix)[i].h / 3;
+    return third_vertex(g, t, tri[0], tri[1]) == tri[2] ? (int32_t)t : -1;
+}
+
+static mts_result adopt_strips(mts_grow *g, const mts_strips *strips, int strict, mts_error *err)
+{
+    he_key *ix = NULL;
+    if (!paths_reset(g, strips->strip_count))
+        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
     mts_result rc = MTS_OK;
     uint32_t used = 0;
     for (uint32_t k = 0; k < strips->strip_count; k++) {
@@ -613,9 +668,12 @@ static mts_result adopt_strips(mts_grow *g, const mts_strips *strips, int strict
             uint32_t tri[3];
             if (!mts_strip_window(str, w, tri))
                 continue;
-            size_t i = he_index_find(ix, m, tri[0], tri[1]);
-            int32_t t = i < m ? (int32_t)(ix[i].h / 3) : -1;
-            if (t < 0 || third_vertex(g, (uint32_t)t, tri[0], tri[1]) != tri[2]) {
+            int32_t t = window_triangle(g, prev, tri, &ix);
+            if (t == -2) {
+                rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+                goto done;
+            }
+            if (t < 0) {
                 rc = mts_error_set(err, MTS_ERR_FORMAT,
                                    "grow: strip %u draws (%u %u %u), not a triangle of level %u",
                                    k, tri[0], tri[1], tri[2], g->level);

@@ -61,12 +61,25 @@ static uint64_t mix64(uint64_t h)
     return h ^ (h >> 33);
 }
 
+/* A strip's term of the checksum (PROTOCOL.md, END). A server sums it at
+ * every level for every strip that changed, so the loop is one multiply
+ * and a rotate a pair of indices (mixing them fully each was a seventh of
+ * encoding a 1.2M-triangle model's stream); the rotate brings high bits
+ * down for the next multiply to spread. */
 static uint64_t strip_sum(uint32_t s, const uint32_t *str, uint32_t len)
 {
     uint64_t h = mix64(0x5354524950ull ^ ((uint64_t)s << 32 | len));
-    for (uint32_t k = 0; k < len; k++)
-        h = mix64(h ^ str[k]) + k;
-    return h;
+    uint32_t k = 0;
+    for (; k + 1 < len; k += 2) {
+        uint64_t w = (uint64_t)str[k] | (uint64_t)str[k + 1] << 32;
+        h ^= w;
+        h = (h << 31 | h >> 33) * 0x9e3779b97f4a7c15ull;
+    }
+    if (k < len) {
+        h ^= str[k];
+        h = (h << 31 | h >> 33) * 0x9e3779b97f4a7c15ull;
+    }
+    return mix64(h);
 }
 
 static uint64_t vertex_sum(uint32_t x, const uint32_t q[3])
@@ -226,6 +239,7 @@ void mts_stream_free(mts_stream *s)
         free(s->quantized);
         free(s->batch_first);
         free(s->level_checksum);
+        free(s->oct);
     }
     free(s->bytes);
     free(s->batch_offset);
@@ -451,7 +465,12 @@ static void put_crc(mts_buf *b, size_t frame_start)
     mts_buf_u32(b, crc);
 }
 
-static mts_result level_checksums(mts_stream *s, mts_error *err)
+static int cancelled(const mts_stream_options *opts, uint32_t j)
+{
+    return (j & 4095) == 0 && opts->cancel && *opts->cancel;
+}
+
+static mts_result level_checksums(mts_stream *s, const mts_stream_options *opts, mts_error *err)
 {
     const mts_model *m = &s->model;
     mts_lod lod;
@@ -472,6 +491,10 @@ static mts_result level_checksums(mts_stream *s, mts_error *err)
     mts_lod_clear_changed(&lod);
     s->level_checksum[0] = sum;
     for (uint32_t l = 0; l < m->level_count; l++) {
+        if (cancelled(opts, l)) {
+            rc = mts_error_set(err, MTS_ERR_ARG, "stream: cancelled");
+            break;
+        }
         if ((rc = mts_lod_split(&lod, err)) != MTS_OK)
             break;
         uint32_t nc;
@@ -513,8 +536,8 @@ static void pass_free(prediction_pass *p)
     memset(p, 0, sizeof *p);
 }
 
-static mts_result predict_all(mts_stream *s, const uint16_t *oct, int carry_normals,
-                              prediction_pass *pass, mts_error *err)
+static mts_result predict_all(mts_stream *s, const mts_stream_options *opts, const uint16_t *oct,
+                              int carry_normals, prediction_pass *pass, mts_error *err)
 {
     const mts_model *m = &s->model;
     const uint32_t nb = m->base_vertex_count, n = m->level_count;
@@ -534,6 +557,10 @@ static mts_result predict_all(mts_stream *s, const uint16_t *oct, int carry_norm
     for (uint32_t j = 0; j < n && rc == MTS_OK; j++) {
         const uint32_t v = nb + j, u = m->parents[j];
         mts_grow_split sp;
+        if (cancelled(opts, j)) {
+            rc = mts_error_set(err, MTS_ERR_ARG, "stream: cancelled");
+            break;
+        }
         if (!mts_grow_model_split(g, m, j, &sp)) {
             rc = mts_error_set(err, MTS_ERR_ARG,
                                "split %u's description names no fan of the mesh; rebuild it "
@@ -615,9 +642,12 @@ static mts_result build_info_tail(mts_stream *s);
  * encoding (reccodec.h) and each new vertex against its parent, as plain
  * varints: a client then only checks and applies records, with no growth
  * to run, which is what a fast link wants. */
-static mts_result build_records_form(mts_stream *s, const uint16_t *oct, int carry_normals,
-                                     mts_error *err)
+mts_result mts_stream_add_records_form(mts_stream *s, mts_error *err)
 {
+    if (s->records || s->records_form)
+        return MTS_OK;
+    const uint16_t *oct = s->oct;
+    const int carry_normals = oct != NULL;
     const mts_model *m = &s->model;
     const uint32_t nb = m->base_vertex_count;
     mts_stream *r = calloc(1, sizeof *r);
@@ -783,7 +813,7 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
      * split leaves around its vertex, and the full strips are described on
      * the full level's triangles, which the last batch carries ahead of
      * its splits. */
-    if ((rc = predict_all(s, oct, carry_normals, &pass, err)) != MTS_OK)
+    if ((rc = predict_all(s, opts, oct, carry_normals, &pass, err)) != MTS_OK)
         goto fail;
     uint32_t per = opts->batch_splits ? opts->batch_splits : (n / 100 > 64 ? n / 100 : 64);
     s->batch_count = n == 0 ? 0 : (n + per - 1) / per;
@@ -835,14 +865,18 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     s->size = b.size;
     b.data = NULL;
     s->stream_id = fnv64(s->bytes, s->size) ^ ((uint64_t)s->size << 1);
-    if ((rc = level_checksums(s, err)) != MTS_OK)
+    if ((rc = level_checksums(s, opts, err)) != MTS_OK)
         goto fail;
     if (build_info_tail(s) != MTS_OK)
         goto nomem;
-    if (opts->with_records && (rc = build_records_form(s, oct, carry_normals, err)) != MTS_OK)
+    /* the codes stay: a records form (now or later) sends them */
+    s->oct = carry_normals ? oct : NULL;
+    if (!carry_normals)
+        free(oct);
+    oct = NULL;
+    if (opts->with_records && (rc = mts_stream_add_records_form(s, err)) != MTS_OK)
         goto fail;
     free(draco);
-    free(oct);
     free(models);
     pass_free(&pass);
     return MTS_OK;

@@ -27,6 +27,7 @@
 #ifndef MTS_STREAM_H
 #define MTS_STREAM_H
 
+#include <signal.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -43,6 +44,9 @@ typedef struct mts_stream_options {
     uint32_t batch_splits;   /* splits per batch; 0 = max(64, levels / 100) */
     int draco_method;        /* mts_draco_method; 0 = edgebreaker (sequential as fallback) */
     int with_records;        /* also build the records form (s->records_form) */
+    /* when not NULL and set (a signal, another thread), building stops
+     * early with MTS_ERR_ARG "cancelled"; polled every few thousand splits */
+    const volatile sig_atomic_t *cancel;
 } mts_stream_options;
 
 typedef struct mts_stream {
@@ -68,12 +72,19 @@ typedef struct mts_stream {
      * grid points, batching and checksums are this stream's, borrowed, so
      * it lives and dies with this one. */
     struct mts_stream *records_form;
+    uint16_t *oct; /* the normals' codes, where the stream carries normals (a
+                      records form sends them as they are) */
     int records;  /* this is a records form */
     int borrowed; /* model, quantized, batch_first, level_checksum are another's */
 } mts_stream;
 
 mts_result mts_stream_build(const mts_model *model, const char *name,
                             const mts_stream_options *opts, mts_stream *stream, mts_error *err);
+
+/* Builds s->records_form when s has none (mts_stream_build's with_records
+ * does it at once; a server may do it after publishing s, for clients that
+ * can wait: it must then not read s->records_form meanwhile). */
+mts_result mts_stream_add_records_form(mts_stream *s, mts_error *err);
 
 /* The form a HELLO's flags ask for: s->records_form when it asks for
  * records and s has them, else s. */

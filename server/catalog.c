@@ -251,6 +251,12 @@ const mts_catalog_entry *mts_catalog_at(const mts_catalog *cat, size_t i)
     return cat && i < cat->count ? cat->entries[i] : NULL;
 }
 
+void mts_catalog_release_model(mts_catalog *cat, size_t i)
+{
+    if (cat && i < cat->count)
+        mts_model_free(&cat->entries[i]->model);
+}
+
 static void entry_free(mts_catalog_entry *e)
 {
     if (!e)

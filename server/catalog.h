@@ -36,7 +36,8 @@
  * loaded with mts_mesh_load_memory by the URL's file name, built, not cached).
  *
  * A catalog is filled at start-up from one thread; after that, find, count and
- * at only read it and may be called from any number of threads. */
+ * at only read it and may be called from any number of threads (and
+ * release_model changes only its own entry). */
 #ifndef MTS_CATALOG_H
 #define MTS_CATALOG_H
 
@@ -129,5 +130,10 @@ const mts_catalog_entry *mts_catalog_find_n(const mts_catalog *cat, const char *
 /* Entries in byte order of their names, for listing. */
 size_t mts_catalog_count(const mts_catalog *cat);
 const mts_catalog_entry *mts_catalog_at(const mts_catalog *cat, size_t i);
+
+/* Frees entry i's model (a stream holds its own copy once encoded); the
+ * name and source stay. Entries are separate: threads may release
+ * different ones at once. */
+void mts_catalog_release_model(mts_catalog *cat, size_t i);
 
 #endif

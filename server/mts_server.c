@@ -1,5 +1,7 @@
 /* mts-server: streams multiresolution strip models to many clients. */
 #include <errno.h>
+#include <stdatomic.h>
+#include <unistd.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
@@ -19,14 +21,17 @@ static void usage(FILE *f)
           "                  [--max-clients N] [--idle-timeout S] [--handshake-timeout S]\n"
           "                  [--grace S] [--max-download BYTES] [--workers N]\n"
           "                  [--rate-limit BYTES/S] [--sndbuf BYTES] [--stats-interval S]\n"
-          "                  [--no-records-form] [--quiet]\n"
+          "                  [--prepare-threads N] [--prepare-wait S] [--no-records-form]\n"
+          "                  [--quiet]\n"
           "\n"
           "Serves every .mtsm in DIR and every mesh there (built once and cached), each\n"
           "named by its file stem, plus models given one by one (a file, or an http(s)\n"
           "URL fetched and built). Clients get a Draco base mesh, then batches of strip\n"
           "records (protocol/PROTOCOL.md): each batch's vertex splits, range-coded, from\n"
           "which the client derives the records, or where the client asks (mts-client\n"
-          "--records) the records themselves.\n"
+          "--records) the records themselves. It listens as soon as the models are loaded\n"
+          "and encodes their streams meanwhile: a client asking for one not ready yet\n"
+          "waits for it.\n"
           "\n"
           "  --models DIR           a directory of models and meshes\n"
           "  --model NAME=SOURCE    one model: a .mtsm, a mesh file or an http(s) URL\n"
@@ -44,6 +49,10 @@ static void usage(FILE *f)
           "                         up to 4 MiB each on Linux); bounds kernel memory\n"
           "  --stats-interval S     a 'stats:' log line every S s per worker: connections,\n"
           "                         peak, outcomes, MB/s out, resident memory\n"
+          "  --prepare-threads N    threads encoding the models' streams after start-up\n"
+          "                         (default: one per core but one, at least 1)\n"
+          "  --prepare-wait S       a client asking for a model still being encoded waits up\n"
+          "                         to S s, then gets ERROR busy (default 60)\n"
           "  --no-records-form      keep only the splits form of each stream (a client that\n"
           "                         asks for records gets splits): saves memory, about 16x\n"
           "                         the splits form's bytes per model\n"
@@ -120,11 +129,78 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
+/* The threads that encode the models' streams while the servers listen:
+ * each takes the next model, publishes its stream (or why it failed) into
+ * the table the servers read, and lets the catalog's copy of the model go. */
+typedef struct preparer {
+    mts_catalog *cat;
+    mts_server_model *models;
+    mts_stream *streams;
+    uint8_t *built; /* per model: 1 when streams[i] holds a stream to free */
+    uint32_t count;
+    atomic_uint next, done, ok;
+    int no_records, quiet;
+    volatile int failed_all;
+} preparer;
+
+static void *prepare_main(void *arg)
+{
+    preparer *p = arg;
+    for (;;) {
+        uint32_t i = atomic_fetch_add(&p->next, 1);
+        if (i >= p->count || stop_requested)
+            return NULL;
+        const mts_catalog_entry *e = mts_catalog_at(p->cat, i);
+        mts_stream_options sto = {0};
+        sto.cancel = &stop_requested; /* the records form follows, once this is served */
+        mts_error err = {0};
+        struct timespec t0, t1;
+        clock_gettime(CLOCK_MONOTONIC, &t0);
+        int ok = mts_stream_build(&e->model, e->name, &sto, &p->streams[i], &err) == MTS_OK;
+        if (!ok) {
+            if (!stop_requested)
+                fprintf(stderr, "mts-server: %s: cannot encode its stream: %s\n", e->name,
+                        err.msg);
+            mts_server_model_fail(&p->models[i], err.msg);
+        } else {
+            mts_stream *st = &p->streams[i];
+            p->built[i] = 1;
+            mts_server_model_publish(&p->models[i], st);
+            clock_gettime(CLOCK_MONOTONIC, &t1);
+            if (!p->quiet)
+                fprintf(stderr,
+                        "mts-server: serving %s: %u vertices, %u levels, %zu stream bytes, "
+                        "encoded in %.2f s\n",
+                        e->name, e->model.vertex_count, e->model.level_count, st->size,
+                        (double)(t1.tv_sec - t0.tv_sec) + (t1.tv_nsec - t0.tv_nsec) * 1e-9);
+            if (!p->no_records && !stop_requested) {
+                if (mts_stream_add_records_form(st, &err) != MTS_OK) {
+                    fprintf(stderr, "mts-server: %s: no records form (%s); splits form only\n",
+                            e->name, err.msg);
+                } else {
+                    mts_server_model_publish_records(&p->models[i], st->records_form);
+                    if (!p->quiet)
+                        fprintf(stderr, "mts-server: %s: records form ready, %zu bytes\n",
+                                e->name, st->records_form->size);
+                }
+            }
+        }
+        /* the stream holds its own copy of the model */
+        mts_catalog_release_model(p->cat, i);
+        unsigned good = ok ? atomic_fetch_add(&p->ok, 1) + 1 : atomic_load(&p->ok);
+        if (atomic_fetch_add(&p->done, 1) + 1 == p->count && good == 0 && !stop_requested) {
+            fprintf(stderr, "mts-server: no model could be encoded; stopping\n");
+            p->failed_all = 1;
+            stop_requested = 1;
+        }
+    }
+}
+
 int main(int argc, char **argv)
 {
     const char *dirs[64], *models[64];
     int ndirs = 0, nmodels = 0, quiet = 0, no_records = 0;
-    uint32_t nworkers = 1;
+    uint32_t nworkers = 1, nprepare = 0;
     mts_server_options so = {0};
     mts_catalog_options co = {0};
     for (int i = 1; i < argc; i++) {
@@ -156,8 +232,13 @@ int main(int argc, char **argv)
                 fprintf(stderr, "mts-server: --max-clients needs a positive number\n");
                 return CLI_EXIT_USAGE;
             }
+        } else if (!strcmp(a, "--prepare-threads")) {
+            if (!cli_parse_u32(v, &nprepare) || nprepare == 0 || nprepare > 256) {
+                fprintf(stderr, "mts-server: --prepare-threads needs a number from 1 to 256\n");
+                return CLI_EXIT_USAGE;
+            }
         } else if (!strcmp(a, "--idle-timeout") || !strcmp(a, "--handshake-timeout") ||
-                   !strcmp(a, "--grace")) {
+                   !strcmp(a, "--grace") || !strcmp(a, "--prepare-wait")) {
             double s;
             if (!parse_seconds(v, &s)) {
                 fprintf(stderr, "mts-server: %s needs a positive number of seconds\n", a);
@@ -165,6 +246,8 @@ int main(int argc, char **argv)
             }
             if (!strcmp(a, "--idle-timeout"))
                 so.idle_timeout = s;
+            else if (!strcmp(a, "--prepare-wait"))
+                so.prepare_wait = s;
             else if (!strcmp(a, "--handshake-timeout"))
                 so.handshake_timeout = s;
             else
@@ -212,9 +295,12 @@ int main(int argc, char **argv)
     mts_error err = {0};
     mts_catalog *cat = NULL;
     mts_stream *streams = NULL;
-    const mts_stream **list = NULL;
+    mts_server_model *table = NULL;
+    uint8_t *built = NULL;
     worker *workers = NULL;
-    uint32_t created = 0;
+    pthread_t *preparers = NULL;
+    preparer prep = {0};
+    uint32_t created = 0, prepared = 0, count = 0;
     int status = CLI_EXIT_FAIL;
     cli_bar bar;
     cli_bar_init(&bar, quiet);
@@ -234,45 +320,28 @@ int main(int argc, char **argv)
         }
     }
     cli_bar_done(&bar);
-    uint32_t count = (uint32_t)mts_catalog_count(cat);
+    count = (uint32_t)mts_catalog_count(cat);
     if (count == 0) {
         mts_error_set(&err, MTS_ERR_ARG, "no model to serve");
         goto fail;
     }
     streams = calloc(count, sizeof *streams);
-    list = calloc(count, sizeof *list);
-    if (!streams || !list) {
+    table = calloc(count, sizeof *table);
+    built = calloc(count, 1);
+    if (!streams || !table || !built) {
         mts_error_set(&err, MTS_ERR_NOMEM, "out of memory");
         goto fail;
     }
-    uint32_t ready = 0;
     for (uint32_t i = 0; i < count; i++) {
         const mts_catalog_entry *e = mts_catalog_at(cat, i);
-        mts_stream_options sto = {0};
-        sto.with_records = !no_records;
-        if (mts_stream_build(&e->model, e->name, &sto, &streams[ready], &err) != MTS_OK) {
-            fprintf(stderr, "mts-server: %s: cannot encode its stream: %s\n", e->name, err.msg);
-            continue;
-        }
-        list[ready] = &streams[ready];
-        if (!quiet) {
-            char rec[64] = "no records form";
-            if (streams[ready].records_form)
-                snprintf(rec, sizeof rec, "%zu as records", streams[ready].records_form->size);
-            fprintf(stderr,
-                    "mts-server: serving %s: %u vertices, %u levels, %zu stream bytes (%s)\n",
-                    e->name, e->model.vertex_count, e->model.level_count, streams[ready].size,
-                    rec);
-        }
-        ready++;
+        mts_server_model *m = &table[i];
+        snprintf(m->name, sizeof m->name, "%s", e->name);
+        m->vertices = e->model.vertex_count;
+        m->triangles = e->model.level_triangles[e->model.level_count];
+        m->levels = e->model.level_count;
+        atomic_init(&m->stream, NULL);
+        atomic_init(&m->failed, 0);
     }
-    if (ready == 0) {
-        mts_error_set(&err, MTS_ERR_ARG, "no model could be encoded");
-        goto fail;
-    }
-    /* every stream holds its own copy of its model: the catalog's can go */
-    mts_catalog_free(cat);
-    cat = NULL;
     so.log = log_line;
     so.log_user = &quiet;
     so.reuse_port = nworkers > 1;
@@ -292,8 +361,39 @@ int main(int argc, char **argv)
                      mts_server_port(workers[0].server));
             so.listen = listen_spec;
         }
-        if (mts_server_create(&so, list, ready, &workers[created].server, &err) != MTS_OK)
+        if (mts_server_create_models(&so, table, count, &workers[created].server, &err) !=
+            MTS_OK)
             goto fail;
+    }
+    /* the streams are encoded while the servers listen */
+    if (!nprepare) {
+        long cores = sysconf(_SC_NPROCESSORS_ONLN);
+        nprepare = cores > 2 ? (uint32_t)cores - 1 : 1;
+    }
+    if (nprepare > count)
+        nprepare = count;
+    prep.cat = cat;
+    prep.models = table;
+    prep.streams = streams;
+    prep.built = built;
+    prep.count = count;
+    atomic_init(&prep.next, 0);
+    atomic_init(&prep.done, 0);
+    atomic_init(&prep.ok, 0);
+    prep.no_records = no_records;
+    prep.quiet = quiet;
+    preparers = calloc(nprepare, sizeof *preparers);
+    if (!preparers) {
+        mts_error_set(&err, MTS_ERR_NOMEM, "out of memory");
+        goto fail;
+    }
+    for (; prepared < nprepare; prepared++) {
+        if (pthread_create(&preparers[prepared], NULL, prepare_main, &prep) != 0)
+            break;
+    }
+    if (prepared == 0) {
+        /* no thread: encode here, before serving */
+        prepare_main(&prep);
     }
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -301,9 +401,11 @@ int main(int argc, char **argv)
     sigaction(SIGTERM, &sa, NULL);
     sigaction(SIGINT, &sa, NULL);
     if (!quiet)
-        fprintf(stderr, "mts-server: listening on %s (port %d), %u models, %u worker%s\n",
+        fprintf(stderr,
+                "mts-server: listening on %s (port %d), %u models (streams being encoded), %u "
+                "worker%s\n",
                 so.listen ? so.listen : "127.0.0.1:7447", mts_server_port(workers[0].server),
-                ready, nworkers, nworkers == 1 ? "" : "s");
+                count, nworkers, nworkers == 1 ? "" : "s");
     /* worker 0 runs on this thread; signals may land on any thread, and
      * every loop polls the one flag */
     uint32_t started = 1;
@@ -338,6 +440,8 @@ int main(int argc, char **argv)
     }
     if (rc != MTS_OK)
         goto fail;
+    if (prep.failed_all)
+        goto done; /* said why; exit 1 */
     if (!quiet)
         fprintf(stderr, "mts-server: stopped: %llu connections, %llu completed, %llu failed, "
                         "%llu busy, %llu bytes, peak %u at once\n",
@@ -350,15 +454,23 @@ fail:
     cli_bar_done(&bar);
     fprintf(stderr, "mts-server: %s\n", err.msg);
 done:
+    /* a preparer still encoding stops at its next check of the flag */
+    stop_requested = 1;
+    for (uint32_t i = 0; i < prepared; i++)
+        pthread_join(preparers[i], NULL);
+    free(preparers);
     for (uint32_t i = 0; i < created && workers; i++)
         mts_server_free(workers[i].server);
     free(workers);
     if (streams) {
-        for (uint32_t i = 0; i < count; i++)
-            mts_stream_free(&streams[i]);
+        for (uint32_t i = 0; i < count; i++) {
+            if (built[i])
+                mts_stream_free(&streams[i]);
+        }
     }
     free(streams);
-    free(list);
+    free(table);
+    free(built);
     mts_catalog_free(cat);
     mts_fetch_global_cleanup();
     return status;

@@ -23,7 +23,8 @@
 /* A client's first frame is a HELLO or LIST: small, so it fits here. */
 #define IN_MAX 512
 
-typedef enum phase { READING = 0, WRITING } phase;
+/* WAITING: a HELLO for a model whose stream is still being encoded */
+typedef enum phase { READING = 0, WAITING, WRITING } phase;
 
 typedef struct conn {
     int fd;
@@ -31,6 +32,8 @@ typedef struct conn {
     uint8_t in[IN_MAX];
     size_t in_len;
     const mts_stream *stream;
+    mts_server_model *waits_for; /* WAITING: the model, and the HELLO to answer */
+    mts_wire_hello hello;
     mts_buf head, tail;         /* per-connection frames around the shared body */
     size_t head_off, tail_off;
     size_t info_off, info_size; /* MODEL_INFO's shared tail, sent right after head */
@@ -55,8 +58,10 @@ typedef struct conn {
 struct mts_server {
     mts_server_options opts;
     double listen_paused_until; /* out of descriptors: the listener is not watched */
-    const mts_stream *const *streams;
-    uint32_t stream_count;
+    mts_server_model *models;
+    uint32_t model_count;
+    mts_server_model *own_models; /* mts_server_create's table, freed with the server */
+    uint32_t waiting;             /* connections WAITING */
     int listen_fd, epoll_fd, port;
     conn *conns;
     conn *dead; /* closed during this round of events; freed after it */
@@ -141,8 +146,8 @@ static mts_result open_listener(mts_server *s, const char *spec, mts_error *err)
     return MTS_OK;
 }
 
-mts_result mts_server_create(const mts_server_options *opts, const mts_stream *const *streams,
-                             uint32_t stream_count, mts_server **out, mts_error *err)
+mts_result mts_server_create_models(const mts_server_options *opts, mts_server_model *models,
+                                    uint32_t model_count, mts_server **out, mts_error *err)
 {
     static const mts_server_options defaults = {0};
     *out = NULL;
@@ -160,8 +165,10 @@ mts_result mts_server_create(const mts_server_options *opts, const mts_stream *c
         s->opts.idle_timeout = 30;
     if (!(s->opts.grace > 0))
         s->opts.grace = 5;
-    s->streams = streams;
-    s->stream_count = stream_count;
+    if (!(s->opts.prepare_wait > 0))
+        s->opts.prepare_wait = 60;
+    s->models = models;
+    s->model_count = model_count;
     s->next_stats = now_s() + s->opts.stats_interval;
     s->listen_fd = s->epoll_fd = -1;
     mts_result rc = open_listener(s, s->opts.listen, err);
@@ -177,6 +184,51 @@ mts_result mts_server_create(const mts_server_options *opts, const mts_stream *c
         return rc;
     }
     *out = s;
+    return MTS_OK;
+}
+
+void mts_server_model_init_ready(mts_server_model *m, const mts_stream *stream)
+{
+    memset(m, 0, sizeof *m);
+    snprintf(m->name, sizeof m->name, "%s", stream->name);
+    m->vertices = stream->model.vertex_count;
+    m->triangles = stream->model.level_triangles[stream->model.level_count];
+    m->levels = stream->model.level_count;
+    atomic_init(&m->stream, stream);
+    atomic_init(&m->records, stream->records_form);
+    atomic_init(&m->failed, 0);
+}
+
+void mts_server_model_publish_records(mts_server_model *m, const mts_stream *records_form)
+{
+    atomic_store_explicit(&m->records, records_form, memory_order_release);
+}
+
+void mts_server_model_publish(mts_server_model *m, const mts_stream *stream)
+{
+    atomic_store_explicit(&m->stream, stream, memory_order_release);
+}
+
+void mts_server_model_fail(mts_server_model *m, const char *why)
+{
+    snprintf(m->why, sizeof m->why, "%s", why);
+    atomic_store_explicit(&m->failed, 1, memory_order_release);
+}
+
+mts_result mts_server_create(const mts_server_options *opts, const mts_stream *const *streams,
+                             uint32_t stream_count, mts_server **out, mts_error *err)
+{
+    mts_server_model *models = calloc((size_t)stream_count + 1, sizeof *models);
+    if (!models)
+        return mts_error_set(err, MTS_ERR_NOMEM, "server: out of memory");
+    for (uint32_t i = 0; i < stream_count; i++)
+        mts_server_model_init_ready(&models[i], streams[i]);
+    mts_result rc = mts_server_create_models(opts, models, stream_count, out, err);
+    if (rc != MTS_OK) {
+        free(models);
+        return rc;
+    }
+    (*out)->own_models = models;
     return MTS_OK;
 }
 
@@ -229,6 +281,8 @@ static void conn_close(mts_server *s, conn *c, const char *outcome)
         s->stats.failed++;
     s->stats.bytes += c->sent;
     paced_remove(s, c);
+    if (c->phase == WAITING)
+        s->waiting--;
     logf_(s, "peer=%s model=%s bytes=%llu level=%u ms=%.1f outcome=%s", c->peer,
           c->model[0] ? c->model : "-", (unsigned long long)c->sent, c->stop_level,
           (now_s() - c->started) * 1e3, outcome);
@@ -270,16 +324,22 @@ void mts_server_free(mts_server *s)
         close(s->listen_fd);
     if (s->epoll_fd >= 0)
         close(s->epoll_fd);
+    free(s->own_models);
     free(s);
 }
 
-static const mts_stream *find_stream(mts_server *s, const char *name)
+static mts_server_model *find_model(mts_server *s, const char *name)
 {
-    for (uint32_t i = 0; i < s->stream_count; i++) {
-        if (strcmp(s->streams[i]->name, name) == 0)
-            return s->streams[i];
+    for (uint32_t i = 0; i < s->model_count; i++) {
+        if (strcmp(s->models[i].name, name) == 0)
+            return &s->models[i];
     }
     return NULL;
+}
+
+static const mts_stream *model_stream(mts_server_model *m)
+{
+    return atomic_load_explicit(&m->stream, memory_order_acquire);
 }
 
 /* Ends the conversation with an ERROR frame once it is flushed. */
@@ -294,24 +354,27 @@ static void conn_refuse(conn *c, uint16_t code, const char *text, const char *ou
     c->outcome = outcome;
 }
 
+static void conn_serve(mts_server *s, conn *c, double now);
+
 static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, size_t n)
 {
     mts_error err = {0};
     if (type == MTS_MSG_LIST) {
-        mts_wire_model_entry *list = calloc(s->stream_count + 1, sizeof *list);
+        mts_wire_model_entry *list = calloc(s->model_count + 1, sizeof *list);
         if (!list) {
             conn_refuse(c, MTS_WERR_INTERNAL, "out of memory", "error: out of memory");
             return;
         }
-        for (uint32_t i = 0; i < s->stream_count; i++) {
-            const mts_stream *st = s->streams[i];
-            snprintf(list[i].name, sizeof list[i].name, "%s", st->name);
-            list[i].vertices = st->model.vertex_count;
-            list[i].triangles = st->model.level_triangles[st->model.level_count];
-            list[i].levels = st->model.level_count;
-            list[i].stream_bytes = (uint32_t)st->size;
+        for (uint32_t i = 0; i < s->model_count; i++) {
+            mts_server_model *m = &s->models[i];
+            const mts_stream *st = model_stream(m);
+            snprintf(list[i].name, sizeof list[i].name, "%s", m->name);
+            list[i].vertices = m->vertices;
+            list[i].triangles = m->triangles;
+            list[i].levels = m->levels;
+            list[i].stream_bytes = st ? (uint32_t)st->size : 0; /* 0: being prepared */
         }
-        mts_wire_put_models(&c->head, list, s->stream_count);
+        mts_wire_put_models(&c->head, list, s->model_count);
         free(list);
         if (c->head.failed) {
             conn_refuse(c, MTS_WERR_INTERNAL, "out of memory", "error: out of memory");
@@ -335,24 +398,59 @@ static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, 
         return;
     }
     snprintf(c->model, sizeof c->model, "%s", h.model);
-    const mts_stream *st = find_stream(s, h.model);
-    if (st) /* the form it asked for, where this server has it */
-        st = mts_stream_for_hello(st, h.flags);
-    if (!st) {
+    mts_server_model *m = find_model(s, h.model);
+    if (!m) {
         char text[128];
         snprintf(text, sizeof text, "no model named '%s' (LIST shows the models)", h.model);
         conn_refuse(c, MTS_WERR_UNKNOWN_MODEL, text, "error: unknown model");
         return;
     }
-    if (h.resume_batch > 0 && h.stream_id != st->stream_id) {
+    c->waits_for = m;
+    c->hello = h;
+    c->phase = WAITING;
+    s->waiting++;
+    conn_serve(s, c, now_s());
+}
+
+/* Answers a HELLO whose model is ready, has failed, or has been waited for
+ * long enough; leaves it WAITING otherwise. */
+static void conn_serve(mts_server *s, conn *c, double now)
+{
+    mts_error err = {0};
+    mts_server_model *m = c->waits_for;
+    const mts_stream *st = model_stream(m);
+    const mts_wire_hello *h = &c->hello;
+    if (!st) {
+        char text[300];
+        if (atomic_load_explicit(&m->failed, memory_order_acquire)) {
+            s->waiting--;
+            snprintf(text, sizeof text, "model '%s' cannot be served: %s", m->name, m->why);
+            conn_refuse(c, MTS_WERR_INTERNAL, text, "error: model failed");
+        } else if (now - c->started > s->opts.prepare_wait) {
+            s->waiting--;
+            snprintf(text, sizeof text,
+                     "model '%s' is still being prepared (its stream is encoding); try again "
+                     "shortly",
+                     m->name);
+            conn_refuse(c, MTS_WERR_BUSY, text, "error: preparing");
+        }
+        return;
+    }
+    s->waiting--;
+    if (h->flags & MTS_HELLO_RECORDS) { /* the form it asked for, where this server has it */
+        const mts_stream *r = atomic_load_explicit(&m->records, memory_order_acquire);
+        if (r)
+            st = r;
+    }
+    if (h->resume_batch > 0 && h->stream_id != st->stream_id) {
         conn_refuse(c, MTS_WERR_STALE, "the model changed since; start over", "error: stale");
         return;
     }
     c->stream = st;
-    c->answered = now_s();
-    c->stop_level = mts_stream_stop_level(st, h.stop_kind, h.stop_value);
+    c->answered = now;
+    c->stop_level = mts_stream_stop_level(st, h->stop_kind, h->stop_value);
     size_t off, len;
-    if (mts_stream_range(st, h.resume_batch, c->stop_level, &off, &len, &err) != MTS_OK) {
+    if (mts_stream_range(st, h->resume_batch, c->stop_level, &off, &len, &err) != MTS_OK) {
         conn_refuse(c, MTS_WERR_PROTOCOL, err.msg, "error: bad resume");
         return;
     }
@@ -660,6 +758,19 @@ static void resume_paced(mts_server *s, double now)
     }
 }
 
+/* HELLOs whose model was being prepared: served once it is ready. */
+static void serve_waiting(mts_server *s, double now)
+{
+    for (conn *c = s->conns, *next; c && s->waiting; c = next) {
+        next = c->next;
+        if (c->phase != WAITING)
+            continue;
+        conn_serve(s, c, now);
+        if (c->phase == WRITING)
+            conn_write(s, c);
+    }
+}
+
 static void check_timeouts(mts_server *s, double now)
 {
     conn *c = s->conns;
@@ -705,8 +816,10 @@ mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error 
             free_dead(s);
             return MTS_OK;
         }
-        /* paced connections resume from the scan below: scan often then */
-        int n = epoll_wait(s->epoll_fd, events, 1024, s->paced_count ? 5 : 100);
+        /* paced connections resume from the scan below, and waiting ones
+         * are answered from it: scan often then */
+        int n = epoll_wait(s->epoll_fd, events, 1024,
+                           s->paced_count ? 5 : s->waiting ? 20 : 100);
         if (n < 0) {
             if (errno == EINTR)
                 continue;
@@ -745,6 +858,8 @@ mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error 
         now = now_s();
         if (s->paced_count)
             resume_paced(s, now);
+        if (s->waiting)
+            serve_waiting(s, now);
         /* the timeout scan is over every connection: a few times a second */
         if (now >= s->next_scan) {
             check_timeouts(s, now);

@@ -13,6 +13,7 @@
 #define MTS_SERVER_H
 
 #include <signal.h>
+#include <stdatomic.h>
 #include <stdint.h>
 
 #include "error.h"
@@ -25,6 +26,8 @@ typedef struct mts_server_options {
     double handshake_timeout; /* seconds for the first frame; 0: 10 */
     double idle_timeout;      /* seconds a connection may make no progress; 0: 30 */
     double grace;             /* seconds streams may finish after stop; 0: 5 */
+    double prepare_wait;      /* seconds a HELLO waits for its model's stream, while that is
+                                 still being encoded, before ERROR busy; 0: 60 */
     double rate_limit;        /* bytes/s per connection (previews at a realistic pace); 0: none */
     double stats_interval;    /* seconds between "stats:" log lines; 0: none */
     int reuse_port;           /* SO_REUSEPORT: several servers (workers) share the port */
@@ -41,7 +44,37 @@ typedef struct mts_server_stats {
 
 typedef struct mts_server mts_server;
 
-/* streams must outlive the server. */
+/* A model a server serves, whose stream another thread may still be
+ * encoding: the server listens at once and answers LIST with every model
+ * (stream_bytes 0 while it is prepared); a HELLO for a model not yet ready
+ * waits (up to prepare_wait) and is then served, or gets ERROR busy, or,
+ * when the model failed, ERROR internal with the reason. Zero-initialised
+ * but for the name and figures: preparing. */
+typedef struct mts_server_model {
+    char name[MTS_WIRE_MAX_NAME + 1];
+    uint32_t vertices, triangles, levels; /* of the full level, for LIST */
+    _Atomic(const mts_stream *) stream;   /* published once, then read-only */
+    _Atomic(const mts_stream *) records;  /* its records form, may come later: a
+                                             client asking for it before gets the
+                                             splits form, as from a server without */
+    atomic_int failed;                    /* 1: it never will be; why says why */
+    char why[200];
+} mts_server_model;
+
+/* Fills m for a stream that is ready now. */
+void mts_server_model_init_ready(mts_server_model *m, const mts_stream *stream);
+/* From the preparing thread: the stream is ready (it must then outlive the
+ * servers), or it failed (why is copied). */
+void mts_server_model_publish(mts_server_model *m, const mts_stream *stream);
+void mts_server_model_publish_records(mts_server_model *m, const mts_stream *records_form);
+void mts_server_model_fail(mts_server_model *m, const char *why);
+
+/* models (and every stream published into them) must outlive the server;
+ * several servers (workers) may share one table. */
+mts_result mts_server_create_models(const mts_server_options *opts, mts_server_model *models,
+                                    uint32_t model_count, mts_server **out, mts_error *err);
+
+/* The same for streams that are all ready (the server keeps its own table). */
 mts_result mts_server_create(const mts_server_options *opts, const mts_stream *const *streams,
                              uint32_t stream_count, mts_server **out, mts_error *err);
 void mts_server_free(mts_server *s);

@@ -6,6 +6,7 @@
 #include <errno.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -590,6 +591,147 @@ static void test_records_request_without_records_form(mts_test *t)
     stop_server(t, &sv);
 }
 
+/* The server listens before its streams are encoded (mts-server does, so
+ * that it is ready in seconds with large models): LIST names every model,
+ * stream_bytes 0 for one being prepared; a HELLO for it waits and gets the
+ * whole stream once a thread publishes it; one for a model that failed gets
+ * ERROR internal with the reason; one for a model never ready in time gets
+ * ERROR busy. Everyone else is served meanwhile. */
+typedef struct publisher {
+    mts_server_model *m;
+    mts_stream *stream;
+    double delay;
+} publisher;
+
+static void *publish_later(void *arg)
+{
+    publisher *p = arg;
+    struct timespec d = {(time_t)p->delay, (long)((p->delay - (time_t)p->delay) * 1e9)};
+    nanosleep(&d, NULL);
+    mts_server_model_publish(p->m, p->stream);
+    return NULL;
+}
+
+static void models_listed(void *user, const mts_wire_model_entry *e)
+{
+    mts_wire_model_entry *out = user;
+    for (int i = 0; i < 3; i++) {
+        if (!out[i].name[0]) {
+            out[i] = *e;
+            return;
+        }
+    }
+}
+
+static void test_models_being_prepared(mts_test *t)
+{
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_model m;
+    mts_stream st;
+    CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
+    CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
+    mts_mesh_free(&mesh);
+    CHECK(t, mts_stream_build(&m, "cow", NULL, &st, &err) == MTS_OK);
+    mts_server_model table[3];
+    memset(table, 0, sizeof table);
+    const char *names[3] = {"cow", "broken", "slow"};
+    for (int i = 0; i < 3; i++) {
+        snprintf(table[i].name, sizeof table[i].name, "%s", names[i]);
+        table[i].vertices = m.vertex_count;
+        table[i].triangles = m.level_triangles[m.level_count];
+        table[i].levels = m.level_count;
+        atomic_init(&table[i].stream, NULL);
+        atomic_init(&table[i].records, NULL);
+        atomic_init(&table[i].failed, 0);
+    }
+    mts_server_model_fail(&table[1], "its model file is damaged");
+    mts_server_options o = {0};
+    o.listen = "127.0.0.1:0";
+    o.prepare_wait = 1.5;
+    mts_server *server = NULL;
+    CHECKF(t, mts_server_create_models(&o, table, 3, &server, &err) == MTS_OK, "%s", err.msg);
+    if (!server)
+        return;
+    int port = mts_server_port(server);
+    pid_t pid = fork();
+    if (pid == 0) {
+        signal(SIGTERM, on_term);
+        publisher p = {&table[0], &st, 0.6};
+        pthread_t th;
+        pthread_create(&th, NULL, publish_later, &p);
+        mts_result rc = mts_server_run(server, &stop_flag, &err);
+        pthread_join(th, NULL);
+        mts_server_free(server);
+        _exit(rc == MTS_OK ? 0 : 3);
+    }
+    mts_server_free(server);
+
+    /* LIST at once: all three, cow's stream not ready */
+    mts_buf lb = {0}, lr = {0};
+    mts_wire_put_list(&lb);
+    CHECK(t, exchange(port, lb.data, lb.size, &lr, 5));
+    mts_wire_model_entry listed[3];
+    memset(listed, 0, sizeof listed);
+    CHECKF(t, lr.size > 5 && lr.data[4] == MTS_MSG_MODELS &&
+                  mts_wire_parse_models(lr.data + 5, lr.size - 5, models_listed, listed, &err) ==
+                      MTS_OK,
+           "%s", err.msg);
+    CHECK(t, !strcmp(listed[0].name, "cow") && !strcmp(listed[1].name, "broken") &&
+                 !strcmp(listed[2].name, "slow"));
+    CHECK(t, listed[0].stream_bytes == 0 && listed[0].levels == m.level_count);
+
+    /* cow: waits, then the whole stream */
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    mts_stream_client c;
+    mts_buf reply = {0};
+    mts_buf h = {0};
+    hello_for(&h, 0, 0, 0);
+    CHECK(t, exchange(port, h.data, h.size, &reply, 10));
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    double waited = (double)(t1.tv_sec - t0.tv_sec) + (t1.tv_nsec - t0.tv_nsec) * 1e-9;
+    mts_stream_client_init(&c);
+    int ended = 0;
+    CHECKF(t, take_reply(&c, reply.data, reply.size, &ended, &err) == MTS_OK && ended, "%s",
+           err.msg);
+    CHECK(t, c.lod.level == m.level_count && c.checksum == st.level_checksum[m.level_count]);
+    CHECKF(t, waited > 0.3 && waited < 5, "waited %.2f s", waited);
+    mts_stream_client_free(&c);
+
+    /* broken: the reason; slow: busy after prepare_wait */
+    const struct {
+        const char *model;
+        uint16_t code;
+        const char *needle;
+    } refused[] = {{"broken", MTS_WERR_INTERNAL, "damaged"},
+                   {"slow", MTS_WERR_BUSY, "still being prepared"}};
+    for (int i = 0; i < 2; i++) {
+        mts_buf hb = {0}, rb = {0};
+        hello_bytes(&hb, refused[i].model, MTS_WIRE_MAJOR);
+        CHECK(t, exchange(port, hb.data, hb.size, &rb, 10));
+        CHECKF(t, error_code_of(&rb) == refused[i].code, "%s: code %u", refused[i].model,
+               error_code_of(&rb));
+        uint16_t code;
+        char text[256] = "";
+        if (rb.size > 5)
+            mts_wire_parse_error(rb.data + 5, rb.size - 5, &code, text, sizeof text, &err);
+        CHECKF(t, strstr(text, refused[i].needle) != NULL, "%s: '%s'", refused[i].model, text);
+        mts_buf_free(&hb);
+        mts_buf_free(&rb);
+    }
+    kill(pid, SIGTERM);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    CHECKF(t, WIFEXITED(status) && WEXITSTATUS(status) == 0, "server exit status %d", status);
+    mts_buf_free(&lb);
+    mts_buf_free(&lr);
+    mts_buf_free(&h);
+    mts_buf_free(&reply);
+    mts_stream_free(&st);
+    mts_model_free(&m);
+}
+
 int main(void)
 {
     signal(SIGPIPE, SIG_IGN);
@@ -601,5 +743,6 @@ int main(void)
     RUN(&t, test_refusal_survives_extra_bytes);
     RUN(&t, test_records_form_on_request);
     RUN(&t, test_records_request_without_records_form);
+    RUN(&t, test_models_being_prepared);
     return mts_test_end(&t);
 }
