@@ -394,6 +394,10 @@ typedef struct win {
     char hud_text[512];
     char status[200];
     int quit_early;        /* q before the stream ended */
+    /* frames drawn while the stream came: from the loop's start to its end */
+    uint64_t frames_streaming;
+    double ms_streaming;
+    int stream_over;
     /* --lod-policy other than received: what "following" means */
     const mts_lod_policy_options *po;
     mts_lod_policy policy;
@@ -762,6 +766,11 @@ static mts_result win_run(win *wn, mts_session_options *so, const char *script_p
                 break;
             }
             wn->streaming = mts_session_poll(sess, left > 0 ? (int)left : 0);
+            if (!wn->streaming && !wn->stream_over) {
+                wn->stream_over = 1;
+                wn->frames_streaming = wn->frames;
+                wn->ms_streaming = now_ms() - wn->t_start;
+            }
             if (!wn->streaming) {
                 rc = mts_session_end(sess, err);
                 if (rc != MTS_OK) {
@@ -780,6 +789,8 @@ static mts_result win_run(win *wn, mts_session_options *so, const char *script_p
         mts_session_end(sess, NULL);
         wn->streaming = 0;
         wn->quit_early = 1;
+        wn->frames_streaming = wn->frames;
+        wn->ms_streaming = now_ms() - wn->t_start;
     }
     return rc;
 }
@@ -845,6 +856,11 @@ static int win_main(run *rn, mts_session_options *so, const char *script_path, i
         cli_json_num(&j, "ms_apply", st.ms_apply, 3);
         cli_json_num(&j, "ms_render", rn->ms_render, 3);
         cli_json_u64(&j, "frames", wn.frames);
+        /* while the stream came (the loop's start to its end): frames/s then */
+        cli_json_u64(&j, "frames_streaming", wn.frames_streaming);
+        cli_json_num(&j, "seconds_streaming", wn.ms_streaming / 1e3, 3);
+        cli_json_num(&j, "fps_streaming",
+                     wn.ms_streaming > 0 ? wn.frames_streaming * 1e3 / wn.ms_streaming : 0, 1);
         if (po->kind != MTS_LOD_POLICY_RECEIVED)
             cli_json_str(&j, "lod_policy", mts_lod_policy_name(po->kind));
         cli_json_u64(&j, "level_shown", wn.shown_level);

@@ -188,6 +188,7 @@ struct mts_session {
     uint8_t *buf;
     double last_data;     /* ms: the last byte (or the connect), for io_timeout */
     int progress;         /* this conversation applied something */
+    int backlog;          /* the reader may hold whole frames not yet taken */
     double retry_at;      /* ms, PH_WAIT */
     mts_result result;    /* PH_DONE */
     mts_error err;
@@ -292,9 +293,10 @@ static void connected(mts_session *s, int fd)
     s->ph = PH_STREAM;
 }
 
-/* Hands every whole frame the reader holds to the stream client. 1: go on,
- * 0: the conversation ended (s->ph moved on). */
-static int take_frames(mts_session *s)
+/* Hands the whole frames the reader holds to the stream client until the
+ * deadline (ms; the rest wait in the reader: s->backlog). 1: go on, 0: the
+ * conversation ended (s->ph moved on). */
+static int take_frames(mts_session *s, double deadline)
 {
     const mts_session_options *o = s->o;
     mts_stream_client *c = s->c;
@@ -304,6 +306,7 @@ static int take_frames(mts_session *s)
     const uint8_t *p;
     size_t n;
     int next;
+    s->backlog = 0;
     while ((next = mts_wire_reader_next(&s->r, &type, &p, &n, err)) != 0) {
         if (next < 0) {
             conversation_failed(s, err->code, 0);
@@ -343,6 +346,10 @@ static int take_frames(mts_session *s)
             conversation_failed(s, rc, 0);
             return 0;
         }
+        if (now_ms() >= deadline) {
+            s->backlog = 1; /* more frames may be whole already: the next poll */
+            break;
+        }
     }
     return 1;
 }
@@ -353,6 +360,13 @@ static void stream_step(mts_session *s, int timeout_ms)
 {
     mts_session_stats *st = s->st;
     mts_error *err = &s->err;
+    const double deadline = now_ms() + SESSION_SLICE_MS;
+    if (s->backlog) {
+        /* frames already here come first, and there is no waiting then */
+        if (!take_frames(s, deadline) || s->backlog)
+            return;
+        timeout_ms = 0;
+    }
     double idle_left = s->last_data + s->ito * 1000 - now_ms();
     int wait = idle_left > 0 ? (int)idle_left + 1 : 0;
     if (timeout_ms >= 0 && timeout_ms < wait)
@@ -373,7 +387,6 @@ static void stream_step(mts_session *s, int timeout_ms)
                                 1);
         return;
     }
-    double t0 = now_ms();
     do {
         ssize_t got = recv(s->fd, s->buf, SESSION_CHUNK, 0);
         if (got == 0) {
@@ -405,9 +418,9 @@ static void stream_step(mts_session *s, int timeout_ms)
             conversation_failed(s, rc, 0);
             return;
         }
-        if (!take_frames(s))
+        if (!take_frames(s, deadline))
             return;
-    } while (now_ms() - t0 < SESSION_SLICE_MS);
+    } while (now_ms() < deadline && !s->backlog);
 }
 
 mts_result mts_session_begin(const mts_session_options *o, mts_stream_client *c,

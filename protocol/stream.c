@@ -815,7 +815,10 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
      * its splits. */
     if ((rc = predict_all(s, opts, oct, carry_normals, &pass, err)) != MTS_OK)
         goto fail;
-    uint32_t per = opts->batch_splits ? opts->batch_splits : (n / 100 > 64 ? n / 100 : 64);
+    /* a hundred batches, of 64 to 2048 splits: a batch is what a client
+     * applies between two frames, so a big model gets more of them */
+    uint32_t per = opts->batch_splits ? opts->batch_splits
+                                      : n / 100 > 2048 ? 2048 : n / 100 > 64 ? n / 100 : 64;
     s->batch_count = n == 0 ? 0 : (n + per - 1) / per;
     s->batch_first = malloc(((size_t)s->batch_count + 1) * 4);
     s->batch_offset = malloc(((size_t)s->batch_count + 1) * sizeof *s->batch_offset);

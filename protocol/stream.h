@@ -41,7 +41,7 @@
 /* Zero-initialised means the defaults. */
 typedef struct mts_stream_options {
     int quant_bits;          /* position grid; 0 = 14 */
-    uint32_t batch_splits;   /* splits per batch; 0 = max(64, levels / 100) */
+    uint32_t batch_splits;   /* splits per batch; 0 = levels / 100 within 64..2048 */
     int draco_method;        /* mts_draco_method; 0 = edgebreaker (sequential as fallback) */
     int with_records;        /* also build the records form (s->records_form) */
     /* when not NULL and set (a signal, another thread), building stops

@@ -5,6 +5,7 @@
  *     carries the HUD text of the frame it was taken from) agree with the
  *     level and triangles reported for it, and the last one -- End, the full
  *     stream -- with the client's own "level" and "triangles";
+ *   - --json counts the frames shown while the stream came, and its seconds;
  *   - a malformed script line is refused with the file and line named.
  * Skips with the reason when Xvfb is not installed, unless
  * MTS_TEST_REQUIRE_EGL is set (CI: deps.sh installs it). */
@@ -192,6 +193,13 @@ static void test_window_screenshots(mts_test *t)
 
     long level = json_u(out, "level"), levels = json_u(out, "levels"),
          triangles = json_u(out, "triangles");
+    /* frames while the stream came, and for how long: frames/s then */
+    long frames = json_u(out, "frames"), streaming = json_u(out, "frames_streaming");
+    const char *secs = strstr(out, "\"seconds_streaming\":");
+    double seconds = secs ? strtod(secs + strlen("\"seconds_streaming\":"), NULL) : -1;
+    CHECKF(t, streaming >= 1 && streaming <= frames && seconds > 0 && seconds < 60 &&
+                  strstr(out, "\"fps_streaming\":") != NULL,
+           "frames %ld, %ld while streaming for %.3f s: %s", frames, streaming, seconds, out);
     const char *shots = strstr(out, "\"screenshots\":[");
     CHECKF(t, shots != NULL, "no screenshots in %s", out);
     if (!shots)
