@@ -13,7 +13,7 @@ static void usage(FILE *f)
 {
     fputs("usage: mts-stress [HOST[:PORT]] MODEL --clients N [--concurrency C] [--ramp S]\n"
           "                  [--level L | --triangles N | --fraction F] [--no-apply] [--verify]\n"
-          "                  [--records]\n"
+          "                  [--records] [--threads T] [--appliers A]\n"
           "                  [--connect-timeout S] [--io-timeout S] [--json] [--quiet]\n"
           "       mts-stress HOST:PORT --http PATH --clients N ...   (a static file server)\n"
           "\n"
@@ -32,6 +32,11 @@ static void usage(FILE *f)
           "                       far less work for an applying client\n"
           "  --verify             with --no-apply, still check every batch's CRC (applying\n"
           "                       clients always check CRCs and the final checksum)\n"
+          "  --threads T          event loops, each with its share of the clients\n"
+          "                       (default: one per core)\n"
+          "  --appliers A         applying clients decode at most A at once, the oldest\n"
+          "                       first, while every socket is read as bytes come (default\n"
+          "                       8 a thread); bounds memory, not the work\n"
           "  --http PATH          not mtstream: GET PATH over HTTP/1.0 from each client, to\n"
           "                       measure a web server (nginx) on the same bytes\n"
           "  --connect-timeout S  default 10 (a full listen queue costs SYN retries)\n"
@@ -41,8 +46,8 @@ static void usage(FILE *f)
           "  -h, --help           this help\n"
           "\n"
           "Each client holds a socket; N or C above the open-file limit is raised to the\n"
-          "hard limit. Applying clients each hold a decoded model: use --concurrency or\n"
-          "--no-apply for thousands of clients of a large model.\n"
+          "hard limit. An applying client holds its stream's bytes until it is decoded,\n"
+          "and a decoded model while it is (--appliers of them at a time).\n"
           "\n"
           "Exit status: 0 every client completed, 1 some failed (see the reasons),\n"
           "2 bad usage.\n",
@@ -102,7 +107,8 @@ int main(int argc, char **argv)
             so.verify = 1;
         } else if (!strcmp(a, "--records")) {
             so.hello.flags |= MTS_HELLO_RECORDS;
-        } else if (!strcmp(a, "--clients") || !strcmp(a, "--concurrency")) {
+        } else if (!strcmp(a, "--clients") || !strcmp(a, "--concurrency") ||
+                   !strcmp(a, "--threads") || !strcmp(a, "--appliers")) {
             uint32_t x;
             if (!v || !cli_parse_u32(v, &x) || x == 0) {
                 fprintf(stderr, "mts-stress: %s needs a positive number\n", a);
@@ -110,8 +116,12 @@ int main(int argc, char **argv)
             }
             if (!strcmp(a, "--clients"))
                 so.clients = x;
-            else
+            else if (!strcmp(a, "--concurrency"))
                 so.concurrency = x;
+            else if (!strcmp(a, "--threads"))
+                so.threads = x;
+            else
+                so.appliers = x;
             i++;
         } else if ((stop = cli_parse_stop(a, v, &so.hello.stop_kind, &so.hello.stop_value))) {
             if (stop < 0) {

@@ -8,6 +8,7 @@
 #include <netdb.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -33,7 +34,8 @@ typedef struct sclient {
     double t_start, t_last; /* seconds */
     float ms_base;
     mts_wire_reader reader;
-    mts_stream_client *decoder; /* apply mode only */
+    mts_stream_client *decoder; /* apply mode: while it applies (at most max_appliers do) */
+    uint8_t eof;                /* apply mode: all its bytes are in, the socket closed */
     char *http_head;            /* http mode: the response head so far (then NULL) */
     uint32_t http_head_len;
     uint64_t http_body, http_length; /* body bytes received, and Content-Length */
@@ -56,6 +58,11 @@ typedef struct stress {
     float *ms_final, *ms_base; /* per succeeded client */
     uint8_t *chunk;
     double t0;
+    /* apply mode: bytes are read as they come, frames applied by at most
+     * max_appliers clients at a time, the oldest first, a slice a round */
+    uint32_t connected;  /* sockets open: what the concurrency limit counts */
+    uint32_t oldest;     /* no client before it is still to apply */
+    uint32_t max_appliers;
 } stress;
 
 static double now_s(void)
@@ -72,13 +79,19 @@ const char *mts_stress_failure_name(mts_stress_failure f)
     return (unsigned)f < MTS_STRESS_FAILURE_KINDS ? names[f] : "unknown";
 }
 
-static void sc_release(stress *s, sclient *c)
+static void sc_close_socket(stress *s, sclient *c)
 {
     if (c->fd >= 0) {
         epoll_ctl(s->epfd, EPOLL_CTL_DEL, c->fd, NULL);
         close(c->fd);
         c->fd = -1;
+        s->connected--;
     }
+}
+
+static void sc_release(stress *s, sclient *c)
+{
+    sc_close_socket(s, c);
     mts_wire_reader_free(&c->reader);
     free(c->http_head);
     c->http_head = NULL;
@@ -127,6 +140,7 @@ static void sc_start(stress *s, sclient *c, double now)
         sc_fail(s, c, MTS_STRESS_LOCAL, "socket: %s", strerror(errno));
         return;
     }
+    s->connected++;
     int one = 1;
     setsockopt(c->fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
     if (s->o->http_path) {
@@ -135,13 +149,6 @@ static void sc_start(stress *s, sclient *c, double now)
             sc_fail(s, c, MTS_STRESS_LOCAL, "out of memory");
             return;
         }
-    } else if (!s->o->no_apply) {
-        c->decoder = malloc(sizeof *c->decoder);
-        if (!c->decoder) {
-            sc_fail(s, c, MTS_STRESS_LOCAL, "out of memory");
-            return;
-        }
-        mts_stream_client_init(c->decoder);
     }
     int r = connect(c->fd, s->addr->ai_addr, s->addr->ai_addrlen);
     if (r != 0 && errno != EINPROGRESS) {
@@ -397,6 +404,69 @@ static int sc_skim(stress *s, sclient *c, const uint8_t *p, size_t n)
     return 1;
 }
 
+/* Apply mode: applies c's whole frames until the deadline. 0 once c has
+ * ended (succeeded or failed and released). */
+static int sc_apply(stress *s, sclient *c, double deadline)
+{
+    if (!c->decoder) {
+        c->decoder = malloc(sizeof *c->decoder);
+        if (!c->decoder) {
+            sc_fail(s, c, MTS_STRESS_LOCAL, "out of memory");
+            return 0;
+        }
+        mts_stream_client_init(c->decoder);
+    }
+    mts_error err = {0};
+    uint8_t type;
+    const uint8_t *p;
+    size_t n;
+    int next, done = 0;
+    while ((next = mts_wire_reader_next(&c->reader, &type, &p, &n, &err)) > 0) {
+        if (!sc_frame_apply(s, c, type, p, n, &done))
+            return 0; /* failed and released */
+        if (done) {
+            /* the clock again, not the round's: a round of many applying
+             * clients can take long enough to blur the percentiles */
+            sc_succeed(s, c, now_s());
+            return 0;
+        }
+        if (now_s() >= deadline)
+            return 1;
+    }
+    if (next < 0) {
+        sc_fail(s, c, MTS_STRESS_PROTOCOL, "%s", err.msg);
+        return 0;
+    }
+    if (c->eof) {
+        sc_fail(s, c, MTS_STRESS_CLOSED, "closed before END (after %llu bytes)",
+                (unsigned long long)c->reader.bytes_in);
+        return 0;
+    }
+    return 1;
+}
+
+/* One round of applying: the oldest unfinished clients, at most
+ * max_appliers of them, each in turn until the round's time is up. */
+static void apply_round(stress *s, uint32_t started, double budget)
+{
+    while (s->oldest < started && s->c[s->oldest].state == SC_DONE)
+        s->oldest++;
+    double deadline = now_s() + budget;
+    uint32_t busy = 0;
+    for (uint32_t i = s->oldest; i < started && busy < s->max_appliers; i++) {
+        sclient *c = &s->c[i];
+        if (c->state == SC_DONE || c->state == SC_WAITING)
+            continue;
+        busy++;
+        if (c->reader.bytes_in == 0 && !c->eof)
+            continue;
+        double share = (deadline - now_s()) / (double)(s->max_appliers - busy + 1);
+        if (share <= 0)
+            break;
+        sc_apply(s, c, now_s() + share);
+    }
+}
+
 static void sc_read(stress *s, sclient *c, double now)
 {
     /* a few reads per wake-up, then the others get their turn */
@@ -404,6 +474,12 @@ static void sc_read(stress *s, sclient *c, double now)
         ssize_t got = recv(c->fd, s->chunk, 1 << 16, MSG_DONTWAIT);
         if (got == 0 && s->o->http_path && !c->http_head && c->http_body == c->http_length) {
             sc_succeed(s, c, now_s());
+            return;
+        }
+        if (got == 0 && !s->o->no_apply && !s->o->http_path) {
+            /* all of it is in: applied later, END or not */
+            c->eof = 1;
+            sc_close_socket(s, c);
             return;
         }
         if (got == 0) {
@@ -441,25 +517,23 @@ static void sc_read(stress *s, sclient *c, double now)
                     "%s", err.msg);
             return;
         }
-        uint8_t type;
-        const uint8_t *p;
-        size_t n;
-        int next, done = 0;
-        while ((next = mts_wire_reader_next(&c->reader, &type, &p, &n, &err)) > 0) {
-            int ok = s->o->no_apply ? sc_frame_light(s, c, type, p, n, &done)
-                                    : sc_frame_apply(s, c, type, p, n, &done);
-            if (!ok)
-                return; /* failed and released */
-            if (done) {
-                /* the clock again, not the round's: a round of many applying
-                 * clients can take long enough to blur the percentiles */
-                sc_succeed(s, c, now_s());
+        if (s->o->no_apply) { /* with verify: checked as it comes, cheaply */
+            uint8_t type;
+            const uint8_t *p;
+            size_t n;
+            int next, done = 0;
+            while ((next = mts_wire_reader_next(&c->reader, &type, &p, &n, &err)) > 0) {
+                if (!sc_frame_light(s, c, type, p, n, &done))
+                    return; /* failed and released */
+                if (done) {
+                    sc_succeed(s, c, now_s());
+                    return;
+                }
+            }
+            if (next < 0) {
+                sc_fail(s, c, MTS_STRESS_PROTOCOL, "%s", err.msg);
                 return;
             }
-        }
-        if (next < 0) {
-            sc_fail(s, c, MTS_STRESS_PROTOCOL, "%s", err.msg);
-            return;
         }
         if ((size_t)got < (1u << 16))
             return; /* the socket is drained */
@@ -474,7 +548,8 @@ static void check_timeouts(stress *s, uint32_t started, double now)
         sclient *c = &s->c[i];
         if (c->state == SC_CONNECTING && now - c->t_start > cto)
             sc_fail(s, c, MTS_STRESS_CONNECT, "no connection within %.0f s", cto);
-        else if ((c->state == SC_SENDING || c->state == SC_READING) && now - c->t_last > ito)
+        else if ((c->state == SC_SENDING || c->state == SC_READING) && c->fd >= 0 &&
+                 now - c->t_last > ito)
             sc_fail(s, c, MTS_STRESS_TIMEOUT, "no data for %.0f s", ito);
     }
 }
@@ -500,28 +575,144 @@ static void percentiles(float *v, uint32_t n, double out[4])
     out[3] = v[n - 1];
 }
 
+/* One thread's share of the clients: a loop of its own over clients
+ * k, k + T, k + 2T, ... (T threads), reporting into its own report, which
+ * it copies into `snap` under the lock for the caller's progress line. */
+typedef struct shard {
+    stress s;
+    mts_stress_report rep, snap;
+    uint32_t n, conc, index, count; /* its clients; this is shard index of count */
+    double ramp, t0;
+    pthread_mutex_t lock;
+    mts_result rc;
+    mts_error err;
+} shard;
+
+static void shard_publish(shard *h)
+{
+    pthread_mutex_lock(&h->lock);
+    h->rep.seconds = now_s() - h->t0;
+    h->snap = h->rep;
+    pthread_mutex_unlock(&h->lock);
+}
+
+static void *shard_main(void *arg)
+{
+    shard *h = arg;
+    stress *sp = &h->s;
+    const mts_stress_options *o = sp->o;
+    mts_stress_report *rep = &h->rep;
+    const uint32_t n = h->n, conc = h->conc;
+    struct epoll_event events[512];
+    uint32_t next = 0; /* the next client to start */
+    sp->t0 = h->t0;
+    double last_progress = sp->t0, last_scan = sp->t0;
+    while (rep->succeeded + rep->failed < n) {
+        double now = now_s();
+        /* start whoever is due and fits under the concurrency limit; the
+         * ramp spaces all the threads' clients as one */
+        while (next < n && sp->connected < conc &&
+               (h->ramp == 0 || now - sp->t0 >= h->ramp * (double)(next * h->count + h->index) /
+                                                   (double)(n * h->count))) {
+            sc_start(sp, &sp->c[next], now);
+            next++;
+        }
+        /* applying to do: do not sleep on the sockets */
+        int timeout_ms = !o->no_apply && !o->http_path && sp->oldest < next ? 0 : 100;
+        if (next < n && sp->connected < conc && h->ramp > 0) {
+            double due = sp->t0 +
+                         h->ramp * (double)(next * h->count + h->index) / (double)(n * h->count) -
+                         now;
+            int ms = (int)(due * 1e3) + 1;
+            timeout_ms = ms < timeout_ms ? (ms > 0 ? ms : 0) : timeout_ms;
+        }
+        int got = epoll_wait(sp->epfd, events, 512, timeout_ms);
+        if (got < 0 && errno != EINTR) {
+            h->rc = mts_error_set(&h->err, MTS_ERR_IO, "epoll_wait: %s", strerror(errno));
+            break;
+        }
+        now = now_s();
+        for (int i = 0; i < got; i++) {
+            sclient *c = events[i].data.ptr;
+            if (c->state == SC_DONE)
+                continue;
+            if (c->state == SC_CONNECTING || c->state == SC_SENDING)
+                sc_send(sp, c, now);
+            else
+                sc_read(sp, c, now); /* data, or the EOF/reset a read reports */
+        }
+        if (!o->no_apply && !o->http_path)
+            apply_round(sp, next, 0.02);
+        now = now_s();
+        if (now - last_scan >= 0.1) {
+            check_timeouts(sp, next, now);
+            last_scan = now;
+        }
+        if (now - last_progress >= 0.1) {
+            shard_publish(h);
+            last_progress = now;
+        }
+    }
+    shard_publish(h);
+    return NULL;
+}
+
+static void report_add(mts_stress_report *to, const mts_stress_report *r)
+{
+    to->started += r->started;
+    to->active += r->active;
+    to->succeeded += r->succeeded;
+    to->failed += r->failed;
+    for (int k = 0; k < MTS_STRESS_FAILURE_KINDS; k++) {
+        if (r->failures[k] && !to->failures[k])
+            memcpy(to->first_error[k], r->first_error[k], sizeof to->first_error[k]);
+        to->failures[k] += r->failures[k];
+    }
+    to->bytes += r->bytes;
+    to->batches += r->batches;
+    to->splits += r->splits;
+    if (r->seconds > to->seconds)
+        to->seconds = r->seconds;
+}
+
 mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, mts_error *err)
 {
     memset(rep, 0, sizeof *rep);
-    stress s = {0};
-    s.o = o;
-    s.rep = rep;
-    s.epfd = -1;
     uint32_t n = o->clients ? o->clients : 1;
     uint32_t conc = o->concurrency && o->concurrency < n ? o->concurrency : n;
     double ramp = o->ramp > 0 ? o->ramp : 0;
     double interval = o->progress_interval > 0 ? o->progress_interval : 0.5;
+    uint32_t T = o->threads;
+    if (T == 0) {
+        long cores = sysconf(_SC_NPROCESSORS_ONLN);
+        T = cores > 0 ? (uint32_t)cores : 1;
+    }
+    if (T > n)
+        T = n;
+    if (T > 64)
+        T = 64;
     rep->clients = n;
     mts_result rc = MTS_OK;
     mts_buf hello = {0};
+    struct addrinfo *addr = NULL;
+    shard *hs = calloc(T, sizeof *hs);
+    pthread_t *th = calloc(T, sizeof *th);
+    uint32_t running = 0, made = 0;
+    float *ms_final = malloc((size_t)n * sizeof *ms_final);
+    float *ms_base = malloc((size_t)n * sizeof *ms_base);
+    if (!hs || !th || !ms_final || !ms_base) {
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for %u clients", n);
+        goto done;
+    }
 
     const char *host = o->host ? o->host : "127.0.0.1", *port = o->port ? o->port : "7447";
     struct addrinfo hints = {0};
     hints.ai_family = AF_UNSPEC;
     hints.ai_socktype = SOCK_STREAM;
-    int gai = getaddrinfo(host, port, &hints, &s.addr);
+    int gai = getaddrinfo(host, port, &hints, &addr);
     if (gai != 0) {
         rc = mts_error_set(err, MTS_ERR_ARG, "%s:%s: %s", host, port, gai_strerror(gai));
+        addr = NULL;
         goto done;
     }
     if (o->http_path) {
@@ -542,91 +733,116 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
         }
         mts_wire_put_hello(&hello, &h);
     }
-    s.c = calloc(n, sizeof *s.c);
-    s.ms_final = malloc((size_t)n * sizeof *s.ms_final);
-    s.ms_base = malloc((size_t)n * sizeof *s.ms_base);
-    s.chunk = malloc(1 << 16);
-    if (hello.failed || !s.c || !s.ms_final || !s.ms_base || !s.chunk) {
-        rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for %u clients", n);
+    if (hello.failed) {
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
         goto done;
     }
-    s.hello = hello.data;
-    s.hello_size = hello.size;
-    for (uint32_t i = 0; i < n; i++)
-        s.c[i].fd = -1;
-    s.epfd = epoll_create1(EPOLL_CLOEXEC);
-    if (s.epfd < 0) {
-        rc = mts_error_set(err, MTS_ERR_IO, "epoll: %s", strerror(errno));
-        goto done;
-    }
-
-    struct epoll_event events[512];
-    uint32_t next = 0; /* the next client to start */
-    s.t0 = now_s();
-    double last_progress = s.t0, last_scan = s.t0;
-    while (rep->succeeded + rep->failed < n) {
-        double now = now_s();
-        /* start whoever is due and fits under the concurrency limit */
-        while (next < n && rep->active < conc &&
-               (ramp == 0 || now - s.t0 >= ramp * (double)next / (double)n)) {
-            sc_start(&s, &s.c[next], now);
-            next++;
-        }
-        int timeout_ms = 100;
-        if (next < n && rep->active < conc && ramp > 0) {
-            double due = s.t0 + ramp * (double)next / (double)n - now;
-            int ms = (int)(due * 1e3) + 1;
-            timeout_ms = ms < timeout_ms ? (ms > 0 ? ms : 0) : timeout_ms;
-        }
-        int got = epoll_wait(s.epfd, events, 512, timeout_ms);
-        if (got < 0 && errno != EINTR) {
-            rc = mts_error_set(err, MTS_ERR_IO, "epoll_wait: %s", strerror(errno));
+    const double t0 = now_s();
+    for (uint32_t k = 0; k < T; k++, made++) {
+        shard *h = &hs[k];
+        stress *sp = &h->s;
+        h->index = k;
+        h->count = T;
+        h->n = n / T + (k < n % T);
+        h->conc = conc / T + (k < conc % T);
+        if (h->conc == 0)
+            h->conc = 1;
+        h->ramp = ramp;
+        h->t0 = t0;
+        h->rep.clients = h->n;
+        pthread_mutex_init(&h->lock, NULL);
+        sp->o = o;
+        sp->rep = &h->rep;
+        sp->addr = addr;
+        sp->hello = hello.data;
+        sp->hello_size = hello.size;
+        sp->max_appliers = o->appliers ? (o->appliers + T - 1) / T : 8;
+        sp->c = calloc(h->n + 1, sizeof *sp->c);
+        sp->ms_final = malloc(((size_t)h->n + 1) * sizeof *sp->ms_final);
+        sp->ms_base = malloc(((size_t)h->n + 1) * sizeof *sp->ms_base);
+        sp->chunk = malloc(1 << 16);
+        sp->epfd = epoll_create1(EPOLL_CLOEXEC);
+        if (!sp->c || !sp->ms_final || !sp->ms_base || !sp->chunk) {
+            rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for %u clients", n);
+            made++;
             goto done;
         }
-        now = now_s();
-        for (int i = 0; i < got; i++) {
-            sclient *c = events[i].data.ptr;
-            if (c->state == SC_DONE)
-                continue;
-            if (c->state == SC_CONNECTING || c->state == SC_SENDING)
-                sc_send(&s, c, now);
-            else
-                sc_read(&s, c, now); /* data, or the EOF/reset a read reports */
+        if (sp->epfd < 0) {
+            rc = mts_error_set(err, MTS_ERR_IO, "epoll: %s", strerror(errno));
+            made++;
+            goto done;
         }
-        if (now - last_scan >= 0.1) {
-            check_timeouts(&s, next, now);
-            last_scan = now;
-        }
-        if (o->on_progress && now - last_progress >= interval) {
-            rep->seconds = now - s.t0;
-            o->on_progress(o->user, rep);
-            last_progress = now;
+        for (uint32_t i = 0; i < h->n; i++)
+            sp->c[i].fd = -1;
+    }
+    /* every share on a thread of its own; this one watches and reports */
+    for (uint32_t k = 0; k < T; k++, running++) {
+        if (pthread_create(&th[k], NULL, shard_main, &hs[k]) != 0) {
+            rc = mts_error_set(err, MTS_ERR_IO, "cannot start thread %u of %u", k + 1, T);
+            break;
         }
     }
-    rep->seconds = now_s() - s.t0;
-    percentiles(s.ms_base, rep->succeeded, rep->ms_base);
-    percentiles(s.ms_final, rep->succeeded, rep->ms_final);
+    for (;;) {
+        mts_stress_report now_rep = {0};
+        now_rep.clients = n;
+        for (uint32_t k = 0; k < running; k++) {
+            pthread_mutex_lock(&hs[k].lock);
+            report_add(&now_rep, &hs[k].snap);
+            pthread_mutex_unlock(&hs[k].lock);
+        }
+        if (now_rep.succeeded + now_rep.failed >= n || rc != MTS_OK)
+            break;
+        if (o->on_progress)
+            o->on_progress(o->user, &now_rep);
+        struct timespec d = {(time_t)interval, (long)((interval - (time_t)interval) * 1e9)};
+        nanosleep(&d, NULL);
+    }
+    for (uint32_t k = 0; k < running; k++)
+        pthread_join(th[k], NULL);
+    uint32_t ok = 0;
+    for (uint32_t k = 0; k < running; k++) {
+        report_add(rep, &hs[k].rep);
+        memcpy(ms_final + ok, hs[k].s.ms_final, (size_t)hs[k].rep.succeeded * sizeof *ms_final);
+        memcpy(ms_base + ok, hs[k].s.ms_base, (size_t)hs[k].rep.succeeded * sizeof *ms_base);
+        ok += hs[k].rep.succeeded;
+        if (hs[k].rc != MTS_OK && rc == MTS_OK) {
+            rc = hs[k].rc;
+            if (err)
+                *err = hs[k].err;
+        }
+    }
+    rep->seconds = now_s() - t0;
+    percentiles(ms_base, rep->succeeded, rep->ms_base);
+    percentiles(ms_final, rep->succeeded, rep->ms_final);
     if (rep->seconds > 0) {
         rep->mb_per_s = (double)rep->bytes / 1e6 / rep->seconds;
         rep->batches_per_s = (double)rep->batches / rep->seconds;
     }
 done:
-    if (s.c) {
-        for (uint32_t i = 0; i < n; i++) {
-            if (s.c[i].state != SC_DONE && (s.c[i].fd >= 0 || s.c[i].decoder)) {
-                rep->active++; /* sc_release counts it down */
-                sc_release(&s, &s.c[i]);
+    for (uint32_t k = 0; hs && k < made; k++) {
+        stress *sp = &hs[k].s;
+        if (sp->c) {
+            for (uint32_t i = 0; i < hs[k].n; i++) {
+                if (sp->c[i].state != SC_DONE && sp->c[i].state != SC_WAITING) {
+                    sp->rep->active++; /* sc_release counts it down */
+                    sc_release(sp, &sp->c[i]);
+                }
             }
         }
+        if (sp->epfd >= 0)
+            close(sp->epfd);
+        free(sp->c);
+        free(sp->ms_final);
+        free(sp->ms_base);
+        free(sp->chunk);
+        pthread_mutex_destroy(&hs[k].lock);
     }
-    if (s.epfd >= 0)
-        close(s.epfd);
-    if (s.addr)
-        freeaddrinfo(s.addr);
+    if (addr)
+        freeaddrinfo(addr);
     mts_buf_free(&hello);
-    free(s.c);
-    free(s.ms_final);
-    free(s.ms_base);
-    free(s.chunk);
+    free(hs);
+    free(th);
+    free(ms_final);
+    free(ms_base);
     return rc;
 }

@@ -1,14 +1,17 @@
-/* Many simulated clients from one process, for load-testing a server: one
- * non-blocking epoll loop drives N conversations (no GL), each speaking the
- * whole protocol. By default every client decodes and applies its batches
+/* Many simulated clients from one process, for load-testing a server: a
+ * non-blocking epoll loop per thread (one per core) drives its share of N
+ * conversations (no GL), each speaking the whole protocol. By default every client decodes and applies its batches
  * through the same mts_stream_client and LOD runtime as mts-client, so the
  * figures include a real client's work; with no_apply a client only reads
  * and frames what arrives (and checks each BATCH's CRC when verify is set),
  * which loads the server alone.
  *
- * Clients start evenly over `ramp` seconds, at most `concurrency` at once; a
- * client that finishes makes room for the next. Each failure is counted by
- * reason; one failing client never stops the others. */
+ * Clients start evenly over `ramp` seconds, at most `concurrency` connected
+ * at once; a client whose stream is all in makes room for the next. Sockets
+ * are read as bytes come, whatever the decoding has reached: a thousand
+ * applying clients cost a thousand clients' decoding, which takes its time,
+ * but none looks stalled to the server. Each failure is counted by reason;
+ * one failing client never stops the others. */
 #ifndef MTS_STRESS_H
 #define MTS_STRESS_H
 
@@ -53,7 +56,12 @@ typedef struct mts_stress_options {
     uint32_t clients;       /* 0: 1 */
     uint32_t concurrency;   /* clients connected at once; 0: all of them */
     double ramp;            /* seconds over which the clients start; 0: at once */
+    uint32_t threads;       /* event loops, each with its share of the clients (and of
+                             * the concurrency); 0: one per core */
     int no_apply;           /* frame only, do not decode or apply */
+    uint32_t appliers;      /* applying clients decode at most this many at once, the
+                             * oldest first (the others' bytes wait, read as they
+                             * come, so the server sees every client keep up); 0: 8 */
     int verify;             /* with no_apply: still check every BATCH's CRC */
     /* Not mtstream at all: GET this path over HTTP/1.0 (one response per
      * connection) and count the body, so a static file server (nginx) can be

@@ -1,6 +1,7 @@
 /* mts-stress against mts-server over loopback, and the server under load and
  * abuse:
- *   - many applying clients all complete, each receiving the whole stream;
+ *   - many applying clients all complete, each receiving the whole stream,
+ *     also on two threads with two decoding at a time;
  *   - --no-apply --verify clients complete too;
  *   - over --max-clients, clients get ERROR busy, counted as such, while the
  *     others complete;
@@ -100,6 +101,31 @@ static void test_many_clients_apply(mts_test *t)
     /* every client got the whole stream, no more, no less */
     CHECKF(t, json_num(out, "bytes") == 100 * stream_bytes, "%s vs %ld each", out, stream_bytes);
     CHECK(t, strstr(out, "\"failures\":{}") && strstr(out, "\"p99_ms_final\":"));
+    CHECK(t, server_stop(&sv) == 0);
+}
+
+/* Two event loops sharing the clients, two clients decoding at a time:
+ * every socket is still read as bytes come (the rest wait in their
+ * readers, then decode in turn), so all complete and each got the whole
+ * stream; and one thread alone as well. */
+static void test_threads_and_appliers(mts_test *t)
+{
+    server sv;
+    CHECK(t, server_start(&sv, "appliers", NULL));
+    char one[4096], out[4096];
+    CHECKF(t, stress(&sv, "cow --json", one, sizeof one) == 0, "%s", one);
+    long stream_bytes = json_num(one, "bytes");
+    const char *runs[] = {"cow --clients 120 --threads 2 --appliers 2 --json",
+                          "cow --clients 40 --threads 1 --appliers 1 --json"};
+    const long clients[] = {120, 40};
+    for (int i = 0; i < 2; i++) {
+        int rc = stress(&sv, runs[i], out, sizeof out);
+        CHECKF(t, rc == 0 && json_num(out, "succeeded") == clients[i] &&
+                      json_num(out, "failed") == 0,
+               "%s: exit %d: %s", runs[i], rc, out);
+        CHECKF(t, json_num(out, "bytes") == clients[i] * stream_bytes, "%s", out);
+    }
+    CHECK(t, stress(&sv, "cow --threads 0", out, sizeof out) == 2);
     CHECK(t, server_stop(&sv) == 0);
 }
 
@@ -345,6 +371,7 @@ int main(int argc, char **argv)
     }
     RUN(&t, test_usage);
     RUN(&t, test_many_clients_apply);
+    RUN(&t, test_threads_and_appliers);
     RUN(&t, test_no_apply_verify);
     RUN(&t, test_busy);
     RUN(&t, test_hostile_handshakes);
