@@ -97,6 +97,10 @@ $(BUILD)/bin/mts-bench-stream: $(BUILD)/obj/bench/mts_bench_stream.o $(CLI_OBJ) 
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -lmeshoptimizer -o $@
 
+$(BUILD)/bin/mts-bench-apply: $(BUILD)/obj/bench/mts_bench_apply.o $(CLI_OBJ) $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
 $(BUILD)/bin/mts-bench-walk: $(BUILD)/obj/bench/mts_bench_walk.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
@@ -119,7 +123,8 @@ test-asan:
 	@tests/run.sh build/asan
 
 bench: deps
-	@$(MAKE) --no-print-directory programs $(BENCH) $(BUILD)/bin/mts-bench-stream $(BUILD)/bin/mts-bench-walk
+	@$(MAKE) --no-print-directory programs $(BENCH) $(BUILD)/bin/mts-bench-stream $(BUILD)/bin/mts-bench-walk \
+		$(BUILD)/bin/mts-bench-apply
 	@bench/run.sh
 
 demo: deps

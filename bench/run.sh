@@ -102,7 +102,6 @@ else
       echo "bench: mts-bench $big (a few minutes) ..." >&2
       build/bin/mts-bench "$big" --runs 1 --reps 1 --json "$out/bunny00_l2_bench.json" \
         >"$out/bunny00_l2_bench.txt" 2>&1 || status=1
-      rm -f "$big_model" # ~67 MB by-product of the timing; its figures are in the JSON
     else
       rm -f "$out/bunny00_l2.json"
       note big_error "mts-build: $(tail -n 1 "$out/bunny00_l2.err" | sed 's/^mts-build: //')"
@@ -110,6 +109,28 @@ else
     fi
   fi
 fi
+
+# --- the client's cost (issue 16) --------------------------------------------------
+# both forms warm and as fresh processes, server ready, the window, a thousand
+# applying clients: on the shared models' .mtsm and the big mesh's
+if [ "${MTS_BENCH_CLIENT:-1}" = 0 ]; then
+  printf '{"skipped": "MTS_BENCH_CLIENT=0"}\n' >"$out/client/warm.json" 2>/dev/null
+else
+  mkdir -p "$out/mtsm"
+  client_models=()
+  for m in cow bunny00 fandisk_large; do
+    if [ -f "$shared/models/$m.off" ] &&
+      build/bin/mts-build "$shared/models/$m.off" -o "$out/mtsm/$m.mtsm" --quiet; then
+      client_models+=("$out/mtsm/$m.mtsm")
+    fi
+  done
+  [ -f "$big_model" ] && client_models+=("$big_model")
+  if [ ${#client_models[@]} -gt 0 ]; then
+    echo "bench: the client's cost (a few minutes) ..." >&2
+    bench/client_cost.sh "$out" "${client_models[@]}" || status=1
+  fi
+fi
+rm -f "$big_model" # ~67 MB by-product of the timing; its figures are in the JSON
 
 # OpenMesh's progressive mesh of bunny00, for scale against our build: it
 # decimates down to a few vertices (we stop at 1%) and writes a .pm file.
@@ -300,6 +321,109 @@ else:
               f"{c['failed']} failed, server RSS {c['server_idle_rss_mb']} -> "
               f"{c['server_peak_rss_mb']} MB = {c['bytes_per_connection']} B per connection")
 res["stress"] = stress
+
+def median_of(v):
+    v = sorted(v)
+    return v[len(v) // 2] if v else None
+
+# --- the client's cost (issue 16) ---
+cc = {}
+cdir = os.path.join(out, "client")
+try:
+    with open(os.path.join(cdir, "warm.json")) as f:
+        cc["warm"] = json.load(f)
+except (OSError, ValueError):
+    cc["warm"] = {"skipped": "bench/client_cost.sh did not run"}
+warm = cc["warm"].get("models", {})
+fresh = {}
+try:
+    with open(os.path.join(cdir, "fresh.txt")) as f:
+        for line in f:
+            name, form, wall, js = line.split(" ", 3)
+            d = json.loads(js)
+            e = fresh.setdefault(name, {}).setdefault(form, {"wall": [], "apply": []})
+            e["wall"].append(float(wall) * 1e3)
+            e["apply"].append(d["ms_apply"])
+except (OSError, ValueError):
+    pass
+cc["fresh"] = {n: {form: {"process_ms_median": median_of(e["wall"]),
+                          "apply_ms_median": median_of(e["apply"]), "runs": len(e["wall"])}
+                   for form, e in forms.items()} for n, forms in fresh.items()}
+ready = {}
+try:
+    with open(os.path.join(cdir, "ready.txt")) as f:
+        for line in f:
+            name, listen, rdy = line.split()
+            ready[name] = {"listening_s": None if listen == "none" else float(listen),
+                           "stream_ready_s": None if rdy == "none" else float(rdy)}
+except (OSError, ValueError):
+    pass
+cc["server_ready"] = ready
+win = []
+try:
+    with open(os.path.join(cdir, "window.txt")) as f:
+        win = [json.loads(l) for l in f if l.strip().startswith("{")]
+except (OSError, ValueError):
+    pass
+if win:
+    cc["window"] = {"model": "bunny00", "size": "800x600", "runs": len(win),
+                    "fps_streaming_median": median_of([w["fps_streaming"] for w in win]),
+                    "fps_streaming_runs": [w["fps_streaming"] for w in win],
+                    "frames_streaming_median": median_of([w["frames_streaming"] for w in win]),
+                    "seconds_streaming_median": median_of([w["seconds_streaming"] for w in win])}
+try:
+    with open(os.path.join(cdir, "stress.json")) as f:
+        st = json.load(f)
+    cc["stress_applying"] = {k: st.get(k) for k in ("clients", "succeeded", "failed", "failures",
+                                                    "seconds", "cpu_s", "p50_ms_final",
+                                                    "p99_ms_final")}
+except (OSError, ValueError):
+    pass
+try:
+    with open(os.path.join(cdir, "notes.txt")) as f:
+        notes = [l.strip() for l in f if l.strip()]
+    if notes:
+        cc["notes"] = notes
+except OSError:
+    pass
+if warm:
+    print("\nThe client's cost (issue 16): splits form (records derived) against records form")
+    print(f"{'model':<14} {'triangles':>9} {'splits':>8} {'warm split':>11} {'warm rec':>9} "
+          f"{'ratio':>6} {'ns/split':>9} {'fresh split':>12} {'fresh rec':>10} {'ratio':>6} "
+          f"{'listen s':>9} {'ready s':>8}")
+    print("-" * 118)
+    bunny_ns = warm.get("bunny00", {}).get("ns_per_split")
+    for name, w in warm.items():
+        fr = cc["fresh"].get(name, {})
+        fs, frc = fr.get("splits", {}), fr.get("records", {})
+        fsm, frm = fs.get("apply_ms_median"), frc.get("apply_ms_median")
+        rd = ready.get(name, {})
+        fmt = lambda x, p=1: f"{x:.{p}f}" if isinstance(x, (int, float)) else "-"
+        print(f"{name:<14} {w['triangles']:>9} {w['splits']:>8} {w['splits_ms']:>9.1f}ms "
+              f"{w['records_ms']:>7.1f}ms {w['ratio']:>6.2f} {w['ns_per_split']:>9.0f} "
+              f"{fmt(fsm):>10}ms {fmt(frm):>8}ms "
+              f"{fmt(fsm / frm if fsm and frm else None, 2):>6} "
+              f"{fmt(rd.get('listening_s'), 2):>9} {fmt(rd.get('stream_ready_s'), 2):>8}")
+    for name, w in warm.items():
+        if bunny_ns and name != "bunny00":
+            w["ns_per_split_over_bunny00"] = round(w["ns_per_split"] / bunny_ns, 3)
+    print("  (warm: mts-bench-apply, median of 7 in one process; fresh: mts-client --no-render "
+          "[--records] over loopback, median ms_apply of 5; ready: mts-server with that model "
+          "alone, seconds to listen and until its stream is encoded)")
+    big_w = warm.get("bunny00_l2")
+    if big_w and bunny_ns:
+        print(f"  cost per split, 1.2M-triangle mesh against bunny00: "
+              f"{big_w['ns_per_split'] / bunny_ns:.2f}x")
+if "window" in cc:
+    w = cc["window"]
+    print(f"  window (Xvfb, 800x600, bunny00 over loopback, median of {w['runs']}): "
+          f"{w['fps_streaming_median']:.1f} frames/s while it streams "
+          f"({w['frames_streaming_median']} frames in {w['seconds_streaming_median']:.3f} s)")
+if "stress_applying" in cc:
+    a = cc["stress_applying"]
+    print(f"  {a['clients']} applying mts-stress clients of bunny00: {a['failed']} failed, "
+          f"{a['seconds']:.1f} s wall, {a['cpu_s']:.1f} CPU s")
+res["client_cost"] = cc
 
 def load_out(name):
     try:

@@ -1,0 +1,204 @@
+/* mts-bench-apply: what a client pays to apply a stream (issue 16), both
+ * forms in the same process, memory warm: per model its splits, the
+ * median time to decode and apply the whole splits form (deriving every
+ * record) and the records form (records on the wire), their ratio, the cost
+ * per split, and how long a server takes to encode the stream. Models are
+ * .mtsm files, or meshes built first. Used by bench/client_cost.sh. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "build.h"
+#include "cli.h"
+#include "mesh.h"
+#include "modelfile.h"
+#include "stream.h"
+#include "wire.h"
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* MODEL_INFO + the whole stream + END: a connection's bytes. */
+static int connection(const mts_stream *s, mts_buf *out)
+{
+    mts_error err;
+    size_t off, len;
+    uint32_t n = s->model.level_count;
+    out->size = 0;
+    mts_stream_put_model_info(s, n, out);
+    if (mts_stream_range(s, 0, n, &off, &len, &err) != MTS_OK)
+        return 0;
+    mts_buf_put(out, s->bytes + off, len);
+    mts_stream_put_end(s, n, (uint32_t)out->size, out);
+    return !out->failed;
+}
+
+/* Seconds to take every frame of b into a fresh client; 0 on an error. */
+static double apply(const mts_buf *b, uint64_t *checksum, mts_error *err)
+{
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_wire_reader rd = {0};
+    double t0 = now_s();
+    int ok = mts_wire_reader_feed(&rd, b->data, b->size, err) == MTS_OK;
+    uint8_t type;
+    const uint8_t *p;
+    size_t n;
+    while (ok && mts_wire_reader_next(&rd, &type, &p, &n, err) == 1) {
+        mts_stream_event ev;
+        ok = mts_stream_client_frame(&c, type, p, n, &ev, err) == MTS_OK;
+    }
+    double t = now_s() - t0;
+    ok = ok && c.end_checksum != 0;
+    *checksum = c.checksum;
+    mts_wire_reader_free(&rd);
+    mts_stream_client_free(&c);
+    return ok ? t : 0;
+}
+
+static int load(const char *path, mts_model *m, mts_error *err)
+{
+    size_t len = strlen(path);
+    if (len > 5 && strcmp(path + len - 5, ".mtsm") == 0)
+        return mts_modelfile_load(path, m, err) == MTS_OK;
+    mts_mesh mesh = {0};
+    if (mts_mesh_load(path, NULL, &mesh, NULL, err) != MTS_OK)
+        return 0;
+    int ok = mts_build_model(&mesh, path, NULL, m, NULL, err) == MTS_OK;
+    mts_mesh_free(&mesh);
+    return ok;
+}
+
+/* The file's stem, for the tables. */
+static void stem(const char *path, char *out, size_t size)
+{
+    const char *b = strrchr(path, '/');
+    b = b ? b + 1 : path;
+    snprintf(out, size, "%s", b);
+    char *dot = strrchr(out, '.');
+    if (dot && dot != out)
+        *dot = 0;
+}
+
+int main(int argc, char **argv)
+{
+    const char *paths[16], *json_path = NULL;
+    int npaths = 0, runs = 7;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--json") && i + 1 < argc) {
+            json_path = argv[++i];
+        } else if (!strcmp(argv[i], "--runs") && i + 1 < argc) {
+            runs = atoi(argv[++i]);
+            if (runs < 1 || runs > 99) {
+                fprintf(stderr, "mts-bench-apply: --runs needs 1..99\n");
+                return CLI_EXIT_USAGE;
+            }
+        } else if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
+            printf("usage: mts-bench-apply MODEL.mtsm|MESH... [--runs N] [--json FILE]\n"
+                   "Per model, both stream forms decoded and applied in this process (median\n"
+                   "of N warm runs, default 7): ms, splits/s, their ratio, ns a split; and\n"
+                   "the server's encoding time.\n");
+            return CLI_EXIT_OK;
+        } else if (argv[i][0] == '-') {
+            fprintf(stderr, "mts-bench-apply: unknown option %s\n", argv[i]);
+            return CLI_EXIT_USAGE;
+        } else if (npaths < 16) {
+            paths[npaths++] = argv[i];
+        }
+    }
+    if (!npaths) {
+        fprintf(stderr, "mts-bench-apply: give models (see --help)\n");
+        return CLI_EXIT_USAGE;
+    }
+    FILE *js = json_path ? fopen(json_path, "w") : NULL;
+    if (json_path && !js) {
+        fprintf(stderr, "mts-bench-apply: cannot write %s\n", json_path);
+        return CLI_EXIT_FAIL;
+    }
+    if (js)
+        fprintf(js, "{\"runs\":%d,\"models\":{", runs);
+    printf("\nApplying a stream (issue 16): both forms in one process, memory warm, median of %d\n",
+           runs);
+    printf("%-14s %9s %9s %10s %11s %10s %11s %7s %9s %9s\n", "model", "triangles", "splits",
+           "splits ms", "splits M/s", "records ms", "records M/s", "ratio", "ns/split",
+           "encode s");
+    printf("%s\n", "----------------------------------------------------------------------------"
+                   "------------------------------");
+    int status = CLI_EXIT_OK, first = 1;
+    for (int k = 0; k < npaths; k++) {
+        char name[128];
+        stem(paths[k], name, sizeof name);
+        mts_error err = {0};
+        mts_model m = {0};
+        if (!load(paths[k], &m, &err)) {
+            printf("%-14s skipped: %s\n", name, err.msg);
+            status = CLI_EXIT_FAIL;
+            continue;
+        }
+        mts_stream s;
+        mts_stream_options so = {0};
+        so.with_records = 1;
+        double e0 = now_s();
+        if (mts_stream_build(&m, "bench", &so, &s, &err) != MTS_OK) {
+            printf("%-14s FAILED to encode: %s\n", name, err.msg);
+            mts_model_free(&m);
+            status = CLI_EXIT_FAIL;
+            continue;
+        }
+        double encode = now_s() - e0;
+        mts_buf a = {0}, r = {0};
+        double ta[99], tr[99];
+        uint64_t ca = 0, cr = 0;
+        int ok = connection(&s, &a) && connection(s.records_form, &r);
+        /* a first run of each: first-touch page faults are not decoding */
+        ok = ok && apply(&a, &ca, &err) > 0 && apply(&r, &cr, &err) > 0;
+        for (int i = 0; ok && i < runs; i++) { /* alternated, so drift hits both */
+            ok = (ta[i] = apply(&a, &ca, &err)) > 0 && (tr[i] = apply(&r, &cr, &err)) > 0;
+        }
+        ok = ok && ca == cr;
+        if (!ok) {
+            printf("%-14s FAILED: %s\n", name, ca != cr ? "the forms end in other meshes" : err.msg);
+            status = CLI_EXIT_FAIL;
+        } else {
+            qsort(ta, (size_t)runs, sizeof *ta, cmp_double);
+            qsort(tr, (size_t)runs, sizeof *tr, cmp_double);
+            const double sa = ta[runs / 2], sr = tr[runs / 2], n = m.level_count;
+            const uint32_t tris = m.level_triangles[m.level_count];
+            printf("%-14s %9u %9u %10.2f %11.3f %10.2f %11.3f %7.2f %9.0f %9.2f\n", name, tris,
+                   m.level_count, sa * 1e3, n / sa / 1e6, sr * 1e3, n / sr / 1e6, sa / sr,
+                   sa / n * 1e9, encode);
+            if (js)
+                fprintf(js,
+                        "%s\"%s\":{\"triangles\":%u,\"splits\":%u,\"splits_bytes\":%zu,"
+                        "\"records_bytes\":%zu,\"splits_ms\":%.3f,\"splits_per_s\":%.0f,"
+                        "\"records_ms\":%.3f,\"records_per_s\":%.0f,\"ratio\":%.3f,"
+                        "\"ns_per_split\":%.1f,\"splits_ms_min\":%.3f,\"records_ms_min\":%.3f,"
+                        "\"encode_s\":%.3f}",
+                        first ? "" : ",", name, tris, m.level_count, a.size, r.size, sa * 1e3,
+                        n / sa, sr * 1e3, n / sr, sa / sr, sa / n * 1e9, ta[0] * 1e3,
+                        tr[0] * 1e3, encode);
+            first = 0;
+        }
+        mts_buf_free(&a);
+        mts_buf_free(&r);
+        mts_stream_free(&s);
+        mts_model_free(&m);
+    }
+    printf("(ratio: splits form / records form; ns/split: the splits form's)\n");
+    if (js) {
+        fprintf(js, "}}\n");
+        fclose(js);
+    }
+    return status;
+}
