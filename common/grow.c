@@ -53,6 +53,7 @@ typedef struct grow_slot {
     uint32_t ntri;     /* triangles on it */
     uint32_t stamp;    /* == stamp_now: touched by this split */
     uint32_t fresh;    /* == stamp_now: given other content (derived whole) */
+    uint32_t relinked; /* == stamp_now: a link of its path changed */
     uint32_t capacity; /* longest it has been */
 } grow_slot;
 
@@ -506,6 +507,7 @@ static int mend_link(mts_grow *g, int32_t a, int32_t c, uint32_t first_new)
         g->prev[c] = (int32_t)f;
         g->tri[f].slot = s;
         g->slot[s].ntri++;
+        g->slot[s].relinked = g->stamp_now;
         g->fig.grown_inserted++;
         return 1;
     }
@@ -518,6 +520,7 @@ static int mend_link(mts_grow *g, int32_t a, int32_t c, uint32_t first_new)
     g->slot[ns].head = c;
     g->slot[ns].ntri = path_claim(g, c, ns);
     g->slot[s].ntri -= g->slot[ns].ntri;
+    g->slot[s].relinked = g->stamp_now;
     g->fig.strips_cut++;
     return 1;
 }
@@ -583,6 +586,7 @@ static int place_newborn(mts_grow *g, int32_t f)
         g->fig.grown_alone++;
     }
     touch(g, g->tri[f].slot);
+    g->slot[g->tri[f].slot].relinked = g->stamp_now;
     return 1;
 }
 
@@ -1154,6 +1158,53 @@ static int local_region(mts_grow *g, uint32_t s, uint32_t u, splice *sp)
     return !met || (a == o[sp->p1 - 2] && c == o[sp->p1 - 1]);
 }
 
+/* A slot whose path kept every link, where every triangle with corner u
+ * moved: its indices are the old ones with v for u, and the record only
+ * substitutes (no derivation). 1 done, 0 not such a slot, -1 no memory. */
+static int substitute_only(mts_grow *g, uint32_t s, uint32_t u, uint32_t v, uint32_t *edits)
+{
+    uint32_t *o = g->slot[s].seq.w;
+    const uint32_t L = (uint32_t)g->slot[s].seq.n;
+    uint32_t lo = find_first(o, L, u);
+    if (lo == L)
+        return 0;
+    uint32_t hi = find_last(o, L, u), count = 0;
+    mts_words *pos = &g->scratch;
+    pos->n = 0;
+    for (uint32_t k = lo; k <= hi; k++) {
+        if (o[k] != u)
+            continue;
+        /* a triangle drawn over k (one has moved only if all of them have:
+         * else a link across a u edge broke) */
+        uint32_t w = k >= 2 ? k - 2 : 0, tri[3];
+        while (w <= k && (w + 2 >= L || !mts_strip_window(o, w, tri)))
+            w++;
+        int32_t unused, t = w <= k ? cand_at(g, o, w, u, &unused) : -1;
+        if (t < 0 || corner_of(g->tri[t].v, v) < 0)
+            return 0;
+        if (!mts_words_reserve(pos, 1))
+            return -1;
+        pos->w[pos->n++] = k;
+        count++;
+    }
+    if (!mts_words_reserve(&g->rec, 4 + count))
+        return -1;
+    uint32_t *r = g->rec.w + g->rec.n;
+    *r++ = s;
+    *r++ = 0;
+    *r++ = 0;
+    *r++ = count;
+    for (uint32_t i = 0; i < count; i++) {
+        *r++ = pos->w[i];
+        o[pos->w[i]] = v;
+    }
+    g->rec.n = (size_t)(r - g->rec.w);
+    (*edits)++;
+    g->fig.edits++;
+    g->fig.substitutions += count;
+    return 1;
+}
+
 static int cmp_u32(const void *a, const void *c)
 {
     uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)c;
@@ -1171,8 +1222,11 @@ static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
     g->rec.n = 1;
     uint32_t edits = 0;
     /* slot order: a split touches two or three (insertion sort), a key
-     * level every slot, already in order */
-    if (g->touched_count > 64) {
+     * level every slot */
+    if (g->touched_count == g->slot_count) { /* every slot: a key level */
+        for (uint32_t k = 0; k < g->slot_count; k++)
+            g->touched[k] = k;
+    } else if (g->touched_count > 64) {
         qsort(g->touched, g->touched_count, 4, cmp_u32);
     } else {
         for (uint32_t i = 1; i < g->touched_count; i++) {
@@ -1187,6 +1241,13 @@ static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
         splice sp = {0, (uint32_t)g->slot[s].seq.n, 0, &g->scratch};
         int local = 0;
         if (u != NONE && g->slot[s].fresh != g->stamp_now && g->slot[s].head >= 0 && g->slot[s].seq.n) {
+            if (g->slot[s].relinked != g->stamp_now) {
+                int done = substitute_only(g, s, u, v, &edits);
+                if (done < 0)
+                    return 0;
+                if (done)
+                    continue;
+            }
             local = local_region(g, s, u, &sp);
             if (local < 0)
                 return 0;
