@@ -364,6 +364,8 @@ static int derive_run(const mts_grow *g, int32_t t, int first, int32_t stop, uin
             return 1;
         }
         t = next_of(g, t);
+        if (t < 0)
+            return 1;
     }
     /* a triangle adds at most 2; room for the path's slot's triangles at
      * once, more only if that ran out */
