@@ -18,6 +18,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "striplinks.h"
+
 #define NONE MTS_GREEDY_NONE
 
 static const uint8_t NX[3] = {1, 2, 0}, PV[3] = {2, 0, 1};
@@ -195,14 +197,7 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uin
         if (d < 3)
             c.bucket[d][c.bucket_len[d]++] = t;
     }
-    /* the buckets pop from the top: lowest ids first among the initial ones */
-    for (int d = 0; d < 3; d++) {
-        for (uint32_t i = 0, j = c.bucket_len[d]; i + 1 < j; i++, j--) {
-            uint32_t x = c.bucket[d][i];
-            c.bucket[d][i] = c.bucket[d][j - 1];
-            c.bucket[d][j - 1] = x;
-        }
-    }
+    mts__buckets_lowest_first(c.bucket, c.bucket_len);
 
     uint32_t placed = 0, paths = 0;
     for (;;) {

@@ -169,6 +169,14 @@ static inline unsigned edge_to(const mts_grow *g, uint32_t t, uint32_t b)
     return 3;
 }
 
+/* Half-edge a's twin becomes b, and b's a (b may be NONE: a border). */
+static inline void twin_pair(mts_grow *g, uint32_t a, uint32_t b)
+{
+    TWIN(g, a) = b;
+    if (b != NONE)
+        TWIN(g, b) = a;
+}
+
 static inline int32_t next_of(const mts_grow *g, int32_t t)
 {
     return g->tri[t].nx < 0 ? -1 : g->tri[t].nx >> 2;
@@ -1828,25 +1836,15 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
         /* (u v left): v -> left meets the fan's left -> v, left -> u what
          * held u -> left; (v u right) likewise; u -> v meets v -> u */
         if (nl >= 0) {
-            uint32_t b = 3 * (uint32_t)nl;
-            TWIN(g, b + 1) = hl;
-            TWIN(g, hl) = b + 1;
-            TWIN(g, b + 2) = opp_l;
-            if (opp_l != NONE)
-                TWIN(g, opp_l) = b + 2;
+            twin_pair(g, 3 * (uint32_t)nl + 1, hl);
+            twin_pair(g, 3 * (uint32_t)nl + 2, opp_l);
         }
         if (nr >= 0) {
-            uint32_t b = 3 * (uint32_t)nr;
-            TWIN(g, b + 2) = hr;
-            TWIN(g, hr) = b + 2;
-            TWIN(g, b + 1) = opp_r;
-            if (opp_r != NONE)
-                TWIN(g, opp_r) = b + 1;
+            twin_pair(g, 3 * (uint32_t)nr + 2, hr);
+            twin_pair(g, 3 * (uint32_t)nr + 1, opp_r);
         }
-        if (nl >= 0 && nr >= 0) {
-            TWIN(g, 3 * (uint32_t)nl) = 3 * (uint32_t)nr;
-            TWIN(g, 3 * (uint32_t)nr) = 3 * (uint32_t)nl;
-        }
+        if (nl >= 0 && nr >= 0)
+            twin_pair(g, 3 * (uint32_t)nl, 3 * (uint32_t)nr);
     } else {
         for (uint32_t k = 0; k < sp->born_count; k++) {
             const uint32_t *t = sp->born + 3 * (size_t)k;

@@ -400,14 +400,7 @@ static mts_result stripify_impl(const uint32_t *triangles, uint32_t triangle_cou
         if (d < 3)
             c.bucket[d][c.bucket_len[d]++] = t;
     }
-    /* the buckets pop from the top: lowest ids first among the initial ones */
-    for (int d = 0; d < 3; d++) {
-        for (uint32_t i = 0, j = c.bucket_len[d]; i + 1 < j; i++, j--) {
-            uint32_t x = c.bucket[d][i];
-            c.bucket[d][i] = c.bucket[d][j - 1];
-            c.bucket[d][j - 1] = x;
-        }
-    }
+    mts__buckets_lowest_first(c.bucket, c.bucket_len);
 
     /* Greedy paths, one after the other in order[]: path i is
      * order[starts[i] .. starts[i+1]). */

@@ -71,6 +71,20 @@ typedef struct mts__links {
 
 /* ---- the dual graph ------------------------------------------------------ */
 
+/* The greedy seeds' buckets (stripify.c, greedy.c): triangles by their
+ * number of free neighbours, pushed in id order and popped from the top,
+ * turned round once filled so that the lowest ids come out first. */
+static inline void mts__buckets_lowest_first(uint32_t *bucket[3], const uint32_t len[3])
+{
+    for (int d = 0; d < 3; d++) {
+        for (uint32_t i = 0, j = len[d]; i + 1 < j; i++, j--) {
+            uint32_t x = bucket[d][i];
+            bucket[d][i] = bucket[d][j - 1];
+            bucket[d][j - 1] = x;
+        }
+    }
+}
+
 /* nb (3n) for the n triangles tri, indices < vertex_count: the neighbour
  * across each edge that exactly two faces run through in opposite
  * directions, MTS__NONE across any other. Deterministic, O(n + V) when V is
