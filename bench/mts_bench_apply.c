@@ -9,6 +9,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "bench_common.h"
 #include "build.h"
 #include "cli.h"
 #include "mesh.h"
@@ -16,41 +17,13 @@
 #include "stream.h"
 #include "wire.h"
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-/* MODEL_INFO + the whole stream + END: a connection's bytes. */
-static int connection(const mts_stream *s, mts_buf *out)
-{
-    mts_error err;
-    size_t off, len;
-    uint32_t n = s->model.level_count;
-    out->size = 0;
-    mts_stream_put_model_info(s, n, out);
-    if (mts_stream_range(s, 0, n, &off, &len, &err) != MTS_OK)
-        return 0;
-    mts_buf_put(out, s->bytes + off, len);
-    mts_stream_put_end(s, n, (uint32_t)out->size, out);
-    return !out->failed;
-}
-
 /* Seconds to take every frame of b into a fresh client; 0 on an error. */
 static double apply(const mts_buf *b, uint64_t *checksum, mts_error *err)
 {
     mts_stream_client c;
     mts_stream_client_init(&c);
     mts_wire_reader rd = {0};
-    double t0 = now_s();
+    double t0 = bench_now_s();
     int ok = mts_wire_reader_feed(&rd, b->data, b->size, err) == MTS_OK;
     uint8_t type;
     const uint8_t *p;
@@ -59,7 +32,7 @@ static double apply(const mts_buf *b, uint64_t *checksum, mts_error *err)
         mts_stream_event ev;
         ok = mts_stream_client_frame(&c, type, p, n, &ev, err) == MTS_OK;
     }
-    double t = now_s() - t0;
+    double t = bench_now_s() - t0;
     ok = ok && c.end_checksum != 0;
     *checksum = c.checksum;
     mts_wire_reader_free(&rd);
@@ -149,18 +122,19 @@ int main(int argc, char **argv)
         mts_stream s;
         mts_stream_options so = {0};
         so.with_records = 1;
-        double e0 = now_s();
+        double e0 = bench_now_s();
         if (mts_stream_build(&m, "bench", &so, &s, &err) != MTS_OK) {
             printf("%-14s FAILED to encode: %s\n", name, err.msg);
             mts_model_free(&m);
             status = CLI_EXIT_FAIL;
             continue;
         }
-        double encode = now_s() - e0;
+        double encode = bench_now_s() - e0;
         mts_buf a = {0}, r = {0};
         double ta[99], tr[99];
         uint64_t ca = 0, cr = 0;
-        int ok = connection(&s, &a) && connection(s.records_form, &r);
+        int ok = bench_connection_bytes(&s, s.model.level_count, &a) &&
+                 bench_connection_bytes(s.records_form, s.records_form->model.level_count, &r);
         /* a first run of each: first-touch page faults are not decoding */
         ok = ok && apply(&a, &ca, &err) > 0 && apply(&r, &cr, &err) > 0;
         for (int i = 0; ok && i < runs; i++) { /* alternated, so drift hits both */
@@ -171,8 +145,8 @@ int main(int argc, char **argv)
             printf("%-14s FAILED: %s\n", name, ca != cr ? "the forms end in other meshes" : err.msg);
             status = CLI_EXIT_FAIL;
         } else {
-            qsort(ta, (size_t)runs, sizeof *ta, cmp_double);
-            qsort(tr, (size_t)runs, sizeof *tr, cmp_double);
+            qsort(ta, (size_t)runs, sizeof *ta, bench_cmp_double);
+            qsort(tr, (size_t)runs, sizeof *tr, bench_cmp_double);
             const double sa = ta[runs / 2], sr = tr[runs / 2], n = m.level_count;
             const uint32_t tris = m.level_triangles[m.level_count];
             printf("%-14s %9u %9u %10.2f %11.3f %10.2f %11.3f %7.2f %9.0f %9.2f\n", name, tris,

@@ -15,6 +15,7 @@
 #include <sys/stat.h>
 #include <time.h>
 
+#include "bench_common.h"
 #include "build.h"
 #include "cli.h"
 #include "draco.h"
@@ -26,33 +27,6 @@
 
 #include <meshoptimizer.h>
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-/* MODEL_INFO + stream range + END for a stop level. */
-static size_t connection_bytes(const mts_stream *s, uint32_t stop, mts_buf *out)
-{
-    mts_error err;
-    size_t off, len;
-    out->size = 0;
-    mts_stream_put_model_info(s, stop, out);
-    if (mts_stream_range(s, 0, stop, &off, &len, &err) != MTS_OK)
-        return 0;
-    mts_buf_put(out, s->bytes + off, len);
-    mts_stream_put_end(s, stop, (uint32_t)out->size, out);
-    return out->size;
-}
-
 /* Decodes and applies a whole connection's bytes; with a renderer, uploads
  * each batch's vertices and changed strips too. Returns seconds, 0 on error. */
 static double apply_all(const mts_buf *b, mts_renderer *r, mts_error *err)
@@ -60,7 +34,7 @@ static double apply_all(const mts_buf *b, mts_renderer *r, mts_error *err)
     mts_stream_client c;
     mts_stream_client_init(&c);
     mts_wire_reader rd = {0};
-    double t0 = now_s();
+    double t0 = bench_now_s();
     uint32_t uploaded = 0;
     int ok = mts_wire_reader_feed(&rd, b->data, b->size, err) == MTS_OK;
     uint8_t type;
@@ -80,7 +54,7 @@ static double apply_all(const mts_buf *b, mts_renderer *r, mts_error *err)
             uploaded = have;
         }
     }
-    double t = now_s() - t0;
+    double t = bench_now_s() - t0;
     mts_wire_reader_free(&rd);
     mts_stream_client_free(&c);
     return ok ? t : 0;
@@ -97,7 +71,7 @@ static void apply_median(const mts_buf *b, const mts_stream *s, mts_render_conte
         t[k] = apply_all(b, NULL, err);
     if (t[0] == 0)
         printf("%-14s apply FAILED: %s\n", "", err->msg);
-    qsort(t, 5, sizeof(double), cmp_double);
+    qsort(t, 5, sizeof(double), bench_cmp_double);
     *no_gl = t[2];
     *gl = 0;
     if (!ctx)
@@ -117,7 +91,7 @@ static void apply_median(const mts_buf *b, const mts_stream *s, mts_render_conte
             mts_lod_free(&lod);
         }
     }
-    qsort(tg, 5, sizeof(double), cmp_double);
+    qsort(tg, 5, sizeof(double), bench_cmp_double);
     *gl = tg[2];
 }
 
@@ -134,7 +108,7 @@ static double frame_ms(mts_renderer *r, int n, mts_error *err)
         mts_render_get_stats(r, &st);
         t[i] = st.last_draw_seconds * 1e3;
     }
-    qsort(t, (size_t)n, sizeof(double), cmp_double);
+    qsort(t, (size_t)n, sizeof(double), bench_cmp_double);
     return t[n / 2];
 }
 
@@ -250,7 +224,7 @@ static double dt_frames(mts_renderer *r, double *cpu_ms, uint64_t *index_bytes, 
     }
     *cpu_ms = (cpu_s() - c0) * 1e3 / DT_FRAMES;
     *index_bytes = st.last_draw_index_bytes;
-    qsort(t, DT_FRAMES, sizeof(double), cmp_double);
+    qsort(t, DT_FRAMES, sizeof(double), bench_cmp_double);
     return t[DT_FRAMES / 2];
 }
 
@@ -318,8 +292,8 @@ static int draw_table(mts_render_context *ctx, const mts_model *m, const char *n
             }
         double med[DT_MODES], cmed[DT_MODES], noise = 0, cnoise = 0;
         for (int k = 0; k < DT_MODES; k++) {
-            qsort(ms[k], dt_rounds, sizeof(double), cmp_double);
-            qsort(cpu[k], dt_rounds, sizeof(double), cmp_double);
+            qsort(ms[k], dt_rounds, sizeof(double), bench_cmp_double);
+            qsort(cpu[k], dt_rounds, sizeof(double), bench_cmp_double);
             med[k] = ms[k][dt_rounds / 2];
             cmed[k] = cpu[k][dt_rounds / 2];
             double cspread = cmed[k] > 0 ? (cpu[k][dt_rounds - 1] - cpu[k][0]) / cmed[k] : 0;
@@ -462,9 +436,9 @@ int main(int argc, char **argv)
         const double fr[3] = {0.1, 0.5, 1.0};
         for (int k = 0; k < 3; k++) {
             uint64_t tri = (uint64_t)(fr[k] * m.level_triangles[m.level_count] + 0.5);
-            at[k] = connection_bytes(&s, mts_model_level_for_triangles(&m, tri), &b);
+            at[k] = bench_connection_bytes(&s, mts_model_level_for_triangles(&m, tri), &b);
         }
-        size_t full = connection_bytes(&s, m.level_count, &b);
+        size_t full = bench_connection_bytes(&s, m.level_count, &b);
         printf("%-14s %10zu %10zu %10zu %10zu %10zu %10zu %8.2f %10zu %10zu %10zu\n", name, full,
                s.batch_offset[0], draco[0], draco[1], draco[2], file_size,
                draco[0] ? (double)full / draco[0] : 0, at[0], at[1], at[2]);
@@ -473,7 +447,7 @@ int main(int argc, char **argv)
         double no_gl = 0, gl_med = 0, rec_no_gl = 0, rec_gl = 0;
         apply_median(&b, &s, have_gl ? ctx : NULL, &no_gl, &gl_med, &err);
         mts_buf rb = {0};
-        size_t rec_full = connection_bytes(s.records_form, m.level_count, &rb);
+        size_t rec_full = bench_connection_bytes(s.records_form, m.level_count, &rb);
         apply_median(&rb, &s, have_gl ? ctx : NULL, &rec_no_gl, &rec_gl, &err);
         mts_buf_free(&rb);
         double splits = m.level_count;
