@@ -239,7 +239,7 @@ static void shared_sampled(mts_test *t, const char *file)
     mts_model m = {0};
     if (!build_path(t, path, &m))
         return;
-    grow_checked(t, &m, m.level_count / 150 + 1);
+    grow_checked(t, &m, m.level_count / 500 + 1); /* about 500 levels, and every key */
     mts_model_free(&m);
 }
 
