@@ -1,19 +1,12 @@
-/* What the bench programs share: a clock, a comparison for qsort, and the
- * bytes a connection receives. Header-only: each program is one file. */
+/* What the bench programs share beyond tools/cli.h (whose cli_now is their
+ * clock): a comparison for qsort, and the bytes a connection receives.
+ * Header-only: each program is one file. */
 #ifndef MTS_BENCH_COMMON_H
 #define MTS_BENCH_COMMON_H
 
 #include <stdint.h>
-#include <time.h>
 
 #include "stream.h"
-
-static inline double bench_now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 static inline int bench_cmp_double(const void *a, const void *b)
 {

@@ -20,6 +20,10 @@ status=0
 now() { printf '%s\n' "$EPOCHREALTIME"; }
 elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", b - a }'; }
 free_port() { echo $((20000 + RANDOM % 20000)); }
+# whatever this script started goes with it, interrupted or not
+pids=()
+trap 'kill -TERM "${pids[@]}" 2>/dev/null' EXIT
+rm -rf "$out/client"
 mkdir -p "$out/client"
 : >"$out/client/fresh.txt"
 : >"$out/client/ready.txt"
@@ -38,6 +42,7 @@ for m in "${models[@]}"; do
   t0=$(now)
   $bin/mts-server --model "$name=$m" --listen "127.0.0.1:$port" --quiet 2>"$out/client/server_$name.log" &
   pid=$!
+  pids+=("$pid")
   listen=""
   ready=""
   for _ in $(seq 1 1200); do # up to 60 s
@@ -53,7 +58,7 @@ for m in "${models[@]}"; do
   kill -TERM "$pid" 2>/dev/null
   wait "$pid" 2>/dev/null
   echo "$name ${listen:-none} ${ready:-none}" >>"$out/client/ready.txt"
-  [ -n "$ready" ] || status=1
+  [ -n "$ready" ] || { echo "ready: $name's stream not ready in 60 s" >>"$out/client/notes.txt"; status=1; }
 done
 
 # --- fresh client processes over loopback, one server with every model ------
@@ -64,6 +69,7 @@ for m in "${models[@]}"; do ln -sf "$(realpath "$m")" "$dir/$(name_of "$m").mtsm
 port=$(free_port)
 $bin/mts-server --models "$dir" --listen "127.0.0.1:$port" --quiet 2>"$out/client/server.log" &
 server=$!
+pids+=("$server")
 wait_ready() { # every model's stream encoded (LIST stream_bytes > 0)
   for _ in $(seq 1 1200); do
     list=$($bin/mts-client "127.0.0.1:$port" --list 2>/dev/null) &&
@@ -73,17 +79,29 @@ wait_ready() { # every model's stream encoded (LIST stream_bytes > 0)
   return 1
 }
 wait_ready || { echo "server: streams not ready in 60 s" >>"$out/client/notes.txt"; status=1; }
-sleep 2 # the records forms come after the splits forms
+# the records forms come after the splits forms, and until then a records
+# HELLO gets the splits form: wait until a level-0 request gets records
+records_ready() {
+  for _ in $(seq 1 1200); do
+    $bin/mts-client "127.0.0.1:$port" "$1" --records --level 0 --no-render --json 2>/dev/null |
+      grep -q '"form":"records"' && return 0
+    sleep 0.05
+  done
+  return 1
+}
 for m in "${models[@]}"; do
   name=$(name_of "$m")
+  records_ready "$name" || { echo "fresh: $name's records form not ready in 60 s" >>"$out/client/notes.txt"; status=1; }
   for form in splits records; do
     flag=""
     [ "$form" = records ] && flag=--records
     for _ in 1 2 3 4 5; do
       t0=$(now)
-      if line=$($bin/mts-client "127.0.0.1:$port" "$name" --no-render --json $flag 2>/dev/null); then
+      if line=$(timeout 120 $bin/mts-client "127.0.0.1:$port" "$name" --no-render --json $flag \
+        2>>"$out/client/fresh.err"); then
         echo "$name $form $(elapsed "$t0" "$(now)") $line" >>"$out/client/fresh.txt"
       else
+        echo "fresh: $name $form: $(tail -n 1 "$out/client/fresh.err")" >>"$out/client/notes.txt"
         status=1
       fi
     done
@@ -95,7 +113,7 @@ if [ -f "$dir/bunny00.mtsm" ]; then
   if command -v xvfb-run >/dev/null; then
     printf '4 key q\n' >"$out/client/window_script.txt"
     for _ in 1 2 3 4 5; do
-      xvfb-run -a -s "-screen 0 1024x768x24" $bin/mts-client "127.0.0.1:$port" bunny00 --window \
+      timeout 120 xvfb-run -a -s "-screen 0 1024x768x24" $bin/mts-client "127.0.0.1:$port" bunny00 --window \
         --size 800x600 --script "$out/client/window_script.txt" --json \
         >>"$out/client/window.txt" 2>>"$out/client/window.err" || status=1
     done
@@ -107,8 +125,9 @@ if [ -f "$dir/bunny00.mtsm" ]; then
   n=${MTS_BENCH_APPLYING_CLIENTS:-1000}
   if [ "$n" -gt 0 ]; then
     echo "bench: $n applying mts-stress clients of bunny00 (a minute or two) ..." >&2
-    $bin/mts-stress "127.0.0.1:$port" bunny00 --clients "$n" --json \
-      >"$out/client/stress.json" 2>"$out/client/stress.err" || status=1
+    timeout 1200 $bin/mts-stress "127.0.0.1:$port" bunny00 --clients "$n" --json \
+      >"$out/client/stress.json" 2>"$out/client/stress.err" ||
+      { echo "stress: $(tail -n 1 "$out/client/stress.err")" >>"$out/client/notes.txt"; status=1; }
   fi
 fi
 kill -TERM "$server" 2>/dev/null

@@ -23,7 +23,7 @@ static double apply(const mts_buf *b, uint64_t *checksum, mts_error *err)
     mts_stream_client c;
     mts_stream_client_init(&c);
     mts_wire_reader rd = {0};
-    double t0 = bench_now_s();
+    double t0 = cli_now();
     int ok = mts_wire_reader_feed(&rd, b->data, b->size, err) == MTS_OK;
     uint8_t type;
     const uint8_t *p;
@@ -32,7 +32,7 @@ static double apply(const mts_buf *b, uint64_t *checksum, mts_error *err)
         mts_stream_event ev;
         ok = mts_stream_client_frame(&c, type, p, n, &ev, err) == MTS_OK;
     }
-    double t = bench_now_s() - t0;
+    double t = cli_now() - t0;
     ok = ok && c.end_checksum != 0;
     *checksum = c.checksum;
     mts_wire_reader_free(&rd);
@@ -53,17 +53,6 @@ static int load(const char *path, mts_model *m, mts_error *err)
     return ok;
 }
 
-/* The file's stem, for the tables. */
-static void stem(const char *path, char *out, size_t size)
-{
-    const char *b = strrchr(path, '/');
-    b = b ? b + 1 : path;
-    snprintf(out, size, "%s", b);
-    char *dot = strrchr(out, '.');
-    if (dot && dot != out)
-        *dot = 0;
-}
-
 int main(int argc, char **argv)
 {
     const char *paths[16], *json_path = NULL;
@@ -71,12 +60,11 @@ int main(int argc, char **argv)
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--json") && i + 1 < argc) {
             json_path = argv[++i];
-        } else if (!strcmp(argv[i], "--runs") && i + 1 < argc) {
-            runs = atoi(argv[++i]);
-            if (runs < 1 || runs > 99) {
-                fprintf(stderr, "mts-bench-apply: --runs needs 1..99\n");
+        } else if (!strcmp(argv[i], "--runs")) {
+            uint32_t u;
+            if (!cli_option_u32(argc, argv, &i, "mts-bench-apply", 1, 99, &u))
                 return CLI_EXIT_USAGE;
-            }
+            runs = (int)u;
         } else if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
             printf("usage: mts-bench-apply MODEL.mtsm|MESH... [--runs N] [--json FILE]\n"
                    "Per model, both stream forms decoded and applied in this process (median\n"
@@ -88,6 +76,9 @@ int main(int argc, char **argv)
             return CLI_EXIT_USAGE;
         } else if (npaths < 16) {
             paths[npaths++] = argv[i];
+        } else {
+            fprintf(stderr, "mts-bench-apply: at most 16 models\n");
+            return CLI_EXIT_USAGE;
         }
     }
     if (!npaths) {
@@ -111,7 +102,7 @@ int main(int argc, char **argv)
     int status = CLI_EXIT_OK, first = 1;
     for (int k = 0; k < npaths; k++) {
         char name[128];
-        stem(paths[k], name, sizeof name);
+        cli_stem(paths[k], name, sizeof name);
         mts_error err = {0};
         mts_model m = {0};
         if (!load(paths[k], &m, &err)) {
@@ -122,14 +113,14 @@ int main(int argc, char **argv)
         mts_stream s;
         mts_stream_options so = {0};
         so.with_records = 1;
-        double e0 = bench_now_s();
+        double e0 = cli_now();
         if (mts_stream_build(&m, "bench", &so, &s, &err) != MTS_OK) {
             printf("%-14s FAILED to encode: %s\n", name, err.msg);
             mts_model_free(&m);
             status = CLI_EXIT_FAIL;
             continue;
         }
-        double encode = bench_now_s() - e0;
+        double encode = cli_now() - e0;
         mts_buf a = {0}, r = {0};
         double ta[99], tr[99];
         uint64_t ca = 0, cr = 0;

@@ -34,7 +34,7 @@ static double apply_all(const mts_buf *b, mts_renderer *r, mts_error *err)
     mts_stream_client c;
     mts_stream_client_init(&c);
     mts_wire_reader rd = {0};
-    double t0 = bench_now_s();
+    double t0 = cli_now();
     uint32_t uploaded = 0;
     int ok = mts_wire_reader_feed(&rd, b->data, b->size, err) == MTS_OK;
     uint8_t type;
@@ -54,7 +54,7 @@ static double apply_all(const mts_buf *b, mts_renderer *r, mts_error *err)
             uploaded = have;
         }
     }
-    double t = bench_now_s() - t0;
+    double t = cli_now() - t0;
     mts_wire_reader_free(&rd);
     mts_stream_client_free(&c);
     return ok ? t : 0;

@@ -5,7 +5,9 @@
 # Prints the tables and writes bench/results.json (everything merged).
 #
 # Environment: MTS_SHARED (default ../shared) holds models/; MTS_BENCH_BIG=0
-# skips the big mesh (a minute of the run). Exit status 1 when a requested
+# skips the big mesh (a minute of the run), MTS_BENCH_STRESS=0 the many-client
+# runs, MTS_BENCH_CLIENT=0 the client's cost; MTS_BENCH_APPLYING_CLIENTS
+# (default 1000) sets the applying mts-stress clients. Exit status 1 when a requested
 # figure could not be measured; absent tools and models are skipped, with a
 # reason, and do not fail the run.
 set -uo pipefail
@@ -113,8 +115,10 @@ fi
 # --- the client's cost (issue 16) --------------------------------------------------
 # both forms warm and as fresh processes, server ready, the window, a thousand
 # applying clients: on the shared models' .mtsm and the big mesh's
+rm -rf "$out/client" # never merge a previous run's figures
+mkdir -p "$out/client"
 if [ "${MTS_BENCH_CLIENT:-1}" = 0 ]; then
-  printf '{"skipped": "MTS_BENCH_CLIENT=0"}\n' >"$out/client/warm.json" 2>/dev/null
+  printf '{"skipped": "MTS_BENCH_CLIENT=0"}\n' >"$out/client/warm.json"
 else
   mkdir -p "$out/mtsm"
   client_models=()

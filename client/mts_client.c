@@ -397,7 +397,6 @@ typedef struct win {
     /* frames drawn while the stream came: from the loop's start to its end */
     uint64_t frames_streaming;
     double ms_streaming;
-    int stream_over;
     /* --lod-policy other than received: what "following" means */
     const mts_lod_policy_options *po;
     mts_lod_policy policy;
@@ -698,6 +697,14 @@ static void json_text(FILE *f, const char *s)
 
 /* Runs the window until q (or the close button). Returns the session's
  * result; *wn keeps what the summary needs. */
+/* The figures of the frames drawn while the stream came, taken once as it
+ * ends (completed, failed or quit). */
+static void win_stream_ended(win *wn)
+{
+    wn->frames_streaming = wn->frames;
+    wn->ms_streaming = now_ms() - wn->t_start;
+}
+
 static mts_result win_run(win *wn, mts_session_options *so, const char *script_path,
                           const mts_lod_policy_options *po, mts_error *err)
 {
@@ -766,12 +773,8 @@ static mts_result win_run(win *wn, mts_session_options *so, const char *script_p
                 break;
             }
             wn->streaming = mts_session_poll(sess, left > 0 ? (int)left : 0);
-            if (!wn->streaming && !wn->stream_over) {
-                wn->stream_over = 1;
-                wn->frames_streaming = wn->frames;
-                wn->ms_streaming = now_ms() - wn->t_start;
-            }
             if (!wn->streaming) {
+                win_stream_ended(wn);
                 rc = mts_session_end(sess, err);
                 if (rc != MTS_OK) {
                     /* the window stays up with the last whole batch; q ends it */
@@ -789,8 +792,7 @@ static mts_result win_run(win *wn, mts_session_options *so, const char *script_p
         mts_session_end(sess, NULL);
         wn->streaming = 0;
         wn->quit_early = 1;
-        wn->frames_streaming = wn->frames;
-        wn->ms_streaming = now_ms() - wn->t_start;
+        win_stream_ended(wn);
     }
     return rc;
 }

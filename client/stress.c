@@ -9,6 +9,7 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -405,7 +406,8 @@ static int sc_skim(stress *s, sclient *c, const uint8_t *p, size_t n)
 }
 
 /* Apply mode: applies c's whole frames until the deadline. 0 once c has
- * ended (succeeded or failed and released). */
+ * ended (succeeded or failed and released), 2 when the deadline stopped it,
+ * 1 when it waits for bytes. */
 static int sc_apply(stress *s, sclient *c, double deadline)
 {
     if (!c->decoder) {
@@ -431,7 +433,7 @@ static int sc_apply(stress *s, sclient *c, double deadline)
             return 0;
         }
         if (now_s() >= deadline)
-            return 1;
+            return 2;
     }
     if (next < 0) {
         sc_fail(s, c, MTS_STRESS_PROTOCOL, "%s", err.msg);
@@ -446,13 +448,16 @@ static int sc_apply(stress *s, sclient *c, double deadline)
 }
 
 /* One round of applying: the oldest unfinished clients, at most
- * max_appliers of them, each in turn until the round's time is up. */
-static void apply_round(stress *s, uint32_t started, double budget)
+ * max_appliers of them, each in turn until the round's time is up. 1 when
+ * there is decoding left that needs no more bytes (the loop should not
+ * sleep on the sockets then). */
+static int apply_round(stress *s, uint32_t started, double budget)
 {
     while (s->oldest < started && s->c[s->oldest].state == SC_DONE)
         s->oldest++;
     double deadline = now_s() + budget;
     uint32_t busy = 0;
+    int left = 0;
     for (uint32_t i = s->oldest; i < started && busy < s->max_appliers; i++) {
         sclient *c = &s->c[i];
         if (c->state == SC_DONE || c->state == SC_WAITING)
@@ -462,9 +467,13 @@ static void apply_round(stress *s, uint32_t started, double budget)
             continue;
         double share = (deadline - now_s()) / (double)(s->max_appliers - busy + 1);
         if (share <= 0)
-            break;
-        sc_apply(s, c, now_s() + share);
+            return 1;
+        /* an ended client makes room for a waiting one, which may have
+         * all its bytes already */
+        int r = sc_apply(s, c, now_s() + share);
+        left |= r != 1;
     }
+    return left;
 }
 
 static void sc_read(stress *s, sclient *c, double now)
@@ -584,15 +593,18 @@ typedef struct shard {
     uint32_t n, conc, index, count; /* its clients; this is shard index of count */
     double ramp, t0;
     pthread_mutex_t lock;
+    int finished;      /* under lock: the shard's loop has ended */
+    atomic_int *stop;  /* the watcher's: give up on the clients still running */
     mts_result rc;
     mts_error err;
 } shard;
 
-static void shard_publish(shard *h)
+static void shard_publish(shard *h, int finished)
 {
     pthread_mutex_lock(&h->lock);
     h->rep.seconds = now_s() - h->t0;
     h->snap = h->rep;
+    h->finished = finished;
     pthread_mutex_unlock(&h->lock);
 }
 
@@ -607,7 +619,9 @@ static void *shard_main(void *arg)
     uint32_t next = 0; /* the next client to start */
     sp->t0 = h->t0;
     double last_progress = sp->t0, last_scan = sp->t0;
-    while (rep->succeeded + rep->failed < n) {
+    int pending = 0; /* apply_round left decoding to do */
+    while (rep->succeeded + rep->failed < n &&
+           !atomic_load_explicit(h->stop, memory_order_relaxed)) {
         double now = now_s();
         /* start whoever is due and fits under the concurrency limit; the
          * ramp spaces all the threads' clients as one */
@@ -617,8 +631,8 @@ static void *shard_main(void *arg)
             sc_start(sp, &sp->c[next], now);
             next++;
         }
-        /* applying to do: do not sleep on the sockets */
-        int timeout_ms = !o->no_apply && !o->http_path && sp->oldest < next ? 0 : 100;
+        /* decoding left that needs no bytes: do not sleep on the sockets */
+        int timeout_ms = pending ? 0 : 100;
         if (next < n && sp->connected < conc && h->ramp > 0) {
             double due = sp->t0 +
                          h->ramp * (double)(next * h->count + h->index) / (double)(n * h->count) -
@@ -642,18 +656,18 @@ static void *shard_main(void *arg)
                 sc_read(sp, c, now); /* data, or the EOF/reset a read reports */
         }
         if (!o->no_apply && !o->http_path)
-            apply_round(sp, next, 0.02);
+            pending = apply_round(sp, next, 0.02);
         now = now_s();
         if (now - last_scan >= 0.1) {
             check_timeouts(sp, next, now);
             last_scan = now;
         }
         if (now - last_progress >= 0.1) {
-            shard_publish(h);
+            shard_publish(h, 0);
             last_progress = now;
         }
     }
-    shard_publish(h);
+    shard_publish(h, 1);
     return NULL;
 }
 
@@ -687,11 +701,17 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
         long cores = sysconf(_SC_NPROCESSORS_ONLN);
         T = cores > 0 ? (uint32_t)cores : 1;
     }
-    if (T > n)
-        T = n;
+    /* each loop has at least one client, one connection and one decoder of
+     * its own, so the limits asked for hold across the loops */
+    if (T > conc)
+        T = conc;
+    if (o->appliers && T > o->appliers)
+        T = o->appliers;
     if (T > 64)
         T = 64;
     rep->clients = n;
+    atomic_int stop;
+    atomic_init(&stop, 0);
     mts_result rc = MTS_OK;
     mts_buf hello = {0};
     struct addrinfo *addr = NULL;
@@ -745,8 +765,7 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
         h->count = T;
         h->n = n / T + (k < n % T);
         h->conc = conc / T + (k < conc % T);
-        if (h->conc == 0)
-            h->conc = 1;
+        h->stop = &stop;
         h->ramp = ramp;
         h->t0 = t0;
         h->rep.clients = h->n;
@@ -756,7 +775,7 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
         sp->addr = addr;
         sp->hello = hello.data;
         sp->hello_size = hello.size;
-        sp->max_appliers = o->appliers ? (o->appliers + T - 1) / T : 8;
+        sp->max_appliers = o->appliers ? o->appliers / T + (k < o->appliers % T) : 8;
         sp->c = calloc(h->n + 1, sizeof *sp->c);
         sp->ms_final = malloc(((size_t)h->n + 1) * sizeof *sp->ms_final);
         sp->ms_base = malloc(((size_t)h->n + 1) * sizeof *sp->ms_base);
@@ -788,12 +807,16 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
     for (;;) {
         mts_stress_report now_rep = {0};
         now_rep.clients = n;
+        uint32_t finished = 0;
+        int broken = rc != MTS_OK;
         for (uint32_t k = 0; k < running; k++) {
             pthread_mutex_lock(&hs[k].lock);
             report_add(&now_rep, &hs[k].snap);
+            finished += (uint32_t)hs[k].finished;
+            broken |= hs[k].finished && hs[k].rc != MTS_OK; /* its loop failed */
             pthread_mutex_unlock(&hs[k].lock);
         }
-        if (now_rep.succeeded + now_rep.failed >= n || rc != MTS_OK)
+        if (finished == running || broken)
             break;
         if (o->on_progress && now_s() - last_report >= interval) {
             o->on_progress(o->user, &now_rep);
@@ -802,6 +825,9 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
         struct timespec d = {0, 10 * 1000 * 1000};
         nanosleep(&d, NULL);
     }
+    /* after a failure the other loops give up too; their clients still
+     * running are released below */
+    atomic_store(&stop, 1);
     for (uint32_t k = 0; k < running; k++)
         pthread_join(th[k], NULL);
     uint32_t ok = 0;

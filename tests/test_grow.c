@@ -317,9 +317,9 @@ static void test_explicit_splits_match_fans(mts_test *t)
 }
 
 /* Explicit splits a broken server could send: a triangle moved twice, one
- * without the parent, one out of range, a new triangle that repeats an edge
- * the mesh holds, one naming a vertex not yet there. Each is an error that
- * names it; none crashes or hangs. */
+ * without the parent, one out of range, a new triangle naming a vertex not
+ * yet there, one that repeats a triangle the mesh holds. Each is an error
+ * that names it; none crashes or hangs. */
 static void test_hostile_explicit_splits(mts_test *t)
 {
     mts_model m = {0};
@@ -330,15 +330,16 @@ static void test_hostile_explicit_splits(mts_test *t)
     go.key_count = m.key_count;
     const mts_grow_full given = {&m.full, NULL, NULL, 0, 0};
     const uint32_t nb = m.base_vertex_count, u = m.parents[0];
-    uint32_t tri[3];
-    struct {
-        uint32_t moved[2], moved_count, born[3], born_count;
+    enum { TWICE, WITHOUT_U, OUT_OF_RANGE, UNBORN_VERTEX, REPEATED };
+    static const struct {
+        int kind;
         const char *needle;
     } cases[] = {
-        {{0, 0}, 2, {0, 0, 0}, 0, "twice"},
-        {{9999999u, 0}, 1, {0, 0, 0}, 0, "no corner"},
-        {{0, 0}, 0, {0, 0, nb + 5}, 1, "not a triangle"},
-        {{0, 0}, 0, {0, 0, 0}, 1, "held by two triangles"},
+        {TWICE, "twice"},
+        {WITHOUT_U, "no corner"},
+        {OUT_OF_RANGE, "no corner"},
+        {UNBORN_VERTEX, "not a triangle"},
+        {REPEATED, "held by two triangles"},
     };
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         mts_error err = {0};
@@ -346,44 +347,49 @@ static void test_hostile_explicit_splits(mts_test *t)
         CHECK(t, mts_grow_create(&m.base, nb, m.level_count, &go, &g, &err) == MTS_OK);
         if (!g)
             continue;
-        mts_grow_split sp = {0};
-        sp.parent = u;
-        sp.left = sp.right = MTS_GROW_NONE;
-        /* a triangle with corner u, and one of the base's triangles again */
-        uint32_t with_u = 0;
+        /* a triangle with corner u, and one without */
+        uint32_t with_u = UINT32_MAX, without_u = UINT32_MAX, tri[3], u_tri[3] = {0};
         mts_grow_figures fig;
         mts_grow_get_figures(g, &fig);
         for (uint32_t x = 0; x < fig.triangles; x++) {
             mts_grow_triangle(g, x, tri);
-            if (tri[0] == u || tri[1] == u || tri[2] == u) {
+            int has = tri[0] == u || tri[1] == u || tri[2] == u;
+            if (has && with_u == UINT32_MAX) {
                 with_u = x;
-                break;
+                memcpy(u_tri, tri, sizeof tri);
+            } else if (!has && without_u == UINT32_MAX) {
+                without_u = x;
             }
         }
-        uint32_t moved[2], born[3];
-        for (int i = 0; i < 2; i++)
-            moved[i] = cases[c].moved[i] == 9999999u ? cases[c].moved[i] : with_u;
-        if (c == 1) {
-            /* a live triangle without u */
-            for (uint32_t x = 0; x < fig.triangles; x++) {
-                mts_grow_triangle(g, x, tri);
-                if (tri[0] != u && tri[1] != u && tri[2] != u) {
-                    moved[0] = x;
-                    break;
-                }
-            }
-        }
-        memcpy(born, cases[c].born, sizeof born);
-        if (c == 3) {
-            mts_grow_triangle(g, with_u, tri);
-            memcpy(born, tri, sizeof born);
-        }
+        CHECK(t, with_u != UINT32_MAX && without_u != UINT32_MAX);
+        uint32_t moved[2] = {with_u, with_u}, born[3] = {0, 0, 0};
+        mts_grow_split sp = {0};
+        sp.parent = u;
+        sp.left = sp.right = MTS_GROW_NONE;
         sp.moved = moved;
-        sp.moved_count = cases[c].moved_count;
         sp.born = born;
-        sp.born_count = cases[c].born_count;
-        if (c == 3) {
-            sp.moved_count = 0; /* the copy of an untouched triangle */
+        switch (cases[c].kind) {
+        case TWICE:
+            sp.moved_count = 2;
+            break;
+        case WITHOUT_U:
+            moved[0] = without_u;
+            sp.moved_count = 1;
+            break;
+        case OUT_OF_RANGE:
+            moved[0] = fig.triangles + 1000;
+            sp.moved_count = 1;
+            break;
+        case UNBORN_VERTEX: /* u, another corner of its triangle, a vertex to come */
+            born[0] = u;
+            born[1] = u_tri[0] != u ? u_tri[0] : u_tri[1];
+            born[2] = nb + 5;
+            sp.born_count = 1;
+            break;
+        case REPEATED: /* an untouched triangle again */
+            memcpy(born, u_tri, sizeof born);
+            sp.born_count = 1;
+            break;
         }
         const uint32_t *r;
         uint32_t w;
