@@ -63,9 +63,8 @@ static uint64_t mix64(uint64_t h)
 
 /* A strip's term of the checksum (PROTOCOL.md, END). A server sums it at
  * every level for every strip that changed, so the loop is one multiply
- * and a rotate a pair of indices (mixing them fully each was a seventh of
- * encoding a 1.2M-triangle model's stream); the rotate brings high bits
- * down for the next multiply to spread. */
+ * and a rotate a pair of indices, not a full mix each; the rotate brings
+ * high bits down for the next multiply to spread. */
 static uint64_t strip_sum(uint32_t s, const uint32_t *str, uint32_t len)
 {
     uint64_t h = mix64(0x5354524950ull ^ ((uint64_t)s << 32 | len));
@@ -815,8 +814,8 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
      * its splits. */
     if ((rc = predict_all(s, opts, oct, carry_normals, &pass, err)) != MTS_OK)
         goto fail;
-    /* a hundred batches, of 64 to 2048 splits: a batch is what a client
-     * applies between two frames, so a big model gets more of them */
+    /* levels/100 splits a batch, within 64..2048: a batch is what a client
+     * applies between two frames, so a big model gets more than a hundred */
     uint32_t per = opts->batch_splits ? opts->batch_splits
                                       : n / 100 > 2048 ? 2048 : n / 100 > 64 ? n / 100 : 64;
     s->batch_count = n == 0 ? 0 : (n + per - 1) / per;

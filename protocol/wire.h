@@ -13,15 +13,17 @@
 #include "error.h"
 
 /* 4.0: batches entropy-coded, normals only where the source had them;
- * 4.1: the records form, asked for by a HELLO flag (PROTOCOL.md,
- * "Changes"); a peer of another major version is refused at HELLO with
- * ERROR version. */
+ * 4.1: the records form, asked for by a HELLO flag; 5.0: the records a
+ * client derives follow the corner-table growth (key levels by quality,
+ * rings from a vertex's listed corner) and END sums strips in pairs
+ * (PROTOCOL.md, "Changes"). A peer of another major version is refused at
+ * HELLO with ERROR version. */
 #define MTS_WIRE_MAJOR 5
 #define MTS_WIRE_MINOR 0
 
 /* Each key level costs a client a stripification of the whole mesh there, so
- * a client bounds how many it takes (the builder makes about 13 on bunny00
- * and 25 on a 1.2M-triangle mesh). */
+ * a client bounds how many it takes (the builder makes 13 on bunny00 and on
+ * a 1.2M-triangle mesh). */
 #define MTS_WIRE_MAX_KEYS 256u
 #define MTS_WIRE_MAX_FRAME (16u << 20) /* type + payload */
 #define MTS_WIRE_MAX_NAME 64

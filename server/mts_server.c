@@ -135,12 +135,11 @@ static void *worker_main(void *arg)
 typedef struct preparer {
     mts_catalog *cat;
     mts_server_model *models;
-    mts_stream *streams;
-    uint8_t *built; /* per model: 1 when streams[i] holds a stream to free */
+    mts_stream *streams; /* zeroed: mts_stream_free is safe on any of them */
     uint32_t count;
     atomic_uint next, done, ok;
     int no_records, quiet;
-    volatile int failed_all;
+    atomic_int failed_all;
 } preparer;
 
 static void *prepare_main(void *arg)
@@ -164,7 +163,6 @@ static void *prepare_main(void *arg)
             mts_server_model_fail(&p->models[i], err.msg);
         } else {
             mts_stream *st = &p->streams[i];
-            p->built[i] = 1;
             mts_server_model_publish(&p->models[i], st);
             clock_gettime(CLOCK_MONOTONIC, &t1);
             if (!p->quiet)
@@ -187,10 +185,13 @@ static void *prepare_main(void *arg)
         }
         /* the stream holds its own copy of the model */
         mts_catalog_release_model(p->cat, i);
-        unsigned good = ok ? atomic_fetch_add(&p->ok, 1) + 1 : atomic_load(&p->ok);
-        if (atomic_fetch_add(&p->done, 1) + 1 == p->count && good == 0 && !stop_requested) {
+        /* ok counts before done does, so whoever ends the count sees them all */
+        if (ok)
+            atomic_fetch_add(&p->ok, 1);
+        if (atomic_fetch_add(&p->done, 1) + 1 == p->count && atomic_load(&p->ok) == 0 &&
+            !stop_requested) {
             fprintf(stderr, "mts-server: no model could be encoded; stopping\n");
-            p->failed_all = 1;
+            atomic_store(&p->failed_all, 1);
             stop_requested = 1;
         }
     }
@@ -296,7 +297,6 @@ int main(int argc, char **argv)
     mts_catalog *cat = NULL;
     mts_stream *streams = NULL;
     mts_server_model *table = NULL;
-    uint8_t *built = NULL;
     worker *workers = NULL;
     pthread_t *preparers = NULL;
     preparer prep = {0};
@@ -327,20 +327,13 @@ int main(int argc, char **argv)
     }
     streams = calloc(count, sizeof *streams);
     table = calloc(count, sizeof *table);
-    built = calloc(count, 1);
-    if (!streams || !table || !built) {
+    if (!streams || !table) {
         mts_error_set(&err, MTS_ERR_NOMEM, "out of memory");
         goto fail;
     }
     for (uint32_t i = 0; i < count; i++) {
         const mts_catalog_entry *e = mts_catalog_at(cat, i);
-        mts_server_model *m = &table[i];
-        snprintf(m->name, sizeof m->name, "%s", e->name);
-        m->vertices = e->model.vertex_count;
-        m->triangles = e->model.level_triangles[e->model.level_count];
-        m->levels = e->model.level_count;
-        atomic_init(&m->stream, NULL);
-        atomic_init(&m->failed, 0);
+        mts_server_model_init_preparing(&table[i], e->name, &e->model);
     }
     so.log = log_line;
     so.log_user = &quiet;
@@ -375,11 +368,11 @@ int main(int argc, char **argv)
     prep.cat = cat;
     prep.models = table;
     prep.streams = streams;
-    prep.built = built;
     prep.count = count;
     atomic_init(&prep.next, 0);
     atomic_init(&prep.done, 0);
     atomic_init(&prep.ok, 0);
+    atomic_init(&prep.failed_all, 0);
     prep.no_records = no_records;
     prep.quiet = quiet;
     preparers = calloc(nprepare, sizeof *preparers);
@@ -392,8 +385,9 @@ int main(int argc, char **argv)
             break;
     }
     if (prepared == 0) {
-        /* no thread: encode here, before serving */
-        prepare_main(&prep);
+        /* encoding here would leave the bound sockets unanswered meanwhile */
+        mts_error_set(&err, MTS_ERR_IO, "cannot start a thread to encode the streams");
+        goto fail;
     }
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -438,9 +432,14 @@ int main(int argc, char **argv)
         st.bytes += ws.bytes;
         st.peak += ws.peak;
     }
+    /* a preparer still encoding stops at its next check of the flag */
+    stop_requested = 1;
+    for (uint32_t i = 0; i < prepared; i++)
+        pthread_join(preparers[i], NULL);
+    prepared = 0;
     if (rc != MTS_OK)
         goto fail;
-    if (prep.failed_all)
+    if (atomic_load(&prep.failed_all))
         goto done; /* said why; exit 1 */
     if (!quiet)
         fprintf(stderr, "mts-server: stopped: %llu connections, %llu completed, %llu failed, "
@@ -462,15 +461,10 @@ done:
     for (uint32_t i = 0; i < created && workers; i++)
         mts_server_free(workers[i].server);
     free(workers);
-    if (streams) {
-        for (uint32_t i = 0; i < count; i++) {
-            if (built[i])
-                mts_stream_free(&streams[i]);
-        }
-    }
+    for (uint32_t i = 0; streams && i < count; i++)
+        mts_stream_free(&streams[i]);
     free(streams);
     free(table);
-    free(built);
     mts_catalog_free(cat);
     mts_fetch_global_cleanup();
     return status;

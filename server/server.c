@@ -187,16 +187,24 @@ mts_result mts_server_create_models(const mts_server_options *opts, mts_server_m
     return MTS_OK;
 }
 
-void mts_server_model_init_ready(mts_server_model *m, const mts_stream *stream)
+void mts_server_model_init_preparing(mts_server_model *m, const char *name,
+                                     const mts_model *model)
 {
     memset(m, 0, sizeof *m);
-    snprintf(m->name, sizeof m->name, "%s", stream->name);
-    m->vertices = stream->model.vertex_count;
-    m->triangles = stream->model.level_triangles[stream->model.level_count];
-    m->levels = stream->model.level_count;
+    snprintf(m->name, sizeof m->name, "%s", name);
+    m->vertices = model->vertex_count;
+    m->triangles = model->level_triangles[model->level_count];
+    m->levels = model->level_count;
+    atomic_init(&m->stream, NULL);
+    atomic_init(&m->records, NULL);
+    atomic_init(&m->failed, 0);
+}
+
+void mts_server_model_init_ready(mts_server_model *m, const mts_stream *stream)
+{
+    mts_server_model_init_preparing(m, stream->name, &stream->model);
     atomic_init(&m->stream, stream);
     atomic_init(&m->records, stream->records_form);
-    atomic_init(&m->failed, 0);
 }
 
 void mts_server_model_publish_records(mts_server_model *m, const mts_stream *records_form)

@@ -61,6 +61,9 @@ typedef struct mts_server_model {
     char why[200];
 } mts_server_model;
 
+/* Fills m for a model whose stream is still to come (published later). */
+void mts_server_model_init_preparing(mts_server_model *m, const char *name,
+                                     const mts_model *model);
 /* Fills m for a stream that is ready now. */
 void mts_server_model_init_ready(mts_server_model *m, const mts_stream *stream);
 /* From the preparing thread: the stream is ready (it must then outlive the

@@ -634,17 +634,9 @@ static void test_models_being_prepared(mts_test *t)
     mts_mesh_free(&mesh);
     CHECK(t, mts_stream_build(&m, "cow", NULL, &st, &err) == MTS_OK);
     mts_server_model table[3];
-    memset(table, 0, sizeof table);
     const char *names[3] = {"cow", "broken", "slow"};
-    for (int i = 0; i < 3; i++) {
-        snprintf(table[i].name, sizeof table[i].name, "%s", names[i]);
-        table[i].vertices = m.vertex_count;
-        table[i].triangles = m.level_triangles[m.level_count];
-        table[i].levels = m.level_count;
-        atomic_init(&table[i].stream, NULL);
-        atomic_init(&table[i].records, NULL);
-        atomic_init(&table[i].failed, 0);
-    }
+    for (int i = 0; i < 3; i++)
+        mts_server_model_init_preparing(&table[i], names[i], &m);
     mts_server_model_fail(&table[1], "its model file is damaged");
     mts_server_options o = {0};
     o.listen = "127.0.0.1:0";
