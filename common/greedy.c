@@ -26,8 +26,8 @@ static const uint8_t NX[3] = {1, 2, 0}, PV[3] = {2, 0, 1};
 
 /* Per triangle one byte, so that looking at a neighbour costs one cache
  * line besides its twins: its free neighbours (bits 0-1), whether a path
- * holds it, whether the path being tried does. */
-enum { DEG = 3, USED = 4, TRIED = 8 };
+ * holds it. */
+enum { DEG = 3, USED = 4 };
 
 typedef struct ctx {
     uint32_t n;
@@ -52,7 +52,7 @@ static inline uint32_t neighbour(const ctx *c, uint32_t t, unsigned e)
 
 static inline int avail(const ctx *c, uint32_t t)
 {
-    return t != NONE && !(c->flag[t] & (USED | TRIED));
+    return t != NONE && !(c->flag[t] & USED);
 }
 
 /* Free neighbours of x other than `from`. */
@@ -65,12 +65,6 @@ static inline unsigned free_degree(const ctx *c, uint32_t x, uint32_t from)
             d++;
     }
     return d;
-}
-
-/* The half-edge of a triangle between its corners i and j. */
-static inline unsigned edge_of(unsigned i, unsigned j)
-{
-    return NX[i] == j ? i : j;
 }
 
 /* Crosses half-edge e of t, the strip's last index at corner lr of t (an end
@@ -87,14 +81,13 @@ static inline uint32_t cross(const ctx *c, uint32_t t, unsigned e, unsigned lr, 
 }
 
 /* Grows a path on from t, whose strip ends at corners (lq, lr): appends the
- * triangles it takes to out, at most limit, marks them and returns their
- * number; *swaps counts the swaps taken. */
-static uint32_t grow(ctx *c, uint32_t t, unsigned lq, unsigned lr, uint32_t *out, uint32_t limit,
-                     uint32_t *swaps)
+ * triangles it takes to out, at most limit, marks them used (commit counts
+ * their neighbours down) and returns their number. */
+static uint32_t grow(ctx *c, uint32_t t, unsigned lq, unsigned lr, uint32_t *out, uint32_t limit)
 {
-    uint32_t len = 0, sw = 0;
+    uint32_t len = 0;
     while (len < limit) {
-        unsigned lp = 3 - lq - lr, ef = edge_of(lq, lr), es = edge_of(lp, lr);
+        unsigned lp = 3 - lq - lr, ef = mts__edge_of(lq, lr), es = mts__edge_of(lp, lr);
         uint32_t f = neighbour(c, t, ef), s = neighbour(c, t, es);
         int fa = avail(c, f), sa = avail(c, s) && s != f;
         if (!fa && !sa)
@@ -103,12 +96,10 @@ static uint32_t grow(ctx *c, uint32_t t, unsigned lq, unsigned lr, uint32_t *out
          * not left stranded; the swap only when strictly better */
         int take_swap = !fa || (sa && free_degree(c, s, t) < free_degree(c, f, t));
         uint32_t u = cross(c, t, take_swap ? es : ef, lr, &lq, &lr);
-        c->flag[u] |= TRIED;
+        c->flag[u] |= USED;
         out[len++] = u;
-        sw += (uint32_t)take_swap;
         t = u;
     }
-    *swaps = sw;
     return len;
 }
 
@@ -124,7 +115,7 @@ static int start_swap(const ctx *c, uint32_t a, uint32_t b, uint32_t d)
         e++;
     unsigned lq, lr;
     cross(c, a, e, NX[e], &lq, &lr);
-    return neighbour(c, b, edge_of(lq, lr)) != d;
+    return neighbour(c, b, mts__edge_of(lq, lr)) != d;
 }
 
 static uint32_t next_seed(ctx *c)
@@ -141,6 +132,7 @@ static uint32_t next_seed(ctx *c)
     return c->cursor < c->n ? c->cursor : NONE;
 }
 
+/* t joins a path: its free neighbours have one free neighbour fewer. */
 static void commit(ctx *c, uint32_t t)
 {
     c->flag[t] = USED;
@@ -152,12 +144,6 @@ static void commit(ctx *c, uint32_t t)
             c->bucket[d][c->bucket_len[d]++] = u;
         }
     }
-}
-
-static void untry(ctx *c, const uint32_t *path, uint32_t m)
-{
-    for (uint32_t k = 0; k < m; k++)
-        c->flag[path[k]] &= (uint8_t)~TRIED;
 }
 
 mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uint32_t max_path,
@@ -206,7 +192,7 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uin
             break;
         /* out of the seed towards its neighbour with the fewest free
          * neighbours of its own (STRIPE's start; trying every way out, as
-         * NvTriStrip does, made more strips here and took twice as long) */
+         * NvTriStrip does, made more strips here, and slower) */
         uint32_t best_m = 1, way = 3;
         unsigned fewest = 4;
         for (unsigned e = 0; e < 3 && max_path > 1; e++) {
@@ -220,12 +206,10 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uin
         best[0] = seed;
         if (way < 3) {
             unsigned lq, lr;
-            uint32_t sw;
             best[1] = cross(&c, seed, way, NX[way], &lq, &lr);
-            c.flag[seed] |= TRIED;
-            c.flag[best[1]] |= TRIED;
-            best_m = 2 + grow(&c, best[1], lq, lr, best + 2, max_path - 2, &sw);
-            untry(&c, best, best_m);
+            c.flag[seed] |= USED;
+            c.flag[best[1]] |= USED;
+            best_m = 2 + grow(&c, best[1], lq, lr, best + 2, max_path - 2);
         }
         /* read from the end that does not start with a swap, if one does */
         if (best_m >= 3 && start_swap(&c, best[0], best[1], best[2]) &&

@@ -5,11 +5,9 @@
  *
  * It is the greedy phase of stripify.c (STRIPE's seeds and turns, see
  * there) with STRIPE's start in place of a trial of every way out of the
- * seed, and without the tunnelling that follows there: at the key levels of
- * cow, bunny00 and fandisk_large the worst level came out 0.005-0.015
- * indices a drawn triangle better than with the trials (fewer strips) at
- * three quarters of the time, and tunnelling gains 0.02-0.04 but costs a
- * client 30 times as much.
+ * seed (fewer strips at the key levels, and faster), and without the
+ * tunnelling that follows there, whose gain at the key levels is small
+ * against what it would cost every client (docs/client-cost.md).
  * What it reads is only the twin of each half-edge, never a vertex id, so
  * the same mesh gives the same paths whatever its numbering. */
 #ifndef MTS_GREEDY_H

@@ -7,10 +7,10 @@
  *    corner e of triangle t to corner e + 1) its twin, and per vertex one of
  *    its corners. A fan split relabels the fan's corners and links two new
  *    triangles in with O(1) twin updates; walking round a vertex is a twin
- *    step, never a lookup. (Hash maps of directed edges took a third of a
- *    client's time; per-vertex corner lists, another tenth.) Only what is
- *    not a walk round one fan -- the base, whole strips adopted, the rare
- *    explicit split -- sorts or scans the half-edges.
+ *    step, never a lookup (hash maps cost a client far more:
+ *    docs/client-cost.md). Only what is not a walk round one fan -- the
+ *    base, whole strips adopted, the rare explicit split -- sorts or scans
+ *    the half-edges.
  *  - the strips are paths on the dual graph (next/prev per triangle, one
  *    path per slot), and each slot keeps its indices as last derived. A
  *    split only changes a slot's indices in the stretch where the path runs
@@ -46,6 +46,9 @@ typedef struct grow_tri {
                      * to it (3: none found); -1 at the path's end */
     int32_t slot;   /* of its strip, -1 while unplaced */
 } grow_tri;
+/* two to a cache line; greedy.c reads tw straight from these records */
+_Static_assert(sizeof(grow_tri) == 32, "grow_tri is half a cache line");
+_Static_assert(MTS_GROW_NONE == MTS_GREEDY_NONE, "greedy.c reads grow.c's borders");
 
 typedef struct grow_slot {
     mts_words seq;     /* indices as last derived */
@@ -54,7 +57,8 @@ typedef struct grow_slot {
     uint32_t stamp;    /* == stamp_now: touched by this split */
     uint32_t fresh;    /* == stamp_now: given other content (derived whole) */
     uint32_t relinked; /* == stamp_now: a link of its path changed */
-    uint32_t capacity; /* longest it has been */
+    uint32_t capacity; /* longest it has been (g->capacity[s] too, for the figures;
+                        * here a split reads it in the slot's cache line) */
 } grow_slot;
 
 /* The twin of half-edge h (3t + e, from corner e of t to corner e + 1). */
@@ -1126,16 +1130,13 @@ static int32_t cand_at(const mts_grow *g, const uint32_t *o, uint32_t k, uint32_
  * may change (its entering edge is read the other way round when the
  * stretch before it changed), but the strip leaves it as before. The
  * stretch is found in the old indices: t_first's window ends at the first
- * u, t_last's starts at the last. 0 when the slot does not look like that
- * (it is then derived whole). */
-static int local_region(mts_grow *g, uint32_t s, uint32_t u, splice *sp)
+ * u (lo), t_last's starts at the last (hi). 0 when the slot does not look
+ * like that (it is then derived whole). */
+static int local_region(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32_t hi,
+                        splice *sp)
 {
     const uint32_t *o = g->slot[s].seq.w;
     const uint32_t L = (uint32_t)g->slot[s].seq.n;
-    uint32_t lo = find_first(o, L, u);
-    if (lo == L)
-        return 0;
-    uint32_t hi = find_last(o, L, u);
     int32_t t, unused;
     uint32_t a = 0, c = 0;
     int first = lo < 3;
@@ -1169,16 +1170,15 @@ static int local_region(mts_grow *g, uint32_t s, uint32_t u, splice *sp)
 }
 
 /* A slot whose path kept every link, where every triangle with corner u
- * moved: its indices are the old ones with v for u, and the record only
- * substitutes (no derivation). 1 done, 0 not such a slot, -1 no memory. */
-static int substitute_only(mts_grow *g, uint32_t s, uint32_t u, uint32_t v, uint32_t *edits)
+ * moved: its indices are the old ones with v for u (u first at lo, last at
+ * hi), and the record only substitutes (no derivation). 1 done, 0 not such
+ * a slot, -1 no memory. */
+static int substitute_only(mts_grow *g, uint32_t s, uint32_t u, uint32_t v, uint32_t lo,
+                           uint32_t hi, uint32_t *edits)
 {
     uint32_t *o = g->slot[s].seq.w;
     const uint32_t L = (uint32_t)g->slot[s].seq.n;
-    uint32_t lo = find_first(o, L, u);
-    if (lo == L)
-        return 0;
-    uint32_t hi = find_last(o, L, u), count = 0;
+    uint32_t count = 0;
     mts_words *pos = &g->scratch;
     pos->n = 0;
     for (uint32_t k = lo; k <= hi; k++) {
@@ -1222,8 +1222,7 @@ static int cmp_u32(const void *a, const void *c)
 }
 
 /* The record of the split to level g->level (u the parent, v the new
- * vertex): one edit per touched slot, in slot order. Without a split
- * (the base), u = v = NONE and the slots are only derived. */
+ * vertex): one edit per touched slot, in slot order. */
 static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
 {
     g->rec.n = 0;
@@ -1250,15 +1249,18 @@ static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
         uint32_t s = g->touched[k];
         splice sp = {0, (uint32_t)g->slot[s].seq.n, 0, &g->scratch};
         int local = 0;
-        if (u != NONE && g->slot[s].fresh != g->stamp_now && g->slot[s].head >= 0 && g->slot[s].seq.n) {
-            if (g->slot[s].relinked != g->stamp_now) {
-                int done = substitute_only(g, s, u, v, &edits);
+        if (g->slot[s].fresh != g->stamp_now && g->slot[s].head >= 0 && g->slot[s].seq.n) {
+            /* where u is in the old indices: the stretch both ways read */
+            const uint32_t *o = g->slot[s].seq.w, L = (uint32_t)g->slot[s].seq.n;
+            uint32_t lo = find_first(o, L, u), hi = lo < L ? find_last(o, L, u) : L;
+            if (lo < L && g->slot[s].relinked != g->stamp_now) {
+                int done = substitute_only(g, s, u, v, lo, hi, &edits);
                 if (done < 0)
                     return 0;
                 if (done)
                     continue;
             }
-            local = local_region(g, s, u, &sp);
+            local = lo < L ? local_region(g, s, u, lo, hi, &sp) : 0;
             if (local < 0)
                 return 0;
         }
@@ -1537,7 +1539,7 @@ int32_t mts_grow_fan(const mts_grow *g, uint32_t u, uint32_t left, uint32_t righ
 }
 
 /* The parent's corners in ring order (grow.h: from the border when it is on
- * one, else from its lowest triangle id, turning as the fan does), of the
+ * one, else from its listed corner, turning as the fan does), of the
  * fan its first corner lies in; cached until the next split. -1 when they
  * do not form a simple fan. */
 static int32_t ring(mts_grow *g, uint32_t u)
@@ -1679,10 +1681,10 @@ static int is_key(mts_grow *g)
     const double grown = g->key_triangles ? (double)g->tri_count / g->key_triangles : 0;
     if (g->key_ratio > 1 && grown >= g->key_ratio)
         return 1;
-    /* the strips as the last split left them */
+    /* the strips as the last split left them, drawn joined */
+    const mts_strip_stats now = {.strips = g->nonempty, .indices = g->total_indices};
     return g->key_quality > 0 && grown >= g->key_min_ratio && g->tri_count &&
-           (double)(g->total_indices + g->nonempty - (g->nonempty > 0)) / g->tri_count >
-               g->key_quality;
+           (double)mts_strip_stats_draw_indices(&now) / g->tri_count > g->key_quality;
 }
 
 /* Notes the parent's corners before a fan split, with each one's triangle's
@@ -1727,7 +1729,7 @@ static mts_result twins_redo(mts_grow *g, uint32_t u, uint32_t first_new, mts_er
     qsort(k, m, sizeof *k, cmp_he_key);
     mts_result rc = MTS_OK;
     for (size_t i = 0; i + 1 < m && rc == MTS_OK; i++) {
-        if (k[i].key == k[i + 1].key && k[i].h != k[i + 1].h)
+        if (k[i].key == k[i + 1].key) /* two of them hold one directed edge */
             rc = MTS_ERR_FORMAT;
     }
     int lost_u = g->vhead[u] == NONE || he_from(g, g->vhead[u]) != u;

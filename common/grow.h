@@ -129,7 +129,8 @@ int32_t mts_grow_find(const mts_grow *g, uint32_t a, uint32_t b, uint32_t c);
 
 /* The compact form of a fan-rule split, what a stream carries: the
  * parent's triangles in ring order (from the border when the parent is on
- * one, else from its lowest triangle id, turning as the fan does), `start`
+ * one, else from the triangle of its listed corner, turning as the fan
+ * does), `start`
  * the ring position of the first triangle v takes over, `count` how many it
  * takes, and `sides` bit 0 set when there is no `right` new triangle, bit 1
  * when there is no `left` one. Encoding fails (returns 0) when the split is

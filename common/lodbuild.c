@@ -1,17 +1,9 @@
 /* LOD builder: strips grown upward from the base with key levels (see
- * lodbuild.h for the why).
- *
- * Measured on the shared models (indices per drawn triangle, restarts and
- * swaps counted, at 1/5/10/25/50% of the vertices): replaying collapses
- * downward from the full strips gave 4.1/3.7/3.4/2.6/1.8 on bunny00; growth
- * alone from a tunnelled base stays at 1.66-1.72 on every model; with key
- * levels every x1.41 / x1.7 / x2 of triangles the worst sampled level was
- * 1.50 / 1.48 / 1.60 (stripify.c's strips at the keys; tunnelling them too
- * gains 0.02 and costs a client 30 times greedy.c's time). Every x1.5 with
- * greedy.c's strips, the worst of all levels was 1.586-1.601 on the three,
- * always at a small level, where strips are short. Keys when the strips
- * reach 1.55 (after x1.2 at least), else at x1.7: 1.553-1.579 with 28%
- * fewer key triangles on bunny00 (1.57: 1.572-1.587; 1.59: 1.592-1.606). */
+ * lodbuild.h for the why): growth alone wears the strips down, replaying
+ * collapses downward from the full strips wears them faster, and a key
+ * level once the strips have worn to MTS_LODBUILD_KEY_QUALITY keeps every
+ * level near it with the fewest key triangles for clients to restripify.
+ * The measurements behind the choice are in docs/client-cost.md. */
 #include "lodbuild.h"
 
 #include <stdlib.h>

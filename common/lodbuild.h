@@ -46,10 +46,11 @@
  * indices a triangle (restarts counted) and the triangles have grown by
  * MTS_LODBUILD_KEY_MIN_RATIO since the last key, or once they have grown by
  * the key ratio. Chosen by measurement on cow, bunny00 and fandisk_large
- * (see lodbuild.c). */
+ * (docs/client-cost.md). */
 #define MTS_LODBUILD_DEFAULT_KEY_RATIO 1.7
 #define MTS_LODBUILD_DEFAULT_KEY_RATIO_STR "1.7"
 #define MTS_LODBUILD_KEY_QUALITY 1.55
+#define MTS_LODBUILD_KEY_QUALITY_STR "1.55"
 #define MTS_LODBUILD_KEY_MIN_RATIO 1.2
 
 /* Zero-initialised means the defaults. */

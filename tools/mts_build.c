@@ -37,7 +37,7 @@ static void usage(FILE *f)
           "                        idx/tri; 256 -> 0.801 at 1.216); needs the tunnelling\n"
           "                        pass\n"
           "  --key-ratio R         strips are grown upward from the base split by split\n"
-          "                        and stripified afresh once they draw 1.55 indices a\n"
+          "                        and stripified afresh once they draw " MTS_LODBUILD_KEY_QUALITY_STR " indices a\n"
           "                        triangle, or at the latest once the triangles grow by\n"
           "                        R (R > 1; default " MTS_LODBUILD_DEFAULT_KEY_RATIO_STR "); 0: only at the base\n"
           "                        and the full level\n"
