@@ -975,54 +975,48 @@ typedef struct splice {
     const mts_words *r;
 } splice;
 
-static inline uint32_t splice_at(const uint32_t *old, const splice *sp, size_t k)
-{
-    if (k < sp->p0)
-        return old[k];
-    k -= sp->p0;
-    return k < sp->r->n ? sp->r->w[k] : old[sp->p1 + (k - sp->r->n)];
-}
-
 /* Appends the edit that turns slot s's stored indices into the spliced ones
  * (in which the new vertex v appears; u is its parent), and stores them.
  * The runs carry u where the new indices have v, and the positions of v are
  * substitutions, so an inserted run never names a vertex that does not
  * exist yet. Outside the splice nothing changed and v cannot appear, so the
- * common prefix and suffix are sought from its edges. */
+ * common prefix and suffix are sought from its edges. The new indices are
+ * three pieces -- old[0..p0), r, old[p1..) -- each compared and copied as a
+ * piece: a split emits a few edits, a key level one per slot, and this is
+ * where a key level's indices all pass. */
 static int emit_splice(mts_grow *g, uint32_t s, const splice *sp, uint32_t u, uint32_t v,
                        uint32_t *edits)
 {
     mts_words *from = &g->slot[s].seq;
-    const uint32_t *o = from->w;
-    const size_t lo = from->n, keep = sp->suffix ? lo - sp->p1 : 0,
-                 ln = sp->p0 + sp->r->n + keep;
+    const uint32_t *o = from->w, *r = sp->r->w;
+    const size_t lo = from->n, rn = sp->r->n, keep = sp->suffix ? lo - sp->p1 : 0,
+                 p0 = sp->p0, end = p0 + rn, ln = end + keep;
+    const uint32_t *tail = o + (sp->suffix ? sp->p1 : lo); /* new[end + i] = tail[i] */
 #define AS_BEFORE(x) ((x) == v ? u : (x))
-    size_t p = sp->p0, end = sp->p0 + sp->r->n;
-    while (p < end && p < lo && o[p] == AS_BEFORE(sp->r->w[p - sp->p0]))
+    /* common prefix: new[0..p0) is old's own */
+    size_t p = p0;
+    while (p < end && p < lo && o[p] == AS_BEFORE(r[p - p0]))
         p++;
-    if (p == end && keep && end == sp->p1)
-        p = lo; /* only substitutions: the kept tail is the same too */
-    while (p < lo && p < ln && o[p] == AS_BEFORE(splice_at(o, sp, p)))
-        p++;
-    size_t q = keep;
-    if (q > lo - p)
-        q = lo - p;
-    if (q > ln - p)
-        q = ln - p;
-    while (q < lo - p && q < ln - p && o[lo - 1 - q] == AS_BEFORE(splice_at(o, sp, ln - 1 - q)))
+    if (p == end) {
+        if (keep && end == sp->p1)
+            p = lo; /* only substitutions: the kept tail is the same too */
+        else
+            while (p < lo && p < ln && o[p] == tail[p - end])
+                p++;
+    }
+    /* common suffix, within what the prefix left: the kept tail is old's own */
+    const size_t room = (lo < ln ? lo : ln) - p;
+    size_t q = keep < room ? keep : room;
+    while (q < room && ln - 1 - q >= end && o[lo - 1 - q] == tail[ln - 1 - q - end])
         q++;
-    size_t erase = lo - p - q, insert = ln - p - q, substs = 0;
-    for (size_t k = 0; k < sp->r->n; k++)
-        substs += sp->r->w[k] == v;
-    if (erase == 0 && insert == 0 && substs == 0)
-        return 1;
-    if (!mts_words_reserve(&g->rec, 4 + 2 + erase + 2 + insert + substs))
+    /* then r (the prefix reaches p0 at least, so the suffix stays in r) */
+    while (q < room && o[lo - 1 - q] == AS_BEFORE(r[ln - 1 - q - p0]))
+        q++;
+    const size_t erase = lo - p - q, insert = ln - p - q;
+    /* the record at most holds every position of r as a substitution */
+    if (!mts_words_reserve(&g->rec, 4 + 2 + erase + 2 + insert + rn))
         return 0;
-    uint32_t *w = g->rec.w + g->rec.n;
-    *w++ = s;
-    *w++ = erase > 0;
-    *w++ = insert > 0;
-    *w++ = (uint32_t)substs;
+    uint32_t *w0 = g->rec.w + g->rec.n, *w = w0 + 4;
     if (erase) {
         *w++ = (uint32_t)p;
         *w++ = (uint32_t)erase;
@@ -1032,14 +1026,28 @@ static int emit_splice(mts_grow *g, uint32_t s, const splice *sp, uint32_t u, ui
     if (insert) {
         *w++ = (uint32_t)p;
         *w++ = (uint32_t)insert;
-        for (size_t k = 0; k < insert; k++)
-            *w++ = AS_BEFORE(splice_at(o, sp, p + k));
+        /* new[p..ln-q): its part in r mapped back to u, then the kept tail */
+        size_t k = p, stop = ln - q;
+        for (; k < stop && k < end; k++)
+            *w++ = AS_BEFORE(r[k - p0]);
+        if (k < stop) {
+            memcpy(w, tail + (k - end), (stop - k) * 4);
+            w += stop - k;
+        }
     }
-    for (size_t k = 0; k < sp->r->n; k++) {
-        if (sp->r->w[k] == v)
-            *w++ = (uint32_t)(sp->p0 + k);
+    uint32_t *subst = w;
+    for (size_t k = 0; k < rn; k++) {
+        *w = (uint32_t)(p0 + k);
+        w += r[k] == v;
     }
 #undef AS_BEFORE
+    const size_t substs = (size_t)(w - subst);
+    if (erase == 0 && insert == 0 && substs == 0)
+        return 1;
+    w0[0] = s;
+    w0[1] = erase > 0;
+    w0[2] = insert > 0;
+    w0[3] = (uint32_t)substs;
     g->rec.n = (size_t)(w - g->rec.w);
     (*edits)++;
     g->fig.edits++;
@@ -1053,9 +1061,9 @@ static int emit_splice(mts_grow *g, uint32_t s, const splice *sp, uint32_t u, ui
         return 0;
     uint32_t *x = from->w;
     if (keep)
-        memmove(x + sp->p0 + sp->r->n, x + sp->p1, keep * 4);
-    if (sp->r->n)
-        memcpy(x + sp->p0, sp->r->w, sp->r->n * 4);
+        memmove(x + end, x + sp->p1, keep * 4);
+    if (rn)
+        memcpy(x + p0, r, rn * 4);
     from->n = ln;
     if (ln > g->slot[s].capacity)
         g->slot[s].capacity = g->capacity[s] = (uint32_t)ln;
