@@ -343,6 +343,75 @@ done:
     return ok;
 }
 
+/* Issue 17, part 1: where the full stream's bytes go, each part in bytes
+ * and in bits a vertex of the full mesh, beside Draco's single-rate total
+ * on the same grid; and the first picture (the stream stopped at level 0). */
+static void breakdown_table(const mts_stream_breakdown *bd, char (*names)[64], const size_t *draco,
+                            const size_t *first, int n, FILE *jf, int *first_json)
+{
+    if (n == 0)
+        return;
+    printf("\nWhere the bytes go (issue 17): the full splits-form stream, bytes and bits a vertex "
+           "(of the full mesh)\n");
+    static const char *const cols[] = {"info caps", "info rest", "base draco", "base strips",
+                                       "parent",    "fan code",  "position",   "normal",
+                                       "full strips", "rc flush", "framing",  "total",
+                                       "draco cl7", "level 0"};
+    enum { NC = sizeof cols / sizeof cols[0] };
+    printf("%-14s %5s", "model", "");
+    for (int c = 0; c < NC; c++)
+        printf(" %11s", cols[c]);
+    printf("\n");
+    if (jf)
+        fprintf(jf, "%s\"bytes_breakdown\":{", *first_json ? "" : ",");
+    for (int i = 0; i < n; i++) {
+        const mts_stream_breakdown *b = &bd[i];
+        const double fields = b->parent_bits + b->fan_bits + b->position_bits + b->normal_bits +
+                              b->full_strips_bits;
+        const double total = (double)(b->info_bytes + b->base_bytes + b->batch_bytes + b->end_bytes);
+        double v[NC] = {(double)b->info_capacity_bytes,
+                        (double)(b->info_bytes - b->info_capacity_bytes),
+                        (double)b->base_draco_bytes,
+                        (double)b->base_strip_bytes,
+                        b->parent_bits / 8,
+                        b->fan_bits / 8,
+                        b->position_bits / 8,
+                        b->normal_bits / 8,
+                        b->full_strips_bits / 8,
+                        (double)b->coded_bytes - fields / 8,
+                        (double)(b->framing_bytes + b->end_bytes),
+                        total,
+                        (double)draco[i],
+                        (double)first[i]};
+        printf("%-14s %5s", names[i], "B");
+        for (int c = 0; c < NC; c++)
+            printf(" %11.0f", v[c]);
+        printf("\n%-14s %5s", "", "b/v");
+        for (int c = 0; c < NC; c++)
+            printf(" %11.3f", b->vertices ? v[c] * 8 / b->vertices : 0);
+        printf("\n");
+        if (jf) {
+            fprintf(jf, "%s\"%s\":{\"vertices\":%u,\"splits\":%u", i ? "," : "", names[i],
+                    b->vertices, b->splits);
+            static const char *const keys[NC] = {
+                "info_capacity_bytes", "info_other_bytes", "base_draco_bytes",
+                "base_strip_bytes", "parent_bytes", "fan_bytes", "position_bytes",
+                "normal_bytes", "full_strips_bytes", "coder_flush_bytes", "framing_bytes",
+                "total_bytes", "draco_cl7_bytes", "level0_bytes"};
+            for (int c = 0; c < NC; c++)
+                fprintf(jf, ",\"%s\":%.1f", keys[c], v[c]);
+            fputs("}", jf);
+        }
+    }
+    if (jf) {
+        fputs("}", jf);
+        *first_json = 0;
+    }
+    printf("(fields range-coded: the information coded for them, -log2 of each bit's "
+           "probability; rc flush: the coded bytes beyond that; framing: frame and batch "
+           "headers, CRCs, END; level 0: MODEL_INFO + BASE + END of a stream stopped there)\n");
+}
+
 int main(int argc, char **argv)
 {
     const char *json_path = NULL;
@@ -379,6 +448,11 @@ int main(int argc, char **argv)
     size_t dj_size = 0;
     FILE *dj = jf ? open_memstream(&dj_text, &dj_size) : NULL;
     int first_dj = 1, first_json = 1;
+    /* where each model's bytes go, printed after the streaming table */
+    mts_stream_breakdown bds[16];
+    size_t bd_draco[16], bd_first[16];
+    char bd_name[16][64];
+    int nbd = 0;
     if (draw_only)
         goto draw_path;
 
@@ -407,6 +481,7 @@ int main(int argc, char **argv)
         }
         mts_stream_options sto = {0};
         sto.with_records = 1;
+        sto.breakdown = &bds[nbd];
         if (mts_stream_build(&m, name, &sto, &s, &err) != MTS_OK) {
             printf("%-14s FAILED: %s\n", name, err.msg);
             mts_model_free(&m);
@@ -439,6 +514,10 @@ int main(int argc, char **argv)
             at[k] = bench_connection_bytes(&s, mts_model_level_for_triangles(&m, tri), &b);
         }
         size_t full = bench_connection_bytes(&s, m.level_count, &b);
+        bd_draco[nbd] = draco[0];
+        bd_first[nbd] = bench_connection_bytes(&s, 0, &b);
+        snprintf(bd_name[nbd], sizeof bd_name[nbd], "%s", name);
+        nbd++;
         printf("%-14s %10zu %10zu %10zu %10zu %10zu %10zu %8.2f %10zu %10zu %10zu\n", name, full,
                s.batch_offset[0], draco[0], draco[1], draco[2], file_size,
                draco[0] ? (double)full / draco[0] : 0, at[0], at[1], at[2]);
@@ -505,6 +584,7 @@ int main(int argc, char **argv)
         printf("(no EGL here: %s; GL upload not measured)\n", cerr.msg);
     printf("(stream B: MODEL_INFO + BASE + every BATCH + END for the full level; x draco7: stream / "
            "Draco edgebreaker cl 7, positions only)\n");
+    breakdown_table(bds, bd_name, bd_draco, bd_first, nbd, jf, &first_json);
 draw_path:
     if (have_gl) {
         printf("\nDraw path (issue 6, part 5): frame ms at %ux%u on %s, median of %d rounds "

@@ -1,5 +1,7 @@
 #include "rcoder.h"
 
+#include <math.h>
+
 /* Significant bits of v: 0 for 0, else 1 + the index of the leading 1. */
 static unsigned bit_length(uint32_t v)
 {
@@ -36,6 +38,13 @@ void mts_rc_encoder_init(mts_rc_encoder *e, mts_buf *out)
      * coder does not write that byte: it starts with no cache at all. */
     e->cache_size = 0;
     e->out = out;
+    e->cost = NULL;
+}
+
+void mts_rc_encoder_account(mts_rc_encoder *e, uint32_t prob, unsigned bit)
+{
+    uint32_t p = bit ? MTS_RC_PROB_ONE - prob : prob;
+    *e->cost -= log2((double)p / MTS_RC_PROB_ONE);
 }
 
 /* Moves low's top byte (bits 24..31) out. It cannot be written yet when it
@@ -79,6 +88,8 @@ void mts_rc_encode_direct(mts_rc_encoder *e, uint32_t value, unsigned nbits)
 {
     if (nbits > 32)
         nbits = 32;
+    if (e->cost)
+        *e->cost += nbits;
     while (nbits--) {
         e->range >>= 1;
         e->low += e->range & (0u - ((value >> nbits) & 1u));

@@ -75,6 +75,10 @@ typedef struct mts_rc_encoder {
     uint64_t cache_size; /* bytes held back: the cache and cache_size - 1
                             0xFF after it (0 at the start: none yet) */
     mts_buf *out;
+    /* when not NULL, the information each coded bit carries (-log2 of its
+     * probability, in bits) is added here: where a stream's bytes go
+     * (stream.c's breakdown), without changing a byte of it */
+    double *cost;
 } mts_rc_encoder;
 
 typedef struct mts_rc_decoder {
@@ -91,6 +95,8 @@ void mts_rc_encoder_init(mts_rc_encoder *e, mts_buf *out);
 void mts_rc_encoder_flush(mts_rc_encoder *e);
 /* Moves low's top byte out; encode_bit's slow path. */
 void mts_rc_encoder_shift_low(mts_rc_encoder *e);
+/* Adds a bit's information to *e->cost; encode_bit's accounting path. */
+void mts_rc_encoder_account(mts_rc_encoder *e, uint32_t prob, unsigned bit);
 
 /* Returns 0 (and ok = 0) when the input is empty or cannot start a stream. */
 int mts_rc_decoder_init(mts_rc_decoder *d, const uint8_t *data, size_t size);
@@ -113,6 +119,8 @@ static inline void mts_rc_encode_bit(mts_rc_encoder *e, uint16_t *prob, unsigned
 {
     uint32_t p = *prob;
     uint32_t bound = (e->range >> MTS_RC_PROB_BITS) * p;
+    if (e->cost)
+        mts_rc_encoder_account(e, p, bit);
     if (!bit) {
         e->range = bound;
         *prob = (uint16_t)(p + ((MTS_RC_PROB_ONE - p) >> MTS_RC_ADAPT_SHIFT));

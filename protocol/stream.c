@@ -635,6 +635,7 @@ static void encode_full(mts_rc_encoder *e, struct mts__stream_models *md,
 }
 
 static mts_result build_info_tail(mts_stream *s);
+static mts_result breakdown_finish(const mts_stream *s, mts_stream_breakdown *bd);
 
 /* The records form of a built stream (PROTOCOL.md, "Records form"): its
  * BASE frame as is, then per batch the splits' records in the model file's
@@ -789,10 +790,18 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     for (uint32_t x = 0; x < nb && carry_normals; x++)
         oct_encode(m->normals + 3 * (size_t)x, oct + 2 * (size_t)x);
 
+    mts_stream_breakdown *bd = opts->breakdown;
+    if (bd) {
+        memset(bd, 0, sizeof *bd);
+        bd->vertices = nv;
+        bd->base_vertices = nb;
+        bd->splits = n;
+    }
     /* BASE */
     size_t f = mts_wire_frame_begin(&b, MTS_MSG_BASE);
     mts_buf_varint(&b, (uint32_t)draco_size);
     mts_buf_put(&b, draco, draco_size);
+    const size_t strips_at = b.size;
     for (uint32_t st = 0; st < m->strip_count; st++)
         mts_buf_varint(&b, m->base.offsets[st + 1] - m->base.offsets[st]);
     for (uint32_t st = 0; st < m->strip_count; st++) {
@@ -801,6 +810,10 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
             mts_buf_varint(&b, mts_zigzag_u32(m->base.indices[k] - prev));
             prev = m->base.indices[k];
         }
+    }
+    if (bd) {
+        bd->base_draco_bytes = draco_size;
+        bd->base_strip_bytes = b.size - strips_at;
     }
     put_crc(&b, f);
     mts_wire_frame_end(&b, f);
@@ -835,12 +848,18 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         mts_buf_varint(&b, count);
         mts_rc_encoder e;
         mts_rc_encoder_init(&e, &b);
+        const size_t coded_at = b.size;
+/* the field the next coded bits are counted under, when counting */
+#define COUNT_AS(field) (e.cost = bd ? &bd->field : NULL)
+        COUNT_AS(full_strips_bits);
         if (first + count == n)
             encode_full(&e, models, &pass, m->strip_count, m->level_triangles[n]);
         for (uint32_t i = 0; i < count; i++) {
             uint32_t j = first + i, v = nb + j, u = m->parents[j];
             const uint32_t *w = m->growth_data + m->growth_offsets[j];
+            COUNT_AS(parent_bits);
             mts_rc_encode_uint(&e, &models->parent, v - 1 - u);
+            COUNT_AS(fan_bits);
             mts_rc_encode_tree(&e, &models->sides, w[2]);
             if (w[2] == MTS_GROWTH_EXPLICIT) {
                 for (uint32_t q = 0; q < 2 + w[3] + 3 * w[4]; q++)
@@ -850,12 +869,18 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
                 mts_rc_encode_uint(&e, &models->count, w[1]);
             }
             const int32_t *r = pass.residual + 5 * (size_t)j;
+            COUNT_AS(position_bits);
             for (int a = 0; a < 3; a++)
                 mts_rc_encode_sint(&e, &models->position[pass.context[j]], r[a]);
+            COUNT_AS(normal_bits);
             for (int a = 0; a < 2 && carry_normals; a++)
                 mts_rc_encode_sint(&e, &models->normal[a], r[3 + a]);
         }
+#undef COUNT_AS
+        e.cost = NULL; /* the flush carries no field */
         mts_rc_encoder_flush(&e);
+        if (bd)
+            bd->coded_bytes += b.size - coded_at;
         put_crc(&b, f);
         mts_wire_frame_end(&b, f);
     }
@@ -870,6 +895,8 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     if ((rc = level_checksums(s, opts, err)) != MTS_OK)
         goto fail;
     if (build_info_tail(s) != MTS_OK)
+        goto nomem;
+    if (bd && breakdown_finish(s, bd) != MTS_OK)
         goto nomem;
     /* the codes stay: a records form (now or later) sends them */
     s->oct = carry_normals ? oct : NULL;
@@ -980,6 +1007,37 @@ static mts_result build_info_tail(mts_stream *s)
     }
     s->info_tail = tail.data;
     s->info_tail_size = tail.size;
+    return MTS_OK;
+}
+
+static size_t varint_size(uint32_t x)
+{
+    uint8_t tmp[8];
+    return mts_varint_put(tmp, x);
+}
+
+/* The breakdown's frames that stream building does not write itself. */
+static mts_result breakdown_finish(const mts_stream *s, mts_stream_breakdown *bd)
+{
+    const mts_model *m = &s->model;
+    mts_buf t = {0};
+    mts_stream_put_model_info(s, m->level_count, &t);
+    bd->info_bytes = t.size;
+    t.size = 0;
+    mts_stream_put_end(s, m->level_count, 0, &t);
+    bd->end_bytes = t.size;
+    const int failed = t.failed;
+    mts_buf_free(&t);
+    if (failed)
+        return MTS_ERR_NOMEM;
+    for (uint32_t st = 0; st < m->strip_count; st++)
+        bd->info_capacity_bytes += varint_size(m->capacity[st]);
+    for (uint32_t k = 0; k < s->batch_count; k++)
+        bd->info_batch_bytes += varint_size(s->batch_first[k + 1] - s->batch_first[k]);
+    bd->base_bytes = s->batch_count ? s->batch_offset[0] : s->size;
+    bd->batch_bytes = s->size - bd->base_bytes;
+    bd->framing_bytes = bd->base_bytes - bd->base_draco_bytes - bd->base_strip_bytes +
+                        bd->batch_bytes - bd->coded_bytes;
     return MTS_OK;
 }
 

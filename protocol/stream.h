@@ -38,6 +38,26 @@
 #include "model.h"
 #include "wire.h"
 
+/* Where a splits-form stream's bytes go (the full stream: MODEL_INFO, BASE,
+ * every BATCH, END). The range-coded fields are given as the information
+ * the coder was handed for them (-log2 of each coded bit's probability),
+ * which the coded bytes match to within the coder's flush bytes
+ * (coded_bytes - the fields' bits / 8). */
+typedef struct mts_stream_breakdown {
+    size_t info_bytes;       /* the MODEL_INFO frame, header included */
+    size_t info_capacity_bytes; /* of it: the slot capacities */
+    size_t info_batch_bytes;    /* of it: the batch sizes */
+    size_t base_bytes;       /* the BASE frame */
+    size_t base_draco_bytes; /* of it: the Draco base mesh */
+    size_t base_strip_bytes; /* of it: the base strips */
+    size_t batch_bytes;      /* every BATCH frame */
+    size_t coded_bytes;      /* of them: the range-coded bodies */
+    size_t end_bytes;        /* the END frame */
+    size_t framing_bytes;    /* frame headers, batch headers and CRCs of BASE and BATCHes */
+    double parent_bits, fan_bits, position_bits, normal_bits, full_strips_bits;
+    uint32_t vertices, base_vertices, splits;
+} mts_stream_breakdown;
+
 /* Zero-initialised means the defaults. */
 typedef struct mts_stream_options {
     int quant_bits;          /* position grid; 0 = 14 */
@@ -47,6 +67,9 @@ typedef struct mts_stream_options {
     /* when not NULL and set (a signal, another thread), building stops
      * early with MTS_ERR_ARG "cancelled"; polled every few thousand splits */
     const volatile sig_atomic_t *cancel;
+    /* when not NULL, filled in with where the bytes go (costs a log2 a
+     * coded bit while encoding) */
+    mts_stream_breakdown *breakdown;
 } mts_stream_options;
 
 typedef struct mts_stream {
