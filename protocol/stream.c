@@ -1024,7 +1024,7 @@ static mts_result breakdown_finish(const mts_stream *s, mts_stream_breakdown *bd
     mts_stream_put_model_info(s, m->level_count, &t);
     bd->info_bytes = t.size;
     t.size = 0;
-    mts_stream_put_end(s, m->level_count, 0, &t);
+    mts_stream_put_end(s, m->level_count, (uint32_t)(bd->info_bytes + s->size), &t);
     bd->end_bytes = t.size;
     const int failed = t.failed;
     mts_buf_free(&t);

@@ -1126,6 +1126,55 @@ static void test_records_form_moves_both_ways(mts_test *t)
 
 /* A model without split descriptions (one made by hand, or by an older
  * build) cannot be streamed, and says why. */
+/* The breakdown only counts: the stream is byte for byte the one built
+ * without it; its parts add up to a connection's bytes; the fields'
+ * information is what the coded bodies hold, less a few flush bytes a
+ * batch (the range coder's overhead is that small). With normals. */
+static void test_breakdown_adds_up(mts_test *t)
+{
+    mts_error err = {0};
+    mts_model m;
+    if (!build_model(t, "tests/data/cow.off", 1, &m))
+        return;
+    mts_stream plain, counted;
+    mts_stream_breakdown bd;
+    mts_stream_options o = {0};
+    o.breakdown = &bd;
+    CHECKF(t, mts_stream_build(&m, "cow", NULL, &plain, &err) == MTS_OK, "%s", err.msg);
+    CHECKF(t, mts_stream_build(&m, "cow", &o, &counted, &err) == MTS_OK, "%s", err.msg);
+    mts_model_free(&m);
+    if (t->case_failed)
+        return;
+    CHECK(t, plain.size == counted.size && memcmp(plain.bytes, counted.bytes, plain.size) == 0);
+    mts_buf b = {0};
+    uint32_t stop;
+    connection_bytes(&counted, MTS_STOP_LEVEL, UINT32_MAX, &b, &stop);
+    CHECK(t, stop == counted.model.level_count);
+    CHECKF(t, bd.info_bytes + bd.base_bytes + bd.batch_bytes + bd.end_bytes == b.size,
+           "parts %zu + %zu + %zu + %zu, connection %zu", bd.info_bytes, bd.base_bytes,
+           bd.batch_bytes, bd.end_bytes, b.size);
+    CHECK(t, bd.base_bytes == counted.batch_offset[0]);
+    CHECK(t, bd.info_capacity_bytes >= counted.model.strip_count &&
+                 bd.info_capacity_bytes + bd.info_batch_bytes < bd.info_bytes);
+    CHECK(t, bd.base_draco_bytes > 0 && bd.base_strip_bytes > 0 &&
+                 bd.base_draco_bytes + bd.base_strip_bytes < bd.base_bytes);
+    const double fields =
+        (bd.parent_bits + bd.fan_bits + bd.position_bits + bd.normal_bits + bd.full_strips_bits) /
+        8;
+    CHECK(t, bd.parent_bits > 0 && bd.fan_bits > 0 && bd.position_bits > 0 && bd.normal_bits > 0 &&
+                 bd.full_strips_bits > 0);
+    CHECKF(t, fields <= (double)bd.coded_bytes + 1 &&
+                  (double)bd.coded_bytes - fields < 4.0 * counted.batch_count,
+           "fields %.1f B, coded %zu B over %u batches", fields, bd.coded_bytes,
+           counted.batch_count);
+    CHECK(t, bd.framing_bytes + bd.coded_bytes == bd.base_bytes - bd.base_draco_bytes -
+                                                      bd.base_strip_bytes + bd.batch_bytes);
+    CHECK(t, bd.vertices == counted.model.vertex_count && bd.splits == counted.model.level_count);
+    mts_buf_free(&b);
+    mts_stream_free(&plain);
+    mts_stream_free(&counted);
+}
+
 static void test_model_without_descriptions_refused(mts_test *t)
 {
     mts_stream s;
@@ -1154,6 +1203,7 @@ int main(void)
     RUN(&t, test_garbage_frames);
     RUN(&t, test_client_derives_every_record);
     RUN(&t, test_model_without_descriptions_refused);
+    RUN(&t, test_breakdown_adds_up);
     RUN(&t, test_records_form_every_stop);
     RUN(&t, test_records_form_batch_layout);
     RUN(&t, test_records_form_normals);
