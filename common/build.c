@@ -74,7 +74,15 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
                       &so, &simp, err);
     if (rc != MTS_OK)
         goto done;
+    double t15 = seconds_now();
+    mts_reorder_options ro = {0};
+    ro.window = opts->reorder_window;
+    rc = mts_reorder_collapses(mesh->triangles, mesh->triangle_count, mesh->vertex_count,
+                               simp.collapses, simp.collapse_count, &ro, &report->reorder, err);
+    if (rc != MTS_OK)
+        goto done;
     double t2 = seconds_now();
+    report->seconds_reorder = t2 - t15;
 
     mts_lodbuild_options lo = {0};
     lo.key_ratio = opts->key_ratio;

@@ -11,6 +11,7 @@
 #include "mesh.h"
 #include "model.h"
 #include "progress.h"
+#include "reorder.h"
 #include "stripify.h"
 #include "tunnel.h"
 
@@ -28,11 +29,15 @@ typedef struct mts_build_options {
     uint32_t max_strip;     /* most triangles in one full-level strip, set by
                              * the tunnelling pass (none without it): 0:
                              * MTS_STRIPIFY_MAX_STRIP */
+    uint32_t reorder_window; /* splits sorted by parent within windows of this
+                              * many (reorder.h): 0: the default; 1: none */
     mts_progress progress;
 } mts_build_options;
 
 typedef struct mts_build_report {
     double seconds_stripify, seconds_tunnel, seconds_simplify, seconds_records;
+    double seconds_reorder;      /* of seconds_simplify */
+    mts_reorder_stats reorder;
     mts_stripify_stats stripify; /* the greedy stripifier's own figures */
     int tunnel_length;           /* the length used, 0 when the pass was off */
     mts_tunnel_stats tunnel;     /* strips/swaps/draw indices before and after

@@ -107,7 +107,8 @@ uint64_t mts_stream_checksum(const mts_lod *lod, const uint32_t *quantized)
  * hundred splits pay for the learning once, not once a batch. */
 #define POSITION_CONTEXTS 16
 struct mts__stream_models {
-    mts_rc_uint_model parent, start, count, lists;
+    mts_rc_uint_model parent, parent_gap, start, count, lists;
+    uint16_t parent_up; /* whether a parent is at least the one before it */
     mts_rc_tree_model sides;
     mts_rc_uint_model full_triangles;
     mts_rc_tree_model rotation;
@@ -119,6 +120,8 @@ struct mts__stream_models {
 static void models_init(struct mts__stream_models *m)
 {
     mts_rc_uint_model_init(&m->parent);
+    mts_rc_uint_model_init(&m->parent_gap);
+    mts_rc_prob_init(&m->parent_up, 1);
     mts_rc_uint_model_init(&m->start);
     mts_rc_uint_model_init(&m->count);
     mts_rc_uint_model_init(&m->lists);
@@ -606,6 +609,20 @@ static mts_result predict_all(mts_stream *s, const mts_stream_options *opts, con
     return rc == MTS_OK ? MTS_OK : mts_error_prefix(err, "stream: model '%s'", s->name);
 }
 
+/* A parent, against the one before it: the builder sorts splits by parent
+ * within windows (reorder.h), so it is mostly a short way above it; else
+ * (a new run) it is coded as v - 1 - u. */
+static void encode_parent(mts_rc_encoder *e, struct mts__stream_models *md, uint32_t before,
+                          uint32_t u, uint32_t v)
+{
+    const unsigned up = u >= before;
+    mts_rc_encode_bit(e, &md->parent_up, up);
+    if (up)
+        mts_rc_encode_uint(e, &md->parent_gap, u - before);
+    else
+        mts_rc_encode_uint(e, &md->parent, v - 1 - u);
+}
+
 /* The bits a triangle id of the full level takes. */
 static unsigned triangle_id_bits(uint32_t triangles)
 {
@@ -858,7 +875,7 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
             uint32_t j = first + i, v = nb + j, u = m->parents[j];
             const uint32_t *w = m->growth_data + m->growth_offsets[j];
             COUNT_AS(parent_bits);
-            mts_rc_encode_uint(&e, &models->parent, v - 1 - u);
+            encode_parent(&e, models, j ? m->parents[j - 1] : 0, u, v);
             COUNT_AS(fan_bits);
             mts_rc_encode_tree(&e, &models->sides, w[2]);
             if (w[2] == MTS_GROWTH_EXPLICIT) {
@@ -1455,13 +1472,16 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
     const uint32_t nb = m->base_vertex_count;
     mts_result rc;
     for (uint32_t i = 0; i < count; i++) {
-        const uint32_t j = first + i, v = nb + j;
-        uint32_t back = mts_rc_decode_uint(d, &md->parent);
+        const uint32_t j = first + i, v = nb + j, before = j ? m->parents[j - 1] : 0;
+        /* up: u = before + gap, below v; else u = v - 1 - back, below before */
+        const unsigned up = mts_rc_decode_bit(d, &md->parent_up);
+        const uint32_t x = mts_rc_decode_uint(d, up ? &md->parent_gap : &md->parent);
+        const int bad = up ? x > v - 1 - before : x >= v || v - 1 - x >= before;
         unsigned sides = mts_rc_decode_tree(d, &md->sides);
-        if (!d->ok || back >= v || sides > MTS_GROWTH_EXPLICIT)
+        if (!d->ok || bad || sides > MTS_GROWTH_EXPLICIT)
             return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: split %u malformed", index, j);
         mts_grow_split sp = {0};
-        sp.parent = v - 1 - back;
+        sp.parent = up ? before + x : v - 1 - x;
         m->parents[j] = sp.parent;
         const uint32_t *r;
         uint32_t rw;

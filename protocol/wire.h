@@ -15,10 +15,11 @@
 /* 4.0: batches entropy-coded, normals only where the source had them;
  * 4.1: the records form, asked for by a HELLO flag; 5.0: the records a
  * client derives follow the corner-table growth (key levels by quality,
- * rings from a vertex's listed corner) and END sums strips in pairs
- * (PROTOCOL.md, "Changes"). A peer of another major version is refused at
+ * rings from a vertex's listed corner) and END sums strips in pairs; 6.0:
+ * a split's parent is coded against the previous one's (PROTOCOL.md,
+ * "Changes"). A peer of another major version is refused at
  * HELLO with ERROR version. */
-#define MTS_WIRE_MAJOR 5
+#define MTS_WIRE_MAJOR 6
 #define MTS_WIRE_MINOR 0
 
 /* Each key level costs a client a stripification of the whole mesh there, so
