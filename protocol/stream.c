@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "crc32c.h"
+#include "lframe.h"
 #include "rcoder.h"
 #include "reccodec.h"
 #include "varint.h"
@@ -113,7 +114,10 @@ struct mts__stream_models {
     mts_rc_uint_model full_triangles;
     mts_rc_tree_model rotation;
     uint16_t swap[2]; /* by the previous swap bit */
-    mts_rc_uint_model position[POSITION_CONTEXTS];
+    /* a position residual in its local frame (lframe.h): the two tangent
+     * coordinates, the normal one's magnitude and sign, by context */
+    mts_rc_uint_model tangent[POSITION_CONTEXTS], normal_part[POSITION_CONTEXTS];
+    uint16_t normal_sign[POSITION_CONTEXTS];
     mts_rc_uint_model normal[2];
 };
 
@@ -129,40 +133,69 @@ static void models_init(struct mts__stream_models *m)
     mts_rc_uint_model_init(&m->full_triangles);
     mts_rc_tree_model_init(&m->rotation, 2);
     mts_rc_prob_init(m->swap, 2);
-    for (int k = 0; k < POSITION_CONTEXTS; k++)
-        mts_rc_uint_model_init(&m->position[k]);
+    for (int k = 0; k < POSITION_CONTEXTS; k++) {
+        mts_rc_uint_model_init(&m->tangent[k]);
+        mts_rc_uint_model_init(&m->normal_part[k]);
+    }
+    mts_rc_prob_init(m->normal_sign, POSITION_CONTEXTS);
     mts_rc_uint_model_init(&m->normal[0]);
     mts_rc_uint_model_init(&m->normal[1]);
 }
 
+/* x / 2^shift toward zero, as C's division would give it, without a
+ * division: these run a dozen times a split */
+static inline int64_t shrink(int64_t x, unsigned shift)
+{
+    return x < 0 ? -(int64_t)((uint64_t)-x >> shift) : (int64_t)((uint64_t)x >> shift);
+}
+
 /* Where a new vertex is expected: the mean of the corners around it right
- * after its split (grow.h, mts_grow_around_newest), on the grid; and, as the
- * context its residual is coded in, how far that is from the parent (the
- * local edge length: residuals scale with it). Server and client hold the
- * same ring and the same grid points, so they agree exactly. */
+ * after its split (grow.h, mts_grow_around_newest), on the grid; the local
+ * frame its residual is coded in (lframe.h), from the ring's normal: the
+ * sum over the triangles (v, a, b) of (q(a) - pred) x (q(b) - pred), which
+ * does not need v; and, as the context, the ring's spread (the mean over
+ * the corners of their largest per-axis distance from the prediction: a
+ * local edge length, which residuals scale with). Server and client hold
+ * the same ring and the same grid points, so they agree exactly. */
 static unsigned predict_position(const uint32_t *around, uint32_t k, const uint32_t *quantized,
-                                 uint32_t parent, int64_t pred[3])
+                                 uint32_t parent, unsigned grid_bits, int64_t pred[3],
+                                 mts_lframe *frame)
 {
     const uint32_t *qu = quantized + 3 * (size_t)parent;
+    const int64_t zero[3] = {0, 0, 0};
     if (k == 0) {
         for (int a = 0; a < 3; a++)
             pred[a] = qu[a];
+        mts_lframe_make(zero, frame);
         return 0;
     }
+    /* one pass over the pairs (around holds pairs: k is even): the sum,
+     * and the normal about u (for a closed ring the same about any point);
+     * differences of up to 2^16 keep each cross product under 2^33, as
+     * predict_normal's */
+    const unsigned shift = grid_bits > 16 ? grid_bits - 16 : 0;
     uint64_t sum[3] = {0, 0, 0};
-    for (uint32_t i = 0; i < k; i++) {
-        const uint32_t *q = quantized + 3 * (size_t)around[i];
-        sum[0] += q[0];
-        sum[1] += q[1];
-        sum[2] += q[2];
+    int64_t n[3] = {0, 0, 0};
+    for (uint32_t i = 0; i + 1 < k; i += 2) {
+        const uint32_t *qa = quantized + 3 * (size_t)around[i];
+        const uint32_t *qb = quantized + 3 * (size_t)around[i + 1];
+        int64_t a[3], b[3];
+        for (int x = 0; x < 3; x++) {
+            sum[x] += (uint64_t)qa[x] + qb[x];
+            a[x] = shrink((int64_t)qa[x] - qu[x], shift);
+            b[x] = shrink((int64_t)qb[x] - qu[x], shift);
+        }
+        n[0] += a[1] * b[2] - a[2] * b[1];
+        n[1] += a[2] * b[0] - a[0] * b[2];
+        n[2] += a[0] * b[1] - a[1] * b[0];
     }
     uint64_t far = 0;
     for (int a = 0; a < 3; a++) {
         pred[a] = (int64_t)((sum[a] + k / 2) / k);
         uint64_t d = (uint64_t)(pred[a] > qu[a] ? pred[a] - qu[a] : qu[a] - pred[a]);
-        if (d > far)
-            far = d;
+        far = d > far ? d : far;
     }
+    mts_lframe_make(n, frame);
     unsigned ctx = 0;
     while (far >> ctx && ctx < POSITION_CONTEXTS - 1)
         ctx++;
@@ -189,8 +222,8 @@ static void predict_normal(const uint32_t *around, uint32_t k, const uint32_t *q
         const uint32_t *qb = quantized + 3 * (size_t)around[i + 1];
         int64_t a[3], b[3];
         for (int x = 0; x < 3; x++) {
-            a[x] = ((int64_t)qa[x] - qv[x]) / ((int64_t)1 << shift);
-            b[x] = ((int64_t)qb[x] - qv[x]) / ((int64_t)1 << shift);
+            a[x] = shrink((int64_t)qa[x] - qv[x], shift);
+            b[x] = shrink((int64_t)qb[x] - qv[x], shift);
         }
         n[0] += a[1] * b[2] - a[2] * b[1];
         n[1] += a[2] * b[0] - a[0] * b[2];
@@ -589,11 +622,17 @@ static mts_result predict_all(mts_stream *s, const mts_stream_options *opts, con
         uint32_t k;
         if ((rc = mts_grow_around_newest(g, &around, &k, err)) != MTS_OK)
             break;
-        int64_t pred[3];
-        pass->context[j] = (uint8_t)predict_position(around, k, s->quantized, u, pred);
+        int64_t pred[3], local[3];
+        mts_lframe frame;
+        pass->context[j] = (uint8_t)predict_position(around, k, s->quantized, u, s->grid.bits,
+                                                     pred, &frame);
+        for (int a = 0; a < 3; a++)
+            local[a] = (int64_t)s->quantized[3 * (size_t)v + a] - pred[a];
+        /* the grid has at most 2^30 points an axis, so |local| < 2^31 */
+        mts_lframe_forward(&frame, local);
         int32_t *r = pass->residual + 5 * (size_t)j;
         for (int a = 0; a < 3; a++)
-            r[a] = (int32_t)((int64_t)s->quantized[3 * (size_t)v + a] - pred[a]);
+            r[a] = (int32_t)local[a];
         r[3] = r[4] = 0;
         if (carry_normals) {
             uint16_t code[2];
@@ -887,8 +926,13 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
             }
             const int32_t *r = pass.residual + 5 * (size_t)j;
             COUNT_AS(position_bits);
-            for (int a = 0; a < 3; a++)
-                mts_rc_encode_sint(&e, &models->position[pass.context[j]], r[a]);
+            const unsigned ctx = pass.context[j];
+            mts_rc_encode_sint(&e, &models->tangent[ctx], r[0]);
+            mts_rc_encode_sint(&e, &models->tangent[ctx], r[1]);
+            mts_rc_encode_uint(&e, &models->normal_part[ctx],
+                               (uint32_t)(r[2] < 0 ? -(int64_t)r[2] : r[2]));
+            if (r[2])
+                mts_rc_encode_bit(&e, &models->normal_sign[ctx], r[2] < 0);
             COUNT_AS(normal_bits);
             for (int a = 0; a < 2 && carry_normals; a++)
                 mts_rc_encode_sint(&e, &models->normal[a], r[3 + a]);
@@ -1534,11 +1578,19 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
         uint32_t k;
         if ((rc = mts_grow_around_newest(c->grow, &around, &k, err)) != MTS_OK)
             return mts_error_prefix(err, "BATCH %u", index);
-        int64_t pred[3];
-        unsigned ctx = predict_position(around, k, c->quantized, sp.parent, pred);
+        int64_t pred[3], local[3];
+        mts_lframe frame;
+        unsigned ctx =
+            predict_position(around, k, c->quantized, sp.parent, c->grid.bits, pred, &frame);
+        local[0] = mts_rc_decode_sint(d, &md->tangent[ctx]);
+        local[1] = mts_rc_decode_sint(d, &md->tangent[ctx]);
+        local[2] = mts_rc_decode_uint(d, &md->normal_part[ctx]);
+        if (local[2] && mts_rc_decode_bit(d, &md->normal_sign[ctx]))
+            local[2] = -local[2];
+        mts_lframe_inverse(&frame, local);
         uint32_t *q = c->quantized + 3 * (size_t)v;
         for (int a = 0; a < 3; a++) {
-            int64_t x = pred[a] + mts_rc_decode_sint(d, &md->position[ctx]);
+            int64_t x = pred[a] + local[a];
             if (x < 0 || x > maxq)
                 return mts_error_set(err, MTS_ERR_RANGE, "BATCH %u: vertex %u is off the grid",
                                      index, v);
