@@ -353,7 +353,7 @@ static void breakdown_table(const mts_stream_breakdown *bd, char (*names)[64], c
         return;
     printf("\nWhere the bytes go (issue 17): the full splits-form stream, bytes and bits a vertex "
            "(of the full mesh)\n");
-    static const char *const cols[] = {"info caps", "info rest", "base draco", "base strips",
+    static const char *const cols[] = {"capacities", "model info", "base draco", "base strips",
                                        "parent",    "fan code",  "position",   "normal",
                                        "full strips", "rc flush", "framing",  "total",
                                        "draco cl7", "level 0"};
@@ -369,8 +369,8 @@ static void breakdown_table(const mts_stream_breakdown *bd, char (*names)[64], c
         const double fields = b->parent_bits + b->fan_bits + b->position_bits + b->normal_bits +
                               b->full_strips_bits;
         const double total = (double)(b->info_bytes + b->base_bytes + b->batch_bytes + b->end_bytes);
-        double v[NC] = {(double)b->info_capacity_bytes,
-                        (double)(b->info_bytes - b->info_capacity_bytes),
+        double v[NC] = {(double)b->capacity_bytes,
+                        (double)b->info_bytes,
                         (double)b->base_draco_bytes,
                         (double)b->base_strip_bytes,
                         b->parent_bits / 8,
@@ -394,7 +394,7 @@ static void breakdown_table(const mts_stream_breakdown *bd, char (*names)[64], c
             fprintf(jf, "%s\"%s\":{\"vertices\":%u,\"splits\":%u", i ? "," : "", names[i],
                     b->vertices, b->splits);
             static const char *const keys[NC] = {
-                "info_capacity_bytes", "info_other_bytes", "base_draco_bytes",
+                "capacity_bytes", "model_info_bytes", "base_draco_bytes",
                 "base_strip_bytes", "parent_bytes", "fan_bytes", "position_bytes",
                 "normal_bytes", "full_strips_bytes", "coder_flush_bytes", "framing_bytes",
                 "total_bytes", "draco_cl7_bytes", "level0_bytes"};
@@ -409,7 +409,8 @@ static void breakdown_table(const mts_stream_breakdown *bd, char (*names)[64], c
     }
     printf("(fields range-coded: the information coded for them, -log2 of each bit's "
            "probability; rc flush: the coded bytes beyond that; framing: frame and batch "
-           "headers, CRCs, END; level 0: MODEL_INFO + BASE + END of a stream stopped there)\n");
+           "headers, CRCs, END; capacities: the slots', with BASE and the batch that first uses "
+           "each; level 0: MODEL_INFO + BASE + END of a stream stopped there)\n");
 }
 
 int main(int argc, char **argv)
@@ -513,9 +514,10 @@ int main(int argc, char **argv)
             uint64_t tri = (uint64_t)(fr[k] * m.level_triangles[m.level_count] + 0.5);
             at[k] = bench_connection_bytes(&s, mts_model_level_for_triangles(&m, tri), &b);
         }
-        size_t full = bench_connection_bytes(&s, m.level_count, &b);
         bd_draco[nbd] = draco[0];
         bd_first[nbd] = bench_connection_bytes(&s, 0, &b);
+        /* b holds the full stream from here on: it is applied below */
+        size_t full = bench_connection_bytes(&s, m.level_count, &b);
         snprintf(bd_name[nbd], sizeof bd_name[nbd], "%s", name);
         nbd++;
         printf("%-14s %10zu %10zu %10zu %10zu %10zu %10zu %8.2f %10zu %10zu %10zu\n", name, full,

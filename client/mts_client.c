@@ -234,7 +234,7 @@ static int on_retry(void *user, const mts_session_retry *r)
 static int warm_up(run *rn)
 {
     const uint32_t slot[2] = {0, 3};
-    mts_render_layout layout = {3, 1, slot, {0, 0, 0}, {1, 1, 1}};
+    mts_render_layout layout = {3, 1, slot, {0, 0, 0}, {1, 1, 1}, 0};
     mts_renderer *r = NULL;
     const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, nor[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
     const uint32_t tri[3] = {0, 1, 2};
@@ -376,6 +376,7 @@ typedef struct win {
     int have_script;
     mts_lod view;
     int have_view;
+    uint32_t view_announced; /* the stream's announced slots the view has laid out */
     int manual;            /* a level key was pressed: stay at manual_level */
     uint32_t manual_level;
     int want_shot, quit, streaming, failed_stream;
@@ -548,6 +549,7 @@ static int win_on_event(void *user, mts_stream_event ev, mts_stream_client *c)
             return 1;
         }
         wn->have_view = 1;
+        wn->view_announced = c->announced;
         if (wn->po->kind != MTS_LOD_POLICY_RECEIVED) { /* it frames the model's box */
             mts_lod_policy_init(&wn->policy, wn->po, &c->model);
             mts_strip_stats base = {0};
@@ -574,6 +576,13 @@ static int win_sync(win *wn)
                                        &rn->err) != MTS_OK)
             return 0;
         rn->uploaded = have;
+    }
+    /* slots the stream has announced since (their capacities are in the
+     * model the view shares): laid out before the view may use them */
+    if (c->announced > wn->view_announced) {
+        if (mts_lod_announce(&wn->view, wn->view_announced, &rn->err) != MTS_OK)
+            return 0;
+        wn->view_announced = c->announced;
     }
     mts_lod_set_available(&wn->view, c->lod.level);
     uint32_t target = win_choose_level(wn);

@@ -411,6 +411,7 @@ void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *l)
     l->vertex_capacity = lod->model->vertex_count;
     l->strip_count = lod->strip_count;
     l->slot = lod->slot;
+    l->room = lod->room;
     memcpy(l->bbox_min, lod->model->bbox_min, sizeof l->bbox_min);
     memcpy(l->bbox_max, lod->model->bbox_max, sizeof l->bbox_max);
 }
@@ -715,7 +716,9 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
         return mts_error_set(err, MTS_ERR_LIMIT,
                              "render: %u vertices, GL addresses indices up to %lld",
                              layout->vertex_capacity, (long long)max_index);
-    uint64_t index_count = (uint64_t)layout->slot[layout->strip_count] + layout->strip_count;
+    const uint32_t slots_end = layout->slot[layout->strip_count];
+    uint64_t index_count =
+        (uint64_t)(layout->room > slots_end ? layout->room : slots_end) + layout->strip_count;
     if (index_count > (uint64_t)INT32_MAX) /* glDrawElements takes a GLsizei */
         return mts_error_set(err, MTS_ERR_LIMIT,
                              "render: %llu indices in the strip buffer, at most %d",
@@ -953,6 +956,39 @@ mts_result mts_render_set_strip(mts_renderer *r, uint32_t s, const uint32_t *ind
     return MTS_OK;
 }
 
+/* Slots from lod->relayout_from on, as lod now lays them out: they were
+ * empty (a stream announces a slot before it is used), so nothing moves in
+ * the buffer, and what lies there is restarts still. */
+static mts_result relayout(mts_renderer *r, const mts_lod *lod, mts_error *err)
+{
+    const uint32_t from = lod->relayout_from, n = r->strip_count;
+    if ((uint64_t)lod->slot[n] + n > r->index_count)
+        return mts_error_set(err, MTS_ERR_RANGE,
+                             "render: the slots grow to %u indices, past the buffer's %llu",
+                             lod->slot[n], (unsigned long long)r->index_count - n);
+    uint32_t longest = r->max_capacity;
+    for (uint32_t s = from; s < n; s++) {
+        if (r->length[s] != 0)
+            return mts_error_set(err, MTS_ERR_INTERNAL,
+                                 "render: strip %u laid out anew while it is drawn", s);
+        const uint32_t cap = lod->slot[s + 1] - lod->slot[s];
+        longest = cap > longest ? cap : longest;
+    }
+    if (longest > r->max_capacity) {
+        uint32_t *st = realloc(r->staging, ((size_t)longest + 1) * sizeof *st);
+        if (!st)
+            return mts_error_set(err, MTS_ERR_NOMEM, "render: staging for %u indices", longest);
+        r->staging = st;
+        r->max_capacity = longest;
+    }
+    for (uint32_t s = from; s < n; s++) {
+        r->offset[s] = lod->slot[s] + s;
+        r->capacity[s] = lod->slot[s + 1] - lod->slot[s];
+    }
+    r->packed_kind = -1; /* any packed copy was laid out from the old offsets */
+    return MTS_OK;
+}
+
 mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_error *err)
 {
     if (!r || !lod)
@@ -960,6 +996,11 @@ mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_err
     if (lod->strip_count != r->strip_count)
         return mts_error_set(err, MTS_ERR_ARG, "render: runtime has %u strips, renderer %u",
                              lod->strip_count, r->strip_count);
+    if (lod->relayout_from < r->strip_count) {
+        mts_result rc = relayout(r, lod, err);
+        if (rc != MTS_OK)
+            return rc;
+    }
     uint32_t count = 0;
     const uint32_t *changed = mts_lod_changed(lod, &count);
     r->stats.last_update_strips = 0;

@@ -146,6 +146,8 @@ typedef struct mts_render_layout {
     const uint32_t *slot;     /* strip_count + 1 entries, slot[s+1]-slot[s] = strip s's
                                  longest length; copied at create */
     float bbox_min[3], bbox_max[3]; /* what the camera frames */
+    uint32_t room; /* indices the slots may come to (they grow as a stream
+                      announces them): 0 = slot[strip_count] */
 } mts_render_layout;
 
 /* The layout a runtime's model needs (its vertex count, bbox and slots). */
@@ -227,7 +229,9 @@ uint32_t mts_render_vertex_count(const mts_renderer *r);
 mts_result mts_render_set_strip(mts_renderer *r, uint32_t s, const uint32_t *indices,
                                 uint32_t length, mts_error *err);
 
-/* Uploads the strips lod lists as changed (see the top of this file). Checks
+/* Uploads the strips lod lists as changed (see the top of this file), after
+ * moving the slots lod has laid out anew (lod->relayout_from) within the
+ * layout's room. Checks
  * first that lod has the layout's strip count, every changed strip fits its
  * slot and every index is below the vertices uploaded; on failure nothing is
  * uploaded. Leaves lod's changed list alone: the caller clears it. */

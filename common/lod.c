@@ -48,16 +48,19 @@ mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start star
     uint64_t total = 0;
     for (uint32_t s = 0; s < n; s++)
         total += model->capacity[s];
-    if (total >= UINT32_MAX)
+    const uint64_t room = model->capacity_room > total ? model->capacity_room : total;
+    if (room >= UINT32_MAX)
         return mts_error_set(err, MTS_ERR_LIMIT, "lod: strip capacities add up to %llu indices",
-                             (unsigned long long)total);
+                             (unsigned long long)room);
     lod->model = model;
     lod->strip_count = n;
     lod->available = model->level_count;
     lod->level = start == MTS_LOD_AT_FULL ? model->level_count : 0;
     lod->slot = malloc(((size_t)n + 1) * sizeof *lod->slot);
     lod->length = malloc(((size_t)n + 1) * sizeof *lod->length);
-    lod->data = malloc(((size_t)total + 1) * sizeof *lod->data);
+    lod->data = malloc(((size_t)room + 1) * sizeof *lod->data);
+    lod->room = (uint32_t)room;
+    lod->relayout_from = UINT32_MAX;
     lod->changed = calloc((size_t)n + 1, 1);
     lod->changed_list = malloc(((size_t)n + 1) * sizeof *lod->changed_list);
     if (!lod->slot || !lod->length || !lod->data || !lod->changed || !lod->changed_list) {
@@ -115,12 +118,34 @@ void mts_lod_clear_changed(mts_lod *lod)
     for (uint32_t i = 0; i < lod->changed_count; i++)
         lod->changed[lod->changed_list[i]] = 0;
     lod->changed_count = 0;
+    lod->relayout_from = UINT32_MAX;
+}
+
+mts_result mts_lod_announce(mts_lod *lod, uint32_t from, mts_error *err)
+{
+    if (from >= lod->strip_count)
+        return MTS_OK;
+    uint64_t at = lod->slot[from];
+    for (uint32_t s = from; s < lod->strip_count; s++) {
+        if (lod->length[s] != 0)
+            return mts_error_set(err, MTS_ERR_INTERNAL,
+                                 "lod: strip %u laid out anew while it holds indices", s);
+        at += lod->model->capacity[s];
+        if (at > lod->room)
+            return mts_error_set(err, MTS_ERR_RANGE,
+                                 "lod: strip capacities pass the %u indices reserved", lod->room);
+    }
+    for (uint32_t s = from; s < lod->strip_count; s++)
+        lod->slot[s + 1] = lod->slot[s] + lod->model->capacity[s];
+    if (from < lod->relayout_from)
+        lod->relayout_from = from;
+    return MTS_OK;
 }
 
 uint64_t mts_lod_memory_bytes(const mts_lod *lod)
 {
     uint64_t n = lod->strip_count + 1;
-    return n * (4 + 4 + 1 + 4) + (uint64_t)lod->slot[lod->strip_count] * 4 +
+    return n * (4 + 4 + 1 + 4) + (uint64_t)lod->room * 4 +
            (uint64_t)lod->scratch_size * sizeof *lod->scratch;
 }
 

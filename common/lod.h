@@ -29,7 +29,12 @@ typedef struct mts_lod {
     uint32_t available;
     uint32_t strip_count;
     uint32_t *slot;   /* strip s lives at data + slot[s], capacity slot[s+1]-slot[s]
-                         (== model->capacity[s]); slot[strip_count] is the data size */
+                         (== model->capacity[s]); slot[strip_count] is where the
+                         slots end, room (data's size) at least that */
+    uint32_t room;
+    /* the first slot laid out anew since mts_lod_clear_changed (a renderer
+     * moves its slots from there on), UINT32_MAX when none was */
+    uint32_t relayout_from;
     uint32_t *length; /* current length of each strip */
     uint32_t *data;
     uint8_t *changed; /* per strip: changed since mts_lod_clear_changed */
@@ -52,6 +57,12 @@ typedef enum mts_lod_start {
  * changed (a renderer uploads everything once). */
 mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start start, mts_error *err);
 void mts_lod_free(mts_lod *lod);
+
+/* Slots from..strip_count-1 laid out again from model->capacity, which has
+ * grown for slots that had none: a stream client learns a slot's capacity
+ * when the slot is first used. Those slots must be empty; the capacities
+ * must fit the room reserved (MTS_ERR_RANGE). */
+mts_result mts_lod_announce(mts_lod *lod, uint32_t from, mts_error *err);
 
 /* Moves to the target level (clamped to [0, available]). Returns an error only
  * when a split record is inconsistent; lod->level then says where it stopped. */

@@ -50,6 +50,10 @@ typedef struct mts_model {
     uint32_t level_count;       /* n = vertex_count - nb; levels are 0..n */
     uint32_t strip_count;       /* slots, same at every level */
     uint32_t *capacity;         /* strip_count: longest length of each slot at any level */
+    /* what a runtime reserves for all the slots: 0 for the capacities' sum.
+     * A stream client learns the sum first and each slot's capacity when
+     * the slot is first used (capacity 0 until then; mts_lod_announce). */
+    uint64_t capacity_room;
 
     float *positions; /* 3 per vertex, stream order */
     float *normals;   /* 3 per vertex, stream order */

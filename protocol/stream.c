@@ -273,6 +273,7 @@ void mts_stream_free(mts_stream *s)
         mts_model_free(&s->model);
         free(s->quantized);
         free(s->batch_first);
+        free(s->announced);
         free(s->level_checksum);
         free(s->oct);
     }
@@ -690,6 +691,69 @@ static void encode_full(mts_rc_encoder *e, struct mts__stream_models *md,
     }
 }
 
+/* 1 + the highest slot split j's record edits (0: none). */
+static uint32_t record_slots_end(const mts_model *m, uint32_t j)
+{
+    const uint32_t *w = m->record_data + m->record_offsets[j],
+                   *end = m->record_data + m->record_offsets[j + 1];
+    uint32_t top = 0;
+    if (w >= end)
+        return 0;
+    const uint32_t edits = *w++;
+    for (uint32_t e = 0; e < edits && end - w >= 4; e++) {
+        const uint32_t st = w[0], runs = w[1] + w[2], substs = w[3];
+        w += 4;
+        top = st + 1 > top ? st + 1 : top;
+        for (uint32_t r = 0; r < runs && end - w >= 2; r++)
+            w += 2 + (size_t)(w[1] < (size_t)(end - w) ? w[1] : (size_t)(end - w) - 2);
+        w += substs < (size_t)(end - w) ? substs : (size_t)(end - w);
+    }
+    return top;
+}
+
+/* When each slot's capacity travels (PROTOCOL.md, "Capacities"): with BASE
+ * the slots up to the last one the base uses, with each batch those up to
+ * the last one its records use, so the first picture does not wait for the
+ * capacities of every slot any level will ever use (on bunny00 5,275 slots,
+ * 5.5 KB, where the base needs 15). */
+static mts_result announce_schedule(mts_stream *s, mts_error *err)
+{
+    const mts_model *m = &s->model;
+    s->announced = malloc(((size_t)s->batch_count + 1) * 4);
+    if (!s->announced)
+        return mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory");
+    uint32_t a = 0;
+    for (uint32_t st = 0; st < m->strip_count; st++) {
+        if (m->base.offsets[st + 1] > m->base.offsets[st])
+            a = st + 1;
+    }
+    s->announced[0] = a;
+    for (uint32_t k = 0; k < s->batch_count; k++) {
+        for (uint32_t j = s->batch_first[k]; j < s->batch_first[k + 1]; j++) {
+            uint32_t t = record_slots_end(m, j);
+            a = t > a ? t : a;
+        }
+        s->announced[k + 1] = a;
+    }
+    return MTS_OK;
+}
+
+/* A BATCH's header: index, first split, count, then the slots announced
+ * with it and their capacities (both forms). */
+static void put_batch_head(mts_buf *b, const mts_stream *s, uint32_t k, size_t *capacity_bytes)
+{
+    const uint32_t first = s->batch_first[k];
+    mts_buf_varint(b, k);
+    mts_buf_varint(b, first);
+    mts_buf_varint(b, s->batch_first[k + 1] - first);
+    mts_buf_varint(b, s->announced[k + 1]);
+    const size_t at = b->size;
+    for (uint32_t st = s->announced[k]; st < s->announced[k + 1]; st++)
+        mts_buf_varint(b, s->model.capacity[st]);
+    if (capacity_bytes)
+        *capacity_bytes += b->size - at;
+}
+
 static mts_result build_info_tail(mts_stream *s);
 static mts_result breakdown_finish(const mts_stream *s, mts_stream_breakdown *bd);
 
@@ -720,6 +784,7 @@ mts_result mts_stream_add_records_form(mts_stream *s, mts_error *err)
     r->draco_method = s->draco_method;
     r->batch_count = s->batch_count;
     r->batch_first = s->batch_first;
+    r->announced = s->announced;
     r->level_checksum = s->level_checksum;
     r->borrowed = 1;
     r->records = 1;
@@ -732,9 +797,7 @@ mts_result mts_stream_add_records_form(mts_stream *s, mts_error *err)
         const uint32_t first = s->batch_first[k], count = s->batch_first[k + 1] - first;
         r->batch_offset[k] = b.size;
         size_t f = mts_wire_frame_begin(&b, MTS_MSG_BATCH);
-        mts_buf_varint(&b, k);
-        mts_buf_varint(&b, first);
-        mts_buf_varint(&b, count);
+        put_batch_head(&b, s, k, NULL);
         size_t need = mts_reccodec_bound(m, first, count), written = 0;
         if (need > rec_cap) {
             free(rec);
@@ -812,6 +875,14 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         return rc;
     mts_model *m = &s->model;
     const uint32_t nv = m->vertex_count, nb = m->base_vertex_count, n = m->level_count;
+    uint64_t capacity_total = 0;
+    for (uint32_t st = 0; st < m->strip_count; st++)
+        capacity_total += m->capacity[st];
+    if (capacity_total > UINT32_MAX) {
+        rc = mts_error_set(err, MTS_ERR_LIMIT, "stream: model '%s' has slots of %llu indices",
+                           name, (unsigned long long)capacity_total);
+        goto fail;
+    }
 
     /* one grid for base and batches: the full model's box */
     if ((rc = mts_draco_grid_from_positions(m->positions, nv, opts->quant_bits ? opts->quant_bits : 14,
@@ -846,6 +917,22 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     for (uint32_t x = 0; x < nb && carry_normals; x++)
         oct_encode(m->normals + 3 * (size_t)x, oct + 2 * (size_t)x);
 
+    /* levels/100 splits a batch, within 64..2048: a batch is what a client
+     * applies between two frames, so a big model gets more than a hundred */
+    const uint32_t per = opts->batch_splits ? opts->batch_splits
+                         : n / 100 > 2048                ? 2048
+                         : n / 100 > 64                  ? n / 100
+                                                         : 64;
+    s->batch_count = n == 0 ? 0 : (n + per - 1) / per;
+    s->batch_first = malloc(((size_t)s->batch_count + 1) * 4);
+    s->batch_offset = malloc(((size_t)s->batch_count + 1) * sizeof *s->batch_offset);
+    if (!s->batch_first || !s->batch_offset)
+        goto nomem;
+    for (uint32_t k = 0; k < s->batch_count; k++)
+        s->batch_first[k] = k * per;
+    s->batch_first[s->batch_count] = n;
+    if ((rc = announce_schedule(s, err)) != MTS_OK)
+        goto fail;
     mts_stream_breakdown *bd = opts->breakdown;
     if (bd) {
         memset(bd, 0, sizeof *bd);
@@ -858,9 +945,15 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     mts_buf_varint(&b, (uint32_t)draco_size);
     mts_buf_put(&b, draco, draco_size);
     const size_t strips_at = b.size;
-    for (uint32_t st = 0; st < m->strip_count; st++)
+    const uint32_t k0 = s->announced[0];
+    mts_buf_varint(&b, k0);
+    const size_t caps_at = b.size;
+    for (uint32_t st = 0; st < k0; st++)
+        mts_buf_varint(&b, m->capacity[st]);
+    const size_t caps_bytes = b.size - caps_at;
+    for (uint32_t st = 0; st < k0; st++)
         mts_buf_varint(&b, m->base.offsets[st + 1] - m->base.offsets[st]);
-    for (uint32_t st = 0; st < m->strip_count; st++) {
+    for (uint32_t st = 0; st < k0; st++) {
         uint32_t prev = 0;
         for (uint32_t k = m->base.offsets[st]; k < m->base.offsets[st + 1]; k++) {
             mts_buf_varint(&b, mts_zigzag_u32(m->base.indices[k] - prev));
@@ -869,7 +962,8 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
     }
     if (bd) {
         bd->base_draco_bytes = draco_size;
-        bd->base_strip_bytes = b.size - strips_at;
+        bd->capacity_bytes = caps_bytes;
+        bd->base_strip_bytes = b.size - strips_at - caps_bytes;
     }
     put_crc(&b, f);
     mts_wire_frame_end(&b, f);
@@ -883,25 +977,15 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
      * its splits. */
     if ((rc = predict_all(s, opts, oct, carry_normals, &pass, err)) != MTS_OK)
         goto fail;
-    /* levels/100 splits a batch, within 64..2048: a batch is what a client
-     * applies between two frames, so a big model gets more than a hundred */
-    uint32_t per = opts->batch_splits ? opts->batch_splits
-                                      : n / 100 > 2048 ? 2048 : n / 100 > 64 ? n / 100 : 64;
-    s->batch_count = n == 0 ? 0 : (n + per - 1) / per;
-    s->batch_first = malloc(((size_t)s->batch_count + 1) * 4);
-    s->batch_offset = malloc(((size_t)s->batch_count + 1) * sizeof *s->batch_offset);
     models = malloc(sizeof *models);
-    if (!s->batch_first || !s->batch_offset || !models)
+    if (!models)
         goto nomem;
     models_init(models);
     for (uint32_t k = 0; k < s->batch_count; k++) {
-        uint32_t first = k * per, count = n - first < per ? n - first : per;
-        s->batch_first[k] = first;
+        const uint32_t first = s->batch_first[k], count = s->batch_first[k + 1] - first;
         s->batch_offset[k] = b.size;
         f = mts_wire_frame_begin(&b, MTS_MSG_BATCH);
-        mts_buf_varint(&b, k);
-        mts_buf_varint(&b, first);
-        mts_buf_varint(&b, count);
+        put_batch_head(&b, s, k, bd ? &bd->capacity_bytes : NULL);
         mts_rc_encoder e;
         mts_rc_encoder_init(&e, &b);
         const size_t coded_at = b.size;
@@ -945,7 +1029,6 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         put_crc(&b, f);
         mts_wire_frame_end(&b, f);
     }
-    s->batch_first[s->batch_count] = n;
     s->batch_offset[s->batch_count] = b.size;
     if (b.failed)
         goto nomem;
@@ -1048,21 +1131,21 @@ static mts_result build_info_tail(mts_stream *s)
     mts_wire_model_info mi;
     info_fields(s, m->level_count, &mi);
     uint32_t *sizes = malloc(((size_t)s->batch_count + 1) * 4);
-    uint32_t *caps = malloc(((size_t)m->strip_count + 1) * 4);
     mts_buf tail = {0};
-    if (sizes && caps) {
+    if (sizes) {
         for (uint32_t k = 0; k < s->batch_count; k++)
             sizes[k] = s->batch_first[k + 1] - s->batch_first[k];
-        /* the longest each slot is at any level, not its full length */
-        memcpy(caps, m->capacity, (size_t)m->strip_count * 4);
+        /* the slots' room; each slot's capacity comes when it is first used */
+        uint64_t total = 0;
+        for (uint32_t st = 0; st < m->strip_count; st++)
+            total += m->capacity[st];
+        mi.capacity_total = (uint32_t)total; /* < 2^32: checked at build */
         mi.batch_splits = sizes;
-        mi.capacities = caps;
         mi.key_levels = m->key_levels;
         mts_wire_put_model_info_tail(&tail, &mi);
     }
     free(sizes);
-    free(caps);
-    if (!sizes || !caps || tail.failed) {
+    if (!sizes || tail.failed) {
         mts_buf_free(&tail);
         return MTS_ERR_NOMEM;
     }
@@ -1091,14 +1174,12 @@ static mts_result breakdown_finish(const mts_stream *s, mts_stream_breakdown *bd
     mts_buf_free(&t);
     if (failed)
         return MTS_ERR_NOMEM;
-    for (uint32_t st = 0; st < m->strip_count; st++)
-        bd->info_capacity_bytes += varint_size(m->capacity[st]);
     for (uint32_t k = 0; k < s->batch_count; k++)
         bd->info_batch_bytes += varint_size(s->batch_first[k + 1] - s->batch_first[k]);
     bd->base_bytes = s->batch_count ? s->batch_offset[0] : s->size;
     bd->batch_bytes = s->size - bd->base_bytes;
     bd->framing_bytes = bd->base_bytes - bd->base_draco_bytes - bd->base_strip_bytes +
-                        bd->batch_bytes - bd->coded_bytes;
+                        bd->batch_bytes - bd->coded_bytes - bd->capacity_bytes;
     return MTS_OK;
 }
 
@@ -1185,9 +1266,7 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     if (mi->vertices > CLIENT_MAX_VERTICES)
         return mts_error_set(err, MTS_ERR_LIMIT, "MODEL_INFO: %u vertices (this client takes %u)",
                              mi->vertices, CLIENT_MAX_VERTICES);
-    uint64_t cap = 0;
-    for (uint32_t s = 0; s < mi->strips; s++)
-        cap += mi->capacities[s];
+    const uint64_t cap = mi->capacity_total;
     /* A capacity is the longest its slot is at any level, so the slots add
      * up to more than any one level's strips: those hold a few indices per
      * triangle (a manifold mesh has under twice as many triangles as
@@ -1222,7 +1301,7 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     c->quantized = calloc(nv, 12);
     m->parents = calloc(n1, 4);
     m->record_offsets = calloc(n1, 4);
-    m->capacity = malloc(((size_t)mi->strips + 1) * 4);
+    m->capacity = calloc((size_t)mi->strips + 1, 4);
     c->models = malloc(sizeof *c->models);
     if (mi->flags & MTS_INFO_NORMALS) {
         m->flags = MTS_MODEL_NORMALS_GIVEN;
@@ -1233,12 +1312,15 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
         mts_strips_alloc(&m->full, mi->strips, 0, err) != MTS_OK)
         return mts_error_set(err, MTS_ERR_NOMEM, "MODEL_INFO: out of memory for %u vertices",
                              mi->vertices);
-    /* The slots' room is MODEL_INFO's capacities (the longest each slot is at
-     * any level). The full strips never travel: this model's full strips are
-     * strip_count empty ones, so it may start runtimes at the base (which
-     * reads base and capacity), never at the full level, and is not for
-     * mts_model_validate or mts_verify_model. */
-    memcpy(m->capacity, mi->capacities, (size_t)mi->strips * 4);
+    /* The slots' room is MODEL_INFO's total; each slot's capacity (the
+     * longest it is at any level) comes with BASE or the batch that first
+     * uses it, and is 0 until then (take_capacities). The full strips never
+     * travel: this model's full strips are strip_count empty ones, so it may
+     * start runtimes at the base (which reads base and capacity), never at
+     * the full level, and is not for mts_model_validate or mts_verify_model. */
+    m->capacity_room = cap;
+    c->announced = 0;
+    c->announced_sum = 0;
     models_init(c->models);
     c->grid.bits = mi->quant_bits;
     memcpy(c->grid.origin, mi->grid_origin, 12);
@@ -1290,7 +1372,7 @@ static mts_result check_resumed_info(mts_stream_client *c, const uint8_t *p, siz
              (a->batch_count &&
               memcmp(mi.batch_splits, a->batch_splits, (size_t)a->batch_count * 4) != 0))
         what = "batches";
-    else if (a->strips && memcmp(mi.capacities, a->capacities, (size_t)a->strips * 4) != 0)
+    else if (mi.capacity_total != a->capacity_total)
         what = "strip capacities";
     else if (mi.key_count != a->key_count ||
              (a->key_count && memcmp(mi.key_levels, a->key_levels, (size_t)a->key_count * 4) != 0))
@@ -1304,6 +1386,43 @@ static mts_result check_resumed_info(mts_stream_client *c, const uint8_t *p, siz
                            (unsigned long long)a->stream_id, c->batches);
     mts_wire_model_info_free(&mi);
     return rc;
+}
+
+/* Capacities for slots c->announced .. upto-1 (PROTOCOL.md, "Capacities"):
+ * announced in order, never more slots than there are, and together never
+ * past MODEL_INFO's total, which the client's runtime reserved. The runtime
+ * lays the new slots out when it has started (after BASE). */
+static mts_result take_capacities(mts_stream_client *c, mts_cursor *cur, uint32_t upto,
+                                  const char *frame, mts_error *err)
+{
+    mts_model *m = &c->model;
+    if (!cur->ok || upto < c->announced || upto > m->strip_count ||
+        upto - c->announced > mts_cursor_left(cur))
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: capacities for slots up to %u (%u announced, %u slots) are "
+                             "malformed",
+                             frame, upto, c->announced, m->strip_count);
+    const uint32_t from = c->announced;
+    uint64_t sum = c->announced_sum;
+    for (uint32_t s = from; s < upto; s++) {
+        m->capacity[s] = mts_cursor_varint(cur);
+        sum += m->capacity[s];
+    }
+    if (!cur->ok || sum > c->info.capacity_total) {
+        for (uint32_t s = from; s < upto; s++)
+            m->capacity[s] = 0;
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: strip capacities add up to %llu, past MODEL_INFO's %u", frame,
+                             (unsigned long long)sum, c->info.capacity_total);
+    }
+    c->announced = upto;
+    c->announced_sum = sum;
+    if (c->have_lod) {
+        mts_result rc = mts_lod_announce(&c->lod, from, err);
+        if (rc != MTS_OK)
+            return mts_error_prefix(err, "%s", frame);
+    }
+    return MTS_OK;
 }
 
 static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
@@ -1341,14 +1460,18 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     memcpy(c->quantized, dec.quantized, (size_t)nb * 12);
     mts_draco_mesh_out_free(&dec);
 
-    /* base strip lengths, each within its slot's capacity; then the indices */
+    /* the slots the base uses, their capacities and lengths (each within
+     * its capacity); then the indices */
+    const uint32_t k0 = mts_cursor_varint(&cur);
+    if ((rc = take_capacities(c, &cur, k0, "BASE", err)) != MTS_OK)
+        return rc;
     uint64_t total = 0;
-    if (m->strip_count > mts_cursor_left(&cur))
-        return mts_error_set(err, MTS_ERR_FORMAT, "BASE: %u strip lengths cannot fit", m->strip_count);
-    uint32_t *lens = malloc(((size_t)m->strip_count + 1) * 4);
+    if (k0 > mts_cursor_left(&cur))
+        return mts_error_set(err, MTS_ERR_FORMAT, "BASE: %u strip lengths cannot fit", k0);
+    uint32_t *lens = calloc((size_t)m->strip_count + 1, 4);
     if (!lens)
         return mts_error_set(err, MTS_ERR_NOMEM, "BASE: out of memory");
-    for (uint32_t s = 0; s < m->strip_count; s++) {
+    for (uint32_t s = 0; s < k0; s++) {
         lens[s] = mts_cursor_varint(&cur);
         total += lens[s];
         if (lens[s] > m->capacity[s]) {
@@ -1693,7 +1816,7 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
     mts_model *m = &c->model;
     mts_cursor cur = mts_cursor_make(p, n - 4);
     uint32_t index = mts_cursor_varint(&cur), first = mts_cursor_varint(&cur),
-             count = mts_cursor_varint(&cur);
+             count = mts_cursor_varint(&cur), upto = mts_cursor_varint(&cur);
     if (!cur.ok)
         return mts_error_set(err, MTS_ERR_FORMAT, "BATCH: truncated header");
     if (index != c->batches || index >= c->info.batch_count || first != c->splits ||
@@ -1701,6 +1824,11 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "BATCH %u (splits %u+%u) out of order: expected batch %u at split %u",
                              index, first, count, c->batches, c->splits);
+    char what[32];
+    snprintf(what, sizeof what, "BATCH %u", index);
+    mts_result rc0 = take_capacities(c, &cur, upto, what, err);
+    if (rc0 != MTS_OK)
+        return rc0;
     const uint32_t maxq = (uint32_t)((1ull << c->grid.bits) - 1);
     mts_result rc = MTS_OK;
     if (c->records) {

@@ -45,15 +45,16 @@
  * (coded_bytes - the fields' bits / 8). */
 typedef struct mts_stream_breakdown {
     size_t info_bytes;       /* the MODEL_INFO frame, header included */
-    size_t info_capacity_bytes; /* of it: the slot capacities */
-    size_t info_batch_bytes;    /* of it: the batch sizes */
+    size_t info_batch_bytes; /* of it: the batch sizes */
+    size_t capacity_bytes;   /* the slot capacities, in BASE and the batches */
     size_t base_bytes;       /* the BASE frame */
     size_t base_draco_bytes; /* of it: the Draco base mesh */
-    size_t base_strip_bytes; /* of it: the base strips */
+    size_t base_strip_bytes; /* of it: the base strips (capacities apart) */
     size_t batch_bytes;      /* every BATCH frame */
     size_t coded_bytes;      /* of them: the range-coded bodies */
     size_t end_bytes;        /* the END frame */
-    size_t framing_bytes;    /* frame headers, batch headers and CRCs of BASE and BATCHes */
+    size_t framing_bytes;    /* frame headers, batch headers (capacities apart) and
+                                CRCs of BASE and BATCHes */
     double parent_bits, fan_bits, position_bits, normal_bits, full_strips_bits;
     uint32_t vertices, base_vertices, splits;
 } mts_stream_breakdown;
@@ -83,6 +84,8 @@ typedef struct mts_stream {
     size_t size;
     uint32_t batch_count;
     uint32_t *batch_first;    /* batch_count + 1: first split of each batch */
+    uint32_t *announced;      /* batch_count + 1: slots whose capacities have
+                                 come after BASE ([0]) and after each batch */
     size_t *batch_offset;     /* batch_count + 1: where each BATCH frame starts in bytes */
     uint64_t *level_checksum; /* levels + 1 */
     uint8_t *info_tail;       /* MODEL_INFO's shared part (mts_wire_put_model_info_tail) */
@@ -152,8 +155,10 @@ typedef struct mts_stream_client {
     int state;
     mts_wire_model_info info;
     mts_model model;       /* filled as the stream arrives; its slot capacities
-                              are MODEL_INFO's, its full strips are empty (they
-                              never travel), see take_info */
+                              come with BASE and the batches, its full strips
+                              are empty (they never travel), see take_info */
+    uint32_t announced;    /* slots 0..announced-1 have their capacities */
+    uint64_t announced_sum; /* those capacities added up */
     uint32_t *quantized;
     size_t record_capacity;
     uint64_t record_word_limit; /* the most record words a records form may bring (take_info) */

@@ -79,8 +79,7 @@ void mts_wire_put_model_info_tail(mts_buf *b, const mts_wire_model_info *mi)
     mts_buf_varint(b, mi->batch_count);
     for (uint32_t i = 0; i < mi->batch_count; i++)
         mts_buf_varint(b, mi->batch_splits[i]);
-    for (uint32_t s = 0; s < mi->strips; s++)
-        mts_buf_varint(b, mi->capacities[s]);
+    mts_buf_varint(b, mi->capacity_total);
     mts_buf_varint(b, mi->key_count);
     uint32_t prev = 0;
     for (uint32_t k = 0; k < mi->key_count; k++) {
@@ -189,11 +188,9 @@ mts_result mts_wire_parse_hello(const uint8_t *payload, size_t size, mts_wire_he
 void mts_wire_model_info_free(mts_wire_model_info *mi)
 {
     free(mi->batch_splits);
-    free(mi->capacities);
     free(mi->key_levels);
     mi->key_levels = NULL;
     mi->batch_splits = NULL;
-    mi->capacities = NULL;
 }
 
 mts_result mts_wire_parse_model_info(const uint8_t *payload, size_t size,
@@ -234,14 +231,11 @@ mts_result mts_wire_parse_model_info(const uint8_t *payload, size_t size,
         return mts_error_set(err, MTS_ERR_FORMAT, "MODEL_INFO: unknown flags 0x%02x",
                              mi->flags);
     /* every varint is a byte at least: counts are bounded by what is left */
-    if (mi->batch_count > mts_cursor_left(&c) ||
-        (uint64_t)mi->batch_count + mi->strips > mts_cursor_left(&c))
-        return mts_error_set(err, MTS_ERR_FORMAT,
-                             "MODEL_INFO: %u batches and %u strips cannot fit %zu bytes",
-                             mi->batch_count, mi->strips, mts_cursor_left(&c));
+    if (mi->batch_count > mts_cursor_left(&c))
+        return mts_error_set(err, MTS_ERR_FORMAT, "MODEL_INFO: %u batches cannot fit %zu bytes",
+                             mi->batch_count, mts_cursor_left(&c));
     mi->batch_splits = malloc(((size_t)mi->batch_count + 1) * 4);
-    mi->capacities = malloc(((size_t)mi->strips + 1) * 4);
-    if (!mi->batch_splits || !mi->capacities) {
+    if (!mi->batch_splits) {
         mts_wire_model_info_free(mi);
         return mts_error_set(err, MTS_ERR_NOMEM, "MODEL_INFO: out of memory");
     }
@@ -250,8 +244,17 @@ mts_result mts_wire_parse_model_info(const uint8_t *payload, size_t size,
         mi->batch_splits[i] = mts_cursor_varint(&c);
         splits += mi->batch_splits[i];
     }
-    for (uint32_t s = 0; s < mi->strips; s++)
-        mi->capacities[s] = mts_cursor_varint(&c);
+    mi->capacity_total = mts_cursor_varint(&c);
+    /* every slot is used at some level, so it has room for an index: the
+     * strips are bounded by the capacities' total before anything is sized
+     * by them */
+    if (c.ok && mi->strips > mi->capacity_total) {
+        const uint32_t strips = mi->strips, total = mi->capacity_total;
+        mts_wire_model_info_free(mi);
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "MODEL_INFO: %u strips cannot fit slots of %u indices", strips,
+                             total);
+    }
     mi->key_count = mts_cursor_varint(&c);
     if (mi->key_count > MTS_WIRE_MAX_KEYS || mi->key_count > mts_cursor_left(&c)) {
         uint32_t kc = mi->key_count;

@@ -80,7 +80,8 @@ typedef struct mts_wire_model_info {
     float grid_origin[3], grid_range;
     uint32_t batch_count;
     uint32_t *batch_splits; /* batch_count */
-    uint32_t *capacities;   /* strips: the longest each slot is at any level */
+    uint32_t capacity_total; /* the slots' capacities added up (each slot's own
+                              * comes with the frame that first uses it) */
     uint32_t key_count;     /* at most MTS_WIRE_MAX_KEYS */
     uint32_t *key_levels;   /* key_count, ascending in 1..levels-1 */
 } mts_wire_model_info;
@@ -120,7 +121,7 @@ void mts_wire_put_hello(mts_buf *b, const mts_wire_hello *h);
 void mts_wire_put_list(mts_buf *b);
 void mts_wire_put_model_info(mts_buf *b, const mts_wire_model_info *mi);
 /* MODEL_INFO in two parts: the head (ids, counts and the stop point) differs
- * per connection; the tail (box, grid, batch sizes, strip capacities) is the
+ * per connection; the tail (box, grid, batch sizes, the capacities' total) is the
  * same for every connection to a stream, so a server encodes it once and
  * sends it from one shared buffer. The head's frame length counts tail_size
  * bytes to follow. */

@@ -454,6 +454,7 @@ static void test_restart_runs_draw_nothing(mts_test *t)
     mts_render_layout layout;
     mts_render_layout_from_lod(&lod, &layout);
     layout.slot = g_cow.base.offsets; /* capacity = base length */
+    layout.room = 0;
     CHECKF(t, mts_renderer_create(g_ctx, &o, &layout, &tight, &err) == MTS_OK, "%s", err.msg);
     if (!tight)
         goto done;
@@ -695,6 +696,77 @@ done:
 }
 
 /* Orbiting and zooming move the picture. */
+/* Slots whose capacities come later, as a stream announces them
+ * (mts_lod_announce): the renderer sizes its buffer for the runtime's room,
+ * moves the slots laid out anew, and draws the full level as a renderer
+ * laid out whole from the start does, in every draw mode. */
+static void test_slots_announced_later(mts_test *t)
+{
+    NEED_CONTEXT(t);
+    mts_error err = {0};
+    const uint32_t n = g_cow.strip_count;
+    mts_model m = g_cow; /* shallow: only the capacities are its own */
+    uint32_t *caps = calloc((size_t)n + 1, 4), k0 = 0;
+    uint64_t total = 0;
+    for (uint32_t s = 0; s < n; s++) {
+        total += g_cow.capacity[s];
+        if (g_cow.base.offsets[s + 1] > g_cow.base.offsets[s])
+            k0 = s + 1;
+    }
+    for (uint32_t s = 0; s < k0; s++)
+        caps[s] = g_cow.capacity[s];
+    m.capacity = caps;
+    m.capacity_room = total;
+    mts_lod late, whole;
+    CHECK(t, mts_lod_init(&late, &m, MTS_LOD_AT_BASE, &err) == MTS_OK);
+    CHECK(t, mts_lod_init(&whole, &g_cow, MTS_LOD_AT_FULL, &err) == MTS_OK);
+    CHECK(t, late.room == total && late.slot[n] < total && k0 < n);
+    mts_render_options o;
+    options(&o);
+    mts_renderer *r[2] = {renderer_for(t, &late, &o), renderer_for(t, &whole, &o)};
+    frame *f = calloc(2, sizeof *f);
+    if (!r[0] || !r[1] || !f || t->case_failed)
+        goto done;
+    /* a slot used before its capacity came does not fit */
+    CHECK(t, mts_lod_set_level(&late, g_cow.level_count, &err) != MTS_OK);
+    mts_lod_free(&late);
+    CHECK(t, mts_lod_init(&late, &m, MTS_LOD_AT_BASE, &err) == MTS_OK);
+    CHECK(t, mts_render_update_strips(r[0], &late, &err) == MTS_OK);
+    mts_lod_clear_changed(&late);
+    /* the rest announced; more than the room is refused */
+    for (uint32_t s = k0; s < n; s++)
+        caps[s] = g_cow.capacity[s];
+    caps[n - 1]++;
+    CHECK(t, mts_lod_announce(&late, k0, &err) == MTS_ERR_RANGE);
+    caps[n - 1]--;
+    CHECKF(t, mts_lod_announce(&late, k0, &err) == MTS_OK, "%s", err.msg);
+    CHECK(t, late.relayout_from == k0 && late.slot[n] == total);
+    CHECKF(t, mts_lod_set_level(&late, g_cow.level_count, &err) == MTS_OK, "%s", err.msg);
+    CHECKF(t, mts_render_update_strips(r[0], &late, &err) == MTS_OK, "%s", err.msg);
+    mts_lod_clear_changed(&late);
+    CHECK(t, late.relayout_from == UINT32_MAX);
+    static const mts_render_draw_mode modes[] = {MTS_RENDER_DRAW_JOINED, MTS_RENDER_DRAW_RESTART,
+                                                 MTS_RENDER_DRAW_PER_STRIP,
+                                                 MTS_RENDER_DRAW_MULTI,
+                                                 MTS_RENDER_DRAW_COMPACT};
+    for (size_t i = 0; i < sizeof modes / sizeof modes[0] && !t->case_failed; i++) {
+        o.style.draw_mode = modes[i];
+        mts_render_set_style(r[0], &o.style);
+        mts_render_set_style(r[1], &o.style);
+        if (!draw_and_read(t, r[0], &f[0], NULL) || !draw_and_read(t, r[1], &f[1], NULL))
+            break;
+        uint32_t d = pixels_differing(&f[0], &f[1], 0);
+        CHECKF(t, d == 0, "mode %d: %u pixels differ", (int)modes[i], d);
+    }
+done:
+    for (int i = 0; i < 2; i++)
+        mts_renderer_destroy(r[i]);
+    free(f);
+    mts_lod_free(&late);
+    mts_lod_free(&whole);
+    free(caps);
+}
+
 static void test_camera(mts_test *t)
 {
     NEED_CONTEXT(t);
@@ -885,6 +957,7 @@ int main(void)
     RUN(&t, test_small_move_uploads_changed_strips);
     RUN(&t, test_draw_modes);
     RUN(&t, test_all_modes_same_picture);
+    RUN(&t, test_slots_announced_later);
     RUN(&t, test_camera);
     RUN(&t, test_errors);
 

@@ -223,10 +223,7 @@ static void test_info_triangles_bounded(mts_test *t)
     CHECKF(t, mts_wire_parse_model_info(b.data + MTS_WIRE_HEADER, b.size - MTS_WIRE_HEADER, &mi,
                                         &err) == MTS_OK,
            "%s", err.msg);
-    uint64_t cap = 0;
-    for (uint32_t i = 0; i < mi.strips; i++)
-        cap += mi.capacities[i];
-    mi.triangles = (uint32_t)cap + 1;
+    mi.triangles = mi.capacity_total + 1;
     mts_buf bad = {0};
     mts_wire_put_model_info(&bad, &mi);
     mts_stream_client c;
@@ -535,6 +532,9 @@ static void batch_frame(const mts_stream *r, const mts_buf *b, uint32_t k, size_
     mts_cursor cur = mts_cursor_make(pl, *end - *at - MTS_WIRE_HEADER - 4);
     for (int i = 0; i < 3; i++) /* index, first split, count */
         mts_cursor_varint(&cur);
+    mts_cursor_varint(&cur); /* slots announced, then their capacities */
+    for (uint32_t st = r->announced[k]; st < r->announced[k + 1]; st++)
+        mts_cursor_varint(&cur);
     *body = (size_t)(cur.p - b->data);
 }
 
@@ -557,6 +557,105 @@ static mts_result feed_with_batch(mts_stream_client *c, const mts_stream *r, con
     mts_result rc = feed(c, x.data, x.size, seed, saw_end, err);
     mts_buf_free(&x);
     return rc;
+}
+
+/* Feeds b with batch k's header announcing slots up to `upto` (their
+ * capacities the model's), its body as it was (CRC recomputed). */
+static mts_result feed_with_announced(mts_stream_client *c, const mts_stream *r,
+                                      const mts_buf *b, uint32_t k, uint32_t upto,
+                                      int *saw_end, mts_error *err)
+{
+    size_t at, end, bstart;
+    batch_frame(r, b, k, &at, &end, &bstart);
+    mts_buf x = {0};
+    mts_buf_put(&x, b->data, at);
+    size_t f = mts_wire_frame_begin(&x, MTS_MSG_BATCH);
+    mts_buf_varint(&x, k);
+    mts_buf_varint(&x, r->batch_first[k]);
+    mts_buf_varint(&x, r->batch_first[k + 1] - r->batch_first[k]);
+    mts_buf_varint(&x, upto);
+    for (uint32_t st = r->announced[k]; st < upto && st < r->model.strip_count; st++)
+        mts_buf_varint(&x, r->model.capacity[st]);
+    mts_buf_put(&x, b->data + bstart, end - 4 - bstart);
+    mts_buf_u32(&x, 0); /* the CRC, resealed below */
+    mts_wire_frame_end(&x, f);
+    reseal(x.data + f);
+    mts_buf_put(&x, b->data + end, b->size - end);
+    mts_result rc = feed(c, x.data, x.size, 0, saw_end, err);
+    mts_buf_free(&x);
+    return rc;
+}
+
+/* Capacities come with the frame that first uses a slot: a batch that takes
+ * back slots, announces more than there are, leaves out a slot its records
+ * use, or whose capacities pass MODEL_INFO's total is refused by name, and
+ * the client stays at its last whole batch. Both forms. */
+static void test_capacities_announced(mts_test *t)
+{
+    const mts_stream *s = cow_with_records(t);
+    if (!s)
+        return;
+    for (int form = 0; form < 2 && !t->case_failed; form++) {
+        const mts_stream *r = form ? s->records_form : s;
+        mts_buf b = {0};
+        uint32_t stop;
+        connection_bytes(r, MTS_STOP_FULL, 0, &b, &stop);
+        /* the first batch that brings new slots, after one that brought some */
+        uint32_t k = 1;
+        while (k < r->batch_count && r->announced[k + 1] == r->announced[k])
+            k++;
+        CHECK(t, k < r->batch_count && r->announced[k] > 0);
+        if (t->case_failed) {
+            mts_buf_free(&b);
+            break;
+        }
+        const struct {
+            uint32_t upto;
+            const char *want;
+        } cases[] = {
+            {r->announced[k] - 1, "are malformed"},               /* takes a slot back */
+            {r->model.strip_count + 1, "are malformed"},          /* more than there are */
+            {r->announced[k], "capacity"},                        /* a used slot left out */
+        };
+        for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+            mts_stream_client c;
+            mts_stream_client_init(&c);
+            mts_error err = {0};
+            int saw_end = 0;
+            mts_result rc = feed_with_announced(&c, r, &b, k, cases[i].upto, &saw_end, &err);
+            CHECKF(t, rc != MTS_OK && !saw_end && strstr(err.msg, cases[i].want),
+                   "form %d case %zu: %d %s", form, i, rc, err.msg);
+            CHECKF(t, c.lod.level <= r->batch_first[k], "form %d case %zu: level %u", form, i,
+                   c.lod.level);
+            mts_stream_client_free(&c);
+        }
+        /* a total below what the slots take: found where it runs out, in the
+         * last batch to announce slots */
+        mts_wire_model_info mi = {0};
+        mts_error err = {0};
+        const size_t info_size = 4 + (size_t)get_u32(b.data);
+        CHECK(t, mts_wire_parse_model_info(b.data + MTS_WIRE_HEADER, info_size - MTS_WIRE_HEADER,
+                                           &mi, &err) == MTS_OK);
+        uint32_t last = r->batch_count - 1;
+        while (last > 0 && r->announced[last + 1] == r->announced[last])
+            last--;
+        mi.capacity_total--;
+        mts_buf x = {0};
+        mts_wire_put_model_info(&x, &mi);
+        mts_buf_put(&x, b.data + info_size, b.size - info_size);
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        int saw_end = 0;
+        mts_result rc = feed(&c, x.data, x.size, 3, &saw_end, &err);
+        CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, "past MODEL_INFO's") &&
+                      c.batches == last && c.lod.level == r->batch_first[last],
+               "form %d: %d %s (%u batches, level %u; batch %u)", form, rc, err.msg, c.batches,
+               c.lod.level, last);
+        mts_stream_client_free(&c);
+        mts_wire_model_info_free(&mi);
+        mts_buf_free(&x);
+        mts_buf_free(&b);
+    }
 }
 
 /* The records form from the start at the splits form's stops, in random
@@ -1154,8 +1253,11 @@ static void test_breakdown_adds_up(mts_test *t)
            "parts %zu + %zu + %zu + %zu, connection %zu", bd.info_bytes, bd.base_bytes,
            bd.batch_bytes, bd.end_bytes, b.size);
     CHECK(t, bd.base_bytes == counted.batch_offset[0]);
-    CHECK(t, bd.info_capacity_bytes >= counted.model.strip_count &&
-                 bd.info_capacity_bytes + bd.info_batch_bytes < bd.info_bytes);
+    /* every slot's capacity travels once (a byte at least), with BASE or the
+     * batch that first uses it */
+    CHECK(t, bd.capacity_bytes >= counted.model.strip_count &&
+                 counted.announced[counted.batch_count] == counted.model.strip_count &&
+                 bd.info_batch_bytes < bd.info_bytes);
     CHECK(t, bd.base_draco_bytes > 0 && bd.base_strip_bytes > 0 &&
                  bd.base_draco_bytes + bd.base_strip_bytes < bd.base_bytes);
     const double fields =
@@ -1167,8 +1269,8 @@ static void test_breakdown_adds_up(mts_test *t)
                   (double)bd.coded_bytes - fields < 4.0 * counted.batch_count,
            "fields %.1f B, coded %zu B over %u batches", fields, bd.coded_bytes,
            counted.batch_count);
-    CHECK(t, bd.framing_bytes + bd.coded_bytes == bd.base_bytes - bd.base_draco_bytes -
-                                                      bd.base_strip_bytes + bd.batch_bytes);
+    CHECK(t, bd.framing_bytes + bd.coded_bytes + bd.capacity_bytes ==
+                 bd.base_bytes - bd.base_draco_bytes - bd.base_strip_bytes + bd.batch_bytes);
     CHECK(t, bd.vertices == counted.model.vertex_count && bd.splits == counted.model.level_count);
     mts_buf_free(&b);
     mts_stream_free(&plain);
@@ -1204,6 +1306,7 @@ int main(void)
     RUN(&t, test_client_derives_every_record);
     RUN(&t, test_model_without_descriptions_refused);
     RUN(&t, test_breakdown_adds_up);
+    RUN(&t, test_capacities_announced);
     RUN(&t, test_records_form_every_stop);
     RUN(&t, test_records_form_batch_layout);
     RUN(&t, test_records_form_normals);

@@ -274,7 +274,7 @@ static void test_slow_reader(mts_test *t)
 {
     char grid[700], cmd[4096], out[8192];
     snprintf(grid, sizeof grid, "%s/grid.off", models_dir);
-    CHECK(t, write_grid(grid, 160));
+    CHECK(t, write_grid(grid, 190));
     snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s/grid.mtsm --quiet && rm %s", bin_dir, grid,
              models_dir, grid);
     CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);

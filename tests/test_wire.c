@@ -112,7 +112,7 @@ static void test_hello_round_trip_and_errors(mts_test *t)
 
 static void test_model_info_round_trip_and_bounds(mts_test *t)
 {
-    uint32_t batches[3] = {10, 20, 5}, caps[4] = {12, 0, 300, 7};
+    uint32_t batches[3] = {10, 20, 5};
     mts_wire_model_info mi = {0}, back;
     mi.minor = 0;
     mi.stream_id = 42;
@@ -130,7 +130,7 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     mi.grid_range = 1;
     mi.batch_count = 3;
     mi.batch_splits = batches;
-    mi.capacities = caps;
+    mi.capacity_total = 300;
     mts_buf b = {0};
     mts_wire_put_model_info(&b, &mi);
     uint8_t type;
@@ -140,7 +140,7 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     CHECK(t, one_frame(&b, &type, &p, &n) && type == MTS_MSG_MODEL_INFO);
     CHECKF(t, mts_wire_parse_model_info(p, n, &back, &err) == MTS_OK, "%s", err.msg);
     CHECK(t, back.levels == 35 && back.batch_count == 3 && back.batch_splits[1] == 20);
-    CHECK(t, back.capacities[2] == 300 && back.stop_level == 30 && back.quant_bits == 14);
+    CHECK(t, back.capacity_total == 300 && back.stop_level == 30 && back.quant_bits == 14);
     CHECK(t, back.flags == MTS_INFO_NORMALS);
     mts_wire_model_info_free(&back);
     for (size_t cut = 0; cut < n; cut++) {
@@ -182,6 +182,8 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     mts_buf_f32(&e, 1);
     mts_buf_varint(&e, 1);
     mts_buf_varint(&e, 35);
+    mts_buf_varint(&e, 100); /* the capacities' total */
+    mts_buf_varint(&e, 0);   /* key levels */
     mts_wire_frame_end(&e, f);
     CHECK(t, one_frame(&e, &type, &p, &n));
     CHECK(t, mts_wire_parse_model_info(p, n, &back, &err) == MTS_ERR_FORMAT);
@@ -237,7 +239,7 @@ static void test_hello_records_flag(mts_test *t)
  * flag; a bit this version does not know is refused beside it. */
 static void test_model_info_records_flag(mts_test *t)
 {
-    uint32_t batches[2] = {20, 15}, caps[2] = {40, 60};
+    uint32_t batches[2] = {20, 15};
     mts_wire_model_info mi = {0};
     mi.minor = MTS_WIRE_MINOR;
     mi.stream_id = 0x1122334455667788ull;
@@ -254,7 +256,7 @@ static void test_model_info_records_flag(mts_test *t)
     mi.grid_range = 1;
     mi.batch_count = 2;
     mi.batch_splits = batches;
-    mi.capacities = caps;
+    mi.capacity_total = 60;
     CHECK(t, MTS_INFO_RECORDS == 2u &&
              MTS_INFO_KNOWN_FLAGS == (MTS_INFO_NORMALS | MTS_INFO_RECORDS));
     const struct {
@@ -281,7 +283,7 @@ static void test_model_info_records_flag(mts_test *t)
             CHECKF(t, rc == MTS_OK, "flags 0x%02x: %s", cases[i].flags, err.msg);
             CHECK(t, rc != MTS_OK || (back.flags == cases[i].flags && back.minor == MTS_WIRE_MINOR &&
                                       back.stream_id == mi.stream_id && back.batch_count == 2 &&
-                                      back.batch_splits[1] == 15 && back.capacities[1] == 60));
+                                      back.batch_splits[1] == 15 && back.capacity_total == 60));
             if (rc == MTS_OK)
                 mts_wire_model_info_free(&back);
         } else {
