@@ -1640,6 +1640,13 @@ static int fan_segment(mts_grow *g, uint32_t u, uint32_t left, uint32_t right, u
     return 1;
 }
 
+int32_t mts_grow_ring_size(mts_grow *g, uint32_t u, int *closed)
+{
+    int32_t k = ring(g, u);
+    *closed = k > 0 && g->ring_closed;
+    return k;
+}
+
 int mts_grow_fan_encode(mts_grow *g, uint32_t u, uint32_t left, uint32_t right,
                         mts_grow_fan_code *code)
 {

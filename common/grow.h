@@ -143,6 +143,10 @@ typedef struct mts_grow_fan_code {
 
 int mts_grow_fan_encode(mts_grow *g, uint32_t parent, uint32_t left, uint32_t right,
                         mts_grow_fan_code *code);
+/* The triangles round u at g's level (its ring, as fan codes count it) and
+ * whether it closes; -1 when u has none. What a fan code is coded against:
+ * both ends know it before the code. */
+int32_t mts_grow_ring_size(mts_grow *g, uint32_t u, int *closed);
 int mts_grow_fan_decode(mts_grow *g, uint32_t parent, const mts_grow_fan_code *code,
                         uint32_t *left, uint32_t *right);
 

@@ -190,8 +190,11 @@ static unsigned predict_position(const uint32_t *around, uint32_t k, const uint3
         n[2] += a[0] * b[1] - a[1] * b[0];
     }
     uint64_t far = 0;
+    /* an eighth of the way from the centroid to u: a collapse kept u and
+     * took v off towards its ring's middle, and on every mesh tried this
+     * takes 1-2 % off the positions (0 on one) */
     for (int a = 0; a < 3; a++) {
-        pred[a] = (int64_t)((sum[a] + k / 2) / k);
+        pred[a] = (int64_t)((7 * sum[a] + (uint64_t)k * qu[a] + 4 * (uint64_t)k) / (8 * (uint64_t)k));
         uint64_t d = (uint64_t)(pred[a] > qu[a] ? pred[a] - qu[a] : qu[a] - pred[a]);
         far = d > far ? d : far;
     }
