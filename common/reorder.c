@@ -155,6 +155,21 @@ done:
 
 /* ---- pass 2: the windows ---- */
 
+/* The default window where split w0 starts: a tenth of the vertices there
+ * are then (16 at least, 65536 at most). Early splits matter most to a
+ * level's look and come in small windows, near the decimation's order;
+ * later ones in large windows, where the parents' gaps shrink to about ten
+ * whatever the mesh's size. */
+static uint32_t window_at(uint32_t nb, uint32_t w0, uint32_t n)
+{
+    uint64_t w = ((uint64_t)nb + (w0 < n ? w0 : n)) / 10;
+    if (getenv("MTS_REORDER_FIXED")) /* experiment only */
+        return (uint32_t)atoi(getenv("MTS_REORDER_FIXED"));
+    if (getenv("MTS_REORDER_FRAC")) /* experiment only */
+        w = (uint64_t)(atof(getenv("MTS_REORDER_FRAC")) * ((uint64_t)nb + (w0 < n ? w0 : n)));
+    return w < 16 ? 16 : w > 65536 ? 65536 : (uint32_t)w;
+}
+
 mts_result mts_reorder_collapses(const uint32_t *triangles, uint32_t triangle_count,
                                  uint32_t vertex_count, mts_collapse *collapses, uint32_t count,
                                  const mts_reorder_options *opts, mts_reorder_stats *stats,
@@ -170,10 +185,15 @@ mts_result mts_reorder_collapses(const uint32_t *triangles, uint32_t triangle_co
     const uint32_t n = count, nv = vertex_count;
     if (n >= nv)
         return mts_error_set(err, MTS_ERR_ARG, "reorder: %u collapses for %u vertices", n, nv);
-    uint32_t W = opts->window ? opts->window : n / 50 < 128 ? 128 : n / 50 > 4096 ? 4096 : n / 50;
-    stats->window = W;
-    if (W <= 1 || n < 2)
+    /* windows: opts->window splits each, or by default a tenth of the
+     * vertices there are where the window starts */
+    const uint32_t fixed = opts->window;
+    stats->window = fixed;
+    if (fixed == 1 || n < 2)
         return MTS_OK;
+    const uint32_t nb = nv - n;
+    /* the largest window there is, for the scratch */
+    uint32_t W = fixed ? fixed : window_at(nb, n, n);
     if (W > n)
         W = n;
 
@@ -196,13 +216,14 @@ mts_result mts_reorder_collapses(const uint32_t *triangles, uint32_t triangle_co
     /* survivors: 0..nb-1 in vertex order (lodbuild's numbering) */
     for (uint32_t c = 0; c < n; c++)
         removed[collapses[c].removed] = 1;
-    uint32_t nb = 0;
-    for (uint32_t x = 0; x < nv; x++)
-        id[x] = removed[x] ? NONE : nb++;
+    for (uint32_t x = 0, next = 0; x < nv; x++)
+        id[x] = removed[x] ? NONE : next++;
     uint64_t prev = 0;
     uint32_t placed = 0;
-    for (uint32_t w0 = 0, stamp = 1; w0 < n; w0 += W, stamp++) {
-        const uint32_t ws = n - w0 < W ? n - w0 : W;
+    for (uint32_t w0 = 0, stamp = 1, ws; w0 < n; w0 += ws, stamp++) {
+        ws = fixed ? fixed : window_at(nb, w0, n);
+        ws = ws < n - w0 ? ws : n - w0;
+        stats->windows++;
         /* split w0 + i is collapse n - 1 - (w0 + i); an edge wherever two
          * rings share a vertex, from the last split to touch it */
         ea.n = 0;

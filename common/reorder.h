@@ -29,13 +29,14 @@
 
 /* Zero-initialised means the defaults. */
 typedef struct mts_reorder_options {
-    /* splits a window; 0: levels / 50 within 128..4096 (a stream's default
-     * batch is levels / 100); 1: no reordering */
+    /* splits a window; 0: a tenth of the vertices present where the window
+     * starts (16..65536); 1: no reordering */
     uint32_t window;
 } mts_reorder_options;
 
 typedef struct mts_reorder_stats {
-    uint32_t window;   /* the one used */
+    uint32_t window;   /* the fixed one asked for, 0 for the default */
+    uint32_t windows;  /* windows there were */
     uint32_t runs;     /* ascending runs of parents, over all windows */
     uint64_t conflicts; /* pairs of splits in one window that had to keep their order */
 } mts_reorder_stats;

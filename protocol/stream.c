@@ -107,8 +107,10 @@ uint64_t mts_stream_checksum(const mts_lod *lod, const uint32_t *quantized)
  * each batch starts from what the ones before it taught, and the first few
  * hundred splits pay for the learning once, not once a batch. */
 #define POSITION_CONTEXTS 16
+#define FAN_CONTEXTS 32
 struct mts__stream_models {
-    mts_rc_uint_model parent, parent_gap, start, count, lists;
+    /* a fan code's start and count by the parent's ring (fan_context) */
+    mts_rc_uint_model parent, parent_gap, start[FAN_CONTEXTS], count[FAN_CONTEXTS], lists;
     uint16_t parent_up; /* whether a parent is at least the one before it */
     mts_rc_tree_model sides;
     mts_rc_uint_model full_triangles;
@@ -126,8 +128,10 @@ static void models_init(struct mts__stream_models *m)
     mts_rc_uint_model_init(&m->parent);
     mts_rc_uint_model_init(&m->parent_gap);
     mts_rc_prob_init(&m->parent_up, 1);
-    mts_rc_uint_model_init(&m->start);
-    mts_rc_uint_model_init(&m->count);
+    for (int k = 0; k < FAN_CONTEXTS; k++) {
+        mts_rc_uint_model_init(&m->start[k]);
+        mts_rc_uint_model_init(&m->count[k]);
+    }
     mts_rc_uint_model_init(&m->lists);
     mts_rc_tree_model_init(&m->sides, 3);
     mts_rc_uint_model_init(&m->full_triangles);
@@ -140,6 +144,19 @@ static void models_init(struct mts__stream_models *m)
     mts_rc_prob_init(m->normal_sign, POSITION_CONTEXTS);
     mts_rc_uint_model_init(&m->normal[0]);
     mts_rc_uint_model_init(&m->normal[1]);
+}
+
+/* The context a fan code is coded in: the parent's ring (the triangles
+ * round it, 15 for 15 or more, +16 when it closes), which both ends know
+ * before the code. A start is about uniform over the ring and a count
+ * about half of it, so one model for all rings spends bits on the mix. */
+static unsigned fan_context(struct mts_grow *g, uint32_t u)
+{
+    int closed;
+    int32_t k = mts_grow_ring_size(g, u, &closed);
+    if (k < 0)
+        k = 0;
+    return (unsigned)(k < 15 ? k : 15) + (closed ? 16u : 0u);
 }
 
 /* x / 2^shift toward zero, as C's division would give it, without a
@@ -561,6 +578,7 @@ static mts_result level_checksums(mts_stream *s, const mts_stream_options *opts,
 typedef struct prediction_pass {
     int32_t *residual; /* 5 per split: position x y z, normal code a b */
     uint8_t *context;
+    uint8_t *fan_context; /* per split: its fan code's context */
     mts_grow_full_path *paths;
     uint8_t *swaps;
     uint64_t swap_count;
@@ -570,6 +588,7 @@ static void pass_free(prediction_pass *p)
 {
     free(p->residual);
     free(p->context);
+    free(p->fan_context);
     free(p->paths);
     free(p->swaps);
     memset(p, 0, sizeof *p);
@@ -582,9 +601,10 @@ static mts_result predict_all(mts_stream *s, const mts_stream_options *opts, con
     const uint32_t nb = m->base_vertex_count, n = m->level_count;
     pass->residual = malloc((size_t)n * 20 + 1);
     pass->context = malloc((size_t)n + 1);
+    pass->fan_context = malloc((size_t)n + 1);
     pass->paths = malloc(((size_t)m->strip_count + 1) * sizeof *pass->paths);
     pass->swaps = malloc((size_t)m->full.index_count + 1);
-    if (!pass->residual || !pass->context || !pass->paths || !pass->swaps)
+    if (!pass->residual || !pass->context || !pass->fan_context || !pass->paths || !pass->swaps)
         return mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory predicting '%s'",
                              s->name);
     mts_grow_options go = {0};
@@ -609,6 +629,7 @@ static mts_result predict_all(mts_stream *s, const mts_stream_options *opts, con
         }
         const uint32_t *rec;
         uint32_t words;
+        pass->fan_context[j] = (uint8_t)fan_context(g, u);
         if ((rc = mts_grow_next(g, &sp, &given, &rec, &words, err)) != MTS_OK)
             break;
         /* what a splits-form client will derive must be the model's record,
@@ -1008,8 +1029,8 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
                 for (uint32_t q = 0; q < 2 + w[3] + 3 * w[4]; q++)
                     mts_rc_encode_uint(&e, &models->lists, w[3 + q]);
             } else {
-                mts_rc_encode_uint(&e, &models->start, w[0]);
-                mts_rc_encode_uint(&e, &models->count, w[1]);
+                mts_rc_encode_uint(&e, &models->start[pass.fan_context[j]], w[0]);
+                mts_rc_encode_uint(&e, &models->count[pass.fan_context[j]], w[1]);
             }
             const int32_t *r = pass.residual + 5 * (size_t)j;
             COUNT_AS(position_bits);
@@ -1687,8 +1708,9 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
             free(lists);
         } else {
             mts_grow_fan_code fc = {0, 0, sides};
-            fc.start = mts_rc_decode_uint(d, &md->start);
-            fc.count = mts_rc_decode_uint(d, &md->count);
+            const unsigned fctx = fan_context(c->grow, sp.parent);
+            fc.start = mts_rc_decode_uint(d, &md->start[fctx]);
+            fc.count = mts_rc_decode_uint(d, &md->count[fctx]);
             if (!d->ok || !mts_grow_fan_decode(c->grow, sp.parent, &fc, &sp.left, &sp.right))
                 return mts_error_set(err, MTS_ERR_FORMAT,
                                      "BATCH %u: split %u names no fan of vertex %u (start %u, "
