@@ -367,9 +367,9 @@ static void breakdown_table(const mts_stream_breakdown *bd, char (*names)[64], c
     for (int i = 0; i < n; i++) {
         const mts_stream_breakdown *b = &bd[i];
         const double fields = b->parent_bits + b->fan_bits + b->position_bits + b->normal_bits +
-                              b->full_strips_bits;
+                              b->full_strips_bits + b->capacity_bits;
         const double total = (double)(b->info_bytes + b->base_bytes + b->batch_bytes + b->end_bytes);
-        double v[NC] = {(double)b->capacity_bytes,
+        double v[NC] = {(double)b->capacity_bytes + b->capacity_bits / 8,
                         (double)b->info_bytes,
                         (double)b->base_draco_bytes,
                         (double)b->base_strip_bytes,

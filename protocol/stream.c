@@ -114,6 +114,7 @@ struct mts__stream_models {
     uint16_t parent_up; /* whether a parent is at least the one before it */
     mts_rc_tree_model sides;
     mts_rc_uint_model full_triangles;
+    mts_rc_uint_model capacity; /* the slots a batch announces */
     mts_rc_tree_model rotation;
     uint16_t swap[2]; /* by the previous swap bit */
     /* a position residual in its local frame (lframe.h): the two tangent
@@ -135,6 +136,7 @@ static void models_init(struct mts__stream_models *m)
     mts_rc_uint_model_init(&m->lists);
     mts_rc_tree_model_init(&m->sides, 3);
     mts_rc_uint_model_init(&m->full_triangles);
+    mts_rc_uint_model_init(&m->capacity);
     mts_rc_tree_model_init(&m->rotation, 2);
     mts_rc_prob_init(m->swap, 2);
     for (int k = 0; k < POSITION_CONTEXTS; k++) {
@@ -762,20 +764,25 @@ static mts_result announce_schedule(mts_stream *s, mts_error *err)
     return MTS_OK;
 }
 
-/* A BATCH's header: index, first split, count, then the slots announced
- * with it and their capacities (both forms). */
-static void put_batch_head(mts_buf *b, const mts_stream *s, uint32_t k, size_t *capacity_bytes)
+/* A BATCH's header: index, first split, count and the slots announced with
+ * it; then, in the records form, their capacities (the splits form codes
+ * them in its body, encode_capacities). */
+static void put_batch_head(mts_buf *b, const mts_stream *s, uint32_t k, int capacities)
 {
     const uint32_t first = s->batch_first[k];
     mts_buf_varint(b, k);
     mts_buf_varint(b, first);
     mts_buf_varint(b, s->batch_first[k + 1] - first);
     mts_buf_varint(b, s->announced[k + 1]);
-    const size_t at = b->size;
-    for (uint32_t st = s->announced[k]; st < s->announced[k + 1]; st++)
+    for (uint32_t st = s->announced[k]; capacities && st < s->announced[k + 1]; st++)
         mts_buf_varint(b, s->model.capacity[st]);
-    if (capacity_bytes)
-        *capacity_bytes += b->size - at;
+}
+
+static void encode_capacities(mts_rc_encoder *e, struct mts__stream_models *md,
+                              const mts_stream *s, uint32_t k)
+{
+    for (uint32_t st = s->announced[k]; st < s->announced[k + 1]; st++)
+        mts_rc_encode_uint(e, &md->capacity, s->model.capacity[st]);
 }
 
 static mts_result build_info_tail(mts_stream *s);
@@ -821,7 +828,7 @@ mts_result mts_stream_add_records_form(mts_stream *s, mts_error *err)
         const uint32_t first = s->batch_first[k], count = s->batch_first[k + 1] - first;
         r->batch_offset[k] = b.size;
         size_t f = mts_wire_frame_begin(&b, MTS_MSG_BATCH);
-        put_batch_head(&b, s, k, NULL);
+        put_batch_head(&b, s, k, 1);
         size_t need = mts_reccodec_bound(m, first, count), written = 0;
         if (need > rec_cap) {
             free(rec);
@@ -1009,12 +1016,14 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
         const uint32_t first = s->batch_first[k], count = s->batch_first[k + 1] - first;
         s->batch_offset[k] = b.size;
         f = mts_wire_frame_begin(&b, MTS_MSG_BATCH);
-        put_batch_head(&b, s, k, bd ? &bd->capacity_bytes : NULL);
+        put_batch_head(&b, s, k, 0);
         mts_rc_encoder e;
         mts_rc_encoder_init(&e, &b);
         const size_t coded_at = b.size;
 /* the field the next coded bits are counted under, when counting */
 #define COUNT_AS(field) (e.cost = bd ? &bd->field : NULL)
+        COUNT_AS(capacity_bits);
+        encode_capacities(&e, models, s, k);
         COUNT_AS(full_strips_bits);
         if (first + count == n)
             encode_full(&e, models, &pass, m->strip_count, m->level_triangles[n]);
@@ -1202,8 +1211,8 @@ static mts_result breakdown_finish(const mts_stream *s, mts_stream_breakdown *bd
         bd->info_batch_bytes += varint_size(s->batch_first[k + 1] - s->batch_first[k]);
     bd->base_bytes = s->batch_count ? s->batch_offset[0] : s->size;
     bd->batch_bytes = s->size - bd->base_bytes;
-    bd->framing_bytes = bd->base_bytes - bd->base_draco_bytes - bd->base_strip_bytes +
-                        bd->batch_bytes - bd->coded_bytes - bd->capacity_bytes;
+    bd->framing_bytes = bd->base_bytes - bd->base_draco_bytes - bd->base_strip_bytes -
+                        bd->capacity_bytes + bd->batch_bytes - bd->coded_bytes;
     return MTS_OK;
 }
 
@@ -1414,30 +1423,33 @@ static mts_result check_resumed_info(mts_stream_client *c, const uint8_t *p, siz
 
 /* Capacities for slots c->announced .. upto-1 (PROTOCOL.md, "Capacities"):
  * announced in order, never more slots than there are, and together never
- * past MODEL_INFO's total, which the client's runtime reserved. The runtime
- * lays the new slots out when it has started (after BASE). */
-static mts_result take_capacities(mts_stream_client *c, mts_cursor *cur, uint32_t upto,
-                                  const char *frame, mts_error *err)
+ * past MODEL_INFO's total, which the client's runtime reserved. They come as
+ * varints from cur (BASE, the records form) or coded from d (the splits
+ * form's batches). The runtime lays the new slots out once it has started
+ * (after BASE). */
+static mts_result take_capacities(mts_stream_client *c, mts_cursor *cur, mts_rc_decoder *d,
+                                  uint32_t upto, const char *frame, mts_error *err)
 {
     mts_model *m = &c->model;
-    if (!cur->ok || upto < c->announced || upto > m->strip_count ||
-        upto - c->announced > mts_cursor_left(cur))
+    const uint32_t from = c->announced;
+    /* a varint is a byte at least; a coded one is bounded by the total */
+    if (upto < from || upto > m->strip_count || (cur && upto - from > mts_cursor_left(cur)))
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "%s: capacities for slots up to %u (%u announced, %u slots) are "
                              "malformed",
-                             frame, upto, c->announced, m->strip_count);
-    const uint32_t from = c->announced;
+                             frame, upto, from, m->strip_count);
     uint64_t sum = c->announced_sum;
-    for (uint32_t s = from; s < upto; s++) {
-        m->capacity[s] = mts_cursor_varint(cur);
+    uint32_t s = from;
+    for (; s < upto && sum <= c->info.capacity_total; s++) {
+        m->capacity[s] = cur ? mts_cursor_varint(cur) : mts_rc_decode_uint(d, &c->models->capacity);
         sum += m->capacity[s];
     }
-    if (!cur->ok || sum > c->info.capacity_total) {
-        for (uint32_t s = from; s < upto; s++)
-            m->capacity[s] = 0;
+    if ((cur ? !cur->ok : !d->ok) || sum > c->info.capacity_total) {
+        for (uint32_t x = from; x < s; x++)
+            m->capacity[x] = 0;
         return mts_error_set(err, MTS_ERR_FORMAT,
-                             "%s: strip capacities add up to %llu, past MODEL_INFO's %u", frame,
-                             (unsigned long long)sum, c->info.capacity_total);
+                             "%s: strip capacities add up to %llu or more, past MODEL_INFO's %u",
+                             frame, (unsigned long long)sum, c->info.capacity_total);
     }
     c->announced = upto;
     c->announced_sum = sum;
@@ -1487,7 +1499,7 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     /* the slots the base uses, their capacities and lengths (each within
      * its capacity); then the indices */
     const uint32_t k0 = mts_cursor_varint(&cur);
-    if ((rc = take_capacities(c, &cur, k0, "BASE", err)) != MTS_OK)
+    if ((rc = take_capacities(c, &cur, NULL, k0, "BASE", err)) != MTS_OK)
         return rc;
     uint64_t total = 0;
     if (k0 > mts_cursor_left(&cur))
@@ -1851,20 +1863,20 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
                              index, first, count, c->batches, c->splits);
     char what[32];
     snprintf(what, sizeof what, "BATCH %u", index);
-    mts_result rc0 = take_capacities(c, &cur, upto, what, err);
-    if (rc0 != MTS_OK)
-        return rc0;
     const uint32_t maxq = (uint32_t)((1ull << c->grid.bits) - 1);
     mts_result rc = MTS_OK;
     if (c->records) {
-        if ((rc = take_records(c, cur.p, mts_cursor_left(&cur), index, first, count, maxq, err)) !=
-            MTS_OK)
+        if ((rc = take_capacities(c, &cur, NULL, upto, what, err)) != MTS_OK ||
+            (rc = take_records(c, cur.p, mts_cursor_left(&cur), index, first, count, maxq, err)) !=
+                MTS_OK)
             return rc;
         goto applied;
     }
     mts_rc_decoder d;
     if (!mts_rc_decoder_init(&d, cur.p, mts_cursor_left(&cur)))
         return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: no coded splits", index);
+    if ((rc = take_capacities(c, NULL, &d, upto, what, err)) != MTS_OK)
+        return rc;
     mts_grow_full full = {NULL, NULL, NULL, 0, m->strip_count};
     if (first + count == m->level_count &&
         (rc = decode_full(c, &d, &full, err)) != MTS_OK)

@@ -46,7 +46,8 @@
 typedef struct mts_stream_breakdown {
     size_t info_bytes;       /* the MODEL_INFO frame, header included */
     size_t info_batch_bytes; /* of it: the batch sizes */
-    size_t capacity_bytes;   /* the slot capacities, in BASE and the batches */
+    size_t capacity_bytes;   /* the slot capacities BASE announces (the batches'
+                                are a coded field: capacity_bits) */
     size_t base_bytes;       /* the BASE frame */
     size_t base_draco_bytes; /* of it: the Draco base mesh */
     size_t base_strip_bytes; /* of it: the base strips (capacities apart) */
@@ -55,7 +56,7 @@ typedef struct mts_stream_breakdown {
     size_t end_bytes;        /* the END frame */
     size_t framing_bytes;    /* frame headers, batch headers (capacities apart) and
                                 CRCs of BASE and BATCHes */
-    double parent_bits, fan_bits, position_bits, normal_bits, full_strips_bits;
+    double parent_bits, fan_bits, position_bits, normal_bits, full_strips_bits, capacity_bits;
     uint32_t vertices, base_vertices, splits;
 } mts_stream_breakdown;
 
