@@ -29,8 +29,8 @@
 
 /* Zero-initialised means the defaults. */
 typedef struct mts_reorder_options {
-    /* splits a window; 0: a tenth of the vertices present where the window
-     * starts (16..65536); 1: no reordering */
+    /* splits a window; 0: a quarter of the vertices present where the
+     * window starts (16..65536); 1: no reordering */
     uint32_t window;
 } mts_reorder_options;
 

@@ -45,7 +45,7 @@ static void usage(FILE *f)
           "                        as far as splits that share vertices allow, so a\n"
           "                        stream codes parents in fewer bits (bunny00: 7 bits a\n"
           "                        split, not 13.6); 1: the decimation's order (default:\n"
-          "                        levels / 50 within 128..4096)\n"
+          "                        a quarter of the vertices there are at its start)\n"
           "  --json                print one line of JSON with the figures\n"
           "  -q, --quiet           no progress bar, no summary\n"
           "  -h, --help            this help\n"
