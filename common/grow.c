@@ -991,7 +991,8 @@ static int emit_splice(mts_grow *g, uint32_t s, const splice *sp, uint32_t u, ui
     const uint32_t *o = from->w, *r = sp->r->w;
     const size_t lo = from->n, rn = sp->r->n, keep = sp->suffix ? lo - sp->p1 : 0,
                  p0 = sp->p0, end = p0 + rn, ln = end + keep;
-    const uint32_t *tail = o + (sp->suffix ? sp->p1 : lo); /* new[end + i] = tail[i] */
+    /* new[end + i] = tail[i]; a slot never filled has no array at all */
+    const uint32_t *tail = o ? o + (sp->suffix ? sp->p1 : lo) : o;
 #define AS_BEFORE(x) ((x) == v ? u : (x))
     /* common prefix: new[0..p0) is old's own */
     size_t p = p0;
