@@ -7,7 +7,10 @@ bench/out/rd.json (written by build/bin/mts-bench-walk):
                                 away, linear and exponential), strips with and
                                 without coherence and a triangle list
   bench/plots/rd_<model>.png    triangles available and geometric error against
-                                bytes received, Draco single-rate's point marked
+                                bytes received, Draco single-rate's point marked,
+                                beside the same curves of an earlier protocol
+                                (bench/baseline/rd_*.json: the figures before a
+                                change to the bytes, kept to show it)
 
 usage: bench/plot.py [OUT_DIR [PLOTS_DIR]]   (defaults bench/out, bench/plots)
 Skips, saying why, when matplotlib is missing (Debian: python3-matplotlib).
@@ -89,12 +92,27 @@ elif walk:
     print(f"plot: walkthrough skipped: {walk.get('skipped', 'no models')}")
 
 rd = load("rd.json")
+# earlier protocols' series, kept in the tree: what the bytes were before
+baselines = []
+base_dir = os.path.join(os.path.dirname(os.path.abspath(__file__)), "baseline")
+for fn in sorted(os.listdir(base_dir)) if os.path.isdir(base_dir) else []:
+    if fn.startswith("rd_") and fn.endswith(".json"):
+        try:
+            with open(os.path.join(base_dir, fn)) as f:
+                baselines.append((fn[3:-5], json.load(f).get("models", {})))
+        except (OSError, ValueError) as e:
+            print(f"plot: baseline {fn}: {e}")
 for name, m in (rd or {}).get("models", {}).items():
     pts = m["points"]
     b = [p["bytes"] / 1e3 for p in pts]
     fig, ax = plt.subplots(figsize=(8, 5))
     ax.plot(b, [p["triangles"] for p in pts], "o-", ms=3, color="tab:blue",
             label="mts stream: triangles available")
+    for label, bm in baselines:
+        if name in bm:
+            bp = bm[name]["points"]
+            ax.plot([p["bytes"] / 1e3 for p in bp], [p["triangles"] for p in bp], "--",
+                    color="tab:blue", alpha=0.45, label=f"protocol {label}: triangles")
     d = m["draco"]
     ax.plot([d["bytes"] / 1e3], [d["triangles"]], "s", ms=9, color="tab:red",
             label=f"Draco single-rate (cl 7): {d['bytes'] / 1e3:.1f} KB")
@@ -104,6 +122,11 @@ for name, m in (rd or {}).get("models", {}).items():
     ax2 = ax.twinx()
     ax2.plot(b, [p["rms"] for p in pts], "o-", ms=3, color="tab:purple",
              label="mts stream: RMS error / bbox diagonal")
+    for label, bm in baselines:
+        if name in bm:
+            bp = bm[name]["points"]
+            ax2.plot([p["bytes"] / 1e3 for p in bp], [p["rms"] for p in bp], "--",
+                     color="tab:purple", alpha=0.45, label=f"protocol {label}: RMS error")
     ax2.plot([d["bytes"] / 1e3], [max(d["rms"], 1e-9)], "D", ms=8, color="tab:red",
              mfc="none", label="Draco: error (quantization only)")
     ax2.set_yscale("log")
