@@ -168,6 +168,22 @@ static inline int64_t shrink(int64_t x, unsigned shift)
     return x < 0 ? -(int64_t)((uint64_t)-x >> shift) : (int64_t)((uint64_t)x >> shift);
 }
 
+/* n += (q(a) - o) x (q(b) - o), each difference first shrunk by `shift`
+ * (differences of up to 2^16 keep each cross product under 2^33 and a sum
+ * over any ring far from int64's limits): a ring's normal, pair by pair. */
+static inline void add_cross(const uint32_t *qa, const uint32_t *qb, const uint32_t *o,
+                             unsigned shift, int64_t n[3])
+{
+    int64_t a[3], b[3];
+    for (int x = 0; x < 3; x++) {
+        a[x] = shrink((int64_t)qa[x] - o[x], shift);
+        b[x] = shrink((int64_t)qb[x] - o[x], shift);
+    }
+    n[0] += a[1] * b[2] - a[2] * b[1];
+    n[1] += a[2] * b[0] - a[0] * b[2];
+    n[2] += a[0] * b[1] - a[1] * b[0];
+}
+
 /* Where a new vertex is expected: the mean of the corners around it right
  * after its split (grow.h, mts_grow_around_newest), on the grid; the local
  * frame its residual is coded in (lframe.h), from the ring's normal: the
@@ -189,24 +205,16 @@ static unsigned predict_position(const uint32_t *around, uint32_t k, const uint3
         return 0;
     }
     /* one pass over the pairs (around holds pairs: k is even): the sum,
-     * and the normal about u (for a closed ring the same about any point);
-     * differences of up to 2^16 keep each cross product under 2^33, as
-     * predict_normal's */
+     * and the normal about u (for a closed ring the same about any point) */
     const unsigned shift = grid_bits > 16 ? grid_bits - 16 : 0;
     uint64_t sum[3] = {0, 0, 0};
     int64_t n[3] = {0, 0, 0};
     for (uint32_t i = 0; i + 1 < k; i += 2) {
         const uint32_t *qa = quantized + 3 * (size_t)around[i];
         const uint32_t *qb = quantized + 3 * (size_t)around[i + 1];
-        int64_t a[3], b[3];
-        for (int x = 0; x < 3; x++) {
+        for (int x = 0; x < 3; x++)
             sum[x] += (uint64_t)qa[x] + qb[x];
-            a[x] = shrink((int64_t)qa[x] - qu[x], shift);
-            b[x] = shrink((int64_t)qb[x] - qu[x], shift);
-        }
-        n[0] += a[1] * b[2] - a[2] * b[1];
-        n[1] += a[2] * b[0] - a[0] * b[2];
-        n[2] += a[0] * b[1] - a[1] * b[0];
+        add_cross(qa, qb, qu, shift, n);
     }
     uint64_t far = 0;
     /* an eighth of the way from the centroid to u: a collapse kept u and
@@ -234,23 +242,12 @@ static void predict_normal(const uint32_t *around, uint32_t k, const uint32_t *q
                            uint32_t v, unsigned grid_bits, const uint16_t parent_code[2],
                            uint16_t code[2])
 {
-    /* differences of up to 2^16 keep each cross product under 2^33 and a
-     * sum over any ring far from int64's limits */
     const unsigned shift = grid_bits > 16 ? grid_bits - 16 : 0;
     const uint32_t *qv = quantized + 3 * (size_t)v;
     int64_t n[3] = {0, 0, 0};
-    for (uint32_t i = 0; i + 1 < k; i += 2) {
-        const uint32_t *qa = quantized + 3 * (size_t)around[i];
-        const uint32_t *qb = quantized + 3 * (size_t)around[i + 1];
-        int64_t a[3], b[3];
-        for (int x = 0; x < 3; x++) {
-            a[x] = shrink((int64_t)qa[x] - qv[x], shift);
-            b[x] = shrink((int64_t)qb[x] - qv[x], shift);
-        }
-        n[0] += a[1] * b[2] - a[2] * b[1];
-        n[1] += a[2] * b[0] - a[0] * b[2];
-        n[2] += a[0] * b[1] - a[1] * b[0];
-    }
+    for (uint32_t i = 0; i + 1 < k; i += 2)
+        add_cross(quantized + 3 * (size_t)around[i], quantized + 3 * (size_t)around[i + 1], qv,
+                  shift, n);
     /* keep |x| + |y| + |z| under 2^40 so NORMAL_MAX times it fits; halving
      * (toward zero, as C divides) keeps the direction */
     for (;;) {

@@ -538,6 +538,20 @@ static void batch_frame(const mts_stream *r, const mts_buf *b, uint32_t k, size_
     *body = (size_t)(cur.p - b->data);
 }
 
+/* Ends the batch frame begun at f in x with a fresh CRC, appends what
+ * follows the original batch in b (from end), feeds it all and frees x. */
+static mts_result seal_and_feed(mts_stream_client *c, mts_buf *x, size_t f, const mts_buf *b,
+                                size_t end, uint64_t seed, int *saw_end, mts_error *err)
+{
+    mts_buf_u32(x, 0); /* the CRC, resealed below */
+    mts_wire_frame_end(x, f);
+    reseal(x->data + f);
+    mts_buf_put(x, b->data + end, b->size - end);
+    mts_result rc = feed(c, x->data, x->size, seed, saw_end, err);
+    mts_buf_free(x);
+    return rc;
+}
+
 /* Feeds b with batch k's body replaced by body[0..size) (CRC recomputed). */
 static mts_result feed_with_batch(mts_stream_client *c, const mts_stream *r, const mts_buf *b,
                                   uint32_t k, const uint8_t *body, size_t size, uint64_t seed,
@@ -550,13 +564,7 @@ static mts_result feed_with_batch(mts_stream_client *c, const mts_stream *r, con
     size_t f = mts_wire_frame_begin(&x, MTS_MSG_BATCH);
     mts_buf_put(&x, b->data + at + MTS_WIRE_HEADER, bstart - at - MTS_WIRE_HEADER);
     mts_buf_put(&x, body, size);
-    mts_buf_u32(&x, 0); /* the CRC, resealed below */
-    mts_wire_frame_end(&x, f);
-    reseal(x.data + f);
-    mts_buf_put(&x, b->data + end, b->size - end);
-    mts_result rc = feed(c, x.data, x.size, seed, saw_end, err);
-    mts_buf_free(&x);
-    return rc;
+    return seal_and_feed(c, &x, f, b, end, seed, saw_end, err);
 }
 
 /* Feeds b with batch k's header announcing slots up to `upto` (in the
@@ -579,13 +587,7 @@ static mts_result feed_with_announced(mts_stream_client *c, const mts_stream *r,
          st++)
         mts_buf_varint(&x, r->model.capacity[st]);
     mts_buf_put(&x, b->data + bstart, end - 4 - bstart);
-    mts_buf_u32(&x, 0); /* the CRC, resealed below */
-    mts_wire_frame_end(&x, f);
-    reseal(x.data + f);
-    mts_buf_put(&x, b->data + end, b->size - end);
-    mts_result rc = feed(c, x.data, x.size, 0, saw_end, err);
-    mts_buf_free(&x);
-    return rc;
+    return seal_and_feed(c, &x, f, b, end, 0, saw_end, err);
 }
 
 /* Capacities come with the frame that first uses a slot: a batch that takes
