@@ -714,22 +714,21 @@ static void encode_full(mts_rc_encoder *e, struct mts__stream_models *md,
     }
 }
 
-/* 1 + the highest slot split j's record edits (0: none). */
+/* 1 + the highest slot split j's record edits (0: none). The model has
+ * passed mts_model_validate; the walk stays inside the record anyway. */
 static uint32_t record_slots_end(const mts_model *m, uint32_t j)
 {
-    const uint32_t *w = m->record_data + m->record_offsets[j],
-                   *end = m->record_data + m->record_offsets[j + 1];
+    const uint32_t *w = m->record_data + m->record_offsets[j];
+    const size_t n = m->record_offsets[j + 1] - m->record_offsets[j];
     uint32_t top = 0;
-    if (w >= end)
-        return 0;
-    const uint32_t edits = *w++;
-    for (uint32_t e = 0; e < edits && end - w >= 4; e++) {
-        const uint32_t st = w[0], runs = w[1] + w[2], substs = w[3];
-        w += 4;
+    size_t k = 1;
+    for (uint32_t e = 0, edits = n ? w[0] : 0; e < edits && k + 4 <= n; e++) {
+        const uint32_t st = w[k], runs = w[k + 1] + w[k + 2], substs = w[k + 3];
+        k += 4;
         top = st + 1 > top ? st + 1 : top;
-        for (uint32_t r = 0; r < runs && end - w >= 2; r++)
-            w += 2 + (size_t)(w[1] < (size_t)(end - w) ? w[1] : (size_t)(end - w) - 2);
-        w += substs < (size_t)(end - w) ? substs : (size_t)(end - w);
+        for (uint32_t r = 0; r < runs && k + 2 <= n; r++)
+            k += 2 + (size_t)w[k + 1];
+        k += substs;
     }
     return top;
 }
