@@ -100,6 +100,25 @@ void mts_model_free(mts_model *model);
  * runtime may apply the records without checks. */
 mts_result mts_model_validate(const mts_model *model, mts_error *err);
 
+/* One edit of a record in the format above, from p (at its strip) within
+ * [p, end): the strip it edits in *strip; returns where the next edit
+ * starts, or NULL when the edit runs past end. */
+static inline const uint32_t *mts_record_skip_edit(const uint32_t *p, const uint32_t *end,
+                                                   uint32_t *strip)
+{
+    if (end - p < 4)
+        return NULL;
+    const uint32_t runs = p[1] + p[2], substs = p[3];
+    *strip = p[0];
+    size_t k = 4, n = (size_t)(end - p);
+    for (uint32_t r = 0; r < runs; r++) {
+        if (n - k < 2 || n - k - 2 < p[k + 1])
+            return NULL;
+        k += 2 + (size_t)p[k + 1];
+    }
+    return n - k < substs ? NULL : p + k + substs;
+}
+
 /* Level holding the number of triangles closest to (not above) the given
  * count, and the level for a fraction in [0,1] of the full vertex count. */
 uint32_t mts_model_level_for_triangles(const mts_model *model, uint64_t triangles);

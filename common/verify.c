@@ -531,19 +531,14 @@ mts_result mts_verify_model(const mts_model *m, const mts_verify_options *opts,
         if (l == n)
             break;
         /* the strips this record names leave D before it applies, and come back after */
-        const uint32_t *p = m->record_data + m->record_offsets[l];
+        const uint32_t *p = m->record_data + m->record_offsets[l],
+                       *end = m->record_data + m->record_offsets[l + 1];
         uint32_t edits = *p++, named = 0;
         w.now++;
-        for (uint32_t e = 0; e < edits; e++) {
-            /* strip, erase_count, insert_count, subst_count, then the erased
-             * and the inserted runs (position, length, indices), then the
-             * positions (model.h) */
-            uint32_t s = p[0], runs = p[1] + p[2], sub = p[3];
-            p += 4;
-            for (uint32_t k = 0; k < runs; k++)
-                p += 2 + p[1];
-            p += sub;
-            if (s < m->strip_count && w.strip_stamp[s] != w.now) {
+        for (uint32_t e = 0; e < edits && p; e++) {
+            uint32_t s;
+            p = mts_record_skip_edit(p, end, &s);
+            if (p && s < m->strip_count && w.strip_stamp[s] != w.now) {
                 w.strip_stamp[s] = w.now;
                 w.named[named++] = s;
             }

@@ -714,21 +714,17 @@ static void encode_full(mts_rc_encoder *e, struct mts__stream_models *md,
     }
 }
 
-/* 1 + the highest slot split j's record edits (0: none). The model has
- * passed mts_model_validate; the walk stays inside the record anyway. */
+/* 1 + the highest slot split j's record edits (0: none; a malformed record
+ * is found, by name, when the stream's growth derives it). */
 static uint32_t record_slots_end(const mts_model *m, uint32_t j)
 {
-    const uint32_t *w = m->record_data + m->record_offsets[j];
-    const size_t n = m->record_offsets[j + 1] - m->record_offsets[j];
+    const uint32_t *p = m->record_data + m->record_offsets[j],
+                   *end = m->record_data + m->record_offsets[j + 1];
     uint32_t top = 0;
-    size_t k = 1;
-    for (uint32_t e = 0, edits = n ? w[0] : 0; e < edits && k + 4 <= n; e++) {
-        const uint32_t st = w[k], runs = w[k + 1] + w[k + 2], substs = w[k + 3];
-        k += 4;
-        top = st + 1 > top ? st + 1 : top;
-        for (uint32_t r = 0; r < runs && k + 2 <= n; r++)
-            k += 2 + (size_t)w[k + 1];
-        k += substs;
+    for (uint32_t e = 0, edits = p < end ? *p++ : 0; e < edits && p; e++) {
+        uint32_t st;
+        if ((p = mts_record_skip_edit(p, end, &st)) != NULL)
+            top = st + 1 > top ? st + 1 : top;
     }
     return top;
 }
