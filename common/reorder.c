@@ -183,8 +183,7 @@ mts_result mts_reorder_collapses(const uint32_t *triangles, uint32_t triangle_co
     const uint32_t n = count, nv = vertex_count;
     if (n >= nv)
         return mts_error_set(err, MTS_ERR_ARG, "reorder: %u collapses for %u vertices", n, nv);
-    /* windows: opts->window splits each, or by default a tenth of the
-     * vertices there are where the window starts */
+    /* windows: opts->window splits each, or by default window_at's */
     const uint32_t fixed = opts->window;
     stats->window = fixed;
     if (fixed == 1 || n < 2)
