@@ -889,69 +889,115 @@ static mts_result restrip(mts_grow *g, mts_error *err)
     return rc;
 }
 
-/* Resolves a description of the full strips (mts_grow_full_describe) on
- * the current (full) mesh straight into paths, slot by slot: each strip
- * leaves a triangle across the edge of its last two indices, and a swap
- * bit says which of them stays. */
-static mts_result resolve_full(mts_grow *g, const mts_grow_full *f, mts_error *err)
+/* Walking a described strip: it entered triangle u across u's edge e
+ * (corner e of u holds he_to of the edge it crossed), its last two indices
+ * are (a, c), and w = u's third corner is the index u adds. It leaves
+ * across the edge that keeps c (no swap) or a (a swap): the half-edge of u
+ * it crosses next. */
+static inline uint32_t full_exit(const mts_grow *g, uint32_t u, uint32_t e, uint32_t keep)
 {
-    uint64_t tris = 0, inner = 0;
-    for (uint32_t s = 0; s < f->slot_count; s++) {
-        const mts_grow_full_path *p = &f->paths[s];
-        tris += p->triangles;
-        inner += p->triangles >= 2 ? p->triangles - 2 : 0;
-        if (p->triangles && (p->first >= g->tri_count || p->rotation > 2))
-            return mts_error_set(err, MTS_ERR_FORMAT,
-                                 "full strips: strip %u starts at corner %u of triangle %u (of "
-                                 "%u)",
-                                 s, p->rotation, p->first, g->tri_count);
+    unsigned ck = g->tri[u].v[e] == keep ? e : NX[e];
+    return 3 * u + (NX[ck] == PV[e] ? ck : PV[e]);
+}
+
+/* Which exits of u are open (bit 0: no swap, bit 1: a swap): a border or a
+ * triangle an earlier strip (or this one) holds is closed, so where only one
+ * is open the swap bit is forced and the stream does not carry it. */
+static inline unsigned full_open(const mts_grow *g, uint32_t u, uint32_t e, uint32_t a, uint32_t c,
+                                 const uint8_t *claimed)
+{
+    unsigned open = 0;
+    for (unsigned k = 0; k < 2; k++) {
+        uint32_t x = TWIN(g, full_exit(g, u, e, k ? a : c));
+        if (x != NONE && !claimed[x / 3])
+            open |= 1u << k;
     }
-    if (tris > g->tri_count || inner != f->swap_count)
-        return mts_error_set(err, MTS_ERR_FORMAT,
-                             "full strips: %llu triangles of %u, %llu swap bits for %llu",
-                             (unsigned long long)tris, g->tri_count,
-                             (unsigned long long)f->swap_count, (unsigned long long)inner);
-    if (!paths_reset(g, f->slot_count))
+    return open;
+}
+
+/* Walks the described full strips over g's mesh (at the full level), slot
+ * by slot, the one walk both ends make. Each inner triangle's swap bit is
+ * forced where full_open leaves one exit; else it comes from f (the array,
+ * or the source, which is handed the bit before as context). With `mark`,
+ * each bit's entry in f->swaps is also marked forced (bit 1), for an
+ * encoder; with `resolve` (g itself), the paths become g's. */
+static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow_full *f,
+                            uint8_t *mark, mts_error *err)
+{
+    uint8_t *claimed = calloc((size_t)g->tri_count + 1, 1);
+    if (!claimed)
         return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    mts_result rc = MTS_OK;
     uint64_t bit = 0;
-    for (uint32_t s = 0; s < f->slot_count; s++) {
+    unsigned last = 0;
+    for (uint32_t s = 0; s < f->slot_count && rc == MTS_OK; s++) {
         const mts_grow_full_path *p = &f->paths[s];
         if (!p->triangles)
             continue;
         uint32_t t = p->first, r = p->rotation;
-        if (g->tri[t].slot >= 0)
-            return mts_error_set(err, MTS_ERR_FORMAT,
-                                 "full strips: strip %u starts on triangle %u, which strip %d "
-                                 "holds",
-                                 s, t, g->tri[t].slot);
-        g->slot[s].head = (int32_t)t;
-        g->tri[t].slot = (int32_t)s;
-        g->slot[s].ntri = 1;
+        if (claimed[t]) {
+            rc = mts_error_set(err, MTS_ERR_FORMAT,
+                               "full strips: strip %u starts on a triangle (%u) another holds", s,
+                               t);
+            break;
+        }
+        claimed[t] = 1;
+        if (resolve) {
+            resolve->slot[s].head = (int32_t)t;
+            resolve->tri[t].slot = (int32_t)s;
+            resolve->slot[s].ntri = 1;
+        }
         /* the strip's last two indices (a, c) and the half-edge between them */
         uint32_t a = g->tri[t].v[NX[r]], c = g->tri[t].v[PV[r]], h = 3 * t + NX[r];
         for (uint32_t i = 1; i < p->triangles; i++) {
             uint32_t o = TWIN(g, h);
-            if (o == NONE)
-                return mts_error_set(err, MTS_ERR_FORMAT,
-                                     "full strips: strip %u runs off the mesh at triangle %u", s,
-                                     i);
+            if (o == NONE) {
+                rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                   "full strips: strip %u runs off the mesh at triangle %u", s, i);
+                break;
+            }
             uint32_t u = o / 3, e = o % 3;
-            if (g->tri[u].slot >= 0)
-                return mts_error_set(err, MTS_ERR_FORMAT,
-                                     "full strips: strip %u crosses into triangle %u, which strip "
-                                     "%d holds",
-                                     s, u, g->tri[u].slot);
-            set_next(g, t, (int32_t)u);
-            g->prev[u] = (int32_t)t;
-            g->tri[u].slot = (int32_t)s;
-            g->slot[s].ntri++;
-            /* corner e of u holds he_to(h), corner e + 1 he_from(h); the
-             * third corner is the index u adds */
+            if (claimed[u]) {
+                rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                   "full strips: strip %u crosses into triangle %u, which a strip "
+                                   "holds",
+                                   s, u);
+                break;
+            }
+            claimed[u] = 1;
+            if (resolve) {
+                set_next(resolve, t, (int32_t)u);
+                resolve->prev[u] = (int32_t)t;
+                resolve->tri[u].slot = (int32_t)s;
+                resolve->slot[s].ntri++;
+            }
             uint32_t w = g->tri[u].v[PV[e]];
-            int swap = i + 1 < p->triangles ? f->swaps[bit++] != 0 : 0;
-            uint32_t keep = swap ? a : c; /* with the new index, the next edge */
-            unsigned ck = g->tri[u].v[e] == keep ? e : NX[e];
-            h = 3 * u + (NX[ck] == PV[e] ? ck : PV[e]);
+            int swap = 0;
+            if (i + 1 < p->triangles) {
+                const unsigned open = full_open(g, u, e, a, c, claimed);
+                if (open == 0) {
+                    rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                       "full strips: strip %u ends at triangle %u of %u, every "
+                                       "way on closed",
+                                       s, i, p->triangles);
+                    break;
+                }
+                if (f->swaps && bit >= f->swap_count) {
+                    rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                       "full strips: more inner triangles than %llu swap bits",
+                                       (unsigned long long)f->swap_count);
+                    break;
+                }
+                if (open != 3)
+                    swap = open == 2;
+                else
+                    swap = f->swaps ? (f->swaps[bit] & 1) != 0 : f->swap_bit(f->user, last) != 0;
+                if (mark)
+                    mark[bit] = (uint8_t)((mark[bit] & 1) | (open != 3) << 1);
+                bit++;
+                last = (unsigned)swap;
+            }
+            h = full_exit(g, u, e, swap ? a : c);
             if (swap) {
                 c = w;
             } else {
@@ -961,8 +1007,40 @@ static mts_result resolve_full(mts_grow *g, const mts_grow_full *f, mts_error *e
             t = u;
         }
     }
-    slots_free_unused(g, f->slot_count);
-    return MTS_OK;
+    if (rc == MTS_OK && f->swaps && bit != f->swap_count)
+        rc = mts_error_set(err, MTS_ERR_FORMAT, "full strips: %llu swap bits for %llu",
+                           (unsigned long long)f->swap_count, (unsigned long long)bit);
+    free(claimed);
+    return rc;
+}
+
+/* Resolves a description of the full strips (mts_grow_full_describe) on
+ * the current (full) mesh straight into paths, slot by slot: each strip
+ * leaves a triangle across the edge of its last two indices, and a swap
+ * bit says which of them stays. */
+static mts_result resolve_full(mts_grow *g, const mts_grow_full *f, mts_error *err)
+{
+    uint64_t tris = 0;
+    for (uint32_t s = 0; s < f->slot_count; s++) {
+        const mts_grow_full_path *p = &f->paths[s];
+        tris += p->triangles;
+        if (p->triangles && (p->first >= g->tri_count || p->rotation > 2))
+            return mts_error_set(err, MTS_ERR_FORMAT,
+                                 "full strips: strip %u starts at corner %u of triangle %u (of "
+                                 "%u)",
+                                 s, p->rotation, p->first, g->tri_count);
+    }
+    if (tris > g->tri_count)
+        return mts_error_set(err, MTS_ERR_FORMAT, "full strips: %llu triangles of %u",
+                             (unsigned long long)tris, g->tri_count);
+    if (!f->swaps && !f->swap_bit)
+        return mts_error_set(err, MTS_ERR_ARG, "full strips: no swap bits");
+    if (!paths_reset(g, f->slot_count))
+        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    mts_result rc = full_walk(g, g, f, NULL, err);
+    if (rc == MTS_OK)
+        slots_free_unused(g, f->slot_count);
+    return rc;
 }
 
 /* ---- records ---- */
@@ -1376,7 +1454,9 @@ mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
         while (g->tri[t].v[p->rotation] != s[0])
             p->rotation++;
     }
-    return MTS_OK;
+    /* which bits the walk forces: the walk a client makes */
+    const mts_grow_full f = {.paths = paths, .swaps = swaps, .swap_count = *swap_count, .slot_count = full->strip_count};
+    return full_walk(g, NULL, &f, swaps, err);
 }
 
 void mts_grow_free(mts_grow *g)

@@ -88,23 +88,32 @@ typedef struct mts_grow_full_path {
 
 typedef struct mts_grow_full {
     const mts_strips *strips;
-    /* or per slot its path, and one byte (0 or 1) per inner triangle of
-     * every strip in slot order: whether the strip swaps there */
+    /* or per slot its path, and one byte per inner triangle of every strip
+     * in slot order: bit 0 whether the strip swaps there */
     const mts_grow_full_path *paths;
     const uint8_t *swaps;
     uint64_t swap_count;
     uint32_t slot_count; /* with paths: the model's slots */
+    /* or, with paths and no swaps, where the bits come from as the paths
+     * are walked: only the bits the walk does not force (a strip that goes
+     * on and finds one way on open, the other a border or a triangle a strip
+     * before it holds, has no choice). `previous` is the bit before,
+     * forced or not (0 for the first): a context for a coder. Returns the
+     * bit, 0 or 1. */
+    unsigned (*swap_bit)(void *user, unsigned previous);
+    void *user;
 } mts_grow_full;
 
 /* Describes the full strips (in the form growth derives, as the builder
  * left them in the model) as a client can resolve them on its own mesh:
  * g must be at the full level. paths holds full->strip_count entries,
- * swaps room for full->index_count bytes; *swap_count is set. About 2
- * bytes a strip and under a bit a triangle once entropy-coded, where the
- * strips' indices would take 1.3 to 2 bytes each. MTS_ERR_ARG when g is
- * not at the full level, a strip is not in that form or does not start on
- * a triangle of g's mesh; the rest of each strip is walked only when the
- * description is resolved (mts_grow_next; mts_verify_growth does both). */
+ * swaps room for full->index_count bytes; *swap_count is set, and each
+ * swap byte is the bit (bit 0) and whether the walk forces it (bit 1), so
+ * an encoder sends only the others (mts_grow_full's swap_bit). About 2
+ * bytes a strip and under half a bit a triangle once entropy-coded, where
+ * the strips' indices would take 1.3 to 2 bytes each. MTS_ERR_ARG when g
+ * is not at the full level, a strip is not in that form or does not start
+ * on a triangle of g's mesh; MTS_ERR_FORMAT when the strips overlap. */
 mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
                                   mts_grow_full_path *paths, uint8_t *swaps, uint64_t *swap_count,
                                   mts_error *err);

@@ -435,7 +435,7 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
         }
         const uint32_t *r;
         uint32_t words_in;
-        mts_grow_full gf = {&given, NULL, NULL, 0, 0};
+        mts_grow_full gf = {.strips = &given, .slot_count = 0};
         if ((rc = mts_grow_next(g, &sp, &gf, &r, &words_in, err)) != MTS_OK)
             goto fail;
         rec_off[j] = (uint32_t)rec.n;

@@ -675,7 +675,7 @@ mts_result mts_verify_growth(const mts_model *m, mts_verify_report *report, mts_
     /* As the builder: the full strips given whole. Then as a client, which
      * gets them described on the full level's triangles (mts_grow_full_
      * describe, which needs a grow at the full level: the first pass's). */
-    mts_grow_full given = {&m->full, NULL, NULL, 0, 0};
+    mts_grow_full given = {.strips = &m->full, .slot_count = 0};
     mts_grow *g = NULL, *again = NULL;
     mts_grow_full_path *paths = malloc(((size_t)m->strip_count + 1) * sizeof *paths);
     uint8_t *swaps = malloc((size_t)m->full.index_count + 1);
@@ -691,7 +691,7 @@ mts_result mts_verify_growth(const mts_model *m, mts_verify_report *report, mts_
             err->code = rc;
     }
     if (rc == MTS_OK && m->level_count > 0) {
-        mts_grow_full described = {NULL, paths, swaps, swap_count, m->strip_count};
+        mts_grow_full described = {.paths = paths, .swaps = swaps, .swap_count = swap_count, .slot_count = m->strip_count};
         rc = derive_all(m, &described, &again, &rep, err);
     }
     mts_grow_free(g);

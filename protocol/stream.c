@@ -611,7 +611,7 @@ static mts_result predict_all(mts_stream *s, const mts_stream_options *opts, con
     go.key_count = m->key_count;
     mts_grow *g = NULL;
     mts_result rc = mts_grow_create(&m->base, nb, n, &go, &g, err);
-    const mts_grow_full given = {&m->full, NULL, NULL, 0, m->strip_count};
+    const mts_grow_full given = {.strips = &m->full, .slot_count = m->strip_count};
     for (uint32_t j = 0; j < n && rc == MTS_OK; j++) {
         const uint32_t v = nb + j, u = m->parents[j];
         mts_grow_split sp;
@@ -707,10 +707,13 @@ static void encode_full(mts_rc_encoder *e, struct mts__stream_models *md,
             mts_rc_encode_tree(e, &md->rotation, p->rotation);
         }
     }
+    /* the bits the walk forces are not sent (grow.h, mts_grow_full) */
     unsigned last = 0;
     for (uint64_t k = 0; k < pass->swap_count; k++) {
-        mts_rc_encode_bit(e, &md->swap[last], pass->swaps[k]);
-        last = pass->swaps[k];
+        const unsigned bit = pass->swaps[k] & 1;
+        if (!(pass->swaps[k] & 2))
+            mts_rc_encode_bit(e, &md->swap[last], bit);
+        last = bit;
     }
 }
 
@@ -1016,9 +1019,6 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
 #define COUNT_AS(field) (e.cost = bd ? &bd->field : NULL)
         COUNT_AS(capacity_bits);
         encode_capacities(&e, models, s, k);
-        COUNT_AS(full_strips_bits);
-        if (first + count == n)
-            encode_full(&e, models, &pass, m->strip_count, m->level_triangles[n]);
         for (uint32_t i = 0; i < count; i++) {
             uint32_t j = first + i, v = nb + j, u = m->parents[j];
             const uint32_t *w = m->growth_data + m->growth_offsets[j];
@@ -1032,6 +1032,10 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
             } else {
                 mts_rc_encode_uint(&e, &models->start[pass.fan_context[j]], w[0]);
                 mts_rc_encode_uint(&e, &models->count[pass.fan_context[j]], w[1]);
+            }
+            if (j == n - 1) {
+                COUNT_AS(full_strips_bits);
+                encode_full(&e, models, &pass, m->strip_count, m->level_triangles[n]);
             }
             const int32_t *r = pass.residual + 5 * (size_t)j;
             COUNT_AS(position_bits);
@@ -1608,12 +1612,26 @@ static mts_result keep_record(mts_stream_client *c, uint32_t j, const uint32_t *
     return MTS_OK;
 }
 
-/* The full strips' description, ahead of the last batch's splits: per slot
+/* Where a client's full-level walk takes its swap bits from: the batch's
+ * coder, as the walk goes (grow.h, mts_grow_full). */
+typedef struct swap_source {
+    mts_rc_decoder *d;
+    struct mts__stream_models *md;
+} swap_source;
+
+static unsigned swap_from_coder(void *user, unsigned previous)
+{
+    swap_source *x = user;
+    return mts_rc_decode_bit(x->d, &x->md->swap[previous & 1]);
+}
+
+/* The full strips' description, after the last split's fan code: per slot
  * its triangle count and, when it has any, its first triangle's id and
- * corner; then the swap bits. Every count is bounded by the full level's
- * triangles, which MODEL_INFO gave, before anything is allocated. */
+ * corner; the swap bits the walk does not force follow as the last split
+ * resolves it, read through `src`. Every count is bounded by the full
+ * level's triangles, which MODEL_INFO gave, before anything is allocated. */
 static mts_result decode_full(mts_stream_client *c, mts_rc_decoder *d, mts_grow_full *full,
-                              mts_error *err)
+                              swap_source *src, mts_error *err)
 {
     struct mts__stream_models *md = c->models;
     const uint32_t slots = c->model.strip_count, triangles = c->info.triangles;
@@ -1621,7 +1639,7 @@ static mts_result decode_full(mts_stream_client *c, mts_rc_decoder *d, mts_grow_
     mts_grow_full_path *paths = malloc(((size_t)slots + 1) * sizeof *paths);
     if (!paths)
         return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the full strips");
-    uint64_t tris = 0, inner = 0;
+    uint64_t tris = 0;
     for (uint32_t st = 0; st < slots && d->ok; st++) {
         mts_grow_full_path *p = &paths[st];
         memset(p, 0, sizeof *p);
@@ -1632,7 +1650,6 @@ static mts_result decode_full(mts_stream_client *c, mts_rc_decoder *d, mts_grow_
         if (p->triangles) {
             p->first = mts_rc_decode_direct(d, id_bits);
             p->rotation = mts_rc_decode_tree(d, &md->rotation);
-            inner += p->triangles >= 2 ? p->triangles - 2 : 0;
         }
     }
     if (!d->ok || tris > triangles) {
@@ -1641,24 +1658,17 @@ static mts_result decode_full(mts_stream_client *c, mts_rc_decoder *d, mts_grow_
                              "the full strips are malformed (%llu triangles of %u)",
                              (unsigned long long)tris, triangles);
     }
-    uint8_t *swaps = malloc((size_t)inner + 1);
-    if (!swaps) {
-        free(paths);
-        return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the full strips");
-    }
-    unsigned last = 0;
-    for (uint64_t k = 0; k < inner && d->ok; k++)
-        last = swaps[k] = (uint8_t)mts_rc_decode_bit(d, &md->swap[last]);
+    *src = (swap_source){d, md};
     full->paths = paths;
-    full->swaps = swaps;
-    full->swap_count = inner;
+    full->swap_bit = swap_from_coder;
+    full->user = src;
     return MTS_OK;
 }
 
 /* A batch's splits: each one's parent, fan code (or explicit lists) and
  * vertex, its record derived on the way (grow.h). The CRC has checked out,
  * so a malformed split means a broken server: the client stops there. */
-static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts_grow_full *full,
+static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, mts_grow_full *full,
                               uint32_t index, uint32_t first, uint32_t count, uint32_t maxq,
                               mts_error *err)
 {
@@ -1666,6 +1676,7 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
     mts_model *m = &c->model;
     const uint32_t nb = m->base_vertex_count;
     mts_result rc;
+    swap_source src;
     for (uint32_t i = 0; i < count; i++) {
         const uint32_t j = first + i, v = nb + j, before = j ? m->parents[j - 1] : 0;
         /* up: u = before + gap, below v; else u = v - 1 - back, below before */
@@ -1706,9 +1717,12 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
                 lists[q] = mts_rc_decode_uint(d, &md->lists);
             sp.moved = lists;
             sp.born = lists + sp.moved_count;
-            rc = d->ok ? mts_grow_next(c->grow, &sp, full, &r, &rw, err)
-                      : mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: split %u truncated",
-                                      index, j);
+            rc = !d->ok ? mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: split %u truncated",
+                                        index, j)
+                 : j + 1 == m->level_count ? decode_full(c, d, full, &src, err)
+                                           : MTS_OK;
+            if (rc == MTS_OK)
+                rc = mts_grow_next(c->grow, &sp, full, &r, &rw, err);
             free(lists);
         } else {
             mts_grow_fan_code fc = {0, 0, sides};
@@ -1720,7 +1734,9 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, const mts
                                      "BATCH %u: split %u names no fan of vertex %u (start %u, "
                                      "count %u, sides %u)",
                                      index, j, sp.parent, fc.start, fc.count, fc.sides);
-            rc = mts_grow_next(c->grow, &sp, full, &r, &rw, err);
+            rc = j + 1 == m->level_count ? decode_full(c, d, full, &src, err) : MTS_OK;
+            if (rc == MTS_OK)
+                rc = mts_grow_next(c->grow, &sp, full, &r, &rw, err);
         }
         if (rc == MTS_OK)
             rc = keep_record(c, j, r, rw, err);
@@ -1869,13 +1885,9 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
         return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: no coded splits", index);
     if ((rc = take_capacities(c, NULL, &d, upto, what, err)) != MTS_OK)
         return rc;
-    mts_grow_full full = {NULL, NULL, NULL, 0, m->strip_count};
-    if (first + count == m->level_count &&
-        (rc = decode_full(c, &d, &full, err)) != MTS_OK)
-        return mts_error_prefix(err, "BATCH %u", index);
+    mts_grow_full full = {.slot_count = m->strip_count};
     rc = take_splits(c, &d, &full, index, first, count, maxq, err);
     free((void *)full.paths);
-    free((void *)full.swaps);
     if (rc != MTS_OK)
         return rc;
 applied:

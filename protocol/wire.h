@@ -19,7 +19,7 @@
  * a split's parent is coded against the previous one's (PROTOCOL.md,
  * "Changes"). A peer of another major version is refused at
  * HELLO with ERROR version. */
-#define MTS_WIRE_MAJOR 6
+#define MTS_WIRE_MAJOR 7
 #define MTS_WIRE_MINOR 0
 
 /* Each key level costs a client a stripification of the whole mesh there, so

@@ -135,6 +135,26 @@ static int is_key(const mts_model *m, uint32_t level)
     return 0;
 }
 
+/* A client's swap bits: the described ones the walk does not force, in
+ * order; `previous` must be the bit before, forced or not. */
+typedef struct free_bits {
+    const uint8_t *swaps;
+    uint64_t count, at, calls, bad_previous;
+} free_bits;
+
+static unsigned next_free_bit(void *user, unsigned previous)
+{
+    free_bits *f = user;
+    while (f->at < f->count && (f->swaps[f->at] & 2))
+        f->at++;
+    if (f->at >= f->count)
+        return 0;
+    if (previous != (f->at ? (f->swaps[f->at - 1] & 1u) : 0u))
+        f->bad_previous++;
+    f->calls++;
+    return f->swaps[f->at++] & 1;
+}
+
 /* Growth as a client runs it (the full strips described, not given), with
  * mts_grow_check after split j whenever check(j) says so; every record must
  * be the model's. */
@@ -146,7 +166,7 @@ static void grow_checked(mts_test *t, const mts_model *m, uint32_t every)
     go.key_count = m->key_count;
     /* the description needs a grow at the full level: a first, unchecked pass */
     mts_grow *g = NULL;
-    const mts_grow_full given = {&m->full, NULL, NULL, 0, 0};
+    const mts_grow_full given = {.strips = &m->full, .slot_count = 0};
     CHECKF(t, mts_grow_create(&m->base, m->base_vertex_count, m->level_count, &go, &g, &err) ==
                   MTS_OK,
            "%s", err.msg);
@@ -170,7 +190,15 @@ static void grow_checked(mts_test *t, const mts_model *m, uint32_t every)
            "%s", err.msg);
     mts_grow_free(g);
     g = NULL;
-    const mts_grow_full described = {NULL, paths, swaps, swap_count, m->strip_count};
+    /* as a stream's client: only the bits the walk does not force */
+    uint64_t forced = 0;
+    for (uint64_t k = 0; k < swap_count; k++)
+        forced += (swaps[k] & 2) != 0;
+    free_bits src = {swaps, swap_count, 0, 0, 0};
+    const mts_grow_full described = {.paths = paths,
+                                     .slot_count = m->strip_count,
+                                     .swap_bit = next_free_bit,
+                                     .user = &src};
     CHECK(t, mts_grow_create(&m->base, m->base_vertex_count, m->level_count, &go, &g, &err) ==
                  MTS_OK);
     CHECKF(t, g && mts_grow_check(g, &err) == MTS_OK, "base: %s", err.msg);
@@ -200,6 +228,14 @@ static void grow_checked(mts_test *t, const mts_model *m, uint32_t every)
         }
     }
     CHECK(t, checked > 0);
+    /* a real mesh's strips run beside each other and into borders: some
+     * bits are forced, and the walk asked for exactly the others */
+    CHECKF(t, forced > 0 && forced < swap_count, "%llu of %llu swap bits forced",
+           (unsigned long long)forced, (unsigned long long)swap_count);
+    CHECKF(t, src.calls == swap_count - forced && src.bad_previous == 0,
+           "the walk asked for %llu bits (%llu free), %llu with the wrong previous bit",
+           (unsigned long long)src.calls, (unsigned long long)(swap_count - forced),
+           (unsigned long long)src.bad_previous);
     mts_grow_free(g);
     free(paths);
     free(swaps);
@@ -271,7 +307,7 @@ static void test_explicit_splits_match_fans(mts_test *t)
                  MTS_OK);
     CHECK(t, mts_grow_create(&m.base, m.base_vertex_count, m.level_count, &go, &ex, &err) ==
                  MTS_OK);
-    const mts_grow_full given = {&m.full, NULL, NULL, 0, 0};
+    const mts_grow_full given = {.strips = &m.full, .slot_count = 0};
     uint32_t *ids = malloc(((size_t)m.vertex_count * 8 + 16) * 4);
     uint32_t born[6];
     for (uint32_t j = 0; fan && ex && j < m.level_count; j++) {
@@ -328,7 +364,7 @@ static void test_hostile_explicit_splits(mts_test *t)
     mts_grow_options go = {0};
     go.key_levels = m.key_levels;
     go.key_count = m.key_count;
-    const mts_grow_full given = {&m.full, NULL, NULL, 0, 0};
+    const mts_grow_full given = {.strips = &m.full, .slot_count = 0};
     const uint32_t nb = m.base_vertex_count, u = m.parents[0];
     enum { TWICE, WITHOUT_U, OUT_OF_RANGE, UNBORN_VERTEX, REPEATED };
     static const struct {
@@ -410,7 +446,7 @@ static void test_greedy_cover(mts_test *t)
         return;
     mts_error err = {0};
     mts_grow *g = NULL;
-    const mts_grow_full given = {&m.full, NULL, NULL, 0, 0};
+    const mts_grow_full given = {.strips = &m.full, .slot_count = 0};
     mts_grow_options go = {0};
     go.key_levels = m.key_levels;
     go.key_count = m.key_count;

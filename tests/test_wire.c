@@ -64,23 +64,23 @@ static void test_hello_round_trip_and_errors(mts_test *t)
     CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_FORMAT);
     CHECK(t, strstr(err.msg, "magic") != NULL);
     /* 1.0 and 2.0 peers (records on the wire), 3.0 (splits not
-     * entropy-coded), 4.0 (other growth rules), 5.0 (parents coded alone)
-     * and a future major */
-    CHECK(t, MTS_WIRE_MAJOR == 6);
-    for (uint8_t old = 1; old <= 5; old++) {
+     * entropy-coded), 4.0 (other growth rules), 5.0 (parents coded alone),
+     * 6.0 (every full-strip swap bit coded) and a future major */
+    CHECK(t, MTS_WIRE_MAJOR == 7);
+    for (uint8_t old = 1; old <= 6; old++) {
         memcpy(copy, p, n);
         copy[4] = old;
         copy[6] = copy[7] = 0; /* an X.0 peer (this one writes MTS_WIRE_MINOR) */
         char want[8];
         snprintf(want, sizeof want, "%u.0", old);
         CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
-        CHECKF(t, strstr(err.msg, want) != NULL && strstr(err.msg, "speaks 6.x") != NULL, "%s",
+        CHECKF(t, strstr(err.msg, want) != NULL && strstr(err.msg, "speaks 7.x") != NULL, "%s",
                err.msg);
     }
-    copy[4] = 7;
+    copy[4] = 8;
     copy[6] = copy[7] = 0;
     CHECK(t, mts_wire_parse_hello(copy, n, &back, &err) == MTS_ERR_VERSION);
-    CHECKF(t, strstr(err.msg, "7.0") != NULL, "%s", err.msg);
+    CHECKF(t, strstr(err.msg, "8.0") != NULL, "%s", err.msg);
     free(copy);
     /* names that could reach a file system are refused */
     const char *bad[] = {"../etc/passwd", "a/b", ".hidden", "", "sp ace",
