@@ -440,7 +440,7 @@ static uint32_t win_batch_step(const win *wn, uint32_t level, int up)
         if (!up && at < level)
             best = at;
         if (b < in->batch_count)
-            at += in->batch_splits[b];
+            at += mts_wire_batch_splits(in, b);
     }
     return up && best == UINT32_MAX ? level : best;
 }

@@ -759,16 +759,14 @@ static mts_result announce_schedule(mts_stream *s, mts_error *err)
     return MTS_OK;
 }
 
-/* A BATCH's header: index, first split, count and the slots announced with
- * it; then, in the records form, their capacities (the splits form codes
- * them in its body, encode_capacities). */
+/* A BATCH's header: its index and how many slots it announces; then, in the
+ * records form, their capacities (the splits form codes them in its body,
+ * encode_capacities). Where it starts and how many splits it holds follow
+ * from MODEL_INFO's batch size. */
 static void put_batch_head(mts_buf *b, const mts_stream *s, uint32_t k, int capacities)
 {
-    const uint32_t first = s->batch_first[k];
     mts_buf_varint(b, k);
-    mts_buf_varint(b, first);
-    mts_buf_varint(b, s->batch_first[k + 1] - first);
-    mts_buf_varint(b, s->announced[k + 1]);
+    mts_buf_varint(b, s->announced[k + 1] - s->announced[k]);
     for (uint32_t st = s->announced[k]; capacities && st < s->announced[k + 1]; st++)
         mts_buf_varint(b, s->model.capacity[st]);
 }
@@ -1159,22 +1157,18 @@ static mts_result build_info_tail(mts_stream *s)
     const mts_model *m = &s->model;
     mts_wire_model_info mi;
     info_fields(s, m->level_count, &mi);
-    uint32_t *sizes = malloc(((size_t)s->batch_count + 1) * 4);
     mts_buf tail = {0};
-    if (sizes) {
-        for (uint32_t k = 0; k < s->batch_count; k++)
-            sizes[k] = s->batch_first[k + 1] - s->batch_first[k];
-        /* the slots' room; each slot's capacity comes when it is first used */
-        uint64_t total = 0;
-        for (uint32_t st = 0; st < m->strip_count; st++)
-            total += m->capacity[st];
-        mi.capacity_total = (uint32_t)total; /* < 2^32: checked at build */
-        mi.batch_splits = sizes;
-        mi.key_levels = m->key_levels;
-        mts_wire_put_model_info_tail(&tail, &mi);
-    }
-    free(sizes);
-    if (!sizes || tail.failed) {
+    /* batches are equal but the last (stream_build), which MODEL_INFO
+     * gives as one size */
+    mi.batch_size = s->batch_count ? s->batch_first[1] : 0;
+    /* the slots' room; each slot's capacity comes when it is first used */
+    uint64_t total = 0;
+    for (uint32_t st = 0; st < m->strip_count; st++)
+        total += m->capacity[st];
+    mi.capacity_total = (uint32_t)total; /* < 2^32: checked at build */
+    mi.key_levels = m->key_levels;
+    mts_wire_put_model_info_tail(&tail, &mi);
+    if (tail.failed) {
         mts_buf_free(&tail);
         return MTS_ERR_NOMEM;
     }
@@ -1397,9 +1391,7 @@ static mts_result check_resumed_info(mts_stream_client *c, const uint8_t *p, siz
              memcmp(mi.grid_origin, a->grid_origin, 12) != 0 ||
              memcmp(&mi.grid_range, &a->grid_range, 4) != 0)
         what = "grids";
-    else if (mi.batch_count != a->batch_count ||
-             (a->batch_count &&
-              memcmp(mi.batch_splits, a->batch_splits, (size_t)a->batch_count * 4) != 0))
+    else if (mi.batch_count != a->batch_count || mi.batch_size != a->batch_size)
         what = "batches";
     else if (mi.capacity_total != a->capacity_total)
         what = "strip capacities";
@@ -1860,15 +1852,24 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
                              "BATCH %u: checksum mismatch; rejected, not applied", c->batches);
     mts_model *m = &c->model;
     mts_cursor cur = mts_cursor_make(p, n - 4);
-    uint32_t index = mts_cursor_varint(&cur), first = mts_cursor_varint(&cur),
-             count = mts_cursor_varint(&cur), upto = mts_cursor_varint(&cur);
+    const uint32_t index = mts_cursor_varint(&cur), more = mts_cursor_varint(&cur);
     if (!cur.ok)
         return mts_error_set(err, MTS_ERR_FORMAT, "BATCH: truncated header");
-    if (index != c->batches || index >= c->info.batch_count || first != c->splits ||
-        count != c->info.batch_splits[index] || count > m->level_count - first)
+    if (index != c->batches || index >= c->info.batch_count)
         return mts_error_set(err, MTS_ERR_FORMAT,
-                             "BATCH %u (splits %u+%u) out of order: expected batch %u at split %u",
-                             index, first, count, c->batches, c->splits);
+                             "BATCH %u out of order: expected batch %u of %u", index, c->batches,
+                             c->info.batch_count);
+    /* MODEL_INFO's sizes add up to the levels (mts_wire_parse_model_info) */
+    const uint32_t first = mts_wire_batch_first(&c->info, index),
+                   count = mts_wire_batch_splits(&c->info, index);
+    if (first != c->splits || count > m->level_count - first)
+        return mts_error_set(err, MTS_ERR_INTERNAL, "BATCH %u: the client is at split %u, not %u",
+                             index, c->splits, first);
+    if (more > m->strip_count - c->announced)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "BATCH %u announces %u slots, past the %u there are (%u so far)",
+                             index, more, m->strip_count, c->announced);
+    const uint32_t upto = c->announced + more;
     char what[32];
     snprintf(what, sizeof what, "BATCH %u", index);
     const uint32_t maxq = (uint32_t)((1ull << c->grid.bits) - 1);

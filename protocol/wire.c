@@ -77,8 +77,7 @@ void mts_wire_put_model_info_tail(mts_buf *b, const mts_wire_model_info *mi)
         mts_buf_f32(b, mi->grid_origin[a]);
     mts_buf_f32(b, mi->grid_range);
     mts_buf_varint(b, mi->batch_count);
-    for (uint32_t i = 0; i < mi->batch_count; i++)
-        mts_buf_varint(b, mi->batch_splits[i]);
+    mts_buf_varint(b, mi->batch_size);
     mts_buf_varint(b, mi->capacity_total);
     mts_buf_varint(b, mi->key_count);
     uint32_t prev = 0;
@@ -187,10 +186,8 @@ mts_result mts_wire_parse_hello(const uint8_t *payload, size_t size, mts_wire_he
 
 void mts_wire_model_info_free(mts_wire_model_info *mi)
 {
-    free(mi->batch_splits);
     free(mi->key_levels);
     mi->key_levels = NULL;
-    mi->batch_splits = NULL;
 }
 
 mts_result mts_wire_parse_model_info(const uint8_t *payload, size_t size,
@@ -230,20 +227,16 @@ mts_result mts_wire_parse_model_info(const uint8_t *payload, size_t size,
     if (mi->flags & ~MTS_INFO_KNOWN_FLAGS)
         return mts_error_set(err, MTS_ERR_FORMAT, "MODEL_INFO: unknown flags 0x%02x",
                              mi->flags);
-    /* every varint is a byte at least: counts are bounded by what is left */
-    if (mi->batch_count > mts_cursor_left(&c))
-        return mts_error_set(err, MTS_ERR_FORMAT, "MODEL_INFO: %u batches cannot fit %zu bytes",
-                             mi->batch_count, mts_cursor_left(&c));
-    mi->batch_splits = malloc(((size_t)mi->batch_count + 1) * 4);
-    if (!mi->batch_splits) {
-        mts_wire_model_info_free(mi);
-        return mts_error_set(err, MTS_ERR_NOMEM, "MODEL_INFO: out of memory");
-    }
-    uint64_t splits = 0;
-    for (uint32_t i = 0; i < mi->batch_count; i++) {
-        mi->batch_splits[i] = mts_cursor_varint(&c);
-        splits += mi->batch_splits[i];
-    }
+    mi->batch_size = mts_cursor_varint(&c);
+    /* every batch but the last holds batch_size splits, the last 1 to
+     * batch_size: together exactly the levels */
+    const uint64_t whole = (uint64_t)mi->batch_size * mi->batch_count;
+    if (c.ok && (mi->levels == 0 ? mi->batch_count != 0
+                                 : mi->batch_size == 0 || whole < mi->levels ||
+                                       whole - mi->batch_size >= mi->levels))
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "MODEL_INFO: %u batches of %u splits do not make %u levels",
+                             mi->batch_count, mi->batch_size, mi->levels);
     mi->capacity_total = mts_cursor_varint(&c);
     /* every slot is used at some level, so it has room for an index: the
      * strips are bounded by the capacities' total before anything is sized
@@ -281,12 +274,10 @@ mts_result mts_wire_parse_model_info(const uint8_t *payload, size_t size,
         }
         mi->key_levels[k] = (uint32_t)key;
     }
-    if (!c.ok || mts_cursor_left(&c) != 0 || splits != mi->levels) {
+    if (!c.ok || mts_cursor_left(&c) != 0) {
         mts_wire_model_info_free(mi);
-        return mts_error_set(err, MTS_ERR_FORMAT,
-                             "MODEL_INFO: batch sizes add up to %llu of %u levels, or the message "
-                             "has the wrong length",
-                             (unsigned long long)splits, mi->levels);
+        return mts_error_set(err, MTS_ERR_FORMAT, "MODEL_INFO: truncated, or %zu bytes too many",
+                             c.ok ? mts_cursor_left(&c) : 0);
     }
     return MTS_OK;
 }

@@ -79,12 +79,25 @@ typedef struct mts_wire_model_info {
     uint8_t flags; /* MTS_INFO_* */
     float grid_origin[3], grid_range;
     uint32_t batch_count;
-    uint32_t *batch_splits; /* batch_count */
+    uint32_t batch_size;    /* splits in every batch but the last, which has
+                             * the rest (1..batch_size): mts_wire_batch_splits */
     uint32_t capacity_total; /* the slots' capacities added up (each slot's own
                               * comes with the frame that first uses it) */
     uint32_t key_count;     /* at most MTS_WIRE_MAX_KEYS */
     uint32_t *key_levels;   /* key_count, ascending in 1..levels-1 */
 } mts_wire_model_info;
+
+/* Batch k's first split and its splits (k < batch_count; parsing checked
+ * that the sizes add up to levels). */
+static inline uint32_t mts_wire_batch_first(const mts_wire_model_info *mi, uint32_t k)
+{
+    return k * mi->batch_size;
+}
+
+static inline uint32_t mts_wire_batch_splits(const mts_wire_model_info *mi, uint32_t k)
+{
+    return k + 1 < mi->batch_count ? mi->batch_size : mi->levels - k * mi->batch_size;
+}
 
 /* MODEL_INFO flags: the stream carries per-vertex normals (the source's
  * own); without it a client shades the faces it has. */

@@ -112,7 +112,6 @@ static void test_hello_round_trip_and_errors(mts_test *t)
 
 static void test_model_info_round_trip_and_bounds(mts_test *t)
 {
-    uint32_t batches[3] = {10, 20, 5};
     mts_wire_model_info mi = {0}, back;
     mi.minor = 0;
     mi.stream_id = 42;
@@ -128,8 +127,8 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     mi.quant_bits = 14;
     mi.flags = MTS_INFO_NORMALS;
     mi.grid_range = 1;
-    mi.batch_count = 3;
-    mi.batch_splits = batches;
+    mi.batch_count = 3; /* 15, 15 and the last 5 */
+    mi.batch_size = 15;
     mi.capacity_total = 300;
     mts_buf b = {0};
     mts_wire_put_model_info(&b, &mi);
@@ -139,21 +138,31 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     mts_error err = {0};
     CHECK(t, one_frame(&b, &type, &p, &n) && type == MTS_MSG_MODEL_INFO);
     CHECKF(t, mts_wire_parse_model_info(p, n, &back, &err) == MTS_OK, "%s", err.msg);
-    CHECK(t, back.levels == 35 && back.batch_count == 3 && back.batch_splits[1] == 20);
+    CHECK(t, back.levels == 35 && back.batch_count == 3 && back.batch_size == 15);
+    CHECK(t, mts_wire_batch_first(&back, 2) == 30 && mts_wire_batch_splits(&back, 1) == 15 &&
+                 mts_wire_batch_splits(&back, 2) == 5);
     CHECK(t, back.capacity_total == 300 && back.stop_level == 30 && back.quant_bits == 14);
     CHECK(t, back.flags == MTS_INFO_NORMALS);
     mts_wire_model_info_free(&back);
     for (size_t cut = 0; cut < n; cut++) {
         CHECKF(t, mts_wire_parse_model_info(p, cut, &back, &err) != MTS_OK, "cut %zu", cut);
     }
-    /* batch sizes that do not add up to the levels */
-    batches[2] = 6;
-    mts_buf c = {0};
-    mts_wire_put_model_info(&c, &mi);
-    CHECK(t, one_frame(&c, &type, &p, &n));
-    CHECK(t, mts_wire_parse_model_info(p, n, &back, &err) == MTS_ERR_FORMAT);
+    /* batch sizes that do not add up to the levels: too few batches, one
+     * too many (the last would be empty), none of size 0 */
+    const uint32_t bad[][2] = {{2, 15}, {4, 15}, {3, 11}, {3, 18}, {3, 0}, {0, 35}};
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        mts_wire_model_info x = mi;
+        x.batch_count = bad[k][0];
+        x.batch_size = bad[k][1];
+        mts_buf c = {0};
+        mts_wire_put_model_info(&c, &x);
+        CHECK(t, one_frame(&c, &type, &p, &n));
+        CHECKF(t, mts_wire_parse_model_info(p, n, &back, &err) == MTS_ERR_FORMAT,
+               "%u batches of %u", x.batch_count, x.batch_size);
+        CHECKF(t, strstr(err.msg, "do not make 35 levels") != NULL, "%s", err.msg);
+        mts_buf_free(&c);
+    }
     /* a flag this version does not know: the stream would not decode */
-    batches[2] = 5;
     mi.flags = 0x80;
     mts_buf g = {0};
     mts_wire_put_model_info(&g, &mi);
@@ -162,7 +171,6 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     CHECKF(t, strstr(err.msg, "unknown flags 0x80") != NULL, "%s", err.msg);
     mts_buf_free(&g);
     mts_buf_free(&b);
-    mts_buf_free(&c);
     /* a count that promises more than the frame holds is refused before
      * allocating: written by hand, since the writer needs real arrays */
     mts_buf e = {0};
@@ -180,8 +188,8 @@ static void test_model_info_round_trip_and_bounds(mts_test *t)
     for (int i = 0; i < 3; i++)
         mts_buf_f32(&e, 0);
     mts_buf_f32(&e, 1);
-    mts_buf_varint(&e, 1);
-    mts_buf_varint(&e, 35);
+    mts_buf_varint(&e, 1);   /* one batch */
+    mts_buf_varint(&e, 35);  /* of 35 splits */
     mts_buf_varint(&e, 100); /* the capacities' total */
     mts_buf_varint(&e, 0);   /* key levels */
     mts_wire_frame_end(&e, f);
@@ -239,7 +247,6 @@ static void test_hello_records_flag(mts_test *t)
  * flag; a bit this version does not know is refused beside it. */
 static void test_model_info_records_flag(mts_test *t)
 {
-    uint32_t batches[2] = {20, 15};
     mts_wire_model_info mi = {0};
     mi.minor = MTS_WIRE_MINOR;
     mi.stream_id = 0x1122334455667788ull;
@@ -254,8 +261,8 @@ static void test_model_info_records_flag(mts_test *t)
     mi.bbox_max[0] = mi.bbox_max[1] = mi.bbox_max[2] = 1;
     mi.quant_bits = 14;
     mi.grid_range = 1;
-    mi.batch_count = 2;
-    mi.batch_splits = batches;
+    mi.batch_count = 2; /* 20 and 15 */
+    mi.batch_size = 20;
     mi.capacity_total = 60;
     CHECK(t, MTS_INFO_RECORDS == 2u &&
              MTS_INFO_KNOWN_FLAGS == (MTS_INFO_NORMALS | MTS_INFO_RECORDS));
@@ -283,7 +290,7 @@ static void test_model_info_records_flag(mts_test *t)
             CHECKF(t, rc == MTS_OK, "flags 0x%02x: %s", cases[i].flags, err.msg);
             CHECK(t, rc != MTS_OK || (back.flags == cases[i].flags && back.minor == MTS_WIRE_MINOR &&
                                       back.stream_id == mi.stream_id && back.batch_count == 2 &&
-                                      back.batch_splits[1] == 15 && back.capacity_total == 60));
+                                      mts_wire_batch_splits(&back, 1) == 15 && back.capacity_total == 60));
             if (rc == MTS_OK)
                 mts_wire_model_info_free(&back);
         } else {
