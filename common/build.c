@@ -1,6 +1,7 @@
 #include "build.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
@@ -11,6 +12,56 @@ static double seconds_now(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+typedef struct survivor {
+    float p[3];
+    uint32_t v;
+} survivor;
+
+static int cmp_survivor(const void *a, const void *b)
+{
+    const survivor *x = a, *y = b;
+    for (int k = 0; k < 3; k++) {
+        if (x->p[k] != y->p[k])
+            return x->p[k] < y->p[k] ? -1 : 1;
+    }
+    return x->v < y->v ? -1 : x->v > y->v;
+}
+
+/* The base's ids in the order of its positions (x, then y, then z): a
+ * stream numbers its base by grid point (PROTOCOL.md, BASE), so with these
+ * ids the splits reorder.c sorts by parent stay sorted on the wire (the
+ * grid ties a few neighbours that floats keep apart: those few move).
+ * NULL when out of memory. */
+static uint32_t *base_ids_by_position(const mts_mesh *mesh, const mts_simplify_result *simp)
+{
+    const uint32_t nv = mesh->vertex_count;
+    uint32_t *ids = malloc(((size_t)nv + 1) * 4);
+    survivor *sv = malloc(((size_t)nv + 1) * sizeof *sv);
+    if (!ids || !sv) {
+        free(ids);
+        free(sv);
+        return NULL;
+    }
+    for (uint32_t v = 0; v < nv; v++)
+        ids[v] = 0;
+    for (uint32_t c = 0; c < simp->collapse_count; c++) {
+        if (simp->collapses[c].removed < nv)
+            ids[simp->collapses[c].removed] = UINT32_MAX;
+    }
+    uint32_t k = 0;
+    for (uint32_t v = 0; v < nv; v++) {
+        if (ids[v] != UINT32_MAX) {
+            memcpy(sv[k].p, mesh->positions + 3 * (size_t)v, 12);
+            sv[k++].v = v;
+        }
+    }
+    qsort(sv, k, sizeof *sv, cmp_survivor);
+    for (uint32_t x = 0; x < k; x++)
+        ids[sv[x].v] = x;
+    free(sv);
+    return ids;
 }
 
 mts_result mts_build_model(const mts_mesh *mesh, const char *source,
@@ -28,6 +79,7 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
 
     mts_strips strips = {0};
     mts_simplify_result simp = {0};
+    uint32_t *base_ids = NULL;
     mts_result rc;
 
     double t0 = seconds_now();
@@ -75,8 +127,13 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
     if (rc != MTS_OK)
         goto done;
     double t15 = seconds_now();
+    if (!(base_ids = base_ids_by_position(mesh, &simp))) {
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "build: out of memory");
+        goto done;
+    }
     mts_reorder_options ro = {0};
     ro.window = opts->reorder_window;
+    ro.base_ids = base_ids;
     rc = mts_reorder_collapses(mesh->triangles, mesh->triangle_count, mesh->vertex_count,
                                simp.collapses, simp.collapse_count, &ro, &report->reorder, err);
     if (rc != MTS_OK)
@@ -86,6 +143,7 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
 
     mts_lodbuild_options lo = {0};
     lo.key_ratio = opts->key_ratio;
+    lo.base_ids = base_ids;
     rc = mts_lodbuild(mesh, &strips, &simp, &lo, &opts->progress, model, &report->records, err);
     if (rc != MTS_OK)
         goto done;
@@ -112,5 +170,6 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
 done:
     mts_strips_free(&strips);
     mts_simplify_result_free(&simp);
+    free(base_ids);
     return rc;
 }

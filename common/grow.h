@@ -14,7 +14,7 @@
  *
  * Everything here depends only on the order of the inputs and on equality of
  * vertex ids, never on their values, so renumbering vertices (as the stream
- * does to match Draco's output) renumbers the records and nothing else.
+ * does to the base) renumbers the records and nothing else.
  *
  * Triangle ids: the base strips' non-degenerate windows in order, then per
  * split its new triangles in order. Keys (levels restripified afresh) are the

@@ -276,10 +276,26 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
         }
         new_id[v] = nb + (n - 1 - c);
     }
-    uint32_t next_id = 0;
-    for (uint32_t v = 0; v < nv; v++) {
-        if (new_id[v] == UINT32_MAX)
-            new_id[v] = next_id++;
+    /* the survivors: their given ids (each once, below nb), else in vertex
+     * order */
+    const uint32_t *ids = opts ? opts->base_ids : NULL;
+    uint8_t *seen = ids ? calloc((size_t)nb + 1, 1) : NULL;
+    if (ids && !seen)
+        goto nomem;
+    uint32_t bad = UINT32_MAX;
+    for (uint32_t v = 0, next_id = 0; v < nv && bad == UINT32_MAX; v++) {
+        if (new_id[v] != UINT32_MAX)
+            continue; /* collapsed */
+        new_id[v] = ids ? ids[v] : next_id++;
+        if (ids && (new_id[v] >= nb || seen[new_id[v]]++))
+            bad = v;
+    }
+    free(seen);
+    if (bad != UINT32_MAX) {
+        rc = mts_error_set(err, MTS_ERR_ARG,
+                           "lodbuild: base id %u (vertex %u) given twice, or not below %u",
+                           new_id[bad], bad, nb);
+        goto fail;
     }
     for (uint32_t c = 0; c < n; c++) {
         uint32_t kept = new_id[simp->collapses[c].kept], j = n - 1 - c;

@@ -58,6 +58,9 @@ typedef struct mts_lodbuild_options {
     double key_ratio; /* 0: the default; > 1: a key level at the latest each
                        * time the triangles grow by this factor; < 0 (or in
                        * (0, 1]): only the base and the full level are keys */
+    /* per vertex of the mesh, its id when it survives into the base (0..nb-1,
+     * each once; MTS_ERR_ARG otherwise); NULL: survivors in vertex order */
+    const uint32_t *base_ids;
 } mts_lodbuild_options;
 
 typedef struct mts_lodbuild_stats {

@@ -210,11 +210,11 @@ mts_result mts_reorder_collapses(const uint32_t *triangles, uint32_t triangle_co
     if ((rc = rings(triangles, triangle_count, nv, collapses, n, &set, off, err)) != MTS_OK)
         goto fail;
     rc = MTS_ERR_NOMEM;
-    /* survivors: 0..nb-1 in vertex order (lodbuild's numbering) */
+    /* survivors: 0..nb-1 as lodbuild numbers them */
     for (uint32_t c = 0; c < n; c++)
         removed[collapses[c].removed] = 1;
     for (uint32_t x = 0, next = 0; x < nv; x++)
-        id[x] = removed[x] ? NONE : next++;
+        id[x] = removed[x] ? NONE : opts->base_ids ? opts->base_ids[x] : next++;
     uint64_t prev = 0;
     uint32_t placed = 0;
     for (uint32_t w0 = 0, stamp = 1, ws; w0 < n; w0 += ws, stamp++) {

@@ -32,6 +32,10 @@ typedef struct mts_reorder_options {
     /* splits a window; 0: a quarter of the vertices present where the
      * window starts (16..65536); 1: no reordering */
     uint32_t window;
+    /* per vertex, the id it has in the model when it survives (0..nb-1,
+     * each once; mts_lodbuild_options.base_ids); NULL: survivors in vertex
+     * order */
+    const uint32_t *base_ids;
 } mts_reorder_options;
 
 typedef struct mts_reorder_stats {

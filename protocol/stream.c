@@ -436,9 +436,70 @@ static uint32_t *base_triangles(const mts_model *m, uint32_t *count)
     return t;
 }
 
+/* A base vertex's place in grid order (x, then y, then z; ties in Draco's
+ * order): the stream's base ids (PROTOCOL.md, BASE). */
+typedef struct grid_key {
+    uint32_t q[3], d;
+} grid_key;
+
+static int cmp_grid_key(const void *a, const void *b)
+{
+    const grid_key *x = a, *y = b;
+    for (int k = 0; k < 3; k++) {
+        if (x->q[k] != y->q[k])
+            return x->q[k] < y->q[k] ? -1 : 1;
+    }
+    return x->d < y->d ? -1 : x->d > y->d;
+}
+
+/* Puts Draco's decoded vertices in grid order, in place, and gives each
+ * decoded id its new one (rank, when not NULL). Builders number the base in
+ * the order of its positions (build.c), so this is mostly no renaming at
+ * all, and splits sorted by parent stay sorted on the wire; Draco's own
+ * order (Edgebreaker's traversal) is the builder's shuffled. 0 when out of
+ * memory. */
+static int base_in_grid_order(mts_draco_mesh_out *dec, uint32_t *rank)
+{
+    const uint32_t nv = dec->vertex_count;
+    grid_key *k = malloc(((size_t)nv + 1) * sizeof *k);
+    uint32_t *r = malloc(((size_t)nv + 1) * 4);
+    float *f = malloc(((size_t)nv + 1) * 12);
+    uint32_t *q = malloc(((size_t)nv + 1) * 12);
+    int ok = k && r && f && q;
+    if (ok) {
+        for (uint32_t d = 0; d < nv; d++) {
+            memcpy(k[d].q, dec->quantized + 3 * (size_t)d, 12);
+            k[d].d = d;
+        }
+        qsort(k, nv, sizeof *k, cmp_grid_key);
+        for (uint32_t x = 0; x < nv; x++)
+            r[k[x].d] = x;
+        for (uint32_t d = 0; d < nv; d++)
+            memcpy(q + 3 * (size_t)r[d], dec->quantized + 3 * (size_t)d, 12);
+        memcpy(dec->quantized, q, (size_t)nv * 12);
+        for (uint32_t d = 0; d < nv; d++)
+            memcpy(f + 3 * (size_t)r[d], dec->positions + 3 * (size_t)d, 12);
+        memcpy(dec->positions, f, (size_t)nv * 12);
+        for (uint32_t d = 0; dec->normals && d < nv; d++)
+            memcpy(f + 3 * (size_t)r[d], dec->normals + 3 * (size_t)d, 12);
+        if (dec->normals)
+            memcpy(dec->normals, f, (size_t)nv * 12);
+        for (size_t i = 0; i < 3 * (size_t)dec->triangle_count; i++)
+            dec->triangles[i] = dec->triangles[i] < nv ? r[dec->triangles[i]] : dec->triangles[i];
+        if (rank)
+            memcpy(rank, r, (size_t)nv * 4);
+    }
+    free(k);
+    free(r);
+    free(f);
+    free(q);
+    return ok;
+}
+
 /* Encodes the base with Draco, decodes it back and renumbers the model to the
- * decoded order; falls back to the order-keeping sequential method when
- * Edgebreaker changed the mesh itself (split or dropped vertices). */
+ * decoded vertices in grid order (base_in_grid_order); falls back to the
+ * order-keeping sequential method when Edgebreaker changed the mesh itself
+ * (split or dropped vertices). */
 static mts_result encode_base(mts_stream *s, int method, uint8_t **draco, size_t *draco_size,
                               mts_error *err)
 {
@@ -476,6 +537,16 @@ static mts_result encode_base(mts_stream *s, int method, uint8_t **draco, size_t
             goto done;
         }
     }
+    /* map: model id -> decoded id -> its place in grid order */
+    uint32_t *rank = malloc((size_t)nb * 4 + 4);
+    if (!rank || !base_in_grid_order(&dec, rank)) {
+        free(rank);
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory renumbering");
+        goto done;
+    }
+    for (uint32_t x = 0; x < nb; x++)
+        map[x] = rank[map[x]];
+    free(rank);
     /* ids are renamed before the copy, so a failed copy leaves a broken model:
      * the caller frees it */
     if (!renumber_base(m, s->quantized, map)) {
@@ -1474,6 +1545,10 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
                            dec.vertex_count, nb, carry_normals ? "there are" : "there are none");
         mts_draco_mesh_out_free(&dec);
         return rc;
+    }
+    if (!base_in_grid_order(&dec, NULL)) {
+        mts_draco_mesh_out_free(&dec);
+        return mts_error_set(err, MTS_ERR_NOMEM, "BASE: out of memory");
     }
     memcpy(m->positions, dec.positions, (size_t)nb * 12);
     if (carry_normals) {

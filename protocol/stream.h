@@ -10,7 +10,7 @@
  * the growth a client will run (grow.h), to predict as the client will, and
  * fixes the model the stream stands for: positions snapped to the
  * quantization grid, normals as the client will decode them (none where the
- * source had none), base vertices renumbered to Draco's decoded order. A
+ * source had none), base vertices renumbered to grid order (PROTOCOL.md). A
  * client that applies the whole stream holds exactly that model.
  *
  * The records form (s->records_form, PROTOCOL.md "Records form") carries

@@ -213,7 +213,7 @@ static void test_malformed(mts_test *t)
     CHECK(t, mts_reorder_collapses(tri, 2, 4, too_many, 4, NULL, NULL, &err) == MTS_ERR_ARG);
     /* window 1: nothing moves */
     mts_collapse one[2] = {{1, 0, 1}, {3, 2, 1}};
-    mts_reorder_options ro = {1};
+    mts_reorder_options ro = {.window = 1};
     CHECK(t, mts_reorder_collapses(tri, 2, 4, one, 2, &ro, NULL, &err) == MTS_OK);
     CHECK(t, one[0].removed == 1 && one[1].removed == 3);
 }

@@ -5,6 +5,7 @@
  * client at its last whole batch with a consistent mesh; the client derives
  * every record from the splits' fan codes, word for word the model's, and
  * moves both ways with them. */
+#include <math.h>
 #include <stdint.h>
 
 #include "build.h"
@@ -459,7 +460,7 @@ static void test_client_derives_every_record(mts_test *t)
                   (size_t)b.data[at + 3] << 24;
     uint8_t *pl = b.data + at + 5;
     mts_cursor cur = mts_cursor_make(pl, flen - 1);
-    for (int k = 0; k < 3; k++) /* index, first, count */
+    for (int k = 0; k < 2; k++) /* index, new slots */
         mts_cursor_varint(&cur);
     size_t body = (size_t)(cur.p - pl);
     CHECK(t, cur.ok && body + 8 < flen - 1 - 4);
@@ -521,7 +522,7 @@ static void reseal(uint8_t *f)
 }
 
 /* Where batch k's frame lies in connection bytes b of stream r (MODEL_INFO
- * first), and where its body starts after the header's three varints. */
+ * first), and where its body starts after the header. */
 static void batch_frame(const mts_stream *r, const mts_buf *b, uint32_t k, size_t *at,
                         size_t *end, size_t *body)
 {
@@ -530,8 +531,7 @@ static void batch_frame(const mts_stream *r, const mts_buf *b, uint32_t k, size_
     *end = info_size + r->batch_offset[k + 1];
     const uint8_t *pl = b->data + *at + MTS_WIRE_HEADER;
     mts_cursor cur = mts_cursor_make(pl, *end - *at - MTS_WIRE_HEADER - 4);
-    for (int i = 0; i < 3; i++) /* index, first split, count */
-        mts_cursor_varint(&cur);
+    mts_cursor_varint(&cur); /* index */
     mts_cursor_varint(&cur); /* slots announced, then (records form) their capacities */
     for (uint32_t st = r->announced[k]; r->records && st < r->announced[k + 1]; st++)
         mts_cursor_varint(&cur);
@@ -567,22 +567,21 @@ static mts_result feed_with_batch(mts_stream_client *c, const mts_stream *r, con
     return seal_and_feed(c, &x, f, b, end, seed, saw_end, err);
 }
 
-/* Feeds b with batch k's header announcing slots up to `upto` (in the
- * records form with the model's capacities; the splits form codes them in
- * its body, left as it was), CRC recomputed. */
+/* Feeds b with batch k's header announcing `more` slots (in the records
+ * form with the model's capacities; the splits form codes them in its body,
+ * left as it was), CRC recomputed. */
 static mts_result feed_with_announced(mts_stream_client *c, const mts_stream *r,
-                                      const mts_buf *b, uint32_t k, uint32_t upto,
+                                      const mts_buf *b, uint32_t k, uint32_t more,
                                       int *saw_end, mts_error *err)
 {
+    const uint32_t upto = r->announced[k] + more;
     size_t at, end, bstart;
     batch_frame(r, b, k, &at, &end, &bstart);
     mts_buf x = {0};
     mts_buf_put(&x, b->data, at);
     size_t f = mts_wire_frame_begin(&x, MTS_MSG_BATCH);
     mts_buf_varint(&x, k);
-    mts_buf_varint(&x, r->batch_first[k]);
-    mts_buf_varint(&x, r->batch_first[k + 1] - r->batch_first[k]);
-    mts_buf_varint(&x, upto);
+    mts_buf_varint(&x, more);
     for (uint32_t st = r->announced[k]; r->records && st < upto && st < r->model.strip_count;
          st++)
         mts_buf_varint(&x, r->model.capacity[st]);
@@ -590,9 +589,9 @@ static mts_result feed_with_announced(mts_stream_client *c, const mts_stream *r,
     return seal_and_feed(c, &x, f, b, end, 0, saw_end, err);
 }
 
-/* Capacities come with the frame that first uses a slot: a batch that takes
- * back slots, announces more than there are, leaves out a slot its records
- * use, or whose capacities pass MODEL_INFO's total is refused by name, and
+/* Capacities come with the frame that first uses a slot: a batch that
+ * announces more than there are, leaves out a slot its records use, or
+ * whose capacities pass MODEL_INFO's total is refused by name, and
  * the client stays at its last whole batch. Both forms. */
 static void test_capacities_announced(mts_test *t)
 {
@@ -613,22 +612,23 @@ static void test_capacities_announced(mts_test *t)
             mts_buf_free(&b);
             break;
         }
+        const uint32_t left = r->model.strip_count - r->announced[k];
         const struct {
-            uint32_t upto;
+            uint32_t more;
             const char *want;
         } cases[] = {
-            {r->announced[k] - 1, "are malformed"},               /* takes a slot back */
-            {r->model.strip_count + 1, "are malformed"},          /* more than there are */
+            {left + 1, "past the"},   /* more than there are */
+            {UINT32_MAX, "past the"}, /* more than a count can add */
             /* a used slot left out (the splits form's body then codes
              * capacities where splits should be: refused, for some reason) */
-            {r->announced[k], form ? "capacity" : ""},
+            {0, form ? "capacity" : ""},
         };
         for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
             mts_stream_client c;
             mts_stream_client_init(&c);
             mts_error err = {0};
             int saw_end = 0;
-            mts_result rc = feed_with_announced(&c, r, &b, k, cases[i].upto, &saw_end, &err);
+            mts_result rc = feed_with_announced(&c, r, &b, k, cases[i].more, &saw_end, &err);
             CHECKF(t, rc != MTS_OK && !saw_end && strstr(err.msg, cases[i].want),
                    "form %d case %zu: %d %s", form, i, rc, err.msg);
             /* refused before anything of the batch is applied, or (a record
@@ -1286,6 +1286,44 @@ static void test_breakdown_adds_up(mts_test *t)
     mts_stream_free(&counted);
 }
 
+/* The stream's base ids are the decoded base in grid order (PROTOCOL.md,
+ * BASE), and a built model numbers its base by position, so the stream
+ * renames almost nothing: what the builder sorted by parent stays sorted. */
+static void test_base_in_grid_order(mts_test *t)
+{
+    mts_error err = {0};
+    mts_model m;
+    if (!build_model(t, "tests/data/cow.off", 1, &m))
+        return;
+    mts_stream s;
+    CHECKF(t, mts_stream_build(&m, "cow", NULL, &s, &err) == MTS_OK, "%s", err.msg);
+    if (t->case_failed) {
+        mts_model_free(&m);
+        return;
+    }
+    const uint32_t nb = m.base_vertex_count;
+    uint32_t unsorted = 0, kept = 0;
+    const float step = s.grid.range / (float)((1u << s.grid.bits) - 1);
+    for (uint32_t x = 0; x < nb; x++) {
+        const uint32_t *q = s.quantized + 3 * (size_t)x;
+        if (x > 0 && memcmp(q - 3, q, 12) != 0) {
+            int a = 0;
+            while (q[a - 3] == q[a])
+                a++;
+            unsorted += q[a - 3] > q[a];
+        }
+        int same = 1;
+        for (int a = 0; a < 3; a++)
+            same &= fabsf(s.model.positions[3 * (size_t)x + a] - m.positions[3 * (size_t)x + a]) <=
+                    step;
+        kept += same;
+    }
+    CHECKF(t, unsorted == 0, "%u base vertices out of grid order", unsorted);
+    CHECKF(t, kept >= nb - nb / 20, "%u of %u base vertices keep the builder's id", kept, nb);
+    mts_stream_free(&s);
+    mts_model_free(&m);
+}
+
 static void test_model_without_descriptions_refused(mts_test *t)
 {
     mts_stream s;
@@ -1315,6 +1353,7 @@ int main(void)
     RUN(&t, test_client_derives_every_record);
     RUN(&t, test_model_without_descriptions_refused);
     RUN(&t, test_breakdown_adds_up);
+    RUN(&t, test_base_in_grid_order);
     RUN(&t, test_capacities_announced);
     RUN(&t, test_records_form_every_stop);
     RUN(&t, test_records_form_batch_layout);
