@@ -915,33 +915,83 @@ static inline unsigned full_open(const mts_grow *g, uint32_t u, uint32_t e, uint
     return open;
 }
 
+/* The triangles next to strip `prev` (given as its triangles in order) that
+ * no strip holds yet: per triangle of it, across its edges 0, 1, 2, each
+ * once. Where strips lie side by side, as tunnelled ones do, the next
+ * strip often starts among them (grow.h, mts_grow_full_path.near). */
+static int full_near(const mts_grow *g, const mts_words *prev, const uint8_t *claimed,
+                     uint32_t *seen, uint32_t stamp, mts_words *out)
+{
+    out->n = 0;
+    for (size_t k = 0; k < prev->n; k++) {
+        const uint32_t *tw = g->tri[prev->w[k]].tw;
+        for (unsigned e = 0; e < 3; e++) {
+            const uint32_t x = tw[e] == NONE ? NONE : tw[e] / 3;
+            if (x == NONE || claimed[x] || seen[x] == stamp)
+                continue;
+            seen[x] = stamp;
+            if (!mts_words_reserve(out, 1))
+                return 0;
+            out->w[out->n++] = x;
+        }
+    }
+    return 1;
+}
+
 /* Walks the described full strips over g's mesh (at the full level), slot
- * by slot, the one walk both ends make. Each inner triangle's swap bit is
- * forced where full_open leaves one exit; else it comes from f (the array,
- * or the source, which is handed the bit before as context). With `mark`,
- * each bit's entry in f->swaps is also marked forced (bit 1), for an
- * encoder; with `resolve` (g itself), the paths become g's. */
+ * by slot, the one walk both ends make. A strip's start comes from f->paths
+ * or, with f->start, from the source, handed the triangles next to the
+ * strip before (full_near). Each inner triangle's swap bit is forced where
+ * full_open leaves one exit; else it comes from f (the array, or the
+ * source, which is handed the bit before as context). With `describe`
+ * (f->paths itself, for an encoder), each path's near fields are set and
+ * each swap byte in f->swaps marked forced (bit 1); with `resolve` (g
+ * itself), the paths become g's. */
 static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow_full *f,
-                            uint8_t *mark, mts_error *err)
+                            mts_grow_full_path *describe, mts_error *err)
 {
     uint8_t *claimed = calloc((size_t)g->tri_count + 1, 1);
-    if (!claimed)
-        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
-    mts_result rc = MTS_OK;
+    uint32_t *seen = calloc((size_t)g->tri_count + 1, 4);
+    mts_words prev = {0}, cur = {0}, near = {0};
+    mts_result rc = claimed && seen ? MTS_OK
+                                    : mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    uint8_t *mark = describe ? (uint8_t *)f->swaps : NULL;
     uint64_t bit = 0;
     unsigned last = 0;
-    for (uint32_t s = 0; s < f->slot_count && rc == MTS_OK; s++) {
+    for (uint32_t s = 0, stamp = 1; s < f->slot_count && rc == MTS_OK; s++) {
         const mts_grow_full_path *p = &f->paths[s];
         if (!p->triangles)
             continue;
-        uint32_t t = p->first, r = p->rotation;
-        if (claimed[t]) {
-            rc = mts_error_set(err, MTS_ERR_FORMAT,
-                               "full strips: strip %u starts on a triangle (%u) another holds", s,
-                               t);
+        if ((f->start || describe) && !full_near(g, &prev, claimed, seen, stamp++, &near)) {
+            rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
             break;
         }
+        uint32_t t = p->first, r = p->rotation;
+        if (f->start && !f->start(f->user, near.w, (uint32_t)near.n, &t, &r)) {
+            rc = mts_error_set(err, MTS_ERR_FORMAT, "full strips: strip %u's start is malformed",
+                               s);
+            break;
+        }
+        if (t >= g->tri_count || r > 2 || claimed[t]) {
+            rc = mts_error_set(err, MTS_ERR_FORMAT,
+                               "full strips: strip %u starts at corner %u of triangle %u, which "
+                               "is none of the %u or one a strip holds",
+                               s, r, t, g->tri_count);
+            break;
+        }
+        if (describe) {
+            describe[s].near = NONE;
+            describe[s].near_count = (uint32_t)near.n;
+            for (uint32_t k = 0; k < near.n && describe[s].near == NONE; k++)
+                describe[s].near = near.w[k] == t ? k : NONE;
+        }
         claimed[t] = 1;
+        cur.n = 0;
+        if (!mts_words_reserve(&cur, p->triangles)) {
+            rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+            break;
+        }
+        cur.w[cur.n++] = t;
         if (resolve) {
             resolve->slot[s].head = (int32_t)t;
             resolve->tri[t].slot = (int32_t)s;
@@ -965,6 +1015,7 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
                 break;
             }
             claimed[u] = 1;
+            cur.w[cur.n++] = u;
             if (resolve) {
                 set_next(resolve, t, (int32_t)u);
                 resolve->prev[u] = (int32_t)t;
@@ -1006,11 +1057,18 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
             }
             t = u;
         }
+        mts_words x = prev;
+        prev = cur;
+        cur = x;
     }
     if (rc == MTS_OK && f->swaps && bit != f->swap_count)
         rc = mts_error_set(err, MTS_ERR_FORMAT, "full strips: %llu swap bits for %llu",
                            (unsigned long long)f->swap_count, (unsigned long long)bit);
     free(claimed);
+    free(seen);
+    free(prev.w);
+    free(cur.w);
+    free(near.w);
     return rc;
 }
 
@@ -1021,15 +1079,8 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
 static mts_result resolve_full(mts_grow *g, const mts_grow_full *f, mts_error *err)
 {
     uint64_t tris = 0;
-    for (uint32_t s = 0; s < f->slot_count; s++) {
-        const mts_grow_full_path *p = &f->paths[s];
-        tris += p->triangles;
-        if (p->triangles && (p->first >= g->tri_count || p->rotation > 2))
-            return mts_error_set(err, MTS_ERR_FORMAT,
-                                 "full strips: strip %u starts at corner %u of triangle %u (of "
-                                 "%u)",
-                                 s, p->rotation, p->first, g->tri_count);
-    }
+    for (uint32_t s = 0; s < f->slot_count; s++)
+        tris += f->paths[s].triangles;
     if (tris > g->tri_count)
         return mts_error_set(err, MTS_ERR_FORMAT, "full strips: %llu triangles of %u",
                              (unsigned long long)tris, g->tri_count);
@@ -1455,8 +1506,11 @@ mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
             p->rotation++;
     }
     /* which bits the walk forces: the walk a client makes */
-    const mts_grow_full f = {.paths = paths, .swaps = swaps, .swap_count = *swap_count, .slot_count = full->strip_count};
-    return full_walk(g, NULL, &f, swaps, err);
+    const mts_grow_full f = {.paths = paths,
+                             .swaps = swaps,
+                             .swap_count = *swap_count,
+                             .slot_count = full->strip_count};
+    return full_walk(g, NULL, &f, paths, err);
 }
 
 void mts_grow_free(mts_grow *g)

@@ -84,6 +84,11 @@ typedef struct mts_grow_full_path {
     uint32_t triangles; /* 0: an empty slot */
     uint32_t first;     /* the id of its first triangle at the full level */
     uint32_t rotation;  /* 0..2: the strip starts at this corner of it */
+    /* set by mts_grow_full_describe: the triangles next to the strip before
+     * it (the previous non-empty slot's) that no earlier strip holds, as the
+     * walk lists them (mts_grow_full.start), and first's place among them
+     * (MTS_GROW_NONE: not there) */
+    uint32_t near_count, near;
 } mts_grow_full_path;
 
 typedef struct mts_grow_full {
@@ -101,6 +106,13 @@ typedef struct mts_grow_full {
      * forced or not (0 for the first): a context for a coder. Returns the
      * bit, 0 or 1. */
     unsigned (*swap_bit)(void *user, unsigned previous);
+    /* and, optionally, where each strip's start comes from as the walk gets
+     * there (paths' first and rotation are then not read): handed the
+     * triangles next to the strip before that no strip holds yet, in a
+     * fixed order (a strip of tunnelled strips often starts among them).
+     * Sets *first and *rotation, returns 0 when the source is broken. */
+    int (*start)(void *user, const uint32_t *near, uint32_t near_count, uint32_t *first,
+                 uint32_t *rotation);
     void *user;
 } mts_grow_full;
 

@@ -116,7 +116,9 @@ struct mts__stream_models {
     mts_rc_uint_model full_triangles;
     mts_rc_uint_model capacity; /* the slots a batch announces */
     mts_rc_tree_model rotation;
-    uint16_t swap[2]; /* by the previous swap bit */
+    uint16_t full_near;            /* a full strip starts next to the one before */
+    mts_rc_uint_model full_near_at; /* where among the triangles there */
+    uint16_t swap[2];              /* by the previous swap bit */
     /* a position residual in its local frame (lframe.h): the two tangent
      * coordinates, the normal one's magnitude and sign, by context */
     mts_rc_uint_model tangent[POSITION_CONTEXTS], normal_part[POSITION_CONTEXTS];
@@ -138,6 +140,8 @@ static void models_init(struct mts__stream_models *m)
     mts_rc_uint_model_init(&m->full_triangles);
     mts_rc_uint_model_init(&m->capacity);
     mts_rc_tree_model_init(&m->rotation, 2);
+    mts_rc_prob_init(&m->full_near, 1);
+    mts_rc_uint_model_init(&m->full_near_at);
     mts_rc_prob_init(m->swap, 2);
     for (int k = 0; k < POSITION_CONTEXTS; k++) {
         mts_rc_uint_model_init(&m->tangent[k]);
@@ -770,21 +774,31 @@ static void encode_full(mts_rc_encoder *e, struct mts__stream_models *md,
                         const prediction_pass *pass, uint32_t slots, uint32_t triangles)
 {
     const unsigned id_bits = triangle_id_bits(triangles);
+    for (uint32_t st = 0; st < slots; st++)
+        mts_rc_encode_uint(e, &md->full_triangles, pass->paths[st].triangles);
+    /* then strip by strip as the client walks them (grow.h, mts_grow_full):
+     * its start, next to the strip before or anywhere, and the swap bits
+     * the walk does not force */
+    uint64_t k = 0;
+    unsigned last = 0;
     for (uint32_t st = 0; st < slots; st++) {
         const mts_grow_full_path *p = &pass->paths[st];
-        mts_rc_encode_uint(e, &md->full_triangles, p->triangles);
-        if (p->triangles) {
+        if (!p->triangles)
+            continue;
+        const int near = p->near != MTS_GROW_NONE;
+        if (p->near_count)
+            mts_rc_encode_bit(e, &md->full_near, near);
+        if (near)
+            mts_rc_encode_uint(e, &md->full_near_at, p->near);
+        else
             mts_rc_encode_direct(e, p->first, id_bits);
-            mts_rc_encode_tree(e, &md->rotation, p->rotation);
+        mts_rc_encode_tree(e, &md->rotation, p->rotation);
+        for (uint32_t i = 2; i < p->triangles; i++, k++) {
+            const unsigned bit = pass->swaps[k] & 1;
+            if (!(pass->swaps[k] & 2))
+                mts_rc_encode_bit(e, &md->swap[last], bit);
+            last = bit;
         }
-    }
-    /* the bits the walk forces are not sent (grow.h, mts_grow_full) */
-    unsigned last = 0;
-    for (uint64_t k = 0; k < pass->swap_count; k++) {
-        const unsigned bit = pass->swaps[k] & 1;
-        if (!(pass->swaps[k] & 2))
-            mts_rc_encode_bit(e, &md->swap[last], bit);
-        last = bit;
     }
 }
 
@@ -1679,45 +1693,53 @@ static mts_result keep_record(mts_stream_client *c, uint32_t j, const uint32_t *
     return MTS_OK;
 }
 
-/* Where a client's full-level walk takes its swap bits from: the batch's
- * coder, as the walk goes (grow.h, mts_grow_full). */
-typedef struct swap_source {
+/* Where a client's full-level walk takes each strip's start and its swap
+ * bits from: the batch's coder, as the walk goes (grow.h, mts_grow_full). */
+typedef struct full_source {
     mts_rc_decoder *d;
     struct mts__stream_models *md;
-} swap_source;
+    unsigned id_bits;
+} full_source;
 
 static unsigned swap_from_coder(void *user, unsigned previous)
 {
-    swap_source *x = user;
+    full_source *x = user;
     return mts_rc_decode_bit(x->d, &x->md->swap[previous & 1]);
 }
 
+static int start_from_coder(void *user, const uint32_t *near, uint32_t near_count,
+                            uint32_t *first, uint32_t *rotation)
+{
+    full_source *x = user;
+    if (near_count && mts_rc_decode_bit(x->d, &x->md->full_near)) {
+        const uint32_t k = mts_rc_decode_uint(x->d, &x->md->full_near_at);
+        if (k >= near_count)
+            return 0;
+        *first = near[k];
+    } else {
+        *first = mts_rc_decode_direct(x->d, x->id_bits);
+    }
+    *rotation = mts_rc_decode_tree(x->d, &x->md->rotation);
+    return x->d->ok;
+}
+
 /* The full strips' description, after the last split's fan code: per slot
- * its triangle count and, when it has any, its first triangle's id and
- * corner; the swap bits the walk does not force follow as the last split
- * resolves it, read through `src`. Every count is bounded by the full
- * level's triangles, which MODEL_INFO gave, before anything is allocated. */
+ * its triangle count; each strip's start and the swap bits the walk does
+ * not force follow as the last split resolves them, read through `src`.
+ * The counts are bounded by the full level's triangles, which MODEL_INFO
+ * gave, before anything is allocated. */
 static mts_result decode_full(mts_stream_client *c, mts_rc_decoder *d, mts_grow_full *full,
-                              swap_source *src, mts_error *err)
+                              full_source *src, mts_error *err)
 {
     struct mts__stream_models *md = c->models;
     const uint32_t slots = c->model.strip_count, triangles = c->info.triangles;
-    const unsigned id_bits = triangle_id_bits(triangles);
-    mts_grow_full_path *paths = malloc(((size_t)slots + 1) * sizeof *paths);
+    mts_grow_full_path *paths = calloc((size_t)slots + 1, sizeof *paths);
     if (!paths)
         return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the full strips");
     uint64_t tris = 0;
-    for (uint32_t st = 0; st < slots && d->ok; st++) {
-        mts_grow_full_path *p = &paths[st];
-        memset(p, 0, sizeof *p);
-        p->triangles = mts_rc_decode_uint(d, &md->full_triangles);
-        tris += p->triangles;
-        if (tris > triangles)
-            break;
-        if (p->triangles) {
-            p->first = mts_rc_decode_direct(d, id_bits);
-            p->rotation = mts_rc_decode_tree(d, &md->rotation);
-        }
+    for (uint32_t st = 0; st < slots && d->ok && tris <= triangles; st++) {
+        paths[st].triangles = mts_rc_decode_uint(d, &md->full_triangles);
+        tris += paths[st].triangles;
     }
     if (!d->ok || tris > triangles) {
         free(paths);
@@ -1725,9 +1747,10 @@ static mts_result decode_full(mts_stream_client *c, mts_rc_decoder *d, mts_grow_
                              "the full strips are malformed (%llu triangles of %u)",
                              (unsigned long long)tris, triangles);
     }
-    *src = (swap_source){d, md};
+    *src = (full_source){d, md, triangle_id_bits(triangles)};
     full->paths = paths;
     full->swap_bit = swap_from_coder;
+    full->start = start_from_coder;
     full->user = src;
     return MTS_OK;
 }
@@ -1743,7 +1766,7 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, mts_grow_
     mts_model *m = &c->model;
     const uint32_t nb = m->base_vertex_count;
     mts_result rc;
-    swap_source src;
+    full_source src;
     for (uint32_t i = 0; i < count; i++) {
         const uint32_t j = first + i, v = nb + j, before = j ? m->parents[j - 1] : 0;
         /* up: u = before + gap, below v; else u = v - 1 - back, below before */

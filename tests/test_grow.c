@@ -140,7 +140,35 @@ static int is_key(const mts_model *m, uint32_t level)
 typedef struct free_bits {
     const uint8_t *swaps;
     uint64_t count, at, calls, bad_previous;
+    /* and each strip's start, through its place among the triangles near
+     * the strip before where describe found it there */
+    const mts_grow_full_path *paths;
+    uint32_t slots, slot, starts, near_starts, bad_near;
 } free_bits;
+
+static int next_start(void *user, const uint32_t *near, uint32_t near_count, uint32_t *first,
+                      uint32_t *rotation)
+{
+    free_bits *f = user;
+    while (f->slot < f->slots && f->paths[f->slot].triangles == 0)
+        f->slot++;
+    if (f->slot >= f->slots)
+        return 0;
+    const mts_grow_full_path *p = &f->paths[f->slot++];
+    f->starts++;
+    f->bad_near += p->near_count != near_count;
+    if (p->near != MTS_GROW_NONE) {
+        f->near_starts++;
+        if (p->near >= near_count)
+            return 0;
+        f->bad_near += near[p->near] != p->first;
+        *first = near[p->near];
+    } else {
+        *first = p->first;
+    }
+    *rotation = p->rotation;
+    return 1;
+}
 
 static unsigned next_free_bit(void *user, unsigned previous)
 {
@@ -194,10 +222,14 @@ static void grow_checked(mts_test *t, const mts_model *m, uint32_t every)
     uint64_t forced = 0;
     for (uint64_t k = 0; k < swap_count; k++)
         forced += (swaps[k] & 2) != 0;
-    free_bits src = {swaps, swap_count, 0, 0, 0};
+    free_bits src = {swaps, swap_count, 0, 0, 0, paths, m->strip_count, 0, 0, 0, 0};
+    uint32_t strips = 0;
+    for (uint32_t st = 0; st < m->strip_count; st++)
+        strips += paths[st].triangles > 0;
     const mts_grow_full described = {.paths = paths,
                                      .slot_count = m->strip_count,
                                      .swap_bit = next_free_bit,
+                                     .start = next_start,
                                      .user = &src};
     CHECK(t, mts_grow_create(&m->base, m->base_vertex_count, m->level_count, &go, &g, &err) ==
                  MTS_OK);
@@ -236,6 +268,11 @@ static void grow_checked(mts_test *t, const mts_model *m, uint32_t every)
            "the walk asked for %llu bits (%llu free), %llu with the wrong previous bit",
            (unsigned long long)src.calls, (unsigned long long)(swap_count - forced),
            (unsigned long long)src.bad_previous);
+    /* every strip's start asked for once, with the triangles describe saw;
+     * side by side, some strips start next to the one before */
+    CHECKF(t, src.starts == strips && src.bad_near == 0 && (strips < 8 || src.near_starts > 0),
+           "%u starts asked for (%u strips), %u near the strip before, %u disagree", src.starts,
+           strips, src.near_starts, src.bad_near);
     mts_grow_free(g);
     free(paths);
     free(swaps);
