@@ -108,11 +108,14 @@ for name, m in (rd or {}).get("models", {}).items():
     fig, ax = plt.subplots(figsize=(8, 5))
     ax.plot(b, [p["triangles"] for p in pts], "o-", ms=3, color="tab:blue",
             label="mts stream: triangles available")
-    for label, bm in baselines:
+    # older protocols fainter and dotted, the last release dashed
+    styles = [(":" if k + 1 < len(baselines) else "--", 0.3 if k + 1 < len(baselines) else 0.5)
+              for k in range(len(baselines))]
+    for (label, bm), (ls, al) in zip(baselines, styles):
         if name in bm:
             bp = bm[name]["points"]
-            ax.plot([p["bytes"] / 1e3 for p in bp], [p["triangles"] for p in bp], "--",
-                    color="tab:blue", alpha=0.45, label=f"protocol {label}: triangles")
+            ax.plot([p["bytes"] / 1e3 for p in bp], [p["triangles"] for p in bp], ls,
+                    color="tab:blue", alpha=al, label=f"protocol {label}: triangles")
     d = m["draco"]
     ax.plot([d["bytes"] / 1e3], [d["triangles"]], "s", ms=9, color="tab:red",
             label=f"Draco single-rate (cl 7): {d['bytes'] / 1e3:.1f} KB")
@@ -122,11 +125,11 @@ for name, m in (rd or {}).get("models", {}).items():
     ax2 = ax.twinx()
     ax2.plot(b, [p["rms"] for p in pts], "o-", ms=3, color="tab:purple",
              label="mts stream: RMS error / bbox diagonal")
-    for label, bm in baselines:
+    for (label, bm), (ls, al) in zip(baselines, styles):
         if name in bm:
             bp = bm[name]["points"]
-            ax2.plot([p["bytes"] / 1e3 for p in bp], [p["rms"] for p in bp], "--",
-                     color="tab:purple", alpha=0.45, label=f"protocol {label}: RMS error")
+            ax2.plot([p["bytes"] / 1e3 for p in bp], [p["rms"] for p in bp], ls,
+                     color="tab:purple", alpha=al, label=f"protocol {label}: RMS error")
     ax2.plot([d["bytes"] / 1e3], [max(d["rms"], 1e-9)], "D", ms=8, color="tab:red",
              mfc="none", label="Draco: error (quantization only)")
     ax2.set_yscale("log")
