@@ -13,6 +13,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "clock.h"
 #include "pngwrite.h"
 
 #ifndef EGL_PLATFORM_SURFACELESS_MESA
@@ -392,11 +393,9 @@ void mts_render_options_default(mts_render_options *o)
     o->style.ambient = 0.25f;
     o->style.color_by_strip = 0;
     o->style.cull_back_faces = 1;
-    /* JOINED: the fastest strip mode on llvmpipe and no slower than a
-     * meshopt-optimized triangle list at bunny00's full level (1024x1024,
-     * median of 15 rounds, three runs: joined / list 0.95, 0.81, 0.97 in
-     * wall time, 0.94, 1.00, 0.97 in CPU time; restart 1.02-1.05x joined),
-     * reading 0.425x the list's indices (bench/mts_bench_stream.c) */
+    /* JOINED: the fastest strip mode on llvmpipe, and about as fast as a
+     * vertex-cache-optimized triangle list while reading fewer indices
+     * (docs/strips.md, "Drawing them"; make bench, "Draw path") */
     o->style.draw_mode = MTS_RENDER_DRAW_JOINED;
     o->style.wireframe = 0;
     o->style.flat_shading = 0;
@@ -1067,13 +1066,6 @@ mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_err
 
 /* ---- drawing ---------------------------------------------------------- */
 
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 /* A distinct colour per strip: hue by the golden ratio. */
 static void strip_color(uint32_t s, float rgb[3])
 {
@@ -1192,7 +1184,7 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
     if (rc != MTS_OK)
         return rc;
     const mts_render_style *st = &r->opts.style;
-    double t0 = now_seconds();
+    double t0 = mts_clock_seconds();
 
     glBindFramebuffer(GL_FRAMEBUFFER, r->fbo);
     glViewport(0, 0, (GLsizei)r->opts.width, (GLsizei)r->opts.height);
@@ -1312,7 +1304,7 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
     }
     glBindVertexArray(0);
     glFinish();
-    double t1 = now_seconds();
+    double t1 = mts_clock_seconds();
     rc = gl_check(err, "drawing");
     if (rc != MTS_OK)
         return rc;

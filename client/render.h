@@ -54,12 +54,10 @@
  * 22.3 llvmpipe): Mesa's draw module runs its vertex pipeline once per
  * restart-delimited piece (and once per draw of a multi-draw), restarting its
  * small vertex cache each time, and RESTART also walks the slots' padding,
- * which at coarse levels is most of the buffer (bunny00 at 10% of its
- * vertices: 92k entries for 23.6k live indices); one joined strip is one
- * pipeline run whose cache spans strips. At the full level it drew bunny00
- * in 0.94-1.0x the time of the meshopt-optimized triangle list from 0.425x
- * its indices. The stored and streamed form stays the strips and their
- * slots; the packed buffer is the client's own.
+ * which at coarse levels is most of the buffer; one joined strip is one
+ * pipeline run whose cache spans strips (figures: docs/strips.md, "Drawing
+ * them"). The stored and streamed form stays the strips and their slots;
+ * the packed buffer is the client's own.
  *
  * Colour by strip: a per-vertex attribute cannot carry a strip id (strips
  * share vertices), and gl_PrimitiveID (fragment shaders, GLES 3.2) numbers

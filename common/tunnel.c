@@ -46,121 +46,14 @@
  *
  * The length bound K counts dual edges: K = 2 d + 1 allows d solid edges.
  * The exhaustive search alone finds little on mts_stripify's strips, which
- * already tunnel with d = 4 (bunny00: 1.2430 -> 1.2421 idx/tri at K = 9,
- * 1.2389 at K = 21): they sit in a local minimum. So after it, a simulated
- * annealing walks the same moves at random (Metropolis on 3 S + W, fixed
- * seed) and the exhaustive search runs again. Measured (gcc -O2, shared
- * 2-core VM; idx/tri with restarts; seconds of this pass, one run):
- *   K      bunny00 (75408 tris)           fandisk_large (31682 tris)
- *          strips swaps idx/tri  s         strips swaps idx/tri  s
- *   off    2209  11701  1.2430  0.02       860   4499  1.2234  0.01 (cache order only)
- *   1      2282  10970  1.2362  0.30       864   4238  1.2155  0.12
- *   3      2393   9749  1.2245  0.64       936   3687  1.2050  0.23
- *   5      2364   9675  1.2223  0.67       926   3622  1.2020  0.28
- *   7      2361   9606  1.2213  0.78       926   3597  1.2012  0.30  <- the default
- *   9      2394   9469  1.2208  0.77       904   3660  1.2011  0.31
- *   11     2361   9565  1.2208  0.80       921   3618  1.2014  0.32
- *   13     2351   9620  1.2211  0.83       903   3665  1.2012  0.32
- * Past 7 the annealing's randomness is larger than the gain. (That table
- * predates the start swaps and was taken at 64 annealing moves a triangle.)
- * Now, at K = 7, 96 moves a triangle, start swaps counted:
- *   bunny00        2270 strips  9499 swaps  1.2163 idx/tri  1.3 s
- *   fandisk_large   867 strips  3564 swaps  1.1946 idx/tri  0.5 s
- *   cow             169 strips   721 swaps  1.2114 idx/tri  0.1 s
- * (1.2213 / 1.2012 / 1.2131 before). On bunny00 Loop-subdivided twice
- * (1.2 M triangles): 1.0891 -> 1.0696 in 21 s. Longer annealing
- * (mts-build --strip-effort) pays slowly: bunny00 at 2048 moves a triangle
- * 1.2011 in 31 s, 8192 1.1982 in 138 s, 16384 1.1977 (1982 strips, 8964
- * swaps) in 220 s; 1.20 takes about 3000, some forty times the default.
- * (Paper 000's 1.20, MTS on the Stanford bunny, Table 3: 83K vertices sent
- * for 69.4K triangles, counts one draw per strip: no restarts. Counted that
- * way bunny00's default strips send 1.186 a triangle; mts-bench prints both.)
- * The temperatures (0.6..1.0 down to 0.07..0.15: all within 0.002), a bias
- * of the walks towards joins, proposing from path ends more often than
- * from links did not help.
- *
- * What else was tried on bunny00 against the default's 1.2163 (none kept):
- *  - a better start: a greedy that turns where a vertex's visits would
- *    leave it needing another event (stripify.c's bound: runs of 3) gave
- *    1.369 before this pass and 1.2176 after it; the annealing forgets
- *    where it started;
- *  - after the annealing, linking two strips side by side across an open
- *    edge, cutting each from a neighbour and searching two tunnels (one from
- *    each new end) to pay for it: 11 to 19 changes, 1.2159;
- *  - annealing perfect matchings of the dual graph (every triangle's one
- *    open edge; no ends, so no cost-3 barriers) with random alternating
- *    cycles on the run cost of stripify.c's identity, the cycles cut after:
- *    cow 1.25-1.27 against 1.211 here;
- *  - Metropolis needs the paths checked for loops: only 3% of the moves
- *    that would pay fail that check, so it is not what holds the search;
- *  - moves spent where they are taken: blocks of 32 triangles with no move
- *    kept in the last stage visited a quarter as often (from stage 0, 16
- *    or 32 of 64): 1.2158 to 1.2161, within the seed's noise;
- *  - a deeper exhaustive search after the annealing (K = 9, 11, 13 in the
- *    last improve only): 1.2162, 1.2162, 1.2161. The annealed cover is a
- *    local minimum for every alternating path up to 13 edges, so a
- *    variable-depth (Lin-Kernighan style) search has little to find there;
- *  - strips that end where the next one starts: when strip A's last index
- *    is strip B's first, "A, that index again, B from its second index"
- *    draws both (the two windows across the joint repeat an index) for one
- *    index less than a restart, provided A leaves off at an even position
- *    (B's winding). The end triangle's vertex off its link is the strip's
- *    first (or last) index, so the annealing was given 1 a pair of path
- *    ends sharing that vertex (counts kept per vertex in the moves). It made
- *    1,165 such pairs (61 before), but from 2,941 strips instead of 2,270;
- *    only 527 had the parity, and the joined count was 1.2198, worse. Unsteered
- *    the output has 9 such neighbours in order, none at the right parity;
- *  - a profile of bunny00 (perf, loading and greedy strips included):
- *    random_walk 40 %, the annealing loop 20 %, relabelling kept moves
- *    10 %, start swaps 6 %, the cache order 8 %: the moves themselves are
- *    the cost, so no rewrite of them buys the ~30x that 1.20 needs at this
- *    quality per move.
- * Where the excess lies, by that identity (a vertex whose valence is not a
- * multiple of 3 must pay 1/2, the others 0): bunny00's 16,284 (3 S + W less
- * its 25 start swaps) against a floor of 9,825: valence 1 mod 3 vertices
- * pay 2,569 over theirs (4,496 of the 9,423 take two short visits, 2 + 2,
- * rather than one of 4), valence 0 mod 3 ones 2,784, valence 2 mod 3 ones
- * 1,106; two thirds of it lies on vertices of a strip's end triangles. The
- * floor is out of reach anyway: there, every swap would pair a vertex of
- * valence 1 mod 3 with a neighbour of valence 2 mod 3, but a maximum
- * matching of such neighbours has 7,407 pairs for 9,423 and 10,227 of them
- * (and a strip's first vertex alone pays 1).
- *
- * The read-out orders the strips for a FIFO vertex cache (order_greedy,
- * chain_links, then order_refine). A direction costs no extra index: of the
- * two, the shorter encoding is the only one tried. What the order can do is
- * bounded by the strips: their misses into an empty cache are 0.99 a
- * triangle on bunny00, and no order can save more than what each strip
- * saves after its best neighbour, which leaves 0.780; the order found gets
- * 0.801 (meshopt's triangle list: 0.63). A strip of m triangles leaves only its
- * last ~32 vertices for the next one, so shorter strips pay for the cache
- * and cost restarts; measured with max_strip (bunny00, defaults otherwise):
- *   max_strip     24     32     40     48     64     96    128    256
- *   idx/tri    1.268  1.245  1.234  1.227  1.221  1.217  1.216  1.216
- *   ACMR-32    0.709  0.738  0.758  0.770  0.793  0.814  0.818  0.814
- * (with order_refine: 40 -> 1.2339 / 0.740, 44 -> 1.2299 / 0.743, 48 ->
- * 1.2270 / 0.754). More annealing does not close the gap from both sides:
- * at 3000 moves a triangle (about 40 s) the caps give 32 -> 1.2229 / 0.728,
- * 44 -> 1.2113 / 0.759, 64 -> 1.2048 / 0.787, no cap 1.2005 / 0.814: none
- * at once under 1.20 and 0.75; longer annealing winds the strips more
- * (8192, cap 44: 1.2087 / 0.758). Cutting the uncapped strips afterwards, at swaps near even
- * pieces, is no better than the cap (64: 1.2276 / 0.764; 48: 1.2366 /
- * 0.742). Nor are short rows: the coordinate guide below with a cap (each
- * triangle's most level edge, in x, y or z, left open at a weight of 0.25
- * to 1 in the Metropolis rule) gave 1.229-1.247 / 0.767-0.775 at 48 and
- * 1.247-1.264 / 0.739-0.744 at 32, against the plain cap's 1.227 / 0.754
- * and 1.245 / 0.721.
- * Weighing each strip's own misses (Metropolis on 3 S + W + 0.1 x misses,
- * the strips re-simulated per move) made strips fold onto themselves but
- * bought little (0.786 at 1.224, 6 s); so did strips grown in bands along
- * the previous strip (ACMR-32 0.78 at 1.37 idx/tri, before tunnelling,
- * which then undoes them) and bands along BFS rings (0.31 swaps a
- * triangle). Also lost: the annealing steered towards rows along a
- * coordinate (each triangle's open edge the one most level in y; weight
- * 0.1 to 1 a triangle): 0.823-0.837, worse; links only between triangles
- * near in meshopt's cache order (within 64 to 4096 places): 1.298 / 0.724
- * to 1.2535 / 0.765, under the max_strip curve above. (Those figures are
- * from before order_refine, which takes 0.01-0.02 off each.)
+ * already tunnel with d = 4: they sit in a local minimum. So after it, a
+ * simulated annealing walks the same moves at random (Metropolis on
+ * 3 S + W, fixed seed) and the exhaustive search runs again. K = 7 is the
+ * default because past it the annealing's randomness is larger than the
+ * gain; 96 moves a triangle because more pays slowly (mts-build
+ * --strip-effort). The read-out orders the strips for a FIFO vertex cache
+ * (order_greedy, chain_links, then order_refine). The figures behind these
+ * choices, and what was tried and not kept: docs/strips.md.
  */
 #include "tunnel.h"
 

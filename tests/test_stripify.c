@@ -8,42 +8,8 @@
  * strips, strips, swaps, single-triangle strips, ACMR of a FIFO vertex cache
  * of 16 and 32 entries over the strip's triangle order, and time.
  *
- * Measured (gcc -O2, a shared 2-core VM, CPU time of one run; noisy):
- *   model          tris   idx/tri strips swaps single ACMR16 ACMR32  time
- *   cow            5804   1.238    160    904     2   0.95   0.86    5 ms
- *   bunny00       75408   1.243   2209  11701    20   0.98   0.92   95 ms
- *   fandisk_large 31682   1.223    860   4499     2   0.99   0.93   37 ms
- * (idx/tri = (indices + strips - 1) / triangles; meshoptimizer's
- * meshopt_stripify gives 1.75 on bunny00 with restarts.) ACMR is near 1
- * because strips are long and not ordered for a cache; not a goal yet.
- *
- * What each part is worth on bunny00 (idx/tri, strips, swaps, time):
- *   greedy, always on without a swap when possible   1.330  5422  8624  30 ms
- *     + growing backwards from the seed as well      1.324  5318  8504
- *   greedy with STRIPE's turn (fewer free neighbours) 1.310  2009 17347  31 ms
- *     + growing backwards                            1.309  1956 17426
- *   STRIPE turn + tunnelling (the default)           1.243  2209 11701  95 ms
- *     the same with backwards growth                 1.2435 2229 11673
- *     "always on" greedy + tunnelling                1.252  3227  9306
- *     tunnels from path ends only, not from swaps    1.258  1500 14982  68 ms
- *     tunnel depth 2 / 3 / 6 / 8                     1.253 / 1.246 / 1.2405 / 1.239
- *                                                     (66 / 81 / 125 / 146 ms)
- *     partial-tunnel cost bound 1 / 3 (default 2)    1.247 (68 ms) / 1.242 (139 ms)
- *     one pass instead of until nothing changes      1.251
- *     strips of at most 64 / 128 / 1024 / unbounded  1.263 / 1.246 / 1.2431 / 1.2431
- *                                                     (unbounded: a 400x400 grid takes
- *                                                     0.9 s instead of 0.25 s)
- * Tried and dropped: a "look ahead" that turns (swap) when the straight
- * continuation is a dead end but the turn is not (greedy 1.346 against
- * 1.326 without it); turning only to rescue a neighbour with no other free
- * neighbour, or only when it has 0 against 2 (1.325, 1.324); turning when
- * the free fan around the pivot has one triangle left (1.328); seeds next
- * to the last strip (1.328); a lowest-id heap for the seeds instead of
- * degree buckets (same strips within 0.1%, greedy pass 46 ms instead of
- * 27 ms); marks letting a tunnel search cross each edge once (same strips,
- * same time); joining strips end to end after the greedy pass (never
- * applies: a greedy path stops only where every neighbour is used; the
- * tunnelling joins ends where it can).
+ * The figures this prints, per part of the stripifier, and what was tried
+ * and dropped: docs/strips.md.
  */
 #include <stdint.h>
 #include <stdio.h>
