@@ -48,18 +48,12 @@
 
 #include "build.h"
 #include "cli.h"
+#include "clock.h"
 #include "draco.h"
 #include "lodpolicy.h"
 #include "mesh.h"
 #include "render.h"
 #include "stream.h"
-
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
 
 /* ---- walkthrough ------------------------------------------------------- */
 
@@ -132,13 +126,13 @@ static int walk_run(mts_render_context *ctx, const mts_model *m, const walk_cfg 
         mts_render_set_camera(r, &cam);
         view.distance = (float)(D * d_frame);
         uint32_t level = mts_lod_policy_choose(&pol, m->level_count, &view, 0);
-        double t0 = now_ms();
+        double t0 = (1e3 * mts_clock_seconds());
         if (mode == MODE_NOCOH && mts_lod_set_level(&lod, 0, err) != MTS_OK)
             goto done;
         if (mts_lod_set_level(&lod, level, err) != MTS_OK)
             goto done;
         size_t n = mode == MODE_LIST ? strips_to_list(&lod, list) : 0;
-        double t1 = now_ms();
+        double t1 = (1e3 * mts_clock_seconds());
         if (mode == MODE_LIST) {
             if (mts_render_set_list(r, list, (uint32_t)n, err) != MTS_OK)
                 goto done;
@@ -146,7 +140,7 @@ static int walk_run(mts_render_context *ctx, const mts_model *m, const walk_cfg 
             goto done;
         }
         mts_lod_clear_changed(&lod);
-        double t2 = now_ms();
+        double t2 = (1e3 * mts_clock_seconds());
         if (mts_render_draw(r, err) != MTS_OK)
             goto done;
         mts_render_stats st;

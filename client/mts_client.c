@@ -11,6 +11,7 @@
 #include <time.h>
 
 #include "cli.h"
+#include "clock.h"
 #include "hud.h"
 #include "lodpolicy.h"
 #include "modelfile.h"
@@ -20,6 +21,7 @@
 #include "stream.h"
 #include "strips.h"
 #include "window.h"
+#include "words.h"
 
 static void usage(FILE *f)
 {
@@ -97,19 +99,6 @@ typedef struct run {
     char png_paths[8][512];
 } run;
 
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
-static int cmp_u32(const void *a, const void *b)
-{
-    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-    return x < y ? -1 : x > y;
-}
-
 static void level_png_path(const run *rn, uint32_t level, char *out, size_t size)
 {
     char stem[400];
@@ -128,7 +117,7 @@ static void level_png_path(const run *rn, uint32_t level, char *out, size_t size
 /* Brings the renderer up to date with the runtime and draws a frame. */
 static int draw(run *rn, mts_stream_client *c)
 {
-    double t = now_ms();
+    double t = (1e3 * mts_clock_seconds());
     uint32_t have = c->model.base_vertex_count + c->splits;
     if (have > rn->uploaded) {
         if (mts_render_append_vertices(rn->r, rn->uploaded, have - rn->uploaded,
@@ -143,7 +132,7 @@ static int draw(run *rn, mts_stream_client *c)
     mts_lod_clear_changed(&c->lod);
     if (mts_render_draw(rn->r, &rn->err) != MTS_OK)
         return 0;
-    rn->ms_render += now_ms() - t;
+    rn->ms_render += (1e3 * mts_clock_seconds()) - t;
     return 1;
 }
 
@@ -332,14 +321,14 @@ static int apply_policy(run *rn, mts_stream_client *c, const mts_lod_policy_opti
     for (int frame = 0, held = 0; frame < 120 && held < 10; frame++) {
         uint32_t l = mts_lod_policy_choose(&p, received, &view, last_ms);
         held = l == c->lod.level ? held + 1 : 0;
-        double t = now_ms();
+        double t = (1e3 * mts_clock_seconds());
         if (mts_lod_set_level(&c->lod, l, &rn->err) != MTS_OK)
             return 0;
         if (po->kind != MTS_LOD_POLICY_BUDGET)
             return 1;
         if (!draw(rn, c))
             return 0;
-        last_ms = now_ms() - t;
+        last_ms = (1e3 * mts_clock_seconds()) - t;
     }
     return 1;
 }
@@ -644,15 +633,15 @@ static int win_frame(win *wn, double now)
     win_hud_text(wn, now);
     int scale = wn->width >= 1000 ? 2 : 1;
     if (rn->r && wn->stats_valid) {
-        double t = now_ms();
+        double t = (1e3 * mts_clock_seconds());
         mts_render_set_camera(rn->r, &rn->ro.camera);
         mts_render_set_style(rn->r, &rn->ro.style);
         if (mts_render_draw(rn->r, &rn->err) != MTS_OK || mts_render_blit(rn->r, &rn->err))
             return 0;
-        wn->last_frame_ms = now_ms() - t;
+        wn->last_frame_ms = (1e3 * mts_clock_seconds()) - t;
         rn->ms_render += wn->last_frame_ms;
         if (wn->t_model == 0)
-            wn->t_model = now_ms(); /* the script's clock starts at the first picture */
+            wn->t_model = (1e3 * mts_clock_seconds()); /* the script's clock starts at the first picture */
     } else {
         if (mts_hud_clear(wn->hud, rn->ro.style.background, wn->width, wn->height, &rn->err))
             return 0;
@@ -711,7 +700,7 @@ static void json_text(FILE *f, const char *s)
 static void win_stream_ended(win *wn)
 {
     wn->frames_streaming = wn->frames;
-    wn->ms_streaming = now_ms() - wn->t_start;
+    wn->ms_streaming = (1e3 * mts_clock_seconds()) - wn->t_start;
 }
 
 static mts_result win_run(win *wn, mts_session_options *so, const char *script_path,
@@ -745,11 +734,11 @@ static mts_result win_run(win *wn, mts_session_options *so, const char *script_p
     if ((rc = mts_session_begin(so, wn->c, wn->st, &sess, err)) != MTS_OK)
         return rc;
     wn->streaming = 1;
-    wn->t_start = wn->fps_t = now_ms();
+    wn->t_start = wn->fps_t = (1e3 * mts_clock_seconds());
     const double frame_ms = 1000.0 / 60;
-    double next_frame = now_ms();
+    double next_frame = (1e3 * mts_clock_seconds());
     while (!wn->quit) {
-        double now = now_ms();
+        double now = (1e3 * mts_clock_seconds());
         mts_input ev;
         int ok = 1;
         while (ok && mts_window_poll(wn->w, &ev))
@@ -770,10 +759,10 @@ static mts_result win_run(win *wn, mts_session_options *so, const char *script_p
         }
         /* the network gets the time until the next frame */
         next_frame += frame_ms;
-        if (next_frame < now_ms())
-            next_frame = now_ms();
+        if (next_frame < (1e3 * mts_clock_seconds()))
+            next_frame = (1e3 * mts_clock_seconds());
         for (;;) {
-            double left = next_frame - now_ms();
+            double left = next_frame - (1e3 * mts_clock_seconds());
             if (!wn->streaming) {
                 if (left > 0) {
                     struct pollfd pf = {mts_window_fd(wn->w), POLLIN, 0};
@@ -1012,7 +1001,7 @@ int main(int argc, char **argv)
                 }
                 rn.png_levels[rn.png_level_count++] = l;
             }
-            qsort(rn.png_levels, (size_t)rn.png_level_count, 4, cmp_u32);
+            qsort(rn.png_levels, (size_t)rn.png_level_count, 4, mts_words_cmp);
             i++;
         } else if (!strcmp(a, "--size")) {
             if (!v || !parse_size(v, &rn.ro.width, &rn.ro.height)) {

@@ -1,3 +1,4 @@
+#include "clock.h"
 #include "session.h"
 
 #include <errno.h>
@@ -11,13 +12,6 @@
 #include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
-
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
 
 /* Connecting runs as steps so that a window loop never waits on it: the
  * name is resolved (getaddrinfo blocks, but a numeric address or
@@ -91,9 +85,9 @@ static int connector_step(connector *k, const char *host, const char *port, doub
                 k->fd = -1;
                 continue;
             }
-            k->deadline = now_ms() + cto * 1000;
+            k->deadline = (1e3 * mts_clock_seconds()) + cto * 1000;
         }
-        double left = k->deadline - now_ms();
+        double left = k->deadline - (1e3 * mts_clock_seconds());
         int wait = left > 0 ? (int)left + 1 : 0;
         if (timeout_ms >= 0 && timeout_ms < wait)
             wait = timeout_ms;
@@ -107,7 +101,7 @@ static int connector_step(connector *k, const char *host, const char *port, doub
             if (getsockopt(k->fd, SOL_SOCKET, SO_ERROR, &soerr, &sl) == 0 && soerr == 0)
                 goto connected;
             k->last = soerr ? soerr : errno;
-        } else if (now_ms() < k->deadline) {
+        } else if ((1e3 * mts_clock_seconds()) < k->deadline) {
             return 0; /* the caller's wait ran out first */
         } else {
             k->last = ETIMEDOUT;
@@ -257,7 +251,7 @@ static void conversation_failed(mts_session *s, mts_result rc, int transient)
         finish(s, mts_error_prefix(err, "stopped by the caller while retrying"));
         return;
     }
-    s->retry_at = now_ms() + d * 1000;
+    s->retry_at = (1e3 * mts_clock_seconds()) + d * 1000;
     s->ph = PH_WAIT;
 }
 
@@ -271,7 +265,7 @@ static void connected(mts_session *s, int fd)
     int one = 1;
     setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
     if (s->connections++ == 0)
-        s->st->ms_connect = now_ms() - s->t0;
+        s->st->ms_connect = (1e3 * mts_clock_seconds()) - s->t0;
     else
         s->st->reconnects++;
     mts_buf req = {0};
@@ -289,7 +283,7 @@ static void connected(mts_session *s, int fd)
         conversation_failed(s, rc, rc == MTS_ERR_IO);
         return;
     }
-    s->last_data = now_ms();
+    s->last_data = (1e3 * mts_clock_seconds());
     s->ph = PH_STREAM;
 }
 
@@ -312,10 +306,10 @@ static int take_frames(mts_session *s, double deadline)
             conversation_failed(s, err->code, 0);
             return 0;
         }
-        double a = now_ms();
+        double a = (1e3 * mts_clock_seconds());
         mts_stream_event ev;
         mts_result rc = mts_stream_client_frame(c, type, p, n, &ev, err);
-        st->ms_apply += now_ms() - a;
+        st->ms_apply += (1e3 * mts_clock_seconds()) - a;
         st->frames++;
         if (rc != MTS_OK) {
             conversation_failed(s, rc, 0);
@@ -327,7 +321,7 @@ static int take_frames(mts_session *s, double deadline)
             conversation_failed(s, mts_error_set(err, MTS_ERR_ARG, "stopped by the caller"), 0);
             return 0;
         }
-        double t = now_ms() - s->t0;
+        double t = (1e3 * mts_clock_seconds()) - s->t0;
         if (ev == MTS_EV_INFO) {
             st->ms_info = t;
         } else if (ev == MTS_EV_BASE) {
@@ -346,7 +340,7 @@ static int take_frames(mts_session *s, double deadline)
             conversation_failed(s, rc, 0);
             return 0;
         }
-        if (now_ms() >= deadline) {
+        if ((1e3 * mts_clock_seconds()) >= deadline) {
             s->backlog = 1; /* more frames may be whole already: the next poll */
             break;
         }
@@ -360,14 +354,14 @@ static void stream_step(mts_session *s, int timeout_ms)
 {
     mts_session_stats *st = s->st;
     mts_error *err = &s->err;
-    const double deadline = now_ms() + SESSION_SLICE_MS;
+    const double deadline = (1e3 * mts_clock_seconds()) + SESSION_SLICE_MS;
     if (s->backlog) {
         /* frames already here come first, and there is no waiting then */
         if (!take_frames(s, deadline) || s->backlog)
             return;
         timeout_ms = 0;
     }
-    double idle_left = s->last_data + s->ito * 1000 - now_ms();
+    double idle_left = s->last_data + s->ito * 1000 - (1e3 * mts_clock_seconds());
     int wait = idle_left > 0 ? (int)idle_left + 1 : 0;
     if (timeout_ms >= 0 && timeout_ms < wait)
         wait = timeout_ms;
@@ -380,7 +374,7 @@ static void stream_step(mts_session *s, int timeout_ms)
         return;
     }
     if (pr == 0) {
-        if (now_ms() - s->last_data >= s->ito * 1000)
+        if ((1e3 * mts_clock_seconds()) - s->last_data >= s->ito * 1000)
             conversation_failed(s,
                                 mts_error_set(err, MTS_ERR_IO,
                                               "no data from the server for %.0f s", s->ito),
@@ -411,7 +405,7 @@ static void stream_step(mts_session *s, int timeout_ms)
                                 1);
             return;
         }
-        s->last_data = now_ms();
+        s->last_data = (1e3 * mts_clock_seconds());
         st->bytes += (uint64_t)got;
         mts_result rc = mts_wire_reader_feed(&s->r, s->buf, (size_t)got, err);
         if (rc != MTS_OK) {
@@ -420,7 +414,7 @@ static void stream_step(mts_session *s, int timeout_ms)
         }
         if (!take_frames(s, deadline))
             return;
-    } while (now_ms() < deadline && !s->backlog);
+    } while ((1e3 * mts_clock_seconds()) < deadline && !s->backlog);
 }
 
 mts_result mts_session_begin(const mts_session_options *o, mts_stream_client *c,
@@ -436,7 +430,7 @@ mts_result mts_session_begin(const mts_session_options *o, mts_stream_client *c,
     s->port = o->port ? o->port : "7447";
     s->cto = o->connect_timeout > 0 ? o->connect_timeout : 5;
     s->ito = o->io_timeout > 0 ? o->io_timeout : 30;
-    s->t0 = now_ms();
+    s->t0 = (1e3 * mts_clock_seconds());
     s->c = c;
     s->st = st;
     s->max_tries = o->max_tries ? o->max_tries : 8;
@@ -486,13 +480,13 @@ int mts_session_poll(mts_session *s, int timeout_ms)
         stream_step(s, timeout_ms);
         break;
     case PH_WAIT: {
-        double left = s->retry_at - now_ms();
+        double left = s->retry_at - (1e3 * mts_clock_seconds());
         if (left > 0) {
             int wait = (int)left + 1;
             if (timeout_ms >= 0 && timeout_ms < wait)
                 wait = timeout_ms;
             poll(NULL, 0, wait);
-            if (now_ms() < s->retry_at)
+            if ((1e3 * mts_clock_seconds()) < s->retry_at)
                 break;
         }
         mts_result rc = mts_stream_client_reconnected(s->c, &s->err);

@@ -18,6 +18,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "clock.h"
 #include "crc32c.h"
 #include "stream.h"
 
@@ -65,13 +66,6 @@ typedef struct stress {
     uint32_t oldest;     /* no client before it is still to apply */
     uint32_t max_appliers;
 } stress;
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 const char *mts_stress_failure_name(mts_stress_failure f)
 {
@@ -226,7 +220,7 @@ static int sc_frame_light(stress *s, sclient *c, uint8_t type, const uint8_t *p,
             return 0;
         }
         c->got_base = 1;
-        c->ms_base = (float)((now_s() - c->t_start) * 1e3);
+        c->ms_base = (float)((mts_clock_seconds() - c->t_start) * 1e3);
         return 1;
     case MTS_MSG_BATCH:
         if (!c->got_base) {
@@ -287,7 +281,7 @@ static int sc_frame_apply(stress *s, sclient *c, uint8_t type, const uint8_t *p,
     }
     switch (ev) {
     case MTS_EV_BASE:
-        c->ms_base = (float)((now_s() - c->t_start) * 1e3);
+        c->ms_base = (float)((mts_clock_seconds() - c->t_start) * 1e3);
         break;
     case MTS_EV_BATCH:
         s->rep->batches++;
@@ -339,7 +333,7 @@ static void sc_read_http(stress *s, sclient *c, const uint8_t *p, size_t n)
         free(c->http_head);
         c->http_head = NULL;
         c->got_base = 1;
-        c->ms_base = (float)((now_s() - c->t_start) * 1e3);
+        c->ms_base = (float)((mts_clock_seconds() - c->t_start) * 1e3);
         return;
     }
     c->http_body += n;
@@ -397,7 +391,7 @@ static int sc_skim(stress *s, sclient *c, const uint8_t *p, size_t n)
             if (!ok)
                 return 0;
             if (done) {
-                sc_succeed(s, c, now_s());
+                sc_succeed(s, c, mts_clock_seconds());
                 return 0;
             }
         }
@@ -429,10 +423,10 @@ static int sc_apply(stress *s, sclient *c, double deadline)
         if (done) {
             /* the clock again, not the round's: a round of many applying
              * clients can take long enough to blur the percentiles */
-            sc_succeed(s, c, now_s());
+            sc_succeed(s, c, mts_clock_seconds());
             return 0;
         }
-        if (now_s() >= deadline)
+        if (mts_clock_seconds() >= deadline)
             return 2;
     }
     if (next < 0) {
@@ -455,7 +449,7 @@ static int apply_round(stress *s, uint32_t started, double budget)
 {
     while (s->oldest < started && s->c[s->oldest].state == SC_DONE)
         s->oldest++;
-    double deadline = now_s() + budget;
+    double deadline = mts_clock_seconds() + budget;
     uint32_t busy = 0;
     int left = 0;
     for (uint32_t i = s->oldest; i < started && busy < s->max_appliers; i++) {
@@ -465,12 +459,12 @@ static int apply_round(stress *s, uint32_t started, double budget)
         busy++;
         if (c->reader.bytes_in == 0 && !c->eof)
             continue;
-        double share = (deadline - now_s()) / (double)(s->max_appliers - busy + 1);
+        double share = (deadline - mts_clock_seconds()) / (double)(s->max_appliers - busy + 1);
         if (share <= 0)
             return 1;
         /* an ended client makes room for a waiting one, which may have
          * all its bytes already */
-        int r = sc_apply(s, c, now_s() + share);
+        int r = sc_apply(s, c, mts_clock_seconds() + share);
         left |= r != 1;
     }
     return left;
@@ -482,7 +476,7 @@ static void sc_read(stress *s, sclient *c, double now)
     for (int round = 0; round < 4; round++) {
         ssize_t got = recv(c->fd, s->chunk, 1 << 16, MSG_DONTWAIT);
         if (got == 0 && s->o->http_path && !c->http_head && c->http_body == c->http_length) {
-            sc_succeed(s, c, now_s());
+            sc_succeed(s, c, mts_clock_seconds());
             return;
         }
         if (got == 0 && !s->o->no_apply && !s->o->http_path) {
@@ -535,7 +529,7 @@ static void sc_read(stress *s, sclient *c, double now)
                 if (!sc_frame_light(s, c, type, p, n, &done))
                     return; /* failed and released */
                 if (done) {
-                    sc_succeed(s, c, now_s());
+                    sc_succeed(s, c, mts_clock_seconds());
                     return;
                 }
             }
@@ -602,7 +596,7 @@ typedef struct shard {
 static void shard_publish(shard *h, int finished)
 {
     pthread_mutex_lock(&h->lock);
-    h->rep.seconds = now_s() - h->t0;
+    h->rep.seconds = mts_clock_seconds() - h->t0;
     h->snap = h->rep;
     h->finished = finished;
     pthread_mutex_unlock(&h->lock);
@@ -622,7 +616,7 @@ static void *shard_main(void *arg)
     int pending = 0; /* apply_round left decoding to do */
     while (rep->succeeded + rep->failed < n &&
            !atomic_load_explicit(h->stop, memory_order_relaxed)) {
-        double now = now_s();
+        double now = mts_clock_seconds();
         /* start whoever is due and fits under the concurrency limit; the
          * ramp spaces all the threads' clients as one */
         while (next < n && sp->connected < conc &&
@@ -645,7 +639,7 @@ static void *shard_main(void *arg)
             h->rc = mts_error_set(&h->err, MTS_ERR_IO, "epoll_wait: %s", strerror(errno));
             break;
         }
-        now = now_s();
+        now = mts_clock_seconds();
         for (int i = 0; i < got; i++) {
             sclient *c = events[i].data.ptr;
             if (c->state == SC_DONE)
@@ -657,7 +651,7 @@ static void *shard_main(void *arg)
         }
         if (!o->no_apply && !o->http_path)
             pending = apply_round(sp, next, 0.02);
-        now = now_s();
+        now = mts_clock_seconds();
         if (now - last_scan >= 0.1) {
             check_timeouts(sp, next, now);
             last_scan = now;
@@ -757,7 +751,7 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
         rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
         goto done;
     }
-    const double t0 = now_s();
+    const double t0 = mts_clock_seconds();
     for (uint32_t k = 0; k < T; k++, made++) {
         shard *h = &hs[k];
         stress *sp = &h->s;
@@ -818,9 +812,9 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
         }
         if (finished == running || broken)
             break;
-        if (o->on_progress && now_s() - last_report >= interval) {
+        if (o->on_progress && mts_clock_seconds() - last_report >= interval) {
             o->on_progress(o->user, &now_rep);
-            last_report = now_s();
+            last_report = mts_clock_seconds();
         }
         struct timespec d = {0, 10 * 1000 * 1000};
         nanosleep(&d, NULL);

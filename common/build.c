@@ -5,14 +5,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "clock.h"
 #include "simplify.h"
-
-static double seconds_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 typedef struct survivor {
     float p[3];
@@ -82,14 +76,14 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
     uint32_t *base_ids = NULL;
     mts_result rc;
 
-    double t0 = seconds_now();
+    double t0 = mts_clock_seconds();
     mts_progress_report(&opts->progress, "stripify", 0);
     rc = mts_stripify(mesh->triangles, mesh->triangle_count, mesh->vertex_count, &strips,
                       &report->stripify, err);
     if (rc != MTS_OK)
         goto done;
     mts_progress_report(&opts->progress, "stripify", 1);
-    double t05 = seconds_now();
+    double t05 = mts_clock_seconds();
 
     /* Tunnelling on the greedy strips (and their order for the vertex
      * cache); the rest of the pipeline takes whatever strips come out. */
@@ -117,7 +111,7 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
             mts_strip_stats_draw_indices(&st);
         report->tunnel.triangles = (uint32_t)st.triangles;
     }
-    double t1 = seconds_now();
+    double t1 = mts_clock_seconds();
 
     mts_simplify_options so = {0};
     so.base_vertices = opts->base_vertices;
@@ -126,7 +120,7 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
                       &so, &simp, err);
     if (rc != MTS_OK)
         goto done;
-    double t15 = seconds_now();
+    double t15 = mts_clock_seconds();
     if (!(base_ids = base_ids_by_position(mesh, &simp))) {
         rc = mts_error_set(err, MTS_ERR_NOMEM, "build: out of memory");
         goto done;
@@ -138,7 +132,7 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
                                simp.collapses, simp.collapse_count, &ro, &report->reorder, err);
     if (rc != MTS_OK)
         goto done;
-    double t2 = seconds_now();
+    double t2 = mts_clock_seconds();
     report->seconds_reorder = t2 - t15;
 
     mts_lodbuild_options lo = {0};
@@ -159,7 +153,7 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
         mts_model_free(model);
         goto done;
     }
-    double t3 = seconds_now();
+    double t3 = mts_clock_seconds();
     if (source)
         snprintf(model->source, sizeof model->source, "%s", source);
 

@@ -1353,12 +1353,6 @@ static int substitute_only(mts_grow *g, uint32_t s, uint32_t u, uint32_t v, uint
     return 1;
 }
 
-static int cmp_u32(const void *a, const void *c)
-{
-    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)c;
-    return x < y ? -1 : x > y;
-}
-
 /* The record of the split to level g->level (u the parent, v the new
  * vertex): one edit per touched slot, in slot order. */
 static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
@@ -1374,7 +1368,7 @@ static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
         for (uint32_t k = 0; k < g->slot_count; k++)
             g->touched[k] = k;
     } else if (g->touched_count > 64) {
-        qsort(g->touched, g->touched_count, 4, cmp_u32);
+        qsort(g->touched, g->touched_count, 4, mts_words_cmp);
     } else {
         for (uint32_t i = 1; i < g->touched_count; i++) {
             uint32_t x = g->touched[i], j = i;

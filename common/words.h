@@ -28,4 +28,11 @@ static inline int mts_words_reserve(mts_words *v, size_t extra)
     return 1;
 }
 
+/* qsort's comparison of two uint32_t, ascending. */
+static inline int mts_words_cmp(const void *a, const void *b)
+{
+    const uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
+}
+
 #endif

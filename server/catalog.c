@@ -12,9 +12,10 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "clock.h"
+#include "fileio.h"
 #include "mesh.h"
 #include "modelfile.h"
-#include "fileio.h"
 
 struct mts_catalog {
     mts_catalog_options opts;
@@ -130,13 +131,6 @@ static int is_mesh_ext(const char *ext)
 {
     return ext && (mts_ascii_ieq(ext, "off") || mts_ascii_ieq(ext, "obj") || mts_ascii_ieq(ext, "ply") ||
                    mts_ascii_ieq(ext, "stl"));
-}
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
 static uint64_t fnv1a64(const char *s)
@@ -528,7 +522,7 @@ static mts_result add_mesh_file(mts_catalog *cat, const char *name, const char *
 
     named_progress np;
     mts_progress p = named(cat, &np, name);
-    double t0 = now_seconds();
+    double t0 = mts_clock_seconds();
     mts_progress_report(&p, "load", 0);
     if ((r = mts_mesh_load(path, NULL, &mesh, NULL, err)) != MTS_OK)
         goto done;
@@ -537,7 +531,7 @@ static mts_result add_mesh_file(mts_catalog *cat, const char *name, const char *
         mts_error_prefix(err, "%s", path);
         goto done;
     }
-    double t1 = now_seconds();
+    double t1 = mts_clock_seconds();
     e->origin = MTS_CATALOG_BUILT;
     const char *cached_note = "not cached";
     if (cache) {
@@ -587,10 +581,10 @@ static mts_result add_url(mts_catalog *cat, const char *name, const char *url,
     mts_fetch_result got = {0};
     mts_mesh mesh = {0};
     mts_catalog_entry *e = NULL;
-    double t0 = now_seconds();
+    double t0 = mts_clock_seconds();
     if ((r = mts_fetch_url(url, &fo, &got, err)) != MTS_OK)
         goto done;
-    double t1 = now_seconds();
+    double t1 = mts_clock_seconds();
     e = entry_new(name, shown);
     if (!e) {
         r = mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
@@ -609,7 +603,7 @@ static mts_result add_url(mts_catalog *cat, const char *name, const char *url,
         mts_error_prefix(err, "%s", shown);
         goto done;
     }
-    double t2 = now_seconds();
+    double t2 = mts_clock_seconds();
     e->origin = MTS_CATALOG_BUILT;
     uint32_t n = e->model.level_count;
     report_to(rep, MTS_CATALOG_ADDED, shown,

@@ -153,8 +153,7 @@ static void *prepare_main(void *arg)
         mts_stream_options sto = {0};
         sto.cancel = &stop_requested; /* the records form follows, once this is served */
         mts_error err = {0};
-        struct timespec t0, t1;
-        clock_gettime(CLOCK_MONOTONIC, &t0);
+        const double t0 = cli_now();
         int ok = mts_stream_build(&e->model, e->name, &sto, &p->streams[i], &err) == MTS_OK;
         if (!ok) {
             if (!stop_requested)
@@ -164,13 +163,13 @@ static void *prepare_main(void *arg)
         } else {
             mts_stream *st = &p->streams[i];
             mts_server_model_publish(&p->models[i], st);
-            clock_gettime(CLOCK_MONOTONIC, &t1);
+            const double t1 = cli_now();
             if (!p->quiet)
                 fprintf(stderr,
                         "mts-server: serving %s: %u vertices, %u levels, %zu stream bytes, "
                         "encoded in %.2f s\n",
                         e->name, e->model.vertex_count, e->model.level_count, st->size,
-                        (double)(t1.tv_sec - t0.tv_sec) + (t1.tv_nsec - t0.tv_nsec) * 1e-9);
+                        t1 - t0);
             if (!p->no_records && !stop_requested) {
                 if (mts_stream_add_records_form(st, &err) != MTS_OK) {
                     fprintf(stderr, "mts-server: %s: no records form (%s); splits form only\n",

@@ -18,6 +18,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "clock.h"
 #include "wire.h"
 
 /* A client's first frame is a HELLO or LIST: small, so it fits here. */
@@ -25,6 +26,9 @@
 
 /* WAITING: a HELLO for a model whose stream is still being encoded */
 typedef enum phase { READING = 0, WAITING, WRITING } phase;
+
+/* How a conversation ends, as the stats count it (the log says more). */
+typedef enum conn_end { CONN_OPEN = 0, CONN_SERVED, CONN_REFUSED } conn_end;
 
 typedef struct conn {
     int fd;
@@ -48,7 +52,10 @@ typedef struct conn {
     double linger_until;        /* > 0: a refusal is sent and our side shut; wait for the
                                    peer's close so it reads the ERROR instead of a reset */
     uint32_t events;            /* what epoll watches now */
-    const char *outcome;        /* set when the conversation has an end in sight */
+    /* set when the conversation has an end in sight: whether it counts as
+     * served, and the log's words for it */
+    conn_end end;
+    const char *outcome;
     char peer[64];
     char model[MTS_WIRE_MAX_NAME + 1];
     struct conn *prev, *next;
@@ -72,13 +79,6 @@ struct mts_server {
     uint64_t stats_bytes_at; /* bytes_out at the last stats line */
     mts_server_stats stats;
 };
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 static void logf_(mts_server *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void logf_(mts_server *s, const char *fmt, ...)
@@ -169,7 +169,7 @@ mts_result mts_server_create_models(const mts_server_options *opts, mts_server_m
         s->opts.prepare_wait = 60;
     s->models = models;
     s->model_count = model_count;
-    s->next_stats = now_s() + s->opts.stats_interval;
+    s->next_stats = mts_clock_seconds() + s->opts.stats_interval;
     s->listen_fd = s->epoll_fd = -1;
     mts_result rc = open_listener(s, s->opts.listen, err);
     if (rc != MTS_OK) {
@@ -278,11 +278,13 @@ static void paced_remove(mts_server *s, conn *c)
     s->paced_count--;
 }
 
-static void conn_close(mts_server *s, conn *c, const char *outcome)
+/* Closes c: with `failure`, it failed so (a reset, a timeout, the server
+ * stopping); else it ends as it was set to (served, refused, or closed
+ * before either). */
+static void conn_close(mts_server *s, conn *c, const char *failure)
 {
-    if (!outcome)
-        outcome = c->outcome ? c->outcome : "closed";
-    int ok = strcmp(outcome, "ok") == 0;
+    const int ok = !failure && c->end == CONN_SERVED;
+    const char *outcome = failure ? failure : c->outcome ? c->outcome : "closed";
     if (ok)
         s->stats.completed++;
     else
@@ -293,7 +295,7 @@ static void conn_close(mts_server *s, conn *c, const char *outcome)
         s->waiting--;
     logf_(s, "peer=%s model=%s bytes=%llu level=%u ms=%.1f outcome=%s", c->peer,
           c->model[0] ? c->model : "-", (unsigned long long)c->sent, c->stop_level,
-          (now_s() - c->started) * 1e3, outcome);
+          (mts_clock_seconds() - c->started) * 1e3, outcome);
     epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, c->fd, NULL);
     close(c->fd);
     c->fd = -1;
@@ -359,6 +361,7 @@ static void conn_refuse(conn *c, uint16_t code, const char *text, const char *ou
     c->info_size = 0;
     c->tail.size = 0;
     c->phase = WRITING;
+    c->end = CONN_REFUSED;
     c->outcome = outcome;
 }
 
@@ -390,6 +393,7 @@ static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, 
         }
         snprintf(c->model, sizeof c->model, "(list)");
         c->phase = WRITING;
+        c->end = CONN_SERVED;
         c->outcome = "ok";
         return;
     }
@@ -417,7 +421,7 @@ static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, 
     c->hello = h;
     c->phase = WAITING;
     s->waiting++;
-    conn_serve(s, c, now_s());
+    conn_serve(s, c, mts_clock_seconds());
 }
 
 /* Answers a HELLO whose model is ready, has failed, or has been waited for
@@ -473,6 +477,7 @@ static void conn_serve(mts_server *s, conn *c, double now)
         return;
     }
     c->phase = WRITING;
+    c->end = CONN_SERVED;
     c->outcome = "ok";
 }
 
@@ -532,7 +537,7 @@ static void conn_read(mts_server *s, conn *c)
             return;
         }
         c->in_len += (size_t)r;
-        c->last_progress = now_s();
+        c->last_progress = mts_clock_seconds();
         if (c->in_len < MTS_WIRE_HEADER)
             continue;
         uint32_t len = (uint32_t)c->in[0] | (uint32_t)c->in[1] << 8 | (uint32_t)c->in[2] << 16 |
@@ -578,12 +583,12 @@ static void conn_write(mts_server *s, conn *c)
         if (c->tail_off < c->tail.size)
             iov[n++] = (struct iovec){c->tail.data + c->tail_off, c->tail.size - c->tail_off};
         if (n == 0) {
-            if (c->outcome && strncmp(c->outcome, "error", 5) == 0 && !c->rd_closed) {
+            if (c->end == CONN_REFUSED && !c->rd_closed) {
                 /* Closing now, with client bytes still unread, would send a
                  * reset that can destroy the ERROR in flight: shut our side
                  * and let the client close first (briefly). */
                 shutdown(c->fd, SHUT_WR);
-                c->linger_until = now_s() + 1.0;
+                c->linger_until = mts_clock_seconds() + 1.0;
                 c->watching_out = 0;
                 update_events(s, c);
                 return;
@@ -592,7 +597,7 @@ static void conn_write(mts_server *s, conn *c)
             return;
         }
         if (s->opts.rate_limit > 0 && c->stream) {
-            double now = now_s();
+            double now = mts_clock_seconds();
             size_t allow = pace_allowance(s, c, now);
             if (allow == 0) {
                 /* over its rate: stop watching output until a useful
@@ -629,7 +634,7 @@ static void conn_write(mts_server *s, conn *c)
         size_t left = (size_t)w;
         c->sent += left;
         s->bytes_out += left;
-        c->last_progress = now_s();
+        c->last_progress = mts_clock_seconds();
         size_t k = c->head.size - c->head_off < left ? c->head.size - c->head_off : left;
         c->head_off += k;
         left -= k;
@@ -640,8 +645,7 @@ static void conn_write(mts_server *s, conn *c)
         c->body_off += k;
         left -= k;
         c->tail_off += left;
-        if (c->head_off == c->head.size && c->head.data && c->outcome &&
-            strcmp(c->outcome, "ok") == 0) {
+        if (c->head_off == c->head.size && c->head.data && c->end == CONN_SERVED) {
             /* sent: a long stream should not keep its head frame around */
             mts_buf_free(&c->head);
             c->head_off = 0;
@@ -660,7 +664,7 @@ static void accept_all(mts_server *s)
                 /* the pending connection stays queued and the listener stays
                  * readable: stop watching it for a moment instead of spinning */
                 epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, s->listen_fd, NULL);
-                s->listen_paused_until = now_s() + 0.1;
+                s->listen_paused_until = mts_clock_seconds() + 0.1;
                 logf_(s, "accept: %s; not accepting for 100 ms", strerror(errno));
             }
             return;
@@ -706,7 +710,7 @@ static void accept_all(mts_server *s)
             setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &s->opts.sndbuf, sizeof s->opts.sndbuf);
         c->fd = fd;
         c->events = EPOLLIN | EPOLLRDHUP;
-        c->started = c->last_progress = now_s();
+        c->started = c->last_progress = mts_clock_seconds();
         snprintf(c->peer, sizeof c->peer, "%s", peer);
         struct epoll_event ev = {.events = EPOLLIN | EPOLLRDHUP, .data.ptr = c};
         if (epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, fd, &ev) != 0) {
@@ -804,7 +808,7 @@ mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error 
     struct epoll_event events[1024];
     double stop_at = 0;
     for (;;) {
-        double now = now_s();
+        double now = mts_clock_seconds();
         if (s->listen_paused_until > 0 && now >= s->listen_paused_until && s->listen_fd >= 0) {
             struct epoll_event ev = {.events = EPOLLIN, .data.ptr = NULL};
             if (epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, s->listen_fd, &ev) == 0)
@@ -863,7 +867,7 @@ mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error 
             if ((events[i].events & EPOLLOUT) && c->fd >= 0)
                 conn_write(s, c);
         }
-        now = now_s();
+        now = mts_clock_seconds();
         if (s->paced_count)
             resume_paced(s, now);
         if (s->waiting)

@@ -1,4 +1,5 @@
 #include "cli.h"
+#include "clock.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -11,9 +12,7 @@
 
 double cli_now(void)
 {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+    return mts_clock_seconds();
 }
 
 void cli_bar_init(cli_bar *bar, int quiet)
