@@ -30,6 +30,17 @@ CXXFLAGS += -std=c++17 $(OPT) $(FP) -DNDEBUG -Wall -Werror -Wno-maybe-uninitiali
 # files; OpenMesh and meshoptimizer do not. --as-needed keeps each program linked
 # only to what it uses.
 PKGS     := draco egl glesv2 libpng libcurl x11
+# A missing development package is named, with the way to get it, before a
+# compiler error about a header could be. Goals that run `deps` first (and
+# `clean`) skip the check: their own sub-makes run it after deps.
+ifeq ($(filter deps clean test bench demo demo-serve fuzz,$(MAKECMDGOALS)),)
+MISSING_PKGS := $(shell command -v pkg-config >/dev/null || echo pkg-config; \
+                  for p in $(PKGS); do pkg-config --exists $$p 2>/dev/null || echo $$p; done; \
+                  [ -f /usr/include/OpenMesh/Core/Mesh/TriMeshT.hh ] || echo OpenMesh)
+ifneq ($(strip $(MISSING_PKGS)),)
+$(error missing: $(strip $(MISSING_PKGS)). Run `make deps` (scripts/deps.sh installs the Debian packages: libdraco-dev, libegl-dev libgles-dev, libpng-dev, libcurl4-openssl-dev, libx11-dev, libopenmesh-dev, pkg-config))
+endif
+endif
 PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
 CFLAGS   += $(filter-out -I/usr/include/draco%,$(PKG_CFLAGS))
