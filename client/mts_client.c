@@ -136,6 +136,21 @@ static int draw(run *rn, mts_stream_client *c)
     return 1;
 }
 
+/* What went to GL (the whole run) beside what the last frame drew from: the
+ * vertices and the index buffer of the draw path (the packed one by
+ * default), so a run's uploads read as a multiple of its final buffers. */
+static void json_uploads(cli_json *j, const mts_renderer *r)
+{
+    if (!r)
+        return;
+    mts_render_stats rs;
+    mts_render_get_stats(r, &rs);
+    cli_json_u64(j, "gl_upload_bytes", rs.vertex_bytes_uploaded + rs.index_bytes_uploaded);
+    cli_json_u64(j, "gl_final_bytes",
+                 (uint64_t)rs.vertices * 24u +
+                     (rs.packed_bytes ? rs.packed_bytes : rs.last_draw_index_bytes));
+}
+
 static int write_png(run *rn, const char *path)
 {
     if (mts_render_write_png(rn->r, path, &rn->err) != MTS_OK)
@@ -855,6 +870,7 @@ static int win_main(run *rn, mts_session_options *so, const char *script_path, i
         cli_json_num(&j, "ms_final", st.ms_final, 3);
         cli_json_num(&j, "ms_apply", st.ms_apply, 3);
         cli_json_num(&j, "ms_render", rn->ms_render, 3);
+        json_uploads(&j, rn->r);
         cli_json_u64(&j, "frames", wn.frames);
         /* while the stream came (the loop's start to its end): frames/s then */
         cli_json_u64(&j, "frames_streaming", wn.frames_streaming);
@@ -1167,6 +1183,7 @@ int main(int argc, char **argv)
         cli_json_num(&j, "ms_final", st.ms_final, 3);
         cli_json_num(&j, "ms_apply", st.ms_apply, 3);
         cli_json_num(&j, "ms_render", rn.ms_render, 3);
+        json_uploads(&j, rn.r);
         if (verified >= 0)
             cli_json_bool(&j, "verified", verified);
         if (rc != MTS_OK)

@@ -339,6 +339,9 @@ struct mts_renderer {
     uint64_t packed_cap;       /* entries packed can hold */
     uint64_t packed_count;     /* entries in packed_ibo */
     int packed_kind;           /* the mode packed_ibo was built for; -1: stale */
+    /* the slot buffer (ibo) lags the host copy: the packed modes never read
+     * it, so it is filled only when a mode that does draws (upload_slots) */
+    int slots_stale;
     int packed_u16;            /* GL_UNSIGNED_SHORT (every vertex id below 0xFFFF) */
     GLsizei *multi_count;
     const void **multi_offset;
@@ -743,10 +746,7 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
     r->length = calloc(n, sizeof *r->length);
     r->multi_count = malloc(n * sizeof *r->multi_count);
     r->multi_offset = malloc(n * sizeof *r->multi_offset);
-    uint32_t *all = malloc((size_t)(index_count ? index_count : 1) * sizeof *all);
-    if (!r->offset || !r->capacity || !r->length || !r->multi_count || !r->multi_offset ||
-        !all) {
-        free(all);
+    if (!r->offset || !r->capacity || !r->length || !r->multi_count || !r->multi_offset) {
         mts_renderer_destroy(r);
         return mts_error_set(err, MTS_ERR_NOMEM, "render: %llu indices",
                              (unsigned long long)index_count);
@@ -765,7 +765,6 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
     /* 16-bit indices where every vertex id (and the restart 0xFFFF) fits */
     r->packed_u16 = layout->vertex_capacity <= 0xFFFFu;
     if (!r->staging || !r->host) {
-        free(all);
         mts_renderer_destroy(r);
         return mts_error_set(err, MTS_ERR_NOMEM, "render: staging for %u indices",
                              r->max_capacity);
@@ -788,13 +787,10 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
                           (const void *)(uintptr_t)((uint64_t)r->vertex_capacity * 12u));
     /* the element buffer binding is VAO state */
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
-    for (uint64_t i = 0; i < index_count; i++)
-        all[i] = MTS_RENDER_RESTART_INDEX;
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(index_count * 4u),
-                 index_count ? all : NULL, GL_DYNAMIC_DRAW);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(index_count ? index_count * 4u : 4u), NULL,
+                 GL_DYNAMIC_DRAW);
+    r->slots_stale = 1; /* all restarts, once a slot-reading mode draws */
     glBindVertexArray(0);
-    free(all);
-    all = NULL;
     rc = gl_check(err, "creating the buffers");
     if (rc != MTS_OK)
         goto fail;
@@ -844,7 +840,6 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
     *out = r;
     return MTS_OK;
 fail:
-    free(all);
     mts_renderer_destroy(r);
     return rc;
 }
@@ -912,13 +907,51 @@ static mts_result check_strip(const mts_renderer *r, uint32_t s, const uint32_t 
     return MTS_OK;
 }
 
-/* Uploads strip s (checked) over max(old, new) entries; the index buffer is bound. */
+/* Whether the draw path reads the packed buffer, not the slot buffer. */
+static int draws_packed(const mts_renderer *r)
+{
+    const mts_render_style *st = &r->opts.style;
+    return !st->color_by_strip &&
+           (st->draw_mode == MTS_RENDER_DRAW_COMPACT || st->draw_mode == MTS_RENDER_DRAW_JOINED);
+}
+
+/* Fills the whole slot buffer from the host copy (each strip, then restarts
+ * to its slot's end), for a mode that reads it after packed draws left it
+ * behind. The index buffer is bound. Returns the bytes, 0 when out of
+ * memory. */
+static uint64_t upload_slots(mts_renderer *r)
+{
+    uint32_t *all = malloc((size_t)(r->index_count ? r->index_count : 1) * sizeof *all);
+    if (!all)
+        return 0;
+    for (uint64_t i = 0; i < r->index_count; i++)
+        all[i] = MTS_RENDER_RESTART_INDEX;
+    for (uint32_t s = 0; s < r->strip_count; s++)
+        memcpy(all + r->offset[s], r->host + r->offset[s], (size_t)r->length[s] * sizeof *all);
+    glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)(r->index_count * 4u), all);
+    free(all);
+    r->slots_stale = 0;
+    r->stats.full_uploads++;
+    r->stats.index_bytes_uploaded += r->index_count * 4u;
+    return r->index_count * 4u;
+}
+
+/* Strip s (checked) into the host copy and, unless the packed buffer is
+ * what draws (then the slot buffer catches up when a mode reads it), into
+ * the slot buffer over max(old, new) entries; the index buffer is bound. */
 static uint64_t put_strip(mts_renderer *r, uint32_t s, const uint32_t *idx, uint32_t len)
 {
     uint32_t old = r->length[s];
     uint32_t n = len > old ? len : old;
     if (n == 0)
         return 0;
+    if (r->slots_stale || draws_packed(r)) {
+        memcpy(r->host + r->offset[s], idx, (size_t)len * sizeof *idx);
+        r->packed_kind = -1;
+        r->length[s] = len;
+        r->slots_stale = 1;
+        return 0;
+    }
     memcpy(r->staging, idx, (size_t)len * sizeof *idx);
     for (uint32_t i = len; i < n; i++)
         r->staging[i] = MTS_RENDER_RESTART_INDEX;
@@ -927,6 +960,7 @@ static uint64_t put_strip(mts_renderer *r, uint32_t s, const uint32_t *idx, uint
     glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, (GLintptr)((uint64_t)r->offset[s] * 4u),
                     (GLsizeiptr)((uint64_t)n * 4u), r->staging);
     r->length[s] = len;
+    r->stats.strip_uploads++;
     return (uint64_t)n * 4u;
 }
 
@@ -950,7 +984,6 @@ mts_result mts_render_set_strip(mts_renderer *r, uint32_t s, const uint32_t *ind
     r->stats.last_update_strips = 1;
     r->stats.last_update_bytes = bytes;
     r->stats.last_update_full = 0;
-    r->stats.strip_uploads++;
     r->stats.index_bytes_uploaded += bytes;
     return MTS_OK;
 }
@@ -1019,7 +1052,9 @@ mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_err
         return rc;
     glBindVertexArray(r->vao);
     uint64_t bytes = 0;
-    int full = (uint64_t)count * 2u > r->strip_count;
+    /* drawing the slot buffer: many strips, or a buffer left behind by
+     * packed draws, go up whole; the packed path leaves it behind */
+    int full = ((uint64_t)count * 2u > r->strip_count || r->slots_stale) && !draws_packed(r);
     if (full) {
         /* one upload of the whole buffer beats thousands of small ones */
         uint32_t *all = malloc((size_t)r->index_count * sizeof *all);
@@ -1041,6 +1076,7 @@ mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_err
         glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, all);
         memcpy(r->host, all, (size_t)r->index_count * sizeof *all);
         r->packed_kind = -1;
+        r->slots_stale = 0;
         free(all);
     } else {
         for (uint32_t i = 0; i < count; i++) {
@@ -1058,8 +1094,6 @@ mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_err
     r->stats.last_update_full = full;
     if (full)
         r->stats.full_uploads++;
-    else
-        r->stats.strip_uploads += count;
     r->stats.index_bytes_uploaded += bytes;
     return MTS_OK;
 }
@@ -1173,6 +1207,9 @@ static mts_result build_packed(mts_renderer *r, int kind, mts_error *err)
                  n ? r->packed : NULL, GL_DYNAMIC_DRAW);
     r->packed_count = n;
     r->packed_kind = kind;
+    r->stats.packed_builds++;
+    r->stats.packed_bytes = n * esize;
+    r->stats.index_bytes_uploaded += n * esize;
     return MTS_OK;
 }
 
@@ -1223,8 +1260,13 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
 
     uint32_t calls = 0;
     uint64_t indices = 0, index_bytes = 0;
-    int packed_mode = !st->color_by_strip && (st->draw_mode == MTS_RENDER_DRAW_COMPACT ||
-                                              st->draw_mode == MTS_RENDER_DRAW_JOINED);
+    int packed_mode = draws_packed(r);
+    if (!packed_mode && st->draw_mode != MTS_RENDER_DRAW_LIST && r->slots_stale &&
+        !upload_slots(r)) {
+        glBindVertexArray(0);
+        return mts_error_set(err, MTS_ERR_NOMEM, "render: %llu indices",
+                             (unsigned long long)r->index_count);
+    }
     if (packed_mode) {
         /* the element binding is VAO state: swap the packed buffer in and back */
         if (r->packed_kind != (int)st->draw_mode) {
@@ -1483,4 +1525,5 @@ void mts_render_reset_counters(mts_renderer *r)
     r->stats.index_bytes_uploaded = 0;
     r->stats.strip_uploads = 0;
     r->stats.full_uploads = 0;
+    r->stats.packed_builds = 0;
 }

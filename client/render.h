@@ -30,11 +30,16 @@
  *     run of restarts draws nothing: each one only ends the current
  *     primitive). In RESTART mode one glDrawElements(GL_TRIANGLE_STRIP) with
  *     GL_PRIMITIVE_RESTART_FIXED_INDEX draws the whole model.
- *   - mts_render_update_strips re-uploads only the strips the runtime lists as
- *     changed, one glBufferSubData per strip covering max(old, new) length,
- *     or the whole buffer in one call when more than half the strips changed
- *     (the first upload after mts_lod_init, which marks every strip changed).
- *     The caller clears the runtime's changed list afterwards.
+ *   - mts_render_update_strips keeps a host copy of the slots and, when the
+ *     draw mode reads the slot buffer, re-uploads only the strips the runtime
+ *     lists as changed, one glBufferSubData per strip covering max(old, new)
+ *     length, or the whole buffer in one call when more than half the strips
+ *     changed (the first upload after mts_lod_init, which marks every strip
+ *     changed). The packed modes (JOINED, the default, and COMPACT) never
+ *     read the slot buffer: it is left behind, and filled once when a mode
+ *     that reads it draws; what they draw goes up once a frame, at the first
+ *     draw after a change (mts_render_stats counts every byte). The caller
+ *     clears the runtime's changed list afterwards.
  *
  * Draw modes: RESTART (one call over the slot buffer) and two that draw strip
  * by strip with their current lengths and no restarts: PER_STRIP (a
@@ -222,12 +227,13 @@ uint32_t mts_render_vertex_count(const mts_renderer *r);
 
 /* Sets strip s to the given indices (length <= its capacity; every index below
  * the vertices uploaded, else MTS_ERR_RANGE and nothing changes). One
- * glBufferSubData of max(old, new) length. The building block of
+ * glBufferSubData of max(old, new) length when the draw mode reads the slot
+ * buffer (else the host copy only; see the top). The building block of
  * mts_render_update_strips, for callers without a runtime. */
 mts_result mts_render_set_strip(mts_renderer *r, uint32_t s, const uint32_t *indices,
                                 uint32_t length, mts_error *err);
 
-/* Uploads the strips lod lists as changed (see the top of this file), after
+/* Takes the strips lod lists as changed (see the top of this file), after
  * moving the slots lod has laid out anew (lod->relayout_from) within the
  * layout's room. Checks
  * first that lod has the layout's strip count, every changed strip fits its
@@ -286,6 +292,9 @@ typedef struct mts_render_stats {
     uint64_t index_bytes_uploaded;
     uint64_t strip_uploads;   /* strips uploaded one by one */
     uint64_t full_uploads;    /* whole index buffer uploads */
+    uint64_t packed_builds;   /* COMPACT / JOINED buffers rebuilt (their bytes are in
+                               * index_bytes_uploaded too) */
+    uint64_t packed_bytes;    /* the packed buffer now */
     /* the last mts_render_update_strips */
     uint32_t last_update_strips; /* strips it covered (all of them for a full upload) */
     uint64_t last_update_bytes;

@@ -221,7 +221,10 @@ static void test_cow_levels(mts_test *t)
         goto done;
     mts_render_stats st;
     mts_render_get_stats(r, &st);
-    CHECK(t, st.full_uploads == 1 && st.last_update_full);
+    /* the default draws the packed buffer, built at the first frame: until
+     * then no index went to GL, and the slot buffer waits for a mode that
+     * reads it */
+    CHECK(t, st.full_uploads == 0 && st.index_bytes_uploaded == 0 && st.packed_builds == 0);
     /* every slot's capacity (the longest it is at any level) and a separator */
     CHECK(t, st.index_buffer_bytes == 4ull * (lod.slot[g_cow.strip_count] + g_cow.strip_count));
 
@@ -481,8 +484,9 @@ done:
     mts_lod_free(&lod);
 }
 
-/* A small move re-uploads exactly the strips the runtime lists, each over
- * max(old, new) indices, and the picture equals a fresh upload's. */
+/* Drawing the slot buffer (RESTART), a small move re-uploads exactly the
+ * strips the runtime lists, each over max(old, new) indices, and the picture
+ * equals a fresh upload's. */
 static void test_small_move_uploads_changed_strips(mts_test *t)
 {
     NEED_CONTEXT(t);
@@ -494,6 +498,7 @@ static void test_small_move_uploads_changed_strips(mts_test *t)
     CHECK(t, mts_lod_set_level(&lod, mid, &err) == MTS_OK);
     mts_render_options o;
     options(&o);
+    o.style.draw_mode = MTS_RENDER_DRAW_RESTART;
     mts_renderer *r = renderer_for(t, &lod, &o), *fresh = NULL;
     uint32_t *old_len = malloc(((size_t)g_cow.strip_count + 1) * sizeof *old_len);
     frame *f = calloc(2, sizeof *f);
@@ -550,6 +555,68 @@ done:
     mts_renderer_destroy(fresh);
     mts_lod_free(&lod);
     mts_lod_free(&fresh_lod);
+}
+
+/* The default (packed) path uploads to GL only what a frame draws from: a
+ * move between frames rebuilds the packed buffer once at the next frame and
+ * sends nothing to the slot buffer; a mode that reads the slot buffer brings
+ * it up to date once, and draws what the packed buffer drew. */
+static void test_packed_path_uploads(mts_test *t)
+{
+    NEED_CONTEXT(t);
+    mts_error err = {0};
+    mts_lod lod;
+    CHECK(t, mts_lod_init(&lod, &g_cow, MTS_LOD_AT_BASE, &err) == MTS_OK);
+    mts_render_options o;
+    options(&o);
+    mts_renderer *r = renderer_for(t, &lod, &o);
+    frame *f = calloc(2, sizeof *f);
+    if (!r || !f || t->case_failed)
+        goto done;
+    mts_render_stats st;
+    const uint32_t mid = g_cow.level_count / 2;
+    for (uint32_t target = mid; target <= mid + 40; target += 20) {
+        mts_render_reset_counters(r);
+        CHECK(t, mts_lod_set_level(&lod, target, &err) == MTS_OK);
+        for (int k = 0; k < 2; k++) { /* two updates before the frame: one rebuild */
+            CHECKF(t, mts_render_update_strips(r, &lod, &err) == MTS_OK, "%s", err.msg);
+            mts_lod_clear_changed(&lod);
+        }
+        mts_render_get_stats(r, &st);
+        CHECK(t, st.index_bytes_uploaded == 0 && st.strip_uploads == 0 && st.full_uploads == 0);
+        if (!draw_and_read(t, r, &f[0], NULL))
+            goto done;
+        mts_render_get_stats(r, &st);
+        CHECKF(t, st.packed_builds == 1 && st.index_bytes_uploaded == st.packed_bytes &&
+                      st.packed_bytes == st.last_draw_index_bytes,
+               "%llu builds, %llu bytes uploaded, packed %llu", (unsigned long long)st.packed_builds,
+               (unsigned long long)st.index_bytes_uploaded, (unsigned long long)st.packed_bytes);
+        /* a frame with nothing changed uploads nothing */
+        mts_render_reset_counters(r);
+        if (!draw_and_read(t, r, &f[0], NULL))
+            goto done;
+        mts_render_get_stats(r, &st);
+        CHECK(t, st.index_bytes_uploaded == 0 && st.packed_builds == 0);
+    }
+    /* the slot buffer, read at last: filled once, the same picture */
+    mts_render_reset_counters(r);
+    mts_render_style rs = o.style;
+    rs.draw_mode = MTS_RENDER_DRAW_RESTART;
+    mts_render_set_style(r, &rs);
+    if (!draw_and_read(t, r, &f[1], NULL))
+        goto done;
+    mts_render_get_stats(r, &st);
+    CHECK(t, st.full_uploads == 1 && st.index_bytes_uploaded == st.index_buffer_bytes);
+    CHECK(t, pixels_differing(&f[0], &f[1], 0) == 0);
+    mts_render_reset_counters(r);
+    if (!draw_and_read(t, r, &f[1], NULL))
+        goto done;
+    mts_render_get_stats(r, &st);
+    CHECK(t, st.index_bytes_uploaded == 0);
+done:
+    free(f);
+    mts_renderer_destroy(r);
+    mts_lod_free(&lod);
 }
 
 /* Strip by strip (glDrawElements each, glMultiDrawElementsEXT) draws what one
@@ -955,6 +1022,7 @@ int main(void)
     RUN(&t, test_flat_shading);
     RUN(&t, test_restart_runs_draw_nothing);
     RUN(&t, test_small_move_uploads_changed_strips);
+    RUN(&t, test_packed_path_uploads);
     RUN(&t, test_draw_modes);
     RUN(&t, test_all_modes_same_picture);
     RUN(&t, test_slots_announced_later);
