@@ -52,28 +52,18 @@
 
 #define NONE MTS__NONE
 
-/* Knobs fixed by measurement; a struct so that a benchmark can compare. */
-struct stripify_opts {
-    int stripe_turns; /* 1: prefer the neighbour with fewer free neighbours */
-    int backward;     /* also grow each path backwards from its seed (measured:
-                       * no gain once tunnelling runs, so off) */
-    int depth;        /* tunnel search depth (link/cut steps), -1: no tunnelling */
-    int bound;        /* cost increase a partial tunnel may carry */
-    int cut_depth;    /* search depth from the two ends of a cut swap */
-    int passes;       /* most tunnelling passes (the first over all triangles,
-                       * the others near the last pass's changes) */
-    uint32_t max_path; /* most triangles in one strip, >= 1 */
-};
-
-enum { TUNNEL_MAX_DEPTH = 8 };
-_Static_assert((int)TUNNEL_MAX_DEPTH <= (int)MTS__LINKS_MAX_DEPTH, "the undo log must hold a search");
-
-static const struct stripify_opts default_opts = {1, 0, 4, 2, 4, 16, MTS_STRIPIFY_MAX_STRIP};
+/* Fixed by measurement (docs/strips.md, "The stripifier"): the tunnel
+ * search's depth (link/cut steps), the cost increase a partial tunnel may
+ * carry, the depth searched from the two ends of a cut swap, and the most
+ * passes (the first over all triangles, the others near the last pass's
+ * changes). Paths grow forwards from their seed only: growing them
+ * backwards too gained nothing once tunnelling runs. */
+enum { TUNNEL_DEPTH = 4, TUNNEL_BOUND = 2, TUNNEL_CUT_DEPTH = 4, TUNNEL_PASSES = 16 };
+_Static_assert((int)TUNNEL_DEPTH <= (int)MTS__LINKS_MAX_DEPTH, "the undo log must hold a search");
 
 typedef struct ctx {
     const uint32_t *tri;
     uint32_t n;
-    struct stripify_opts opts;
     uint32_t *nb;         /* 3n: neighbour across edge (v_i, v_i+1), NONE at a border */
     uint8_t *used;        /* already in a path */
     uint8_t *deg;         /* number of unused neighbours */
@@ -157,14 +147,12 @@ static uint32_t grow(ctx *c, uint32_t t, unsigned lq, unsigned lr, uint32_t *out
             take_swap = 1;
         else if (!sa)
             take_swap = 0;
-        else if (c->opts.stripe_turns)
+        else
             /* Go where fewer free neighbours remain, so that the other one is
              * not left stranded; the swap only when strictly better. Against
              * "always free first" this halves the strips for twice the swaps,
-             * a net gain (test file). */
+             * a net gain (docs/strips.md). */
             take_swap = free_degree(c, s, t) < free_degree(c, f, t);
-        else
-            take_swap = 0;
         uint32_t u = take_swap ? s : f;
         uint32_t va = c->tri[3 * (size_t)t + (take_swap ? lp : lq)];
         uint32_t vr = c->tri[3 * (size_t)t + lr];
@@ -326,7 +314,7 @@ static int start_swap(const mts__links *L, uint32_t a)
 
 static mts_result stripify_impl(const uint32_t *triangles, uint32_t triangle_count,
                                 uint32_t vertex_count, mts_strips *out, mts_stripify_stats *stats,
-                                const struct stripify_opts *opts, mts_error *err)
+                                mts_error *err)
 {
     mts_result rc = MTS_OK;
     ctx c = {0};
@@ -366,11 +354,6 @@ static mts_result stripify_impl(const uint32_t *triangles, uint32_t triangle_cou
     uint32_t n = triangle_count;
     c.tri = triangles;
     c.n = n;
-    c.opts = *opts;
-    if (c.opts.depth > TUNNEL_MAX_DEPTH)
-        c.opts.depth = TUNNEL_MAX_DEPTH;
-    if (c.opts.max_path < 1)
-        c.opts.max_path = 1;
     c.nb = malloc((size_t)n * 3 * sizeof *c.nb);
     c.used = calloc(n, 1);
     c.deg = malloc(n);
@@ -414,16 +397,9 @@ static mts_result stripify_impl(const uint32_t *triangles, uint32_t triangle_cou
             next_stamp(&c);
             c.mark[seed] = c.stamp;
             /* the strip starts (v_j, v_j+1, v_j+2) */
-            unsigned a = j, b = (j + 1) % 3, cc = (j + 2) % 3;
-            uint32_t nf = grow(&c, seed, b, cc, fwd, c.opts.max_path - 1);
-            /* Backwards: the strip read in reverse ends with the seed as
-             * (c b a), so it goes on from last vertex a after b. Parity is
-             * settled when the joined path is encoded from its far end. */
-            uint32_t nbk =
-                c.opts.backward ? grow(&c, seed, b, a, bwd, c.opts.max_path - 1 - nf) : 0;
+            unsigned b = (j + 1) % 3, cc = (j + 2) % 3;
+            uint32_t nf = grow(&c, seed, b, cc, fwd, MTS_STRIPIFY_MAX_STRIP - 1);
             uint32_t m = 0;
-            for (uint32_t k = nbk; k > 0; k--)
-                trial[m++] = bwd[k - 1];
             trial[m++] = seed;
             memcpy(trial + m, fwd, (size_t)nf * sizeof *fwd);
             m += nf;
@@ -468,21 +444,21 @@ static mts_result stripify_impl(const uint32_t *triangles, uint32_t triangle_cou
             mts__links_set(&o.L, x, e);
         }
     }
-    if (c.opts.depth >= 0) {
+    {
         o.L.pid = fwd;
         o.L.pos = bwd;
         o.L.touched = calloc(n, 1);
         o.L.plen = malloc((size_t)n * sizeof *o.L.plen);
         o.L.lab = calloc(n, sizeof *o.L.lab);
-        o.L.max_path = c.opts.max_path;
+        o.L.max_path = MTS_STRIPIFY_MAX_STRIP;
         if (!o.L.touched || !o.L.plen || !o.L.lab) {
             rc = mts_error_set(err, MTS_ERR_NOMEM, "stripify: out of memory for %u triangles", n);
             goto cleanup;
         }
-        o.depth = c.opts.depth;
-        o.cut_depth = c.opts.cut_depth < c.opts.depth ? c.opts.cut_depth : c.opts.depth;
-        o.bound = c.opts.bound;
-        improve(&o, c.opts.passes);
+        o.depth = TUNNEL_DEPTH;
+        o.cut_depth = TUNNEL_CUT_DEPTH < TUNNEL_DEPTH ? TUNNEL_CUT_DEPTH : TUNNEL_DEPTH;
+        o.bound = TUNNEL_BOUND;
+        improve(&o, TUNNEL_PASSES);
     }
 
     /* Read the paths out in the order the greedy pass placed their first
@@ -582,7 +558,7 @@ cleanup:
 mts_result mts_stripify(const uint32_t *triangles, uint32_t triangle_count, uint32_t vertex_count,
                         mts_strips *out, mts_stripify_stats *stats, mts_error *err)
 {
-    return stripify_impl(triangles, triangle_count, vertex_count, out, stats, &default_opts, err);
+    return stripify_impl(triangles, triangle_count, vertex_count, out, stats, err);
 }
 
 /* ---- the lower bound -------------------------------------------------- */
