@@ -1,4 +1,3 @@
-#include "clock.h"
 #include "session.h"
 
 #include <errno.h>
@@ -12,6 +11,9 @@
 #include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
+
+#include "clock.h"
+#include "net.h"
 
 /* Connecting runs as steps so that a window loop never waits on it: the
  * name is resolved (getaddrinfo blocks, but a numeric address or
@@ -39,21 +41,12 @@ static void connector_close(connector *k)
 static mts_result connector_start(connector *k, const char *host, const char *port,
                                   int *transient, mts_error *err)
 {
-    struct addrinfo hints = {0};
-    hints.ai_family = AF_UNSPEC;
-    hints.ai_socktype = SOCK_STREAM;
     k->fd = -1;
     k->last = 0;
     k->res = k->cur = NULL;
-    int gai = getaddrinfo(host, port, &hints, &k->res);
-    if (gai != 0) {
-        k->res = NULL;
-        *transient = gai == EAI_AGAIN;
-        return mts_error_set(err, MTS_ERR_IO, "%s:%s: %s", host, port, gai_strerror(gai));
-    }
-    *transient = 1;
+    mts_result rc = mts_net_resolve(host, port, 0, &k->res, transient, err);
     k->cur = k->res;
-    return MTS_OK;
+    return rc;
 }
 
 /* Moves the connect on: 1 connected (k->fd is the socket, owned by the
@@ -72,19 +65,11 @@ static int connector_step(connector *k, const char *host, const char *port, doub
             }
             struct addrinfo *a = k->cur;
             k->cur = a->ai_next;
-            k->fd = socket(a->ai_family, a->ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-            if (k->fd < 0) {
-                k->last = errno;
+            int started = mts_net_connect_start(a, &k->fd, &k->last);
+            if (started < 0)
                 continue;
-            }
-            if (connect(k->fd, a->ai_addr, a->ai_addrlen) == 0)
+            if (started > 0)
                 goto connected;
-            if (errno != EINPROGRESS) {
-                k->last = errno;
-                close(k->fd);
-                k->fd = -1;
-                continue;
-            }
             k->deadline = (1e3 * mts_clock_seconds()) + cto * 1000;
         }
         double left = k->deadline - (1e3 * mts_clock_seconds());
@@ -96,11 +81,10 @@ static int connector_step(connector *k, const char *host, const char *port, doub
         if (pr < 0 && errno == EINTR)
             return 0;
         if (pr == 1) {
-            int soerr = 0;
-            socklen_t sl = sizeof soerr;
-            if (getsockopt(k->fd, SOL_SOCKET, SO_ERROR, &soerr, &sl) == 0 && soerr == 0)
+            int soerr = mts_net_connect_result(k->fd);
+            if (soerr == 0)
                 goto connected;
-            k->last = soerr ? soerr : errno;
+            k->last = soerr;
         } else if ((1e3 * mts_clock_seconds()) < k->deadline) {
             return 0; /* the caller's wait ran out first */
         } else {
@@ -262,8 +246,6 @@ static void connected(mts_session *s, int fd)
     mts_error *err = &s->err;
     s->fd = fd;
     s->k.fd = -1;
-    int one = 1;
-    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
     if (s->connections++ == 0)
         s->st->ms_connect = (1e3 * mts_clock_seconds()) - s->t0;
     else

@@ -20,6 +20,7 @@
 
 #include "clock.h"
 #include "crc32c.h"
+#include "net.h"
 #include "stream.h"
 
 #define HTTP_HEAD_MAX 1024
@@ -130,14 +131,6 @@ static void sc_start(stress *s, sclient *c, double now)
     s->rep->started++;
     s->rep->active++;
     c->t_start = c->t_last = now;
-    c->fd = socket(s->addr->ai_family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-    if (c->fd < 0) {
-        sc_fail(s, c, MTS_STRESS_LOCAL, "socket: %s", strerror(errno));
-        return;
-    }
-    s->connected++;
-    int one = 1;
-    setsockopt(c->fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
     if (s->o->http_path) {
         c->http_head = malloc(HTTP_HEAD_MAX + 1);
         if (!c->http_head) {
@@ -145,15 +138,18 @@ static void sc_start(stress *s, sclient *c, double now)
             return;
         }
     }
-    int r = connect(c->fd, s->addr->ai_addr, s->addr->ai_addrlen);
-    if (r != 0 && errno != EINPROGRESS) {
-        sc_fail(s, c, errno == EMFILE || errno == ENFILE || errno == EADDRNOTAVAIL
+    int e = 0, r = mts_net_connect_start(s->addr, &c->fd, &e);
+    if (r < 0) {
+        /* out of descriptors or local ports is this machine's limit, not the server's */
+        sc_fail(s, c, e == EMFILE || e == ENFILE || e == EADDRNOTAVAIL || e == ENOBUFS ||
+                              e == ENOMEM
                           ? MTS_STRESS_LOCAL
                           : MTS_STRESS_CONNECT,
-                "connect: %s", strerror(errno));
+                "connect: %s", strerror(e));
         return;
     }
-    c->state = r == 0 ? SC_SENDING : SC_CONNECTING;
+    s->connected++;
+    c->state = r > 0 ? SC_SENDING : SC_CONNECTING;
     struct epoll_event ev = {.events = EPOLLOUT, .data.ptr = c};
     if (epoll_ctl(s->epfd, EPOLL_CTL_ADD, c->fd, &ev) != 0)
         sc_fail(s, c, MTS_STRESS_LOCAL, "epoll_ctl: %s", strerror(errno));
@@ -162,10 +158,7 @@ static void sc_start(stress *s, sclient *c, double now)
 static void sc_send(stress *s, sclient *c, double now)
 {
     if (c->state == SC_CONNECTING) {
-        int soerr = 0;
-        socklen_t sl = sizeof soerr;
-        if (getsockopt(c->fd, SOL_SOCKET, SO_ERROR, &soerr, &sl) != 0)
-            soerr = errno;
+        const int soerr = mts_net_connect_result(c->fd);
         if (soerr != 0) {
             sc_fail(s, c, MTS_STRESS_CONNECT, "connect: %s", strerror(soerr));
             return;
@@ -720,13 +713,10 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
     }
 
     const char *host = o->host ? o->host : "127.0.0.1", *port = o->port ? o->port : "7447";
-    struct addrinfo hints = {0};
-    hints.ai_family = AF_UNSPEC;
-    hints.ai_socktype = SOCK_STREAM;
-    int gai = getaddrinfo(host, port, &hints, &addr);
-    if (gai != 0) {
-        rc = mts_error_set(err, MTS_ERR_ARG, "%s:%s: %s", host, port, gai_strerror(gai));
-        addr = NULL;
+    if ((rc = mts_net_resolve(host, port, 0, &addr, NULL, err)) != MTS_OK) {
+        rc = MTS_ERR_ARG; /* the address given does not resolve: bad usage */
+        if (err)
+            err->code = MTS_ERR_ARG;
         goto done;
     }
     if (o->http_path) {

@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "clock.h"
+#include "net.h"
 #include "wire.h"
 
 /* A client's first frame is a HELLO or LIST: small, so it fits here. */
@@ -93,50 +94,14 @@ static void logf_(mts_server *s, const char *fmt, ...)
     s->opts.log(s->opts.log_user, line);
 }
 
-static int set_nonblocking(int fd)
-{
-    int flags = fcntl(fd, F_GETFL, 0);
-    return flags >= 0 && fcntl(fd, F_SETFL, flags | O_NONBLOCK) == 0;
-}
-
 static mts_result open_listener(mts_server *s, const char *spec, mts_error *err)
 {
-    char host[256];
-    const char *colon = strrchr(spec, ':');
-    if (!colon || colon == spec || (size_t)(colon - spec) >= sizeof host)
-        return mts_error_set(err, MTS_ERR_ARG, "listen address '%s' is not ADDR:PORT", spec);
-    size_t hl = (size_t)(colon - spec);
-    const char *h = spec;
-    if (spec[0] == '[' && hl >= 2 && spec[hl - 1] == ']') { /* [::1]:7447 */
-        h++;
-        hl -= 2;
-    }
-    memcpy(host, h, hl);
-    host[hl] = 0;
-    struct addrinfo hints = {0}, *res = NULL;
-    hints.ai_family = AF_UNSPEC;
-    hints.ai_socktype = SOCK_STREAM;
-    hints.ai_flags = AI_PASSIVE | AI_NUMERICSERV;
-    int gai = getaddrinfo(host, colon + 1, &hints, &res);
-    if (gai != 0)
-        return mts_error_set(err, MTS_ERR_ARG, "listen address '%s': %s", spec, gai_strerror(gai));
-    mts_result rc = MTS_OK;
-    int fd = socket(res->ai_family, res->ai_socktype | SOCK_CLOEXEC, 0);
-    int one = 1;
     /* a deep accept queue: thousands of clients may connect in one burst, and
      * a full queue costs each of them a SYN retry (a second or more) */
-    if (fd < 0 || setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0 ||
-        (s->opts.reuse_port &&
-         setsockopt(fd, SOL_SOCKET, SO_REUSEPORT, &one, sizeof one) != 0) ||
-        bind(fd, res->ai_addr, res->ai_addrlen) != 0 || listen(fd, 4096) != 0 ||
-        !set_nonblocking(fd)) {
-        rc = mts_error_set(err, MTS_ERR_IO, "cannot listen on %s: %s", spec, strerror(errno));
-        if (fd >= 0)
-            close(fd);
-        freeaddrinfo(res);
+    int fd;
+    mts_result rc = mts_net_listen(spec, s->opts.reuse_port, 4096, &fd, err);
+    if (rc != MTS_OK)
         return rc;
-    }
-    freeaddrinfo(res);
     struct sockaddr_storage ss;
     socklen_t sl = sizeof ss;
     getsockname(fd, (struct sockaddr *)&ss, &sl);
@@ -704,8 +669,7 @@ static void accept_all(mts_server *s)
             close(fd);
             continue;
         }
-        int one = 1;
-        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        mts_net_nodelay(fd);
         if (s->opts.sndbuf > 0) /* fixed, not autotuned: bounds kernel memory per client */
             setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &s->opts.sndbuf, sizeof s->opts.sndbuf);
         c->fd = fd;

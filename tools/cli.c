@@ -1,5 +1,4 @@
 #include "cli.h"
-#include "clock.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -9,6 +8,8 @@
 #include <sys/resource.h>
 #include <time.h>
 #include <unistd.h>
+
+#include "clock.h"
 
 double cli_now(void)
 {
