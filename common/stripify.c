@@ -49,6 +49,7 @@
 #include <string.h>
 
 #include "striplinks.h"
+#include "words.h"
 
 #define NONE MTS__NONE
 
@@ -563,12 +564,6 @@ mts_result mts_stripify(const uint32_t *triangles, uint32_t triangle_count, uint
 
 /* ---- the lower bound -------------------------------------------------- */
 
-static int compare_u64(const void *pa, const void *pb)
-{
-    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
-    return (a > b) - (a < b);
-}
-
 /* Why it holds. Along a strip, let a "visit" of vertex v be a maximal run of
  * consecutive triangles of the strip that contain v; the triangles around v
  * split into visits. Inside a visit every triangle but the first and last
@@ -628,7 +623,7 @@ mts_result mts_stripify_cost_bound(const uint32_t *tri, uint32_t n, uint32_t ver
             if (border)
                 ent[ne++] = (uint64_t)b << 2 | 1u;
         }
-        qsort(ent, ne, sizeof *ent, compare_u64);
+        qsort(ent, ne, sizeof *ent, mts_words_cmp64);
         uint64_t defects = 0;
         for (size_t i = 0; i < ne;) {
             uint64_t v = ent[i] >> 2, valence = 0;

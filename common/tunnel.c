@@ -63,6 +63,7 @@
 
 #include "stripify.h"
 #include "striplinks.h"
+#include "words.h"
 
 #define NONE MTS__NONE
 
@@ -1372,12 +1373,6 @@ cleanup:
     return rc;
 }
 
-static int compare_u32(const void *pa, const void *pb)
-{
-    uint32_t a = *(const uint32_t *)pa, b = *(const uint32_t *)pb;
-    return (a > b) - (a < b);
-}
-
 /* The cache order keeps arrays per vertex id; ids far sparser than the
  * strips' indices (a caller's vertex_count up to 2^32 - 1) are renumbered
  * in order first, so that memory follows the strips. */
@@ -1402,13 +1397,13 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
         return mts_error_set(err, MTS_ERR_NOMEM, "tunnel: out of memory for %u indices", n);
     }
     memcpy(ids, in->indices, (size_t)n * sizeof *ids);
-    qsort(ids, n, sizeof *ids, compare_u32);
+    qsort(ids, n, sizeof *ids, mts_words_cmp);
     for (uint32_t k = 0; k < n; k++) {
         if (used == 0 || ids[k] != ids[used - 1])
             ids[used++] = ids[k];
     }
     for (uint32_t k = 0; k < n; k++) {
-        const uint32_t *at = bsearch(&in->indices[k], ids, used, sizeof *ids, compare_u32);
+        const uint32_t *at = bsearch(&in->indices[k], ids, used, sizeof *ids, mts_words_cmp);
         local[k] = (uint32_t)(at - ids);
     }
     mts_strips renamed = {in->strip_count, n, in->offsets, local};

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "grow.h"
+#include "words.h"
 
 /* Triangles compare as 64-bit keys when ids fit 21 bits (2M vertices), else
  * as triples; either way sorted canonical triangles compare exactly. */
@@ -22,12 +23,6 @@ typedef struct verifier {
     tri_set ref, got;
 } verifier;
 
-static int cmp_u64(const void *a, const void *b)
-{
-    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return x < y ? -1 : x > y;
-}
-
 static void set_add(tri_set *s, int packed, uint32_t t[3])
 {
     mts_tri_canonical(t);
@@ -40,7 +35,7 @@ static void set_add(tri_set *s, int packed, uint32_t t[3])
 static void set_sort(tri_set *s, int packed)
 {
     if (packed)
-        qsort(s->keys, s->count, 8, cmp_u64);
+        qsort(s->keys, s->count, 8, mts_words_cmp64);
     else
         qsort(s->wide, s->count, 12, mts_tri_compare);
 }
@@ -50,7 +45,7 @@ static int set_contains(const tri_set *s, int packed, uint32_t t[3])
     mts_tri_canonical(t);
     if (packed) {
         uint64_t k = (uint64_t)t[0] << 42 | (uint64_t)t[1] << 21 | t[2];
-        return bsearch(&k, s->keys, s->count, 8, cmp_u64) != NULL;
+        return bsearch(&k, s->keys, s->count, 8, mts_words_cmp64) != NULL;
     }
     return bsearch(t, s->wide, s->count, 12, mts_tri_compare) != NULL;
 }

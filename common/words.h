@@ -35,4 +35,11 @@ static inline int mts_words_cmp(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
+/* The same for two uint64_t (keys packed from two words). */
+static inline int mts_words_cmp64(const void *a, const void *b)
+{
+    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
 #endif
