@@ -56,7 +56,9 @@ static void usage(FILE *f)
           "  --no-records-form      keep only the splits form of each stream (a client that\n"
           "                         asks for records gets splits): saves memory, about 16x\n"
           "                         the splits form's bytes per model\n"
-          "  -q, --quiet            no per-connection log lines\n"
+          "  -q, --quiet            no per-connection log lines, no progress bar, no line\n"
+          "                         per model loaded or encoded (failures, warnings and the\n"
+          "                         listening, stats and stopped lines stay)\n"
           "  -h, --help             this help\n"
           "\n"
           "Exit status: 0 after a clean stop, 1 when no model could be served or the\n"
@@ -72,9 +74,11 @@ static void on_signal(int sig)
     stop_requested = 1;
 }
 
-static void log_line(void *user, const char *line)
+/* --quiet drops the per-connection lines only: stats, notices and the
+ * listening and stopped lines are what an operator watches. */
+static void log_line(void *user, mts_server_log_kind kind, const char *line)
 {
-    if (*(int *)user)
+    if (*(int *)user && kind == MTS_SERVER_LOG_CONNECTION)
         return;
     char stamp[32];
     time_t now = time(NULL);
@@ -393,8 +397,7 @@ int main(int argc, char **argv)
     sa.sa_handler = on_signal;
     sigaction(SIGTERM, &sa, NULL);
     sigaction(SIGINT, &sa, NULL);
-    if (!quiet)
-        fprintf(stderr,
+    fprintf(stderr,
                 "mts-server: listening on %s (port %d), %u models (streams being encoded), %u "
                 "worker%s\n",
                 so.listen ? so.listen : "127.0.0.1:7447", mts_server_port(workers[0].server),
@@ -440,8 +443,7 @@ int main(int argc, char **argv)
         goto fail;
     if (atomic_load(&prep.failed_all))
         goto done; /* said why; exit 1 */
-    if (!quiet)
-        fprintf(stderr, "mts-server: stopped: %llu connections, %llu completed, %llu failed, "
+    fprintf(stderr, "mts-server: stopped: %llu connections, %llu completed, %llu failed, "
                         "%llu busy, %llu bytes, peak %u at once\n",
                 (unsigned long long)st.accepted, (unsigned long long)st.completed,
                 (unsigned long long)st.failed, (unsigned long long)st.busy,

@@ -81,8 +81,9 @@ struct mts_server {
     mts_server_stats stats;
 };
 
-static void logf_(mts_server *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void logf_(mts_server *s, const char *fmt, ...)
+static void logf_(mts_server *s, mts_server_log_kind kind, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void logf_(mts_server *s, mts_server_log_kind kind, const char *fmt, ...)
 {
     if (!s->opts.log)
         return;
@@ -91,7 +92,7 @@ static void logf_(mts_server *s, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(line, sizeof line, fmt, ap);
     va_end(ap);
-    s->opts.log(s->opts.log_user, line);
+    s->opts.log(s->opts.log_user, kind, line);
 }
 
 static mts_result open_listener(mts_server *s, const char *spec, mts_error *err)
@@ -258,7 +259,8 @@ static void conn_close(mts_server *s, conn *c, const char *failure)
     paced_remove(s, c);
     if (c->phase == WAITING)
         s->waiting--;
-    logf_(s, "peer=%s model=%s bytes=%llu level=%u ms=%.1f outcome=%s", c->peer,
+    logf_(s, MTS_SERVER_LOG_CONNECTION, "peer=%s model=%s bytes=%llu level=%u ms=%.1f outcome=%s",
+          c->peer,
           c->model[0] ? c->model : "-", (unsigned long long)c->sent, c->stop_level,
           (mts_clock_seconds() - c->started) * 1e3, outcome);
     epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, c->fd, NULL);
@@ -630,7 +632,8 @@ static void accept_all(mts_server *s)
                  * readable: stop watching it for a moment instead of spinning */
                 epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, s->listen_fd, NULL);
                 s->listen_paused_until = mts_clock_seconds() + 0.1;
-                logf_(s, "accept: %s; not accepting for 100 ms", strerror(errno));
+                logf_(s, MTS_SERVER_LOG_NOTICE, "accept: %s; not accepting for 100 ms",
+                      strerror(errno));
             }
             return;
         }
@@ -661,7 +664,8 @@ static void accept_all(mts_server *s)
             shutdown(fd, SHUT_WR);
             close(fd);
             s->stats.busy++;
-            logf_(s, "peer=%s model=- bytes=0 level=0 ms=0.0 outcome=error: busy", peer);
+            logf_(s, MTS_SERVER_LOG_CONNECTION,
+                  "peer=%s model=- bytes=0 level=0 ms=0.0 outcome=error: busy", peer);
             continue;
         }
         conn *c = calloc(1, sizeof *c);
@@ -708,7 +712,7 @@ static double rss_mb(void)
 static void stats_line(mts_server *s, double now)
 {
     double dt = s->opts.stats_interval;
-    logf_(s,
+    logf_(s, MTS_SERVER_LOG_STATS,
           "stats: connections=%u peak=%u accepted=%llu completed=%llu failed=%llu busy=%llu "
           "out_mb_s=%.2f rss_mb=%.1f",
           s->conn_count, s->stats.peak, (unsigned long long)s->stats.accepted,
@@ -783,7 +787,8 @@ mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error 
             close(s->listen_fd);
             s->listen_fd = -1;
             stop_at = now;
-            logf_(s, "stopping: %u streams to finish within %.1f s", s->conn_count,
+            logf_(s, MTS_SERVER_LOG_NOTICE, "stopping: %u streams to finish within %.1f s",
+                  s->conn_count,
                   s->opts.grace);
         }
         if (s->listen_fd < 0 && (s->conn_count == 0 || now - stop_at > s->opts.grace)) {

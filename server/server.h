@@ -20,6 +20,13 @@
 #include "stream.h"
 
 /* Zero-initialised means the defaults. */
+/* What a log line is about. */
+typedef enum mts_server_log_kind {
+    MTS_SERVER_LOG_CONNECTION, /* one line per connection as it ends (peer=... outcome=...) */
+    MTS_SERVER_LOG_STATS,      /* the periodic "stats:" line (stats_interval) */
+    MTS_SERVER_LOG_NOTICE      /* the server itself: accept failing, stopping */
+} mts_server_log_kind;
+
 typedef struct mts_server_options {
     const char *listen;       /* "ADDR:PORT"; NULL: 127.0.0.1:7447; port 0 picks one */
     uint32_t max_clients;     /* 0: 1024 */
@@ -33,7 +40,9 @@ typedef struct mts_server_options {
     int reuse_port;           /* SO_REUSEPORT: several servers (workers) share the port */
     int sndbuf;               /* SO_SNDBUF of each connection, bytes; 0: the kernel's autotuning
                                  (Linux: up to tcp_wmem's max, 4 MiB, per connection) */
-    void (*log)(void *user, const char *line);
+    /* every log line, with what it is about, so that a caller can drop the
+     * per-connection ones (mts-server --quiet) and keep the rest */
+    void (*log)(void *user, mts_server_log_kind kind, const char *line);
     void *log_user;
 } mts_server_options;
 

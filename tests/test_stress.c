@@ -339,6 +339,27 @@ static void test_workers_rate_stats(mts_test *t)
     CHECK(t, server_stop(&sv) == 0);
 }
 
+/* --quiet drops the per-connection lines and nothing an operator watches:
+ * the listening, stats and stopped lines stay (issue 19: it dropped them). */
+static void test_quiet_keeps_stats(mts_test *t)
+{
+    const char *extra[] = {"--quiet", "--stats-interval", "0.2", NULL};
+    server sv;
+    CHECK(t, server_start(&sv, "quiet", extra));
+    char out[4096];
+    int rc = stress(&sv, "cow --clients 5 --no-apply --json", out, sizeof out);
+    CHECKF(t, rc == 0 && json_num(out, "succeeded") == 5, "exit %d: %s", rc, out);
+    struct timespec ts = {0, 500 * 1000 * 1000};
+    nanosleep(&ts, NULL);
+    CHECK(t, server_stop(&sv) == 0);
+    char logtext[1 << 16];
+    mts_test_read_file(sv.log, logtext, sizeof logtext);
+    CHECKF(t, strstr(logtext, "mts-server: listening on") && strstr(logtext, "stats: connections=") &&
+                  strstr(logtext, "mts-server: stopped: ") && strstr(logtext, ", 5 completed"),
+           "%s", logtext);
+    CHECKF(t, !strstr(logtext, "peer=") && !strstr(logtext, "added:"), "%s", logtext);
+}
+
 static void test_usage(mts_test *t)
 {
     char cmd[1024], out[8192];
@@ -378,5 +399,6 @@ int main(int argc, char **argv)
     RUN(&t, test_resets_mid_stream);
     RUN(&t, test_slow_reader);
     RUN(&t, test_workers_rate_stats);
+    RUN(&t, test_quiet_keeps_stats);
     return mts_test_end(&t);
 }
