@@ -61,16 +61,28 @@ static void usage(FILE *f)
           "                         listening, stats and stopped lines stay)\n"
           "  -h, --help             this help\n"
           "\n"
-          "Exit status: 0 after a clean stop, 1 when no model could be served or the\n"
-          "address cannot be used, 2 bad usage.\n",
+          "Exit status: 0 after a clean stop, 1 when no model could be served, the\n"
+          "address cannot be used or a stop came while the models were loading, 2 bad\n"
+          "usage.\n",
           f);
 }
 
-static volatile sig_atomic_t stop_requested;
+static volatile sig_atomic_t stop_requested, serving;
 
+/* Serving, a stop lets streams finish (the workers poll the flag). Before
+ * that nothing is served and a model's build cannot stop part-way, so a
+ * stop while models load ends the process at once, with status 1 and a
+ * line that says so, not killed by the signal (a cache being written is a
+ * temporary file until it is whole: fileio.c). */
 static void on_signal(int sig)
 {
     (void)sig;
+    if (!serving) {
+        static const char msg[] = "mts-server: stopped while loading models; nothing served\n";
+        ssize_t w = write(STDERR_FILENO, msg, sizeof msg - 1);
+        (void)w;
+        _exit(CLI_EXIT_FAIL);
+    }
     stop_requested = 1;
 }
 
@@ -296,6 +308,11 @@ int main(int argc, char **argv)
     }
 
     signal(SIGPIPE, SIG_IGN);
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGINT, &sa, NULL);
     mts_error err = {0};
     mts_catalog *cat = NULL;
     mts_stream *streams = NULL;
@@ -392,11 +409,7 @@ int main(int argc, char **argv)
         mts_error_set(&err, MTS_ERR_IO, "cannot start a thread to encode the streams");
         goto fail;
     }
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigaction(SIGTERM, &sa, NULL);
-    sigaction(SIGINT, &sa, NULL);
+    serving = 1;
     fprintf(stderr,
                 "mts-server: listening on %s (port %d), %u models (streams being encoded), %u "
                 "worker%s\n",

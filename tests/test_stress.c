@@ -360,6 +360,50 @@ static void test_quiet_keeps_stats(mts_test *t)
     CHECKF(t, !strstr(logtext, "peer=") && !strstr(logtext, "added:"), "%s", logtext);
 }
 
+/* A stop (SIGTERM) while the models still load ends mts-server with status
+ * 1 and a line saying so, not killed by the signal (issue 19: exit 143). A
+ * grid mesh of 180,000 triangles takes seconds to build; the stop comes
+ * half a second in. */
+static void test_stop_while_loading(mts_test *t)
+{
+    char dir[700], path[760], bin[600], listen[64], log[760];
+    snprintf(dir, sizeof dir, "%s/stress_loading", tmp_dir);
+    snprintf(path, sizeof path, "%s/grid.off", dir);
+    snprintf(log, sizeof log, "%s/stress_loading.log", tmp_dir);
+    mkdir(dir, 0755);
+    FILE *f = fopen(path, "w");
+    CHECK(t, f != NULL);
+    if (!f)
+        return;
+    const int n = 300; /* n x n vertices, 2 (n - 1)^2 triangles */
+    fprintf(f, "OFF\n%d %d 0\n", n * n, 2 * (n - 1) * (n - 1));
+    for (int y = 0; y < n; y++)
+        for (int x = 0; x < n; x++)
+            fprintf(f, "%d %d %g\n", x, y, 0.001 * ((x * 7 + y * 13) % 17));
+    for (int y = 0; y + 1 < n; y++)
+        for (int x = 0; x + 1 < n; x++) {
+            int v = y * n + x;
+            fprintf(f, "3 %d %d %d\n3 %d %d %d\n", v, v + 1, v + n + 1, v, v + n + 1, v + n);
+        }
+    fclose(f);
+    snprintf(bin, sizeof bin, "%s/mts-server", bin_dir);
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", mts_test_free_port());
+    char *argv[] = {bin, "--models", dir, "--listen", listen, NULL};
+    pid_t pid = mts_test_spawn(argv, log);
+    struct timespec ts = {0, 500 * 1000 * 1000};
+    nanosleep(&ts, NULL);
+    kill(pid, SIGTERM);
+    int st = 0;
+    waitpid(pid, &st, 0);
+    char logtext[1 << 14];
+    mts_test_read_file(log, logtext, sizeof logtext);
+    CHECKF(t, WIFEXITED(st) && WEXITSTATUS(st) == 1,
+           "exit %d, signal %d: %s", WIFEXITED(st) ? WEXITSTATUS(st) : -1,
+           WIFSIGNALED(st) ? WTERMSIG(st) : 0, logtext);
+    CHECKF(t, strstr(logtext, "stopped while loading models") && !strstr(logtext, "listening"),
+           "%s", logtext);
+}
+
 static void test_usage(mts_test *t)
 {
     char cmd[1024], out[8192];
@@ -400,5 +444,6 @@ int main(int argc, char **argv)
     RUN(&t, test_slow_reader);
     RUN(&t, test_workers_rate_stats);
     RUN(&t, test_quiet_keeps_stats);
+    RUN(&t, test_stop_while_loading);
     return mts_test_end(&t);
 }
