@@ -692,22 +692,6 @@ static int win_frame(win *wn, double now)
     return 1;
 }
 
-/* JSON string body: quotes, backslashes and control bytes escaped. */
-static void json_text(FILE *f, const char *s)
-{
-    for (; *s; s++) {
-        unsigned char ch = (unsigned char)*s;
-        if (ch == '"' || ch == '\\')
-            fprintf(f, "\\%c", ch);
-        else if (ch == '\n')
-            fputs("\\n", f);
-        else if (ch < 0x20)
-            fprintf(f, "\\u%04x", ch);
-        else
-            fputc(ch, f);
-    }
-}
-
 /* Runs the window until q (or the close button). Returns the session's
  * result; *wn keeps what the summary needs. */
 /* The figures of the frames drawn while the stream came, taken once as it
@@ -886,10 +870,10 @@ static int win_main(run *rn, mts_session_options *so, const char *script_path, i
         for (uint32_t i = 0; i < wn.shot_count; i++) {
             const win_shot *s = &wn.shots[i];
             fprintf(stdout, "%s{\"file\":\"", i ? "," : "");
-            json_text(stdout, s->file);
+            cli_json_text(stdout, s->file);
             fprintf(stdout, "\",\"level\":%u,\"triangles\":%u,\"strips\":%u,\"hud\":\"",
                     s->level, s->triangles, s->strips);
-            json_text(stdout, s->hud);
+            cli_json_text(stdout, s->hud);
             fputs("\"}", stdout);
         }
         fputc(']', stdout);

@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "utf8.h"
+
 int mts_wire_valid_name(const char *name, size_t len)
 {
     if (len == 0 || len > MTS_WIRE_MAX_NAME || name[0] == '.')
@@ -320,6 +322,29 @@ mts_result mts_wire_parse_models(const uint8_t *payload, size_t size,
     return MTS_OK;
 }
 
+size_t mts_wire_clean_text(char *out, size_t out_size, const char *in, size_t len)
+{
+    if (out_size == 0)
+        return 0;
+    const unsigned char *s = (const unsigned char *)in;
+    size_t o = 0;
+    for (size_t i = 0; i < len;) {
+        const size_t k = mts_utf8_seq_len(s + i, len - i);
+        const int bad = k == 0 || s[i] < 0x20 || s[i] == 0x7f;
+        const size_t w = bad ? 1 : k;
+        if (o + w > out_size - 1)
+            break; /* never a character cut in two */
+        if (bad)
+            out[o++] = '?';
+        else
+            for (size_t q = 0; q < k; q++)
+                out[o++] = (char)s[i + q];
+        i += bad ? 1 : k;
+    }
+    out[o] = 0;
+    return o;
+}
+
 mts_result mts_wire_parse_error(const uint8_t *payload, size_t size, uint16_t *code, char *text,
                                 size_t text_size, mts_error *err)
 {
@@ -329,12 +354,7 @@ mts_result mts_wire_parse_error(const uint8_t *payload, size_t size, uint16_t *c
     const char *s = mts_cursor_string(&c, size, &len);
     if (!c.ok || !s || text_size == 0)
         return mts_error_set(err, MTS_ERR_FORMAT, "ERROR: malformed (%zu bytes)", size);
-    size_t n = len < text_size - 1 ? len : text_size - 1;
-    for (size_t i = 0; i < n; i++) {
-        unsigned char ch = (unsigned char)s[i];
-        text[i] = ch < 0x20 || ch == 0x7f ? '?' : (char)ch;
-    }
-    text[n] = 0;
+    mts_wire_clean_text(text, text_size, s, len);
     return MTS_OK;
 }
 

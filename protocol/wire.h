@@ -156,7 +156,13 @@ mts_result mts_wire_parse_end(const uint8_t *payload, size_t size, mts_wire_end 
 mts_result mts_wire_parse_models(const uint8_t *payload, size_t size,
                                  void (*fn)(void *user, const mts_wire_model_entry *m),
                                  void *user, mts_error *err);
-/* text is copied, truncated to text_size - 1 bytes, control characters replaced. */
+/* A peer's text as it may be shown or written: copied into out (out_size
+ * bytes with the terminator), each control character and each byte of a
+ * sequence that is not well-formed UTF-8 replaced by '?', cut only between
+ * characters. Returns the bytes written. */
+size_t mts_wire_clean_text(char *out, size_t out_size, const char *in, size_t len);
+
+/* text is copied as mts_wire_clean_text does, at most text_size - 1 bytes. */
 mts_result mts_wire_parse_error(const uint8_t *payload, size_t size, uint16_t *code, char *text,
                                 size_t text_size, mts_error *err);
 const char *mts_wire_error_name(uint16_t code);

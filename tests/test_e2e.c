@@ -18,6 +18,8 @@
 #include "stream.h"
 #include "test.h"
 #include "test_proc.h"
+#include "utf8.h"
+#include "wire.h"
 
 static char bin_dir[512], tmp_dir[512];
 
@@ -93,6 +95,60 @@ static void test_server_dies_mid_stream(mts_test *t)
     CHECKF(t, file_size(png) > 1000, "no picture of the last whole batch at %s", png);
     mts_buf_free(&b);
     mts_stream_free(&s);
+}
+
+/* Whether out holds only well-formed UTF-8 (what a JSON parser takes). */
+static int all_utf8(const char *out)
+{
+    const unsigned char *u = (const unsigned char *)out;
+    size_t n = strlen(out);
+    for (size_t i = 0; i < n;) {
+        size_t k = mts_utf8_seq_len(u + i, n - i);
+        if (k == 0)
+            return 0;
+        i += k;
+    }
+    return 1;
+}
+
+/* A server whose ERROR text is not UTF-8 (and holds control bytes): what
+ * mts-client and mts-stress print of it, --json line and messages alike,
+ * is still UTF-8, the bad bytes replaced (issue 19: they went through). */
+static void test_peer_text_not_utf8(mts_test *t)
+{
+    int port, lfd = listen_any(&port);
+    CHECK(t, lfd >= 0);
+    if (lfd < 0)
+        return;
+    mts_buf b = {0};
+    mts_wire_put_error(&b, MTS_WERR_UNKNOWN_MODEL,
+                       "bad \xff\xfe bytes \xc0\xaf \xed\xa0\x80 \x1b[31m cut \xe2\x82");
+    pid_t pid = fork();
+    if (pid == 0) {
+        alarm(60); /* never outlives a broken run */
+        for (;;) { /* mts-client, then mts-stress's two, until killed */
+            int fd = accept(lfd, NULL, NULL);
+            char hello[256];
+            (void)!recv(fd, hello, sizeof hello, 0);
+            (void)!send(fd, b.data, b.size, MSG_NOSIGNAL);
+            usleep(50000);
+            close(fd);
+        }
+    }
+    close(lfd);
+    char cmd[2048], out[8192];
+    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow --no-render --json", bin_dir, port);
+    int rc = mts_test_run(cmd, out, sizeof out);
+    CHECKF(t, rc == 1 && strstr(out, "\"error\"") && strstr(out, "bad ?? bytes ?? ???"), "exit %d: %s",
+           rc, out);
+    CHECKF(t, all_utf8(out), "not UTF-8: %s", out);
+    snprintf(cmd, sizeof cmd, "%s/mts-stress 127.0.0.1:%d cow --clients 2 --no-apply --json",
+             bin_dir, port);
+    rc = mts_test_run(cmd, out, sizeof out);
+    CHECKF(t, rc == 1 && all_utf8(out), "exit %d: %s", rc, out);
+    kill(pid, SIGKILL);
+    waitpid(pid, NULL, 0);
+    mts_buf_free(&b);
 }
 
 typedef struct proc {
@@ -345,6 +401,7 @@ int main(int argc, char **argv)
     signal(SIGPIPE, SIG_IGN);
     mts_test t = {0};
     RUN(&t, test_server_dies_mid_stream);
+    RUN(&t, test_peer_text_not_utf8);
     RUN(&t, test_url_models);
     RUN(&t, test_pngs_at_three_levels);
     RUN(&t, test_records_form_programs);

@@ -329,6 +329,34 @@ static void test_small_messages(mts_test *t)
     mts_buf_free(&b);
 }
 
+/* A peer's text comes out as UTF-8: well-formed characters kept whole,
+ * every byte of anything else and every control byte '?', never a
+ * character cut by the room left. */
+static void test_clean_text(mts_test *t)
+{
+    char out[64];
+    const char ok[] = "caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x98\x80";
+    CHECK(t, mts_wire_clean_text(out, sizeof out, ok, strlen(ok)) == strlen(ok) &&
+                 strcmp(out, ok) == 0);
+    const struct {
+        const char *in, *want;
+    } cases[] = {
+        {"\xff\xfe", "??"},
+        {"a\xc0\xaf" "b", "a??b"},         /* overlong "/" */
+        {"\xed\xa0\x80", "???"},            /* a surrogate */
+        {"\xf4\x90\x80\x80", "????"},       /* past U+10FFFF */
+        {"x\xe2\x82", "x??"},                /* cut short */
+        {"\x80z", "?z"},                    /* a stray continuation */
+        {"tab\there\x7f", "tab?here?"},      /* control bytes */
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        mts_wire_clean_text(out, sizeof out, cases[i].in, strlen(cases[i].in));
+        CHECKF(t, strcmp(out, cases[i].want) == 0, "case %zu: %s", i, out);
+    }
+    /* room for "caf" and half of the e-acute: the character is left out */
+    CHECK(t, mts_wire_clean_text(out, 5, ok, strlen(ok)) == 3 && strcmp(out, "caf") == 0);
+}
+
 /* Frames fed in pieces of every size come out whole and in order. */
 static void test_reader_any_split(mts_test *t)
 {
@@ -432,6 +460,7 @@ static void test_reader_two_big_frames(mts_test *t)
 int main(void)
 {
     mts_test t = {0};
+    RUN(&t, test_clean_text);
     RUN(&t, test_hello_round_trip_and_errors);
     RUN(&t, test_model_info_round_trip_and_bounds);
     RUN(&t, test_hello_records_flag);

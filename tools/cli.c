@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "clock.h"
+#include "utf8.h"
 
 double cli_now(void)
 {
@@ -115,18 +116,31 @@ void cli_json_begin(cli_json *j, FILE *f)
     fputc('{', f);
 }
 
+void cli_json_text(FILE *f, const char *s)
+{
+    const unsigned char *u = (const unsigned char *)s;
+    size_t n = strlen(s);
+    for (size_t i = 0; i < n;) {
+        const unsigned char c = u[i];
+        const size_t k = mts_utf8_seq_len(u + i, n - i);
+        if (c == '"' || c == '\\')
+            fprintf(f, "\\%c", c);
+        else if (c == '\n')
+            fputs("\\n", f);
+        else if (c < 0x20 || c == 0x7f)
+            fprintf(f, "\\u%04x", c);
+        else if (k == 0)
+            fputs("\\ufffd", f); /* not UTF-8: a JSON parser would refuse the line */
+        else
+            fwrite(u + i, 1, k, f);
+        i += k ? k : 1;
+    }
+}
+
 static void json_string(FILE *f, const char *s)
 {
     fputc('"', f);
-    for (; *s; s++) {
-        unsigned char c = (unsigned char)*s;
-        if (c == '"' || c == '\\')
-            fprintf(f, "\\%c", c);
-        else if (c < 0x20)
-            fprintf(f, "\\u%04x", c);
-        else
-            fputc(c, f);
-    }
+    cli_json_text(f, s);
     fputc('"', f);
 }
 

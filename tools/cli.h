@@ -54,6 +54,10 @@ void cli_json_key(cli_json *j, const char *key); /* before a value or object */
 void cli_json_object_begin(cli_json *j, const char *key);
 void cli_json_object_end(cli_json *j);
 void cli_json_str(cli_json *j, const char *key, const char *value);
+/* A JSON string's body (no quotes): quotes, backslashes and control bytes
+ * escaped, any byte of a sequence that is not UTF-8 written as U+FFFD, so a
+ * peer's or a file system's bytes never break the line. */
+void cli_json_text(FILE *f, const char *s);
 void cli_json_u64(cli_json *j, const char *key, uint64_t value);
 void cli_json_num(cli_json *j, const char *key, double value, int decimals);
 void cli_json_bool(cli_json *j, const char *key, int value);
