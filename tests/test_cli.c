@@ -56,7 +56,7 @@ static void test_json_line(mts_test *t)
         return;
     cli_json j;
     cli_json_begin(&j, f);
-    cli_json_str(&j, "name", "a \"quoted\"\\path\n\x01");
+    cli_json_str(&j, "name", "a \"quoted\"\\path\n\x01 \xff\xc3\xa9");
     cli_json_u64(&j, "n", 18446744073709551615ull);
     cli_json_object_begin(&j, "inner");
     cli_json_num(&j, "x", 1.5, 2);
@@ -65,7 +65,9 @@ static void test_json_line(mts_test *t)
     cli_json_num(&j, "nan", NAN, 2);
     cli_json_end(&j);
     fclose(f);
-    const char *want = "{\"name\":\"a \\\"quoted\\\"\\\\path\\u000a\\u0001\",\"n\":18446744073709551615,"
+    /* a byte that is not UTF-8 becomes U+FFFD; a character that is stays */
+    const char *want = "{\"name\":\"a \\\"quoted\\\"\\\\path\\n\\u0001 \\ufffd\xc3\xa9\","
+                       "\"n\":18446744073709551615,"
                        "\"inner\":{\"x\":1.50,\"ok\":true},\"nan\":null}\n";
     CHECKF(t, strcmp(buf, want) == 0, "got %s", buf);
 }
