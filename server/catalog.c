@@ -700,6 +700,7 @@ mts_result mts_catalog_add_dir(mts_catalog *cat, const char *dir,
 
     mts_result r = MTS_OK;
     dir_item *items = NULL;
+    uint8_t *added = NULL; /* per item: it got its name */
     size_t count = 0, cap = 0;
     unsigned nfailed = 0;
     for (;;) {
@@ -746,8 +747,15 @@ mts_result mts_catalog_add_dir(mts_catalog *cat, const char *dir,
     if (count > 1)
         qsort(items, count, sizeof *items, cmp_item);
 
-    /* Equal stems are now next to each other, the winner first. */
+    /* Equal stems are now next to each other, the preferred first (a model
+     * file before meshes); the name goes to the first of them that loads, so
+     * a broken .mtsm does not hide a good mesh of its name. */
     const char *sep = dir[strlen(dir) - 1] == '/' ? "" : "/";
+    added = calloc(count + 1, 1);
+    if (!added) {
+        r = mts_error_set(err, MTS_ERR_NOMEM, "out of memory listing %s", dir);
+        goto done;
+    }
     for (size_t i = 0; i < count; i++) {
         dir_item *it = &items[i];
         char *path = str_printf("%s%s%s", dir, sep, it->file);
@@ -756,9 +764,13 @@ mts_result mts_catalog_add_dir(mts_catalog *cat, const char *dir,
             goto done;
         }
         mts_error e1 = {0};
-        const dir_item *winner = NULL;
-        for (size_t j = i; j-- > 0 && !strcmp(items[j].stem, it->stem);)
-            winner = &items[j];
+        const dir_item *winner = NULL, *failed_first = NULL;
+        for (size_t j = i; j-- > 0 && !strcmp(items[j].stem, it->stem);) {
+            if (added[j])
+                winner = &items[j];
+            else
+                failed_first = &items[j];
+        }
         const mts_catalog_entry *old;
         struct stat st;
         errno = 0;
@@ -778,6 +790,10 @@ mts_result mts_catalog_add_dir(mts_catalog *cat, const char *dir,
             report_to(report, MTS_CATALOG_SKIPPED, path, "skipped: %s",
                       errno ? strerror(errno) : "not a regular file");
         } else {
+            if (failed_first)
+                report_to(report, MTS_CATALOG_NOTE, path,
+                          "%s: %s did not load; this file is served under its name instead",
+                          it->stem, failed_first->file);
             mts_result ar = it->is_model ? add_model_file(cat, it->stem, path, report, &e1)
                                          : add_mesh_file(cat, it->stem, path, report, &e1);
             if (ar == MTS_ERR_NOMEM) {
@@ -788,6 +804,8 @@ mts_result mts_catalog_add_dir(mts_catalog *cat, const char *dir,
             if (ar != MTS_OK) {
                 nfailed++;
                 report_to(report, MTS_CATALOG_FAILED, path, "%s", e1.msg);
+            } else {
+                added[i] = 1;
             }
         }
         free(path);
@@ -798,6 +816,7 @@ done:
         free(items[i].stem);
     }
     free(items);
+    free(added);
     if (failed)
         *failed = nfailed;
     return r;

@@ -232,6 +232,10 @@ static int setup_models(void)
     ok = ok && copy_file(sphere, p);
     snprintf(p, sizeof p, "%s/Sphere2.off", models); /* same name: skipped */
     ok = ok && copy_file(sphere, p);
+    snprintf(p, sizeof p, "%s/ball2.mtsm", models); /* a truncated model file: */
+    ok = ok && write_text(p, "MTSM");
+    snprintf(p, sizeof p, "%s/ball2.off", models); /* the mesh of its name is served */
+    ok = ok && copy_file(sphere, p);
     snprintf(p, sizeof p, "%s/README.txt", models); /* not a model: ignored */
     ok = ok && write_text(p, "not a model\n");
     return ok;
@@ -248,13 +252,13 @@ static void test_models_dir(mts_test *t)
     mts_catalog *cat = open_dir(t, models, &o, &rep, &failed);
     if (!cat)
         return;
-    CHECKF(t, mts_catalog_count(cat) == 3, "%zu models", mts_catalog_count(cat));
+    CHECKF(t, mts_catalog_count(cat) == 4, "%zu models", mts_catalog_count(cat));
     /* listed in name order */
-    const char *want[] = {"Sphere2", "ball", "cow"};
-    for (size_t i = 0; i < 3 && i < mts_catalog_count(cat); i++)
+    const char *want[] = {"Sphere2", "ball", "ball2", "cow"};
+    for (size_t i = 0; i < 4 && i < mts_catalog_count(cat); i++)
         CHECKF(t, !strcmp(mts_catalog_at(cat, i)->name, want[i]), "at %zu: %s", i,
                mts_catalog_at(cat, i)->name);
-    CHECK(t, mts_catalog_at(cat, 3) == NULL);
+    CHECK(t, mts_catalog_at(cat, 4) == NULL);
 
     const mts_catalog_entry *cow = mts_catalog_find(cat, "cow");
     CHECK(t, cow != NULL);
@@ -276,8 +280,17 @@ static void test_models_dir(mts_test *t)
     const mts_catalog_entry *s2 = mts_catalog_find(cat, "Sphere2");
     CHECK(t, s2 && s2->origin == MTS_CATALOG_BUILT && strstr(s2->source, "Sphere2.OFF"));
 
+    /* a broken model file does not hide the mesh of its name (issue 19): the
+     * failure is reported, the mesh is built and served, and a note says so */
+    const mts_catalog_entry *b2 = mts_catalog_find(cat, "ball2");
+    CHECK(t, b2 && b2->origin == MTS_CATALOG_BUILT && strstr(b2->source, "ball2.off"));
+    CHECK(t, find_report(&rep, MTS_CATALOG_FAILED, "/ball2.mtsm") != NULL);
+    const report_line *n2 = find_report(&rep, MTS_CATALOG_NOTE, "/ball2.off");
+    CHECKF(t, n2 && strstr(n2->msg, "ball2.mtsm did not load") && !strstr(n2->msg, "not built"),
+           "message: %s", n2 ? n2->msg : "(none)");
+
     /* the corrupt mesh: reported with its file name, nothing served */
-    CHECK(t, failed == 1);
+    CHECK(t, failed == 2);
     CHECK(t, mts_catalog_find(cat, "broken") == NULL);
     const report_line *l = find_report(&rep, MTS_CATALOG_FAILED, "/broken.off");
     CHECK(t, l != NULL);
@@ -294,8 +307,8 @@ static void test_models_dir(mts_test *t)
     /* two meshes of one name: the first in byte order wins */
     l = find_report(&rep, MTS_CATALOG_SKIPPED, "/Sphere2.off");
     CHECKF(t, l && strstr(l->msg, "Sphere2.OFF"), "message: %s", l ? l->msg : "(none)");
-    CHECK(t, count_kind(&rep, MTS_CATALOG_ADDED) == 3);
-    CHECK(t, count_kind(&rep, MTS_CATALOG_FAILED) == 1);
+    CHECK(t, count_kind(&rep, MTS_CATALOG_ADDED) == 4);
+    CHECK(t, count_kind(&rep, MTS_CATALOG_FAILED) == 2);
     /* nothing about README.txt, nothing about the cache files */
     CHECK(t, find_report(&rep, MTS_CATALOG_SKIPPED, "README.txt") == NULL);
     CHECKF(t, pc.named > 0, "%d progress calls, %d for cow", pc.calls, pc.named);
