@@ -304,6 +304,15 @@ static int take_frames(mts_session *s, double deadline)
             return 0;
         }
         double t = (1e3 * mts_clock_seconds()) - s->t0;
+        if (ev == MTS_EV_INFO && strcmp(c->info.model, s->hello.model) != 0) {
+            /* a stream of another model is no answer to this HELLO (names
+             * are checked as [A-Za-z0-9._-] when parsed) */
+            rc = mts_error_set(err, MTS_ERR_FORMAT,
+                               "MODEL_INFO is for model '%s', not the '%s' asked for",
+                               c->info.model, s->hello.model);
+            conversation_failed(s, rc, 0);
+            return 0;
+        }
         if (ev == MTS_EV_INFO) {
             st->ms_info = t;
         } else if (ev == MTS_EV_BASE) {

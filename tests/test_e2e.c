@@ -97,6 +97,49 @@ static void test_server_dies_mid_stream(mts_test *t)
     mts_stream_free(&s);
 }
 
+/* A server that answers HELLO for "horse" with cow's stream: the client
+ * refuses it by name instead of drawing the wrong model (issue 19). */
+static void test_info_for_another_model(mts_test *t)
+{
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_model m;
+    mts_stream s;
+    CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
+    CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
+    mts_mesh_free(&mesh);
+    CHECK(t, mts_stream_build(&m, "cow", NULL, &s, &err) == MTS_OK);
+    mts_model_free(&m);
+    int port, lfd = listen_any(&port);
+    CHECK(t, lfd >= 0);
+    mts_buf b = {0};
+    mts_stream_put_model_info(&s, s.model.level_count, &b);
+    mts_buf_put(&b, s.bytes, s.size);
+    pid_t pid = fork();
+    if (pid == 0) {
+        alarm(60);
+        int fd = accept(lfd, NULL, NULL);
+        char hello[256];
+        (void)!recv(fd, hello, sizeof hello, 0);
+        (void)!send(fd, b.data, b.size, MSG_NOSIGNAL);
+        usleep(100000);
+        close(fd);
+        _exit(0);
+    }
+    close(lfd);
+    char cmd[2048], out[8192];
+    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d horse --no-render --json", bin_dir,
+             port);
+    int rc = mts_test_run(cmd, out, sizeof out);
+    kill(pid, SIGKILL);
+    waitpid(pid, NULL, 0);
+    CHECKF(t, rc == 1 && strstr(out, "MODEL_INFO is for model 'cow', not the 'horse' asked for") &&
+                  strstr(out, "\"complete\":false"),
+           "exit %d: %s", rc, out);
+    mts_buf_free(&b);
+    mts_stream_free(&s);
+}
+
 /* Whether out holds only well-formed UTF-8 (what a JSON parser takes). */
 static int all_utf8(const char *out)
 {
@@ -402,6 +445,7 @@ int main(int argc, char **argv)
     mts_test t = {0};
     RUN(&t, test_server_dies_mid_stream);
     RUN(&t, test_peer_text_not_utf8);
+    RUN(&t, test_info_for_another_model);
     RUN(&t, test_url_models);
     RUN(&t, test_pngs_at_three_levels);
     RUN(&t, test_records_form_programs);
