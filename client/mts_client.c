@@ -28,8 +28,8 @@ static void usage(FILE *f)
     fputs("usage: mts-client [HOST[:PORT]] MODEL [--level L | --triangles N | --fraction F]\n"
           "                  [--png FILE] [--png-levels L1,L2,...] [--size WxH] [--color-strips]\n"
           "                  [--verify] [--model-file M.mtsm] [--no-render] [--records]\n"
-          "                  [--resume]\n"
-          "                  [--retries N] [--lod-policy P [--fps N] [--distance D]]\n"
+          "                  [--resume] [--retries N] [--connect-timeout S] [--timeout S]\n"
+          "                  [--max-time S] [--lod-policy P [--fps N] [--distance D]]\n"
           "                  [--json] [--quiet]\n"
           "       mts-client [HOST[:PORT]] MODEL --window [--size WxH] [--script FILE]\n"
           "                  [--color-strips] [--level L | ...] [--lod-policy P] [--resume]\n"
@@ -61,6 +61,11 @@ static void usage(FILE *f)
           "                      from the last batch applied; the final mesh is the same\n"
           "  --retries N         with --resume: give up after N tries in a row without\n"
           "                      progress (default 8)\n"
+          "  --connect-timeout S give up a connect after S s (default 5)\n"
+          "  --timeout S         give up a connection that brings no byte for S s\n"
+          "                      (default 30; with --resume, that try)\n"
+          "  --max-time S        give up when the stream has not ended after S s in all,\n"
+          "                      waits and resumes included (default 600)\n"
           "  --window            show the model in a window (X11, $DISPLAY) as it streams:\n"
           "                      left-drag turns it, the wheel zooms; keys: + / - one\n"
           "                      batch of levels, PgUp / PgDn 10%, Home the base, End the\n"
@@ -940,6 +945,16 @@ int main(int argc, char **argv)
                 return CLI_EXIT_USAGE;
             }
             script = v;
+            i++;
+        } else if (!strcmp(a, "--connect-timeout") || !strcmp(a, "--timeout") ||
+                   !strcmp(a, "--max-time")) {
+            double *dst = !strcmp(a, "--connect-timeout") ? &so.connect_timeout
+                          : !strcmp(a, "--timeout")       ? &so.io_timeout
+                                                          : &so.max_time;
+            if (!v || !cli_parse_double(v, dst) || !(*dst > 0) || *dst > 1e6) {
+                fprintf(stderr, "mts-client: %s needs a number of seconds above 0\n", a);
+                return CLI_EXIT_USAGE;
+            }
             i++;
         } else if (!strcmp(a, "--resume")) {
             so.resume = 1;

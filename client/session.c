@@ -150,7 +150,7 @@ typedef enum phase {
 struct mts_session {
     const mts_session_options *o;
     const char *host, *port;
-    double cto, ito;
+    double cto, ito, max_ms;
     double t0;
     mts_stream_client *c;
     mts_session_stats *st;
@@ -421,6 +421,7 @@ mts_result mts_session_begin(const mts_session_options *o, mts_stream_client *c,
     s->port = o->port ? o->port : "7447";
     s->cto = o->connect_timeout > 0 ? o->connect_timeout : 5;
     s->ito = o->io_timeout > 0 ? o->io_timeout : 30;
+    s->max_ms = (o->max_time > 0 ? o->max_time : 600) * 1000;
     s->t0 = (1e3 * mts_clock_seconds());
     s->c = c;
     s->st = st;
@@ -447,6 +448,14 @@ mts_result mts_session_begin(const mts_session_options *o, mts_stream_client *c,
 
 int mts_session_poll(mts_session *s, int timeout_ms)
 {
+    const double time_left = s->t0 + s->max_ms - (1e3 * mts_clock_seconds());
+    if (s->ph != PH_DONE && time_left <= 0)
+        finish(s, mts_error_set(&s->err, MTS_ERR_IO,
+                                "no END after %g s (%u batches applied): the session's time "
+                                "limit",
+                                s->max_ms / 1000, s->c->batches));
+    else if (timeout_ms < 0 || timeout_ms > time_left) /* no wait past the limit */
+        timeout_ms = (int)time_left + 1;
     if (s->ph == PH_CONNECT) { /* then on to connecting at once */
         int transient;
         s->progress = 0;

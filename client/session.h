@@ -31,6 +31,9 @@ typedef struct mts_session_options {
     const char *port;       /* NULL: 7447 */
     double connect_timeout; /* seconds; 0: 5 */
     double io_timeout;      /* seconds without a byte; 0: 30 */
+    double max_time;        /* seconds for the whole session, waits and resumes
+                             * included, so that a server trickling a valid
+                             * stream cannot hold a client forever; 0: 600 */
     mts_wire_hello hello;   /* major/minor are filled in when zero */
     int list;               /* send LIST instead of HELLO */
     /* after each event; returning non-zero stops the session (MTS_ERR_ARG) */

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "build.h"
+#include "clock.h"
 #include "mesh.h"
 #include "stream.h"
 #include "test.h"
@@ -136,6 +137,57 @@ static void test_info_for_another_model(mts_test *t)
     CHECKF(t, rc == 1 && strstr(out, "MODEL_INFO is for model 'cow', not the 'horse' asked for") &&
                   strstr(out, "\"complete\":false"),
            "exit %d: %s", rc, out);
+    mts_buf_free(&b);
+    mts_stream_free(&s);
+}
+
+/* A server that trickles a valid stream (a byte every 100 ms, never idle
+ * for --timeout) holds a client no longer than --max-time (issue 19). */
+static void test_trickle_bounded(mts_test *t)
+{
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_model m;
+    mts_stream s;
+    CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
+    CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
+    mts_mesh_free(&mesh);
+    CHECK(t, mts_stream_build(&m, "cow", NULL, &s, &err) == MTS_OK);
+    mts_model_free(&m);
+    int port, lfd = listen_any(&port);
+    CHECK(t, lfd >= 0);
+    mts_buf b = {0};
+    mts_stream_put_model_info(&s, s.model.level_count, &b);
+    mts_buf_put(&b, s.bytes, s.size);
+    pid_t pid = fork();
+    if (pid == 0) {
+        alarm(60);
+        int fd = accept(lfd, NULL, NULL);
+        char hello[256];
+        (void)!recv(fd, hello, sizeof hello, 0);
+        for (size_t i = 0; i < b.size; i++) {
+            if (send(fd, b.data + i, 1, MSG_NOSIGNAL) != 1)
+                break;
+            usleep(100000);
+        }
+        _exit(0);
+    }
+    close(lfd);
+    char cmd[2048], out[8192];
+    snprintf(cmd, sizeof cmd,
+             "%s/mts-client 127.0.0.1:%d cow --no-render --json --timeout 5 --max-time 1.5",
+             bin_dir, port);
+    const double t0 = mts_clock_seconds();
+    int rc = mts_test_run(cmd, out, sizeof out);
+    const double took = mts_clock_seconds() - t0;
+    kill(pid, SIGKILL);
+    waitpid(pid, NULL, 0);
+    CHECKF(t, rc == 1 && strstr(out, "no END after 1.5 s") && strstr(out, "time limit"),
+           "exit %d: %s", rc, out);
+    CHECKF(t, took < 5, "the client took %.1f s", took);
+    /* the options are checked */
+    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow --max-time 0", bin_dir, port);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 2 && strstr(out, "--max-time"));
     mts_buf_free(&b);
     mts_stream_free(&s);
 }
@@ -446,6 +498,7 @@ int main(int argc, char **argv)
     RUN(&t, test_server_dies_mid_stream);
     RUN(&t, test_peer_text_not_utf8);
     RUN(&t, test_info_for_another_model);
+    RUN(&t, test_trickle_bounded);
     RUN(&t, test_url_models);
     RUN(&t, test_pngs_at_three_levels);
     RUN(&t, test_records_form_programs);
