@@ -294,7 +294,9 @@ static int take_frames(mts_session *s, double deadline)
         st->ms_apply += (1e3 * mts_clock_seconds()) - a;
         st->frames++;
         if (rc != MTS_OK) {
-            conversation_failed(s, rc, 0);
+            /* a frame that failed its CRC was rejected whole: a resume asks
+             * for it again; anything else would fail again */
+            conversation_failed(s, rc, c->rejected);
             return 0;
         }
         if (ev == MTS_EV_BASE || ev == MTS_EV_BATCH || ev == MTS_EV_END)

@@ -1365,6 +1365,14 @@ static int crc_ok(const uint8_t *payload, size_t size)
     return mts_crc32c(0, payload, size - 4) == want;
 }
 
+/* A frame that failed its CRC: nothing of it applied and the state as it
+ * was, so a resumed conversation can bring it again (c->rejected). */
+static mts_result reject(mts_stream_client *c, mts_result rc)
+{
+    c->rejected = 1;
+    return rc;
+}
+
 static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
 {
     mts_result rc = mts_wire_parse_model_info(p, n, &c->info, err);
@@ -1536,8 +1544,7 @@ static mts_result take_capacities(mts_stream_client *c, mts_cursor *cur, mts_rc_
 
 static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
 {
-    if (!crc_ok(p, n))
-        return mts_error_set(err, MTS_ERR_CHECKSUM, "BASE: checksum mismatch; not applied");
+    /* the CRC has checked out (mts_stream_client_frame) */
     mts_model *m = &c->model;
     const uint32_t nb = m->base_vertex_count;
     mts_cursor cur = mts_cursor_make(p, n - 4);
@@ -1945,9 +1952,7 @@ static mts_result take_records(mts_stream_client *c, const uint8_t *p, size_t n,
  * (records form) the records and vertices. */
 static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
 {
-    if (!crc_ok(p, n))
-        return mts_error_set(err, MTS_ERR_CHECKSUM,
-                             "BATCH %u: checksum mismatch; rejected, not applied", c->batches);
+    /* the CRC has checked out (mts_stream_client_frame) */
     mts_model *m = &c->model;
     mts_cursor cur = mts_cursor_make(p, n - 4);
     const uint32_t index = mts_cursor_varint(&cur), more = mts_cursor_varint(&cur);
@@ -2024,6 +2029,7 @@ mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uin
                                    size_t size, mts_stream_event *event, mts_error *err)
 {
     *event = MTS_EV_NONE;
+    c->rejected = 0;
     mts_result rc;
     if (c->state == ST_FAILED || c->state == ST_DONE)
         return mts_error_set(err, MTS_ERR_ARG, "stream: frame after the end of the stream");
@@ -2064,6 +2070,9 @@ mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uin
     case ST_BASE:
         if (type != MTS_MSG_BASE)
             break;
+        if (!crc_ok(payload, size))
+            return reject(c, mts_error_set(err, MTS_ERR_CHECKSUM,
+                                           "BASE: checksum mismatch; not applied"));
         if ((rc = take_base(c, payload, size, err)) != MTS_OK)
             return fail(c, rc);
         c->state = ST_BATCHES;
@@ -2075,12 +2084,17 @@ mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uin
         if (type != MTS_MSG_BASE)
             break;
         if (!crc_ok(payload, size))
-            return fail(c, mts_error_set(err, MTS_ERR_CHECKSUM,
-                                         "BASE (resumed): checksum mismatch"));
+            return reject(c, mts_error_set(err, MTS_ERR_CHECKSUM,
+                                           "BASE (resumed): checksum mismatch; not applied"));
         c->state = ST_BATCHES;
         return MTS_OK;
     case ST_BATCHES:
         if (type == MTS_MSG_BATCH) {
+            if (!crc_ok(payload, size))
+                return reject(c, mts_error_set(err, MTS_ERR_CHECKSUM,
+                                               "BATCH %u: checksum mismatch; rejected, not "
+                                               "applied",
+                                               c->batches));
             if ((rc = take_batch(c, payload, size, err)) != MTS_OK)
                 return fail(c, rc);
             *event = MTS_EV_BATCH;

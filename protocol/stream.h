@@ -176,6 +176,9 @@ typedef struct mts_stream_client {
     uint16_t error_code;
     char error_text[256];
     int resuming;       /* in a conversation after a broken one (see reconnected) */
+    int rejected;       /* the last frame failed its CRC: rejected whole, nothing of it
+                         * applied, and the client can go on: a resume asks for that
+                         * frame again (PROTOCOL.md, "Split coding") */
     uint32_t resumes;   /* conversations that resumed (MTS_EV_RESUMED) */
     void (*on_model)(void *user, const mts_wire_model_entry *m); /* for LIST */
     void *user;
@@ -185,7 +188,9 @@ void mts_stream_client_init(mts_stream_client *c);
 void mts_stream_client_free(mts_stream_client *c);
 
 /* Takes one frame. Errors name the message and the problem; a client that
- * returned an error is not fed again. A batch is applied only after its CRC,
+ * returned an error is not fed again, but for a frame that failed its CRC
+ * (c->rejected): nothing of it was applied, and a resumed conversation
+ * (mts_stream_client_reconnected) brings it again. A batch is applied only after its CRC,
  * its header and its encoding have checked out; each split's record is then
  * checked against the strips as it is applied (mts_lod_split), so a record
  * that fails leaves c->lod broken part-way through that batch (lod.broken). */

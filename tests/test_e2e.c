@@ -192,6 +192,75 @@ static void test_trickle_bounded(mts_test *t)
     mts_stream_free(&s);
 }
 
+/* A batch that fails its CRC is rejected whole; with --resume the client
+ * asks for it again (PROTOCOL.md, "Split coding") and ends with the mesh of
+ * an unbroken run; without, it stops at the batch before (issue 19: it did
+ * not retry). The server's first answer has a byte of batch 3 flipped. */
+static void test_crc_mismatch_resumed(mts_test *t)
+{
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_model m;
+    mts_stream s;
+    CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
+    CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
+    mts_mesh_free(&mesh);
+    CHECK(t, mts_stream_build(&m, "cow", NULL, &s, &err) == MTS_OK);
+    mts_model_free(&m);
+    const uint32_t stop = s.model.level_count;
+    mts_buf whole = {0}, resumed = {0};
+    size_t off, len;
+    mts_stream_put_model_info(&s, stop, &whole);
+    CHECK(t, mts_stream_range(&s, 0, stop, &off, &len, &err) == MTS_OK);
+    const size_t flip = whole.size + (s.batch_offset[3] - off) + 9; /* inside batch 3 */
+    mts_buf_put(&whole, s.bytes + off, len);
+    mts_stream_put_end(&s, stop, (uint32_t)whole.size, &whole);
+    whole.data[flip] ^= 0x40;
+    mts_stream_put_model_info(&s, stop, &resumed);
+    CHECK(t, mts_stream_range(&s, 3, stop, &off, &len, &err) == MTS_OK);
+    mts_buf_put(&resumed, s.bytes + off, len);
+    mts_stream_put_end(&s, stop, (uint32_t)resumed.size, &resumed);
+    for (int with_resume = 1; with_resume >= 0; with_resume--) {
+        int port, lfd = listen_any(&port);
+        CHECK(t, lfd >= 0);
+        pid_t pid = fork();
+        if (pid == 0) {
+            alarm(60);
+            for (int k = 0;; k++) {
+                int fd = accept(lfd, NULL, NULL);
+                char hello[256];
+                (void)!recv(fd, hello, sizeof hello, 0);
+                const mts_buf *b = k == 0 ? &whole : &resumed;
+                (void)!send(fd, b->data, b->size, MSG_NOSIGNAL);
+                usleep(100000);
+                close(fd);
+            }
+        }
+        close(lfd);
+        char cmd[2048], out[8192];
+        snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow --no-render --json %s", bin_dir,
+                 port, with_resume ? "--resume" : "");
+        int rc = mts_test_run(cmd, out, sizeof out);
+        kill(pid, SIGKILL);
+        waitpid(pid, NULL, 0);
+        if (with_resume) {
+            char want[64];
+            snprintf(want, sizeof want, "\"checksum\":\"%016llx\"",
+                     (unsigned long long)s.level_checksum[stop]);
+            CHECKF(t, rc == 0 && strstr(out, "\"complete\":true") && strstr(out, want) &&
+                          strstr(out, "\"reconnects\":1"),
+                   "exit %d: %s", rc, out);
+        } else {
+            CHECKF(t, rc == 1 && strstr(out, "BATCH 3: checksum mismatch") &&
+                          strstr(out, "\"batches\":3,"),
+                   "exit %d: %s", rc, out);
+        }
+    }
+    mts_buf_free(&whole);
+    mts_buf_free(&resumed);
+    mts_stream_free(&s);
+}
+
 /* Whether out holds only well-formed UTF-8 (what a JSON parser takes). */
 static int all_utf8(const char *out)
 {
@@ -499,6 +568,7 @@ int main(int argc, char **argv)
     RUN(&t, test_peer_text_not_utf8);
     RUN(&t, test_info_for_another_model);
     RUN(&t, test_trickle_bounded);
+    RUN(&t, test_crc_mismatch_resumed);
     RUN(&t, test_url_models);
     RUN(&t, test_pngs_at_three_levels);
     RUN(&t, test_records_form_programs);
