@@ -19,7 +19,8 @@ static void usage(FILE *f)
 {
     fputs("usage: mts-server [--models DIR] [--model NAME=PATH|URL]... [--listen ADDR:PORT]\n"
           "                  [--max-clients N] [--idle-timeout S] [--handshake-timeout S]\n"
-          "                  [--grace S] [--max-download BYTES] [--workers N]\n"
+          "                  [--grace S] [--max-download BYTES] [--fetch-timeout S]\n"
+          "                  [--fetch-connect-timeout S] [--workers N]\n"
           "                  [--rate-limit BYTES/S] [--sndbuf BYTES] [--stats-interval S]\n"
           "                  [--prepare-threads N] [--prepare-wait S] [--no-records-form]\n"
           "                  [--quiet]\n"
@@ -42,6 +43,8 @@ static void usage(FILE *f)
           "  --handshake-timeout S  drop a client that sends no HELLO for S s (default 10)\n"
           "  --grace S              on SIGTERM/SIGINT, let streams finish for S s (default 5)\n"
           "  --max-download BYTES   size cap for URL models (default 268435456)\n"
+          "  --fetch-connect-timeout S  a URL model's connect may take S s (default 10)\n"
+          "  --fetch-timeout S      a URL model's whole download may take S s (default 60)\n"
           "  --workers N            N event loops on N threads sharing the port through\n"
           "                         SO_REUSEPORT and the streams in memory (default 1)\n"
           "  --rate-limit BYTES/S   pace each connection (a realistic preview); default none\n"
@@ -297,6 +300,17 @@ int main(int argc, char **argv)
                 return CLI_EXIT_USAGE;
             }
             co.fetch.max_bytes = (uint64_t)bytes;
+        } else if (!strcmp(a, "--fetch-connect-timeout") || !strcmp(a, "--fetch-timeout")) {
+            double secs;
+            if (!parse_seconds(v, &secs) || secs > 86400) {
+                fprintf(stderr, "mts-server: %s needs a number of seconds above 0\n", a);
+                return CLI_EXIT_USAGE;
+            }
+            uint32_t ms = (uint32_t)(secs * 1000 + 0.5) ? (uint32_t)(secs * 1000 + 0.5) : 1;
+            if (!strcmp(a, "--fetch-timeout"))
+                co.fetch.timeout_ms = ms;
+            else
+                co.fetch.connect_timeout_ms = ms;
         } else {
             fprintf(stderr, "mts-server: unknown option %s (see --help)\n", a);
             return CLI_EXIT_USAGE;

@@ -17,6 +17,7 @@
 #include <math.h>
 #include <stdint.h>
 
+#include "clock.h"
 #include "test.h"
 #include "test_proc.h"
 #include "wire.h"
@@ -404,6 +405,44 @@ static void test_stop_while_loading(mts_test *t)
            "%s", logtext);
 }
 
+/* --fetch-timeout bounds a URL model's download: a server that accepts and
+ * never answers costs a second, named, not the default minute (issue 19:
+ * the fetch timeouts were no option). */
+static void test_fetch_timeout_option(mts_test *t)
+{
+    int lfd = socket(AF_INET, SOCK_STREAM, 0), one = 1;
+    struct sockaddr_in a = {0};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    setsockopt(lfd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    socklen_t sl = sizeof a;
+    CHECK(t, bind(lfd, (struct sockaddr *)&a, sizeof a) == 0 && listen(lfd, 4) == 0 &&
+                 getsockname(lfd, (struct sockaddr *)&a, &sl) == 0);
+    pid_t mute = fork();
+    if (mute == 0) { /* accepts, reads, never answers */
+        alarm(30);
+        for (;;) {
+            int fd = accept(lfd, NULL, NULL);
+            (void)fd;
+        }
+    }
+    close(lfd);
+    char cmd[1024], out[8192];
+    snprintf(cmd, sizeof cmd,
+             "%s/mts-server --model slow=http://127.0.0.1:%d/slow.off --fetch-timeout 1 "
+             "--listen 127.0.0.1:%d",
+             bin_dir, ntohs(a.sin_port), mts_test_free_port());
+    const double t0 = mts_clock_seconds();
+    int rc = mts_test_run(cmd, out, sizeof out);
+    const double took = mts_clock_seconds() - t0;
+    kill(mute, SIGKILL);
+    waitpid(mute, NULL, 0);
+    CHECKF(t, rc == 1 && strstr(out, "total timeout 1000 ms") && took < 10,
+           "exit %d after %.1f s: %s", rc, took, out);
+    snprintf(cmd, sizeof cmd, "%s/mts-server --models . --fetch-connect-timeout -1", bin_dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 2 && strstr(out, "--fetch-connect-timeout"));
+}
+
 static void test_usage(mts_test *t)
 {
     char cmd[1024], out[8192];
@@ -445,5 +484,6 @@ int main(int argc, char **argv)
     RUN(&t, test_workers_rate_stats);
     RUN(&t, test_quiet_keeps_stats);
     RUN(&t, test_stop_while_loading);
+    RUN(&t, test_fetch_timeout_option);
     return mts_test_end(&t);
 }
