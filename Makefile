@@ -59,7 +59,7 @@ PROGRAMS := $(BUILD)/bin/mts-build $(BUILD)/bin/mts-inspect $(BUILD)/bin/mts-ser
 TESTS    := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 BENCH    := $(BUILD)/bin/mts-bench
 
-.PHONY: all programs tests test test-release test-asan bench demo demo-serve deps install clean
+.PHONY: all programs tests test test-release test-asan bench soak demo demo-serve deps install clean
 # keep object files of programs and tests between builds
 .SECONDARY:
 all: programs tests
@@ -132,6 +132,13 @@ test-release: all
 test-asan:
 	@$(MAKE) --no-print-directory SAN=1 all
 	@tests/run.sh build/asan
+
+# A long run of good and hostile clients against one server (issue 19;
+# not part of make test): scripts/soak.py, figures in bench/out/soak.json.
+SOAK_SECONDS ?= 1800
+soak: all
+	@mkdir -p bench/out
+	@scripts/soak.py --seconds $(SOAK_SECONDS) --json bench/out/soak.json
 
 bench: deps
 	@$(MAKE) --no-print-directory programs $(BENCH) $(BUILD)/bin/mts-bench-stream $(BUILD)/bin/mts-bench-walk \
