@@ -50,18 +50,56 @@ static int file_size(const char *path)
     return n;
 }
 
-/* A server that sends a real stream for cow but dies after `cut` bytes. */
-static void test_server_dies_mid_stream(mts_test *t)
+/* cow's stream (model name "cow"), as a server would send it. */
+static int cow_stream(mts_test *t, mts_stream *s)
 {
     mts_error err = {0};
     mts_mesh mesh = {0};
     mts_model m;
-    mts_stream s;
-    CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
-    CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
+    CHECKF(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK, "%s",
+           err.msg);
+    if (t->case_failed)
+        return 0;
+    CHECKF(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK, "%s", err.msg);
     mts_mesh_free(&mesh);
-    CHECK(t, mts_stream_build(&m, "cow", NULL, &s, &err) == MTS_OK);
+    if (t->case_failed)
+        return 0;
+    CHECKF(t, mts_stream_build(&m, "cow", NULL, s, &err) == MTS_OK, "%s", err.msg);
     mts_model_free(&m);
+    return !t->case_failed;
+}
+
+/* A server in a child process: each connection gets one HELLO read and
+ * answers[k] (the last one again past the list) sent, `per_byte_us` apart
+ * a byte when not 0; it lives until killed (60 s at most). */
+static pid_t fake_server(int lfd, const mts_buf *const *answers, int count, unsigned per_byte_us)
+{
+    pid_t pid = fork();
+    if (pid != 0)
+        return pid;
+    alarm(60);
+    for (int k = 0;; k++) {
+        int fd = accept(lfd, NULL, NULL);
+        char hello[256];
+        (void)!recv(fd, hello, sizeof hello, 0);
+        const mts_buf *b = answers[k < count ? k : count - 1];
+        if (per_byte_us == 0) {
+            (void)!send(fd, b->data, b->size, MSG_NOSIGNAL);
+        } else {
+            for (size_t i = 0; i < b->size && send(fd, b->data + i, 1, MSG_NOSIGNAL) == 1; i++)
+                usleep(per_byte_us);
+        }
+        usleep(100000);
+        close(fd);
+    }
+}
+
+/* A server that sends a real stream for cow but dies after `cut` bytes. */
+static void test_server_dies_mid_stream(mts_test *t)
+{
+    mts_stream s;
+    if (!cow_stream(t, &s))
+        return;
     int port, lfd = listen_any(&port);
     CHECK(t, lfd >= 0);
     mts_buf b = {0};
@@ -102,31 +140,16 @@ static void test_server_dies_mid_stream(mts_test *t)
  * refuses it by name instead of drawing the wrong model (issue 19). */
 static void test_info_for_another_model(mts_test *t)
 {
-    mts_error err = {0};
-    mts_mesh mesh = {0};
-    mts_model m;
     mts_stream s;
-    CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
-    CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
-    mts_mesh_free(&mesh);
-    CHECK(t, mts_stream_build(&m, "cow", NULL, &s, &err) == MTS_OK);
-    mts_model_free(&m);
+    if (!cow_stream(t, &s))
+        return;
     int port, lfd = listen_any(&port);
     CHECK(t, lfd >= 0);
     mts_buf b = {0};
     mts_stream_put_model_info(&s, s.model.level_count, &b);
     mts_buf_put(&b, s.bytes, s.size);
-    pid_t pid = fork();
-    if (pid == 0) {
-        alarm(60);
-        int fd = accept(lfd, NULL, NULL);
-        char hello[256];
-        (void)!recv(fd, hello, sizeof hello, 0);
-        (void)!send(fd, b.data, b.size, MSG_NOSIGNAL);
-        usleep(100000);
-        close(fd);
-        _exit(0);
-    }
+    const mts_buf *answer = &b;
+    pid_t pid = fake_server(lfd, &answer, 1, 0);
     close(lfd);
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d horse --no-render --json", bin_dir,
@@ -145,33 +168,16 @@ static void test_info_for_another_model(mts_test *t)
  * for --timeout) holds a client no longer than --max-time (issue 19). */
 static void test_trickle_bounded(mts_test *t)
 {
-    mts_error err = {0};
-    mts_mesh mesh = {0};
-    mts_model m;
     mts_stream s;
-    CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
-    CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
-    mts_mesh_free(&mesh);
-    CHECK(t, mts_stream_build(&m, "cow", NULL, &s, &err) == MTS_OK);
-    mts_model_free(&m);
+    if (!cow_stream(t, &s))
+        return;
     int port, lfd = listen_any(&port);
     CHECK(t, lfd >= 0);
     mts_buf b = {0};
     mts_stream_put_model_info(&s, s.model.level_count, &b);
     mts_buf_put(&b, s.bytes, s.size);
-    pid_t pid = fork();
-    if (pid == 0) {
-        alarm(60);
-        int fd = accept(lfd, NULL, NULL);
-        char hello[256];
-        (void)!recv(fd, hello, sizeof hello, 0);
-        for (size_t i = 0; i < b.size; i++) {
-            if (send(fd, b.data + i, 1, MSG_NOSIGNAL) != 1)
-                break;
-            usleep(100000);
-        }
-        _exit(0);
-    }
+    const mts_buf *answer = &b;
+    pid_t pid = fake_server(lfd, &answer, 1, 100000);
     close(lfd);
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd,
@@ -198,15 +204,10 @@ static void test_trickle_bounded(mts_test *t)
  * not retry). The server's first answer has a byte of batch 3 flipped. */
 static void test_crc_mismatch_resumed(mts_test *t)
 {
-    mts_error err = {0};
-    mts_mesh mesh = {0};
-    mts_model m;
     mts_stream s;
-    CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
-    CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
-    mts_mesh_free(&mesh);
-    CHECK(t, mts_stream_build(&m, "cow", NULL, &s, &err) == MTS_OK);
-    mts_model_free(&m);
+    if (!cow_stream(t, &s))
+        return;
+    mts_error err = {0};
     const uint32_t stop = s.model.level_count;
     mts_buf whole = {0}, resumed = {0};
     size_t off, len;
@@ -223,19 +224,8 @@ static void test_crc_mismatch_resumed(mts_test *t)
     for (int with_resume = 1; with_resume >= 0; with_resume--) {
         int port, lfd = listen_any(&port);
         CHECK(t, lfd >= 0);
-        pid_t pid = fork();
-        if (pid == 0) {
-            alarm(60);
-            for (int k = 0;; k++) {
-                int fd = accept(lfd, NULL, NULL);
-                char hello[256];
-                (void)!recv(fd, hello, sizeof hello, 0);
-                const mts_buf *b = k == 0 ? &whole : &resumed;
-                (void)!send(fd, b->data, b->size, MSG_NOSIGNAL);
-                usleep(100000);
-                close(fd);
-            }
-        }
+        const mts_buf *answers[2] = {&whole, &resumed};
+        pid_t pid = fake_server(lfd, answers, 2, 0);
         close(lfd);
         char cmd[2048], out[8192];
         snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow --no-render --json %s", bin_dir,
@@ -287,18 +277,8 @@ static void test_peer_text_not_utf8(mts_test *t)
     mts_buf b = {0};
     mts_wire_put_error(&b, MTS_WERR_UNKNOWN_MODEL,
                        "bad \xff\xfe bytes \xc0\xaf \xed\xa0\x80 \x1b[31m cut \xe2\x82");
-    pid_t pid = fork();
-    if (pid == 0) {
-        alarm(60); /* never outlives a broken run */
-        for (;;) { /* mts-client, then mts-stress's two, until killed */
-            int fd = accept(lfd, NULL, NULL);
-            char hello[256];
-            (void)!recv(fd, hello, sizeof hello, 0);
-            (void)!send(fd, b.data, b.size, MSG_NOSIGNAL);
-            usleep(50000);
-            close(fd);
-        }
-    }
+    const mts_buf *answer = &b; /* to mts-client, then to mts-stress's two */
+    pid_t pid = fake_server(lfd, &answer, 1, 0);
     close(lfd);
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow --no-render --json", bin_dir, port);
