@@ -24,21 +24,6 @@
 
 static char bin_dir[512], tmp_dir[512];
 
-static int listen_any(int *port)
-{
-    int fd = socket(AF_INET, SOCK_STREAM, 0), one = 1;
-    struct sockaddr_in a = {0};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-    if (bind(fd, (struct sockaddr *)&a, sizeof a) != 0 || listen(fd, 4) != 0)
-        return -1;
-    socklen_t sl = sizeof a;
-    getsockname(fd, (struct sockaddr *)&a, &sl);
-    *port = ntohs(a.sin_port);
-    return fd;
-}
-
 static int file_size(const char *path)
 {
     FILE *f = fopen(path, "rb");
@@ -100,7 +85,7 @@ static void test_server_dies_mid_stream(mts_test *t)
     mts_stream s;
     if (!cow_stream(t, &s))
         return;
-    int port, lfd = listen_any(&port);
+    int port, lfd = mts_test_listen_any(&port);
     CHECK(t, lfd >= 0);
     mts_buf b = {0};
     mts_stream_put_model_info(&s, s.model.level_count, &b);
@@ -143,7 +128,7 @@ static void test_info_for_another_model(mts_test *t)
     mts_stream s;
     if (!cow_stream(t, &s))
         return;
-    int port, lfd = listen_any(&port);
+    int port, lfd = mts_test_listen_any(&port);
     CHECK(t, lfd >= 0);
     mts_buf b = {0};
     mts_stream_put_model_info(&s, s.model.level_count, &b);
@@ -171,7 +156,7 @@ static void test_trickle_bounded(mts_test *t)
     mts_stream s;
     if (!cow_stream(t, &s))
         return;
-    int port, lfd = listen_any(&port);
+    int port, lfd = mts_test_listen_any(&port);
     CHECK(t, lfd >= 0);
     mts_buf b = {0};
     mts_stream_put_model_info(&s, s.model.level_count, &b);
@@ -222,7 +207,7 @@ static void test_crc_mismatch_resumed(mts_test *t)
     mts_buf_put(&resumed, s.bytes + off, len);
     mts_stream_put_end(&s, stop, (uint32_t)resumed.size, &resumed);
     for (int with_resume = 1; with_resume >= 0; with_resume--) {
-        int port, lfd = listen_any(&port);
+        int port, lfd = mts_test_listen_any(&port);
         CHECK(t, lfd >= 0);
         const mts_buf *answers[2] = {&whole, &resumed};
         pid_t pid = fake_server(lfd, answers, 2, 0);
@@ -270,7 +255,7 @@ static int all_utf8(const char *out)
  * is still UTF-8, the bad bytes replaced (issue 19: they went through). */
 static void test_peer_text_not_utf8(mts_test *t)
 {
-    int port, lfd = listen_any(&port);
+    int port, lfd = mts_test_listen_any(&port);
     CHECK(t, lfd >= 0);
     if (lfd < 0)
         return;
@@ -323,7 +308,7 @@ static void stop(pid_t pid)
 
 static int free_port(void)
 {
-    int port, fd = listen_any(&port);
+    int port, fd = mts_test_listen_any(&port);
     close(fd);
     return port;
 }

@@ -386,26 +386,9 @@ static void test_other_form_refused(mts_test *t)
 
 /* ---- over loopback ---- */
 
-static int listen_any(int *port)
-{
-    int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0), one = 1;
-    struct sockaddr_in a = {0};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-    if (bind(fd, (struct sockaddr *)&a, sizeof a) != 0 || listen(fd, 16) != 0) {
-        close(fd);
-        return -1;
-    }
-    socklen_t sl = sizeof a;
-    getsockname(fd, (struct sockaddr *)&a, &sl);
-    *port = ntohs(a.sin_port);
-    return fd;
-}
-
 static int free_port(void)
 {
-    int port, fd = listen_any(&port);
+    int port, fd = mts_test_listen_any(&port);
     if (fd < 0)
         return -1;
     close(fd);
@@ -721,7 +704,7 @@ enum { AFTER_CUT_RESTART, AFTER_CUT_NOTHING, AFTER_CUT_OTHER_MODEL };
 static int broken_run(mts_test *t, fixture *f, pid_t *server, int after, size_t cut_at,
                       const char *extra, char *out, size_t size, double *seconds_after_cut)
 {
-    int pport, lfd = listen_any(&pport);
+    int pport, lfd = mts_test_listen_any(&pport);
     int to_parent[2], to_proxy[2];
     if (lfd < 0 || pipe(to_parent) != 0 || pipe(to_proxy) != 0) {
         CHECK(t, 0);

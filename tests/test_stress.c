@@ -410,14 +410,10 @@ static void test_stop_while_loading(mts_test *t)
  * the fetch timeouts were no option). */
 static void test_fetch_timeout_option(mts_test *t)
 {
-    int lfd = socket(AF_INET, SOCK_STREAM, 0), one = 1;
-    struct sockaddr_in a = {0};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    setsockopt(lfd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-    socklen_t sl = sizeof a;
-    CHECK(t, bind(lfd, (struct sockaddr *)&a, sizeof a) == 0 && listen(lfd, 4) == 0 &&
-                 getsockname(lfd, (struct sockaddr *)&a, &sl) == 0);
+    int port, lfd = mts_test_listen_any(&port);
+    CHECK(t, lfd >= 0);
+    if (lfd < 0)
+        return;
     pid_t mute = fork();
     if (mute == 0) { /* accepts, reads, never answers */
         alarm(30);
@@ -431,7 +427,7 @@ static void test_fetch_timeout_option(mts_test *t)
     snprintf(cmd, sizeof cmd,
              "%s/mts-server --model slow=http://127.0.0.1:%d/slow.off --fetch-timeout 1 "
              "--listen 127.0.0.1:%d",
-             bin_dir, ntohs(a.sin_port), mts_test_free_port());
+             bin_dir, port, mts_test_free_port());
     const double t0 = mts_clock_seconds();
     int rc = mts_test_run(cmd, out, sizeof out);
     const double took = mts_clock_seconds() - t0;
