@@ -54,14 +54,24 @@ static int cow_stream(mts_test *t, mts_stream *s)
     return !t->case_failed;
 }
 
+/* What a server sends for s's whole stream as a fresh client's answer:
+ * MODEL_INFO, then BASE and every BATCH (no END: a fake server's own end). */
+static void whole_answer(const mts_stream *s, mts_buf *b)
+{
+    mts_stream_put_model_info(s, s->model.level_count, b);
+    mts_buf_put(b, s->bytes, s->size);
+}
+
 /* A server in a child process: each connection gets one HELLO read and
  * answers[k] (the last one again past the list) sent, `per_byte_us` apart
  * a byte when not 0; it lives until killed (60 s at most). */
 static pid_t fake_server(int lfd, const mts_buf *const *answers, int count, unsigned per_byte_us)
 {
     pid_t pid = fork();
-    if (pid != 0)
+    if (pid != 0) {
+        close(lfd); /* the child's now */
         return pid;
+    }
     alarm(60);
     for (int k = 0;; k++) {
         int fd = accept(lfd, NULL, NULL);
@@ -131,11 +141,9 @@ static void test_info_for_another_model(mts_test *t)
     int port, lfd = mts_test_listen_any(&port);
     CHECK(t, lfd >= 0);
     mts_buf b = {0};
-    mts_stream_put_model_info(&s, s.model.level_count, &b);
-    mts_buf_put(&b, s.bytes, s.size);
+    whole_answer(&s, &b);
     const mts_buf *answer = &b;
     pid_t pid = fake_server(lfd, &answer, 1, 0);
-    close(lfd);
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d horse --no-render --json", bin_dir,
              port);
@@ -159,11 +167,9 @@ static void test_trickle_bounded(mts_test *t)
     int port, lfd = mts_test_listen_any(&port);
     CHECK(t, lfd >= 0);
     mts_buf b = {0};
-    mts_stream_put_model_info(&s, s.model.level_count, &b);
-    mts_buf_put(&b, s.bytes, s.size);
+    whole_answer(&s, &b);
     const mts_buf *answer = &b;
     pid_t pid = fake_server(lfd, &answer, 1, 100000);
-    close(lfd);
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd,
              "%s/mts-client 127.0.0.1:%d cow --no-render --json --timeout 5 --max-time 1.5",
@@ -211,7 +217,6 @@ static void test_crc_mismatch_resumed(mts_test *t)
         CHECK(t, lfd >= 0);
         const mts_buf *answers[2] = {&whole, &resumed};
         pid_t pid = fake_server(lfd, answers, 2, 0);
-        close(lfd);
         char cmd[2048], out[8192];
         snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow --no-render --json %s", bin_dir,
                  port, with_resume ? "--resume" : "");
@@ -264,7 +269,6 @@ static void test_peer_text_not_utf8(mts_test *t)
                        "bad \xff\xfe bytes \xc0\xaf \xed\xa0\x80 \x1b[31m cut \xe2\x82");
     const mts_buf *answer = &b; /* to mts-client, then to mts-stress's two */
     pid_t pid = fake_server(lfd, &answer, 1, 0);
-    close(lfd);
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow --no-render --json", bin_dir, port);
     int rc = mts_test_run(cmd, out, sizeof out);
