@@ -33,7 +33,7 @@ PKGS     := draco egl glesv2 libpng libcurl x11
 # A missing development package is named, with the way to get it, before a
 # compiler error about a header could be. Goals that run `deps` first (and
 # `clean`) skip the check: their own sub-makes run it after deps.
-ifeq ($(filter deps clean test bench demo demo-serve fuzz,$(MAKECMDGOALS)),)
+ifeq ($(filter deps clean test bench demo demo-serve fuzz fuzz-long,$(MAKECMDGOALS)),)
 MISSING_PKGS := $(shell command -v pkg-config >/dev/null || echo pkg-config; \
                   for p in $(PKGS); do pkg-config --exists $$p 2>/dev/null || echo $$p; done; \
                   [ -f /usr/include/OpenMesh/Core/Mesh/TriMeshT.hh ] || echo OpenMesh)
@@ -88,7 +88,9 @@ $(BUILD)/bin/mts-server: $(BUILD)/obj/server/mts_server.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(BUILD)/bin/mts-client: $(BUILD)/obj/client/mts_client.o $(CLI_OBJ) $(LIB)
+# mts_client_window.c is mts-client's window run, beside its main()
+$(BUILD)/bin/mts-client: $(BUILD)/obj/client/mts_client.o $(BUILD)/obj/client/mts_client_window.o \
+		$(CLI_OBJ) $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
@@ -199,13 +201,28 @@ FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(wildcard common/*.c protoc
 FUZZ_BINS     := $(patsubst %,$(FUZZ_DIR)/bin/fuzz_%,$(FUZZ_NAMES))
 FUZZ_LDLIBS   := -Wl,--as-needed $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
 
-.PHONY: fuzz fuzz-build
+.PHONY: fuzz fuzz-long fuzz-build
 
 fuzz: deps
 	@$(MAKE) --no-print-directory fuzz-build
 	@rm -rf $(FUZZ_DIR)/seeds
 	@$(FUZZ_DIR)/bin/fuzz-seeds $(FUZZ_DIR)/seeds tests/data/cow.off
 	@scripts/fuzz.sh $(FUZZ_DIR) $(FUZZ_SECONDS) $(FUZZ_MIN_RUNS) $(FUZZ_MAX_SECONDS) $(FUZZ_TARGETS)
+
+# Fuzzing that reaches depth (issue 19): each target to FUZZ_LONG_RUNS
+# executions or FUZZ_LONG_SECONDS, whichever comes first, FUZZ_JOBS targets
+# at once (one a core), the slowest first; what they grew is merged into
+# tests/fuzz/corpus/<target> (only inputs that add coverage), which every
+# later `make fuzz` starts from. Figures in bench/out/fuzz-long.json.
+FUZZ_LONG_RUNS    ?= 10000000
+FUZZ_LONG_SECONDS ?= 3600
+FUZZ_JOBS         ?= $(shell nproc 2>/dev/null || echo 1)
+fuzz-long: deps
+	@$(MAKE) --no-print-directory fuzz-build
+	@rm -rf $(FUZZ_DIR)/seeds
+	@$(FUZZ_DIR)/bin/fuzz-seeds $(FUZZ_DIR)/seeds tests/data/cow.off
+	@scripts/fuzz.sh --jobs $(FUZZ_JOBS) --keep --json bench/out/fuzz-long.json \
+		$(FUZZ_DIR) 1 $(FUZZ_LONG_RUNS) $(FUZZ_LONG_SECONDS) $(FUZZ_TARGETS)
 
 fuzz-build: $(FUZZ_BINS) $(FUZZ_DIR)/bin/fuzz-seeds
 
