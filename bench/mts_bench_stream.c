@@ -81,6 +81,7 @@ static void apply_median(const mts_buf *b, const mts_stream *s, mts_render_conte
         mts_renderer *r = NULL;
         mts_render_options ro;
         mts_render_options_default(&ro);
+        ro.timed = 1; /* the draw timings read last_draw_seconds */
         ro.style.flat_shading = !(s->model.flags & MTS_MODEL_NORMALS_GIVEN);
         if (mts_lod_init(&lod, &s->model, MTS_LOD_AT_BASE, err) == MTS_OK) {
             mts_render_layout layout;
@@ -131,6 +132,7 @@ static int draw_compare(mts_render_context *ctx, const mts_model *m, draw_figure
         return 0;
     mts_render_options ro;
     mts_render_options_default(&ro);
+    ro.timed = 1; /* the draw timings read last_draw_seconds */
     ro.width = ro.height = 1024;
     /* shaded as mts-client shades this model (flat when the stream has no normals) */
     ro.style.flat_shading = !(m->flags & MTS_MODEL_NORMALS_GIVEN);
@@ -245,6 +247,7 @@ static int draw_table(mts_render_context *ctx, const mts_model *m, const char *n
         return 0;
     mts_render_options ro;
     mts_render_options_default(&ro);
+    ro.timed = 1; /* the draw timings read last_draw_seconds */
     ro.width = ro.height = dt_side;
     ro.style.flat_shading = !(m->flags & MTS_MODEL_NORMALS_GIVEN);
     mts_render_layout layout;

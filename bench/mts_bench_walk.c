@@ -101,6 +101,7 @@ static int walk_run(mts_render_context *ctx, const mts_model *m, const walk_cfg 
         return 0;
     mts_render_options ro;
     mts_render_options_default(&ro);
+    ro.timed = 1; /* the draw timings read last_draw_seconds */
     ro.width = c->width;
     ro.height = c->height;
     if (mode == MODE_LIST)

@@ -1,7 +1,7 @@
 /* mts-client: streams a model from an mts-server, applies every batch as it
  * arrives and renders headless (EGL) at the level received -- or, with
- * --window, shows it in an X11 window the user can turn, zoom and move
- * through the levels of, while the stream goes on. */
+ * --window (mts_client_window.c), shows it in an X11 window the user can
+ * turn, zoom and move through the levels of, while the stream goes on. */
 #include <errno.h>
 #include <math.h>
 #include <poll.h>
@@ -10,17 +10,11 @@
 #include <string.h>
 #include <time.h>
 
-#include "cli.h"
 #include "clock.h"
-#include "hud.h"
-#include "lodpolicy.h"
 #include "modelfile.h"
-#include "render.h"
-#include "script.h"
-#include "session.h"
+#include "mts_client.h"
 #include "stream.h"
 #include "strips.h"
-#include "window.h"
 #include "words.h"
 
 static void usage(FILE *f)
@@ -33,7 +27,7 @@ static void usage(FILE *f)
           "                  [--json] [--quiet]\n"
           "       mts-client [HOST[:PORT]] MODEL --window [--size WxH] [--script FILE]\n"
           "                  [--color-strips] [--level L | ...] [--lod-policy P] [--resume]\n"
-          "                  [--json]\n"
+          "                  [--morph-ms MS] [--json]\n"
           "       mts-client [HOST[:PORT]] --list\n"
           "\n"
           "Streams MODEL from an mts-server (default 127.0.0.1:7447): a Draco base mesh,\n"
@@ -74,6 +68,10 @@ static void usage(FILE *f)
           "                      c colour per strip, s screenshot (MODEL_L<level>.png here),\n"
           "                      q or Escape quit. A HUD shows level, triangles, strips,\n"
           "                      indices per triangle, frames/s, bytes and MB/s\n"
+          "  --morph-ms MS       with --window: geomorphs; a level change slides the\n"
+          "                      vertices it adds (or removes) from (or to) their\n"
+          "                      ancestors' places over MS ms, so levels do not pop\n"
+          "                      (default 250; 0 switches levels at once)\n"
           "  --script FILE       with --window: input from FILE, one event a line, seconds\n"
           "                      after the first frame first: '0.5 key End', '1.2 drag 40\n"
           "                      -10', '1.4 scroll -2', '2.0 key q'\n"
@@ -86,25 +84,7 @@ static void usage(FILE *f)
           f);
 }
 
-typedef struct run {
-    int render, quiet;
-    const char *png, *model;
-    uint32_t png_levels[64];
-    int png_level_count;
-    uint32_t next_png; /* index into png_levels, sorted ascending */
-    mts_render_options ro;
-    mts_render_context *ctx;
-    mts_renderer *r;
-    uint32_t uploaded; /* vertices in the renderer */
-    double ms_render;
-    cli_bar bar;
-    mts_error err;
-    int failed;
-    uint32_t pngs_written;
-    char png_paths[8][512];
-} run;
-
-static void level_png_path(const run *rn, uint32_t level, char *out, size_t size)
+static void level_png_path(const client_run *rn, uint32_t level, char *out, size_t size)
 {
     char stem[400];
     if (rn->png) {
@@ -119,32 +99,23 @@ static void level_png_path(const run *rn, uint32_t level, char *out, size_t size
     snprintf(out, size, "%s_L%u.png", stem, level);
 }
 
-/* Brings the renderer up to date with the runtime and draws a frame. */
-static int draw(run *rn, mts_stream_client *c)
+/* Brings the view to `level` (MTS_VIEW_NEWEST: all that came) and draws a
+ * frame. Headless, the view moves the stream client's own runtime. */
+static int draw(client_run *rn, mts_stream_client *c, uint32_t level)
 {
-    double t = (1e3 * mts_clock_seconds());
-    uint32_t have = c->model.base_vertex_count + c->splits;
-    if (have > rn->uploaded) {
-        if (mts_render_append_vertices(rn->r, rn->uploaded, have - rn->uploaded,
-                                       c->model.positions + 3 * (size_t)rn->uploaded,
-                                       c->model.normals + 3 * (size_t)rn->uploaded,
-                                       &rn->err) != MTS_OK)
-            return 0;
-        rn->uploaded = have;
-    }
-    if (mts_render_update_strips(rn->r, &c->lod, &rn->err) != MTS_OK)
+    double t = 1e3 * mts_clock_seconds();
+    mts_view_source src = mts_view_source_of_stream(c);
+    if (mts_view_sync(&rn->view, &src, level, t, &rn->err) != MTS_OK ||
+        mts_view_draw(&rn->view, &rn->err) != MTS_OK)
         return 0;
-    mts_lod_clear_changed(&c->lod);
-    if (mts_render_draw(rn->r, &rn->err) != MTS_OK)
-        return 0;
-    rn->ms_render += (1e3 * mts_clock_seconds()) - t;
+    rn->ms_render += 1e3 * mts_clock_seconds() - t;
     return 1;
 }
 
 /* What went to GL (the whole run) beside what the last frame drew from: the
  * vertices and the index buffer of the draw path (the packed one by
  * default), so a run's uploads read as a multiple of its final buffers. */
-static void json_uploads(cli_json *j, const mts_renderer *r)
+void client_json_uploads(cli_json *j, const mts_renderer *r)
 {
     if (!r)
         return;
@@ -154,11 +125,13 @@ static void json_uploads(cli_json *j, const mts_renderer *r)
     cli_json_u64(j, "gl_final_bytes",
                  (uint64_t)rs.vertices * 24u +
                      (rs.packed_bytes ? rs.packed_bytes : rs.last_draw_index_bytes));
+    if (rs.morph_bytes_uploaded)
+        cli_json_u64(j, "gl_morph_bytes", rs.morph_bytes_uploaded);
 }
 
-static int write_png(run *rn, const char *path)
+static int write_png(client_run *rn, const char *path)
 {
-    if (mts_render_write_png(rn->r, path, &rn->err) != MTS_OK)
+    if (mts_render_write_png(rn->view.renderer, path, &rn->err) != MTS_OK)
         return 0;
     if (rn->pngs_written < 8)
         snprintf(rn->png_paths[rn->pngs_written], sizeof rn->png_paths[0], "%s", path);
@@ -167,7 +140,7 @@ static int write_png(run *rn, const char *path)
 }
 
 /* PNGs for the listed levels the stream has now made available. */
-static int level_pngs(run *rn, mts_stream_client *c, int final)
+static int level_pngs(client_run *rn, mts_stream_client *c, int final)
 {
     uint32_t reached = c->lod.level;
     while (rn->next_png < (uint32_t)rn->png_level_count &&
@@ -179,13 +152,15 @@ static int level_pngs(run *rn, mts_stream_client *c, int final)
         if (want > reached)
             continue;
         /* step down to the level, draw it, come back: only changed strips move */
-        if (mts_lod_set_level(&c->lod, want, &rn->err) != MTS_OK || !draw(rn, c))
+        if (!draw(rn, c, want))
             return 0;
         char path[512];
         level_png_path(rn, want, path, sizeof path);
         if (!write_png(rn, path))
             return 0;
-        if (mts_lod_set_level(&c->lod, reached, &rn->err) != MTS_OK)
+        mts_view_source src = mts_view_source_of_stream(c);
+        if (mts_view_sync(&rn->view, &src, reached, 1e3 * mts_clock_seconds(), &rn->err) !=
+            MTS_OK)
             return 0;
     }
     return 1;
@@ -193,7 +168,7 @@ static int level_pngs(run *rn, mts_stream_client *c, int final)
 
 static int on_event(void *user, mts_stream_event ev, mts_stream_client *c)
 {
-    run *rn = user;
+    client_run *rn = user;
     if (ev == MTS_EV_RESUMED && !rn->quiet) {
         cli_bar_done(&rn->bar);
         fprintf(stderr, "mts-client: reconnected; resuming at batch %u of %u\n", c->batches,
@@ -201,13 +176,16 @@ static int on_event(void *user, mts_stream_event ev, mts_stream_client *c)
     }
     if (ev == MTS_EV_INFO) {
         cli_bar_update(&rn->bar, "stream", 0);
-    } else if (ev == MTS_EV_BASE && rn->render) {
-        mts_render_layout layout;
-        mts_render_layout_from_lod(&c->lod, &layout);
+    } else if (ev == MTS_EV_BASE && rn->render && !rn->have_view) {
         /* a stream without normals is shaded from the faces each level has */
         rn->ro.style.flat_shading = !(c->info.flags & MTS_INFO_NORMALS);
-        if (mts_renderer_create(rn->ctx, &rn->ro, &layout, &rn->r, &rn->err) != MTS_OK ||
-            !draw(rn, c) || !level_pngs(rn, c, 0)) {
+        mts_view_source src = mts_view_source_of_stream(c);
+        if (mts_view_create(&rn->view, rn->ctx, &rn->ro, &src, NULL, &rn->err) != MTS_OK) {
+            rn->failed = 1;
+            return 1;
+        }
+        rn->have_view = 1;
+        if (!draw(rn, c, MTS_VIEW_NEWEST) || !level_pngs(rn, c, 0)) {
             rn->failed = 1;
             return 1;
         }
@@ -225,7 +203,7 @@ static int on_event(void *user, mts_stream_event ev, mts_stream_client *c)
 /* --resume: the session waits and tries again; say so on stderr. */
 static int on_retry(void *user, const mts_session_retry *r)
 {
-    run *rn = user;
+    client_run *rn = user;
     if (rn->quiet)
         return 0;
     cli_bar_done(&rn->bar);
@@ -239,8 +217,7 @@ static int on_retry(void *user, const mts_session_retry *r)
     return 0;
 }
 
-/* One triangle through a throw-away renderer with the real options. */
-static int warm_up(run *rn)
+int client_warm_up(client_run *rn)
 {
     const uint32_t slot[2] = {0, 3};
     mts_render_layout layout = {3, 1, slot, {0, 0, 0}, {1, 1, 1}, 0};
@@ -321,12 +298,12 @@ static int compare_with_file(const char *path, mts_stream_client *c, mts_error *
     return same;
 }
 
-/* --lod-policy: moves the runtime to the policy's level (at most the level
- * received) before the final frame. budget draws frames, each timed from the
- * level change to glFinish, until the level has held for 10 frames (at most
- * 120). Only changed strips are re-uploaded (the coherent runtime). */
-static int apply_policy(run *rn, mts_stream_client *c, const mts_lod_policy_options *po,
-                        double distance)
+/* --lod-policy: the policy's level (at most the level received) for the
+ * final frame, in *level. budget draws frames, each timed from the level
+ * change to glFinish, until the level has held for 10 frames (at most 120).
+ * Only changed strips are re-uploaded (the coherent runtime). */
+static int apply_policy(client_run *rn, mts_stream_client *c, const mts_lod_policy_options *po,
+                        double distance, uint32_t *level)
 {
     mts_lod_policy p;
     mts_lod_policy_init(&p, po, &c->model);
@@ -341,568 +318,15 @@ static int apply_policy(run *rn, mts_stream_client *c, const mts_lod_policy_opti
     for (int frame = 0, held = 0; frame < 120 && held < 10; frame++) {
         uint32_t l = mts_lod_policy_choose(&p, received, &view, last_ms);
         held = l == c->lod.level ? held + 1 : 0;
-        double t = (1e3 * mts_clock_seconds());
-        if (mts_lod_set_level(&c->lod, l, &rn->err) != MTS_OK)
-            return 0;
+        *level = l;
         if (po->kind != MTS_LOD_POLICY_BUDGET)
             return 1;
-        if (!draw(rn, c))
+        double t = (1e3 * mts_clock_seconds());
+        if (!draw(rn, c, l))
             return 0;
         last_ms = (1e3 * mts_clock_seconds()) - t;
     }
     return 1;
-}
-
-/* ---- --window ------------------------------------------------------------
- * The window loop: one thread, never blocked by the network. Each turn takes
- * the window's and the script's input, brings the display up to date, draws
- * a frame (offscreen, blitted to the window, HUD on top) and then gives the
- * session the time left until the next frame (mts_session_poll waits on the
- * socket with that timeout and applies at most a slice of frames), so
- * batches keep arriving between frames and frames keep coming while they do.
- *
- * Two LOD runtimes: the stream client's own (c->lod) follows the stream, as
- * the stream's checks need (END is checked at the stop level), and a second
- * one on the same model (`view`) is what is drawn: it moves to the level the
- * user picks with mts_lod_set_level, touching only the strips that change,
- * and the renderer re-uploads just those. */
-
-#define WIN_SHOTS 32
-
-typedef struct win_shot {
-    char file[300];
-    uint32_t level, triangles, strips;
-    char hud[512];
-} win_shot;
-
-typedef struct win {
-    run *rn;
-    mts_stream_client *c;
-    mts_session_stats *st;
-    mts_window *w;
-    mts_hud *hud;
-    mts_script script;
-    int have_script;
-    mts_lod view;
-    int have_view;
-    uint32_t view_announced; /* the stream's announced slots the view has laid out */
-    int manual;            /* a level key was pressed: stay at manual_level */
-    uint32_t manual_level;
-    int want_shot, quit, streaming, failed_stream;
-    uint32_t width, height;
-    double t_start, t_model; /* ms: loop start, first frame of the model (script clock) */
-    /* figures of the view's level, for the HUD */
-    uint32_t shown_level, triangles, strips;
-    uint64_t indices;
-    int stats_valid;
-    /* frames per second over the last half second */
-    uint64_t frames;
-    uint32_t fps_frames;
-    double fps_t, fps;
-    win_shot shots[WIN_SHOTS];
-    uint32_t shot_count;
-    char hud_text[512];
-    char status[200];
-    int quit_early;        /* q before the stream ended */
-    /* frames drawn while the stream came: from the loop's start to its end */
-    uint64_t frames_streaming;
-    double ms_streaming;
-    /* --lod-policy other than received: what "following" means */
-    const mts_lod_policy_options *po;
-    mts_lod_policy policy;
-    int use_policy;
-    double last_frame_ms;
-} win;
-
-/* The level the view shows: the policy's choice -- by default "received",
- * the newest level the stream has brought -- until a level key fixes one;
- * End goes back to the policy. */
-static uint32_t win_choose_level(win *wn)
-{
-    uint32_t available = wn->c->lod.level;
-    if (wn->manual)
-        return wn->manual_level < available ? wn->manual_level : available;
-    if (!wn->use_policy || !wn->rn->r)
-        return available;
-    const mts_render_options *ro = &wn->rn->ro;
-    float eye[3], dir[3], d = 0;
-    mts_render_eye(wn->rn->r, eye, dir);
-    for (int i = 0; i < 3; i++) {
-        float cen = 0.5f * (wn->c->model.bbox_min[i] + wn->c->model.bbox_max[i]);
-        d += (eye[i] - cen) * (eye[i] - cen);
-    }
-    mts_lod_view view = {sqrtf(d), ro->camera.fov_y_deg * 3.14159265f / 180.0f,
-                         (int)ro->width, (int)ro->height};
-    return mts_lod_policy_choose(&wn->policy, available, &view, wn->last_frame_ms);
-}
-
-/* Batch boundaries: the levels after each whole batch (MODEL_INFO). */
-static uint32_t win_batch_step(const win *wn, uint32_t level, int up)
-{
-    const mts_wire_model_info *in = &wn->c->info;
-    uint32_t at = 0, best = up ? UINT32_MAX : 0;
-    for (uint32_t b = 0; b <= in->batch_count; b++) {
-        if (up && at > level) {
-            best = at;
-            break;
-        }
-        if (!up && at < level)
-            best = at;
-        if (b < in->batch_count)
-            at += mts_wire_batch_splits(in, b);
-    }
-    return up && best == UINT32_MAX ? level : best;
-}
-
-static void win_key(win *wn, mts_key key)
-{
-    uint32_t cur = wn->have_view ? wn->view.level : 0;
-    uint32_t levels = wn->c->info.levels, avail = wn->c->lod.level;
-    uint32_t tenth = levels / 10 ? levels / 10 : 1;
-    switch (key) {
-    case MTS_KEY_PLUS:
-    case MTS_KEY_MINUS:
-        wn->manual = 1;
-        wn->manual_level = win_batch_step(wn, cur, key == MTS_KEY_PLUS);
-        break;
-    case MTS_KEY_PAGE_UP:
-        wn->manual = 1;
-        wn->manual_level = cur + tenth < avail ? cur + tenth : avail;
-        break;
-    case MTS_KEY_PAGE_DOWN:
-        wn->manual = 1;
-        wn->manual_level = cur > tenth ? cur - tenth : 0;
-        break;
-    case MTS_KEY_HOME:
-        wn->manual = 1;
-        wn->manual_level = 0;
-        break;
-    case MTS_KEY_END:
-        wn->manual = 0; /* the highest level received, and on as more arrive */
-        break;
-    case MTS_KEY_W:
-        wn->rn->ro.style.wireframe = !wn->rn->ro.style.wireframe;
-        wn->stats_valid = 0; /* rebuild the edges at the next sync */
-        break;
-    case MTS_KEY_C:
-        wn->rn->ro.style.color_by_strip = !wn->rn->ro.style.color_by_strip;
-        break;
-    case MTS_KEY_S:
-        wn->want_shot = 1;
-        break;
-    case MTS_KEY_Q:
-        wn->quit = 1;
-        break;
-    default:
-        break;
-    }
-    if (wn->manual && wn->manual_level > avail)
-        wn->manual_level = avail;
-}
-
-static int win_input(win *wn, const mts_input *ev)
-{
-    mts_render_camera *cam = &wn->rn->ro.camera;
-    switch (ev->type) {
-    case MTS_INPUT_KEY:
-        win_key(wn, ev->key);
-        break;
-    case MTS_INPUT_DRAG: /* a window's width of drag turns the model about once */
-        cam->yaw_deg -= (float)ev->dx * 0.5f;
-        cam->pitch_deg += (float)ev->dy * 0.5f;
-        if (cam->pitch_deg > 89)
-            cam->pitch_deg = 89;
-        if (cam->pitch_deg < -89)
-            cam->pitch_deg = -89;
-        break;
-    case MTS_INPUT_SCROLL:
-        cam->zoom *= powf(1.15f, (float)ev->steps);
-        if (cam->zoom < 0.1f)
-            cam->zoom = 0.1f;
-        if (cam->zoom > 50)
-            cam->zoom = 50;
-        break;
-    case MTS_INPUT_RESIZE:
-        if (ev->width < 1 || ev->height < 1)
-            break;
-        wn->width = ev->width;
-        wn->height = ev->height;
-        wn->rn->ro.width = ev->width;
-        wn->rn->ro.height = ev->height;
-        if (wn->rn->r && mts_render_resize(wn->rn->r, ev->width, ev->height, &wn->rn->err))
-            return 0;
-        break;
-    case MTS_INPUT_CLOSE:
-        wn->quit = 1;
-        break;
-    default:
-        break;
-    }
-    return 1;
-}
-
-static int win_on_event(void *user, mts_stream_event ev, mts_stream_client *c)
-{
-    win *wn = user;
-    run *rn = wn->rn;
-    if (ev == MTS_EV_RESUMED && !rn->quiet)
-        fprintf(stderr, "mts-client: reconnected; resuming at batch %u of %u\n", c->batches,
-                c->info.batch_count);
-    if (ev == MTS_EV_BASE && !rn->r) {
-        mts_render_layout layout;
-        mts_render_layout_from_lod(&c->lod, &layout);
-        rn->ro.style.flat_shading = !(c->info.flags & MTS_INFO_NORMALS);
-        if (mts_renderer_create(rn->ctx, &rn->ro, &layout, &rn->r, &rn->err) != MTS_OK ||
-            mts_lod_init(&wn->view, &c->model, MTS_LOD_AT_BASE, &rn->err) != MTS_OK) {
-            rn->failed = 1;
-            return 1;
-        }
-        wn->have_view = 1;
-        wn->view_announced = c->announced;
-        if (wn->po->kind != MTS_LOD_POLICY_RECEIVED) { /* it frames the model's box */
-            mts_lod_policy_init(&wn->policy, wn->po, &c->model);
-            mts_strip_stats base = {0};
-            mts_strips_stats(&c->model.base, &base);
-            mts_lod_policy_set_counts(&wn->policy, (uint32_t)base.triangles, c->info.triangles);
-            wn->use_policy = 1;
-        }
-    }
-    return 0;
-}
-
-/* Brings the renderer up to the stream and the view up to the chosen level. */
-static int win_sync(win *wn)
-{
-    run *rn = wn->rn;
-    mts_stream_client *c = wn->c;
-    if (!rn->r || !wn->have_view)
-        return 1;
-    uint32_t have = c->model.base_vertex_count + c->splits;
-    if (have > rn->uploaded) {
-        if (mts_render_append_vertices(rn->r, rn->uploaded, have - rn->uploaded,
-                                       c->model.positions + 3 * (size_t)rn->uploaded,
-                                       c->model.normals + 3 * (size_t)rn->uploaded,
-                                       &rn->err) != MTS_OK)
-            return 0;
-        rn->uploaded = have;
-    }
-    /* slots the stream has announced since (their capacities are in the
-     * model the view shares): laid out before the view may use them */
-    if (c->announced > wn->view_announced) {
-        if (mts_lod_announce(&wn->view, wn->view_announced, &rn->err) != MTS_OK)
-            return 0;
-        wn->view_announced = c->announced;
-    }
-    mts_lod_set_available(&wn->view, c->lod.level);
-    uint32_t target = win_choose_level(wn);
-    if (target != wn->view.level && mts_lod_set_level(&wn->view, target, &rn->err) != MTS_OK)
-        return 0;
-    uint32_t changed;
-    mts_lod_changed(&wn->view, &changed);
-    if (changed || !wn->stats_valid) {
-        if (mts_render_update_strips(rn->r, &wn->view, &rn->err) != MTS_OK)
-            return 0;
-        mts_lod_clear_changed(&wn->view);
-        if (rn->ro.style.wireframe &&
-            mts_render_update_wireframe(rn->r, &wn->view, &rn->err) != MTS_OK)
-            return 0;
-        mts_strip_stats ss = {0};
-        for (uint32_t s = 0; s < wn->view.strip_count; s++) {
-            uint32_t len;
-            const uint32_t *str = mts_lod_strip(&wn->view, s, &len);
-            mts_strip_stats_add(&ss, str, len);
-        }
-        wn->shown_level = wn->view.level;
-        wn->triangles = (uint32_t)ss.triangles;
-        wn->strips = ss.strips;
-        wn->indices = ss.indices;
-        wn->stats_valid = 1;
-    }
-    return 1;
-}
-
-static void win_hud_text(win *wn, double now)
-{
-    const mts_stream_client *c = wn->c;
-    const mts_session_stats *st = wn->st;
-    double secs = st->ms_final > 0 ? st->ms_final / 1e3 : (now - wn->t_start) / 1e3;
-    double mbs = secs > 0 ? (double)st->bytes / secs / 1e6 : 0;
-    const char *state = wn->failed_stream ? wn->status
-                        : wn->streaming   ? "streaming"
-                                          : "complete";
-    if (!wn->stats_valid) {
-        snprintf(wn->hud_text, sizeof wn->hud_text,
-                 "%s  waiting for the base mesh\n%.1f frames/s  %llu bytes  %.2f MB/s  %s",
-                 wn->rn->model, wn->fps, (unsigned long long)st->bytes, mbs, state);
-        return;
-    }
-    snprintf(wn->hud_text, sizeof wn->hud_text,
-             "%s  level %u of %u (received %u, %s)\n"
-             "triangles %u  strips %u  indices/triangle %.2f\n"
-             "%.1f frames/s  %llu bytes  %.2f MB/s  %s\n"
-             "+/- batch  PgUp/PgDn 10%%  Home/End  w wire  c colour  s shot  q quit",
-             wn->rn->model, wn->shown_level, c->info.levels, c->lod.level,
-             wn->manual ? "fixed" : "following", wn->triangles, wn->strips,
-             wn->triangles ? (double)wn->indices / wn->triangles : 0.0, wn->fps,
-             (unsigned long long)st->bytes, mbs, state);
-}
-
-static int win_frame(win *wn, double now)
-{
-    run *rn = wn->rn;
-    win_hud_text(wn, now);
-    int scale = wn->width >= 1000 ? 2 : 1;
-    if (rn->r && wn->stats_valid) {
-        double t = (1e3 * mts_clock_seconds());
-        mts_render_set_camera(rn->r, &rn->ro.camera);
-        mts_render_set_style(rn->r, &rn->ro.style);
-        if (mts_render_draw(rn->r, &rn->err) != MTS_OK || mts_render_blit(rn->r, &rn->err))
-            return 0;
-        wn->last_frame_ms = (1e3 * mts_clock_seconds()) - t;
-        rn->ms_render += wn->last_frame_ms;
-        if (wn->t_model == 0)
-            wn->t_model = (1e3 * mts_clock_seconds()); /* the script's clock starts at the first picture */
-    } else {
-        if (mts_hud_clear(wn->hud, rn->ro.style.background, wn->width, wn->height, &rn->err))
-            return 0;
-    }
-    if (mts_hud_draw(wn->hud, wn->hud_text, wn->width, wn->height, scale, &rn->err) != MTS_OK ||
-        mts_render_context_swap(rn->ctx, &rn->err) != MTS_OK)
-        return 0;
-    wn->frames++;
-    wn->fps_frames++;
-    if (now - wn->fps_t >= 500) {
-        wn->fps = wn->fps_frames * 1e3 / (now - wn->fps_t);
-        wn->fps_frames = 0;
-        wn->fps_t = now;
-    }
-    if (wn->want_shot && rn->r && wn->stats_valid) {
-        wn->want_shot = 0;
-        char path[300];
-        snprintf(path, sizeof path, "%s_L%u.png", rn->model, wn->shown_level);
-        if (mts_render_write_png(rn->r, path, &rn->err) != MTS_OK)
-            return 0;
-        if (wn->shot_count < WIN_SHOTS) {
-            win_shot *s = &wn->shots[wn->shot_count++];
-            snprintf(s->file, sizeof s->file, "%s", path);
-            s->level = wn->shown_level;
-            s->triangles = wn->triangles;
-            s->strips = wn->strips;
-            snprintf(s->hud, sizeof s->hud, "%s", wn->hud_text);
-        }
-        if (!rn->quiet)
-            fprintf(stderr, "mts-client: wrote %s (level %u, %u triangles)\n", path,
-                    wn->shown_level, wn->triangles);
-    }
-    return 1;
-}
-
-/* Runs the window until q (or the close button). Returns the session's
- * result; *wn keeps what the summary needs. */
-/* The figures of the frames drawn while the stream came, taken once as it
- * ends (completed, failed or quit). */
-static void win_stream_ended(win *wn)
-{
-    wn->frames_streaming = wn->frames;
-    wn->ms_streaming = (1e3 * mts_clock_seconds()) - wn->t_start;
-}
-
-static mts_result win_run(win *wn, mts_session_options *so, const char *script_path,
-                          const mts_lod_policy_options *po, mts_error *err)
-{
-    run *rn = wn->rn;
-    mts_result rc = MTS_OK;
-    wn->po = po;
-    if (script_path) {
-        if ((rc = mts_script_load(script_path, &wn->script, err)) != MTS_OK)
-            return rc;
-        wn->have_script = 1;
-    }
-    wn->width = rn->ro.width;
-    wn->height = rn->ro.height;
-    char title[200];
-    snprintf(title, sizeof title, "mts-client: %s", rn->model);
-    if ((rc = mts_window_create(title, wn->width, wn->height, &wn->w, err)) != MTS_OK ||
-        (rc = mts_render_context_create_window(mts_window_native_display(wn->w),
-                                               mts_window_native_window(wn->w), &rn->ctx,
-                                               err)) != MTS_OK ||
-        (rc = mts_hud_create(rn->ctx, &wn->hud, err)) != MTS_OK)
-        return rc;
-    if (!warm_up(rn)) {
-        *err = rn->err;
-        return err->code ? err->code : MTS_ERR_INTERNAL;
-    }
-    so->on_event = win_on_event;
-    so->user = wn;
-    mts_session *sess;
-    if ((rc = mts_session_begin(so, wn->c, wn->st, &sess, err)) != MTS_OK)
-        return rc;
-    wn->streaming = 1;
-    wn->t_start = wn->fps_t = (1e3 * mts_clock_seconds());
-    const double frame_ms = 1000.0 / 60;
-    double next_frame = (1e3 * mts_clock_seconds());
-    while (!wn->quit) {
-        double now = (1e3 * mts_clock_seconds());
-        mts_input ev;
-        int ok = 1;
-        while (ok && mts_window_poll(wn->w, &ev))
-            ok = win_input(wn, &ev);
-        while (ok && wn->have_script && wn->t_model > 0 &&
-               mts_script_next(&wn->script, (now - wn->t_model) / 1e3, &ev))
-            ok = win_input(wn, &ev);
-        if (ok && !win_sync(wn))
-            ok = 0;
-        if (ok && !win_frame(wn, now))
-            ok = 0;
-        if (!ok || rn->failed) { /* GL or the display runtime: nothing more to show */
-            if (wn->streaming)
-                mts_session_end(sess, NULL);
-            wn->streaming = 0;
-            *err = rn->err;
-            return err->code ? err->code : MTS_ERR_INTERNAL;
-        }
-        /* the network gets the time until the next frame */
-        next_frame += frame_ms;
-        if (next_frame < (1e3 * mts_clock_seconds()))
-            next_frame = (1e3 * mts_clock_seconds());
-        for (;;) {
-            double left = next_frame - (1e3 * mts_clock_seconds());
-            if (!wn->streaming) {
-                if (left > 0) {
-                    struct pollfd pf = {mts_window_fd(wn->w), POLLIN, 0};
-                    poll(&pf, 1, (int)left);
-                }
-                break;
-            }
-            wn->streaming = mts_session_poll(sess, left > 0 ? (int)left : 0);
-            if (!wn->streaming) {
-                win_stream_ended(wn);
-                rc = mts_session_end(sess, err);
-                if (rc != MTS_OK) {
-                    /* the window stays up with the last whole batch; q ends it */
-                    wn->failed_stream = 1;
-                    snprintf(wn->status, sizeof wn->status, "stopped: %.180s", err->msg);
-                    if (!rn->quiet)
-                        fprintf(stderr, "mts-client: %s\n", err->msg);
-                }
-            }
-            if (left <= 0 || rn->failed)
-                break;
-        }
-    }
-    if (wn->streaming) { /* quit before the end: the user's choice, not a failure */
-        mts_session_end(sess, NULL);
-        wn->streaming = 0;
-        wn->quit_early = 1;
-        win_stream_ended(wn);
-    }
-    return rc;
-}
-
-static void win_free(win *wn)
-{
-    if (wn->have_view)
-        mts_lod_free(&wn->view);
-    mts_hud_destroy(wn->hud);
-    mts_script_free(&wn->script);
-}
-
-/* --window from start to exit status. */
-static int win_main(run *rn, mts_session_options *so, const char *script_path, int json,
-                    const mts_lod_policy_options *po)
-{
-    win wn;
-    memset(&wn, 0, sizeof wn);
-    mts_stream_client c;
-    mts_stream_client_init(&c);
-    mts_session_stats st;
-    memset(&st, 0, sizeof st);
-    wn.rn = rn;
-    wn.c = &c;
-    wn.st = &st;
-    mts_error err = {0};
-    mts_result rc = win_run(&wn, so, script_path, po, &err);
-    if (rn->failed && rc == MTS_OK) {
-        rc = rn->err.code ? rn->err.code : MTS_ERR_INTERNAL;
-        err = rn->err;
-    }
-    uint32_t triangles = 0;
-    if (c.have_lod) {
-        mts_strip_stats ss = {0};
-        for (uint32_t s = 0; s < c.lod.strip_count; s++) {
-            uint32_t len;
-            const uint32_t *str = mts_lod_strip(&c.lod, s, &len);
-            mts_strip_stats_add(&ss, str, len);
-        }
-        triangles = (uint32_t)ss.triangles;
-    }
-    int complete = rc == MTS_OK && !wn.quit_early;
-    if (json) {
-        cli_json j;
-        cli_json_begin(&j, stdout);
-        cli_json_str(&j, "model", rn->model);
-        cli_json_bool(&j, "complete", complete);
-        cli_json_u64(&j, "bytes", st.bytes);
-        cli_json_u64(&j, "batches", c.batches);
-        cli_json_str(&j, "form", c.records ? "records" : "splits");
-        cli_json_u64(&j, "level", c.have_lod ? c.lod.level : 0);
-        cli_json_u64(&j, "levels", c.info.levels);
-        cli_json_u64(&j, "triangles", triangles);
-        if (c.end_checksum) {
-            char hex[17];
-            snprintf(hex, sizeof hex, "%016llx", (unsigned long long)c.checksum);
-            cli_json_str(&j, "checksum", hex);
-        }
-        cli_json_u64(&j, "reconnects", st.reconnects);
-        cli_json_num(&j, "ms_connect", st.ms_connect, 3);
-        cli_json_num(&j, "ms_base", st.ms_base, 3);
-        cli_json_num(&j, "ms_final", st.ms_final, 3);
-        cli_json_num(&j, "ms_apply", st.ms_apply, 3);
-        cli_json_num(&j, "ms_render", rn->ms_render, 3);
-        json_uploads(&j, rn->r);
-        cli_json_u64(&j, "frames", wn.frames);
-        /* while the stream came (the loop's start to its end): frames/s then */
-        cli_json_u64(&j, "frames_streaming", wn.frames_streaming);
-        cli_json_num(&j, "seconds_streaming", wn.ms_streaming / 1e3, 3);
-        cli_json_num(&j, "fps_streaming",
-                     wn.ms_streaming > 0 ? wn.frames_streaming * 1e3 / wn.ms_streaming : 0, 1);
-        if (po->kind != MTS_LOD_POLICY_RECEIVED)
-            cli_json_str(&j, "lod_policy", mts_lod_policy_name(po->kind));
-        cli_json_u64(&j, "level_shown", wn.shown_level);
-        /* each screenshot with the figures its frame's HUD showed, and the HUD text */
-        cli_json_key(&j, "screenshots");
-        fputc('[', stdout);
-        for (uint32_t i = 0; i < wn.shot_count; i++) {
-            const win_shot *s = &wn.shots[i];
-            fprintf(stdout, "%s{\"file\":\"", i ? "," : "");
-            cli_json_text(stdout, s->file);
-            fprintf(stdout, "\",\"level\":%u,\"triangles\":%u,\"strips\":%u,\"hud\":\"",
-                    s->level, s->triangles, s->strips);
-            cli_json_text(stdout, s->hud);
-            fputs("\"}", stdout);
-        }
-        fputc(']', stdout);
-        if (rc != MTS_OK)
-            cli_json_str(&j, "error", err.msg);
-        cli_json_end(&j);
-    } else if (!rn->quiet && c.have_lod) {
-        printf("%s: level %u of %u received, %u triangles, %u batches, %llu bytes; %llu frames "
-               "shown%s\n",
-               rn->model, c.lod.level, c.info.levels, triangles, c.batches,
-               (unsigned long long)st.bytes, (unsigned long long)wn.frames,
-               wn.quit_early ? " (quit before the end of the stream)" : "");
-        for (uint32_t i = 0; i < wn.shot_count; i++)
-            printf("  wrote %s\n", wn.shots[i].file);
-    }
-    /* a stream error was said as it happened; the rest now */
-    if (rc != MTS_OK && !wn.failed_stream)
-        fprintf(stderr, "mts-client: %s\n", err.msg);
-    win_free(&wn);
-    mts_renderer_destroy(rn->r);
-    mts_render_context_destroy(rn->ctx); /* its EGL surface before the window under it */
-    mts_window_destroy(wn.w);
-    mts_stream_client_free(&c);
-    return rc == MTS_OK ? CLI_EXIT_OK : CLI_EXIT_FAIL;
 }
 
 int main(int argc, char **argv)
@@ -910,9 +334,10 @@ int main(int argc, char **argv)
     const char *pos[2];
     int npos = 0, json = 0, verify = 0, list = 0, window = 0, size_given = 0;
     const char *model_file = NULL, *script = NULL;
-    run rn;
+    client_run rn;
     memset(&rn, 0, sizeof rn);
     rn.render = 1;
+    rn.morph_ms = -1;
     mts_render_options_default(&rn.ro);
     mts_session_options so = {0};
     so.hello.stop_kind = MTS_STOP_FULL;
@@ -953,6 +378,13 @@ int main(int argc, char **argv)
                                                           : &so.max_time;
             if (!v || !cli_parse_double(v, dst) || !(*dst > 0) || *dst > 1e6) {
                 fprintf(stderr, "mts-client: %s needs a number of seconds above 0\n", a);
+                return CLI_EXIT_USAGE;
+            }
+            i++;
+        } else if (!strcmp(a, "--morph-ms")) {
+            if (!v || !cli_parse_double(v, &rn.morph_ms) || !(rn.morph_ms >= 0) ||
+                rn.morph_ms > 60000) {
+                fprintf(stderr, "mts-client: --morph-ms needs milliseconds from 0 to 60000\n");
                 return CLI_EXIT_USAGE;
             }
             i++;
@@ -1053,6 +485,11 @@ int main(int argc, char **argv)
                         "--png-levels or --verify (press s in the window for a picture)\n");
         return CLI_EXIT_USAGE;
     }
+    if (rn.morph_ms >= 0 && !window) {
+        fprintf(stderr, "mts-client: --morph-ms is the window's (headless frames are drawn at "
+                        "whole levels)\n");
+        return CLI_EXIT_USAGE;
+    }
     if (window && !size_given) {
         rn.ro.width = 800;
         rn.ro.height = 600;
@@ -1091,14 +528,14 @@ int main(int argc, char **argv)
     so.user = &rn;
     cli_bar_init(&rn.bar, rn.quiet || json || list);
     if (window)
-        return win_main(&rn, &so, script, json, &po);
+        return client_window_main(&rn, &so, script, json, &po);
 
     /* EGL comes up, and draws once, before connecting: the first frame of
      * the model should wait for the network, not for the driver (llvmpipe
      * compiles a shader variant at its first draw) */
     if (rn.render && !list &&
         (mts_render_context_create_headless(&rn.ctx, &rn.err) != MTS_OK ||
-         !warm_up(&rn))) {
+         !client_warm_up(&rn))) {
         fprintf(stderr, "mts-client: %s\n", rn.err.msg);
         mts_render_context_destroy(rn.ctx);
         return CLI_EXIT_FAIL;
@@ -1125,15 +562,16 @@ int main(int argc, char **argv)
      * record failed while a batch was being applied: the runtime is then
      * broken part-way through a split and there is no whole level to draw */
     uint32_t received = c.have_lod ? c.lod.level : 0;
-    if (rn.r && c.have_lod && !c.lod.broken) {
+    if (rn.have_view && c.have_lod && !c.lod.broken) {
         if (rc == MTS_OK)
             level_pngs(&rn, &c, 1);
-        if (po.kind != MTS_LOD_POLICY_RECEIVED && !apply_policy(&rn, &c, &po, distance) &&
-            rc == MTS_OK) {
+        uint32_t final_level = MTS_VIEW_NEWEST;
+        if (po.kind != MTS_LOD_POLICY_RECEIVED &&
+            !apply_policy(&rn, &c, &po, distance, &final_level) && rc == MTS_OK) {
             rc = rn.err.code ? rn.err.code : MTS_ERR_INTERNAL;
             err = rn.err;
         }
-        if (draw(&rn, &c) && rn.png)
+        if (draw(&rn, &c, final_level) && rn.png)
             write_png(&rn, rn.png);
     }
     if (rc == MTS_OK && verify && model_file) {
@@ -1182,7 +620,7 @@ int main(int argc, char **argv)
         cli_json_num(&j, "ms_final", st.ms_final, 3);
         cli_json_num(&j, "ms_apply", st.ms_apply, 3);
         cli_json_num(&j, "ms_render", rn.ms_render, 3);
-        json_uploads(&j, rn.r);
+        client_json_uploads(&j, rn.have_view ? rn.view.renderer : NULL);
         if (verified >= 0)
             cli_json_bool(&j, "verified", verified);
         if (rc != MTS_OK)
@@ -1204,7 +642,7 @@ int main(int argc, char **argv)
     }
     if (rc != MTS_OK)
         fprintf(stderr, "mts-client: %s\n", err.msg);
-    mts_renderer_destroy(rn.r);
+    mts_view_free(&rn.view);
     mts_render_context_destroy(rn.ctx);
     mts_stream_client_free(&c);
     return rc == MTS_OK ? CLI_EXIT_OK : CLI_EXIT_FAIL;

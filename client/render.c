@@ -327,7 +327,13 @@ struct mts_renderer {
     uint32_t list_count;
     GLuint wire_ibo; /* style.wireframe: GL_LINES over the triangles' edges */
     uint64_t wire_count;
-    GLint u_mvp, u_normal, u_color, u_light, u_ambient, u_flat;
+    GLint u_mvp, u_normal, u_color, u_light, u_ambient, u_flat, u_morph, u_morph_t;
+    /* geomorphs: where vertices morph_first .. morph_end-1 come from
+     * (positions for every vertex id, then normals), made at the first
+     * mts_render_set_morph */
+    GLuint morph_vbo;
+    uint32_t morph_first, morph_end;
+    float morph_t;
 
     uint32_t *staging; /* max_capacity + 1 */
     /* COMPACT and JOINED: a host copy of the slot buffer (the strips' current
@@ -395,7 +401,7 @@ void mts_render_options_default(mts_render_options *o)
     o->style.color[2] = 0.76f;
     o->style.ambient = 0.25f;
     o->style.color_by_strip = 0;
-    o->style.cull_back_faces = 1;
+    o->style.show_back_faces = 0;
     /* JOINED: the fastest strip mode on llvmpipe, and about as fast as a
      * vertex-cache-optimized triangle list while reading fewer indices
      * (docs/strips.md, "Drawing them"; make bench, "Draw path") */
@@ -405,6 +411,32 @@ void mts_render_options_default(mts_render_options *o)
     o->style.wire_color[0] = 0.08f;
     o->style.wire_color[1] = 0.09f;
     o->style.wire_color[2] = 0.12f;
+}
+
+static int all_zero(const float *v, int n)
+{
+    for (int i = 0; i < n; i++)
+        if (v[i] != 0)
+            return 0;
+    return 1;
+}
+
+/* A zeroed field where zero is no usable value takes the default (render.h,
+ * mts_render_options_default). */
+static void style_defaults(mts_render_style *s)
+{
+    mts_render_options d;
+    mts_render_options_default(&d);
+    if (all_zero(s->background, 4))
+        memcpy(s->background, d.style.background, sizeof s->background);
+    if (all_zero(s->color, 3))
+        memcpy(s->color, d.style.color, sizeof s->color);
+    if (all_zero(s->wire_color, 3))
+        memcpy(s->wire_color, d.style.wire_color, sizeof s->wire_color);
+    if (s->ambient == 0)
+        s->ambient = d.style.ambient;
+    else if (s->ambient < 0)
+        s->ambient = 0;
 }
 
 void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *l)
@@ -475,7 +507,8 @@ static void update_camera(mts_renderer *r)
     float yaw = cam->yaw_deg * PI_F / 180.0f;
     float pitch = clampf(cam->pitch_deg, -89.0f, 89.0f) * PI_F / 180.0f;
     float zoom = cam->zoom > 1e-3f && isfinite(cam->zoom) ? cam->zoom : 1.0f;
-    float fovy = clampf(isfinite(cam->fov_y_deg) ? cam->fov_y_deg : 35.0f, 1.0f, 170.0f) *
+    float fovy = clampf(isfinite(cam->fov_y_deg) && cam->fov_y_deg > 0 ? cam->fov_y_deg : 35.0f,
+                        1.0f, 170.0f) *
                  PI_F / 180.0f;
     float aspect = (float)r->opts.width / (float)r->opts.height;
 
@@ -536,6 +569,7 @@ void mts_render_set_camera(mts_renderer *r, const mts_render_camera *camera)
 void mts_render_set_style(mts_renderer *r, const mts_render_style *style)
 {
     r->opts.style = *style;
+    style_defaults(&r->opts.style);
 }
 
 void mts_render_eye(const mts_renderer *r, float eye[3], float dir[3])
@@ -550,14 +584,22 @@ static const char *vertex_src =
     "#version 300 es\n"
     "layout(location = 0) in vec3 a_position;\n"
     "layout(location = 1) in vec3 a_normal;\n"
+    "layout(location = 2) in vec3 a_from_position;\n"
+    "layout(location = 3) in vec3 a_from_normal;\n"
     "uniform mat4 u_mvp;\n"
     "uniform mat3 u_normal;\n"
+    "uniform uvec2 u_morph;\n" /* the vertex ids morphing: [x, y) */
+    "uniform float u_morph_t;\n"
     "out vec3 v_normal;\n"
     "out vec3 v_view;\n" /* rotated into view space: slopes for flat shading */
     "void main() {\n"
-    "    v_normal = u_normal * a_normal;\n"
-    "    v_view = u_normal * a_position;\n"
-    "    gl_Position = u_mvp * vec4(a_position, 1.0);\n"
+    "    uint id = uint(gl_VertexID);\n" /* the index fetched */
+    "    bool m = id >= u_morph.x && id < u_morph.y;\n"
+    "    vec3 p = m ? mix(a_from_position, a_position, u_morph_t) : a_position;\n"
+    "    vec3 n = m ? mix(a_from_normal, a_normal, u_morph_t) : a_normal;\n"
+    "    v_normal = u_normal * n;\n"
+    "    v_view = u_normal * p;\n"
+    "    gl_Position = u_mvp * vec4(p, 1.0);\n"
     "}\n";
 
 static const char *fragment_src =
@@ -634,6 +676,8 @@ static mts_result build_program(mts_renderer *r, mts_error *err)
     r->u_light = glGetUniformLocation(r->program, "u_light");
     r->u_ambient = glGetUniformLocation(r->program, "u_ambient");
     r->u_flat = glGetUniformLocation(r->program, "u_flat");
+    r->u_morph = glGetUniformLocation(r->program, "u_morph");
+    r->u_morph_t = glGetUniformLocation(r->program, "u_morph_t");
     return gl_check(err, "building the shader program");
 }
 
@@ -669,8 +713,8 @@ void mts_renderer_destroy(mts_renderer *r)
             glDeleteFramebuffers(1, &r->fbo);
         GLuint rbs[2] = {r->color_rb, r->depth_rb};
         glDeleteRenderbuffers(2, rbs);
-        GLuint bufs[5] = {r->vbo, r->ibo, r->list_ibo, r->wire_ibo, r->packed_ibo};
-        glDeleteBuffers(5, bufs);
+        GLuint bufs[6] = {r->vbo, r->ibo, r->list_ibo, r->wire_ibo, r->packed_ibo, r->morph_vbo};
+        glDeleteBuffers(6, bufs);
         if (r->vao)
             glDeleteVertexArrays(1, &r->vao);
         if (r->program)
@@ -698,8 +742,13 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
     mts_result rc = check_layout(layout, err);
     if (rc != MTS_OK)
         return rc;
-    if (opts->width == 0 || opts->height == 0)
-        return mts_error_set(err, MTS_ERR_ARG, "render: size %ux%u", opts->width, opts->height);
+    mts_render_options o = *opts;
+    if (o.width == 0 && o.height == 0)
+        o.width = o.height = 512;
+    if (o.width == 0 || o.height == 0)
+        return mts_error_set(err, MTS_ERR_ARG, "render: size %ux%u", o.width, o.height);
+    style_defaults(&o.style);
+    opts = &o;
     rc = mts_render_context_make_current(ctx, err);
     if (rc != MTS_OK)
         return rc;
@@ -880,6 +929,60 @@ mts_result mts_render_append_vertices(mts_renderer *r, uint32_t first, uint32_t 
         r->stats.vertices = first + count;
     r->stats.vertex_bytes_uploaded += (uint64_t)count * 24u;
     return MTS_OK;
+}
+
+mts_result mts_render_set_morph(mts_renderer *r, uint32_t first, uint32_t count,
+                                const float *from_positions, const float *from_normals,
+                                mts_error *err)
+{
+    if (!r || (count && (!from_positions || !from_normals)))
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to set_morph");
+    if ((uint64_t)first + count > r->vertex_capacity)
+        return mts_error_set(err, MTS_ERR_RANGE,
+                             "render: morph of vertices %u..%llu beyond the capacity of %u",
+                             first, (unsigned long long)first + count - 1, r->vertex_capacity);
+    r->morph_t = 0;
+    if (count == 0) {
+        r->morph_first = r->morph_end = 0;
+        return MTS_OK;
+    }
+    mts_result rc = mts_render_context_make_current(r->ctx, err);
+    if (rc != MTS_OK)
+        return rc;
+    uint64_t half = (uint64_t)r->vertex_capacity * 12u;
+    if (!r->morph_vbo) {
+        glGenBuffers(1, &r->morph_vbo);
+        glBindBuffer(GL_ARRAY_BUFFER, r->morph_vbo);
+        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(2 * half), NULL, GL_DYNAMIC_DRAW);
+        glBindVertexArray(r->vao);
+        glEnableVertexAttribArray(2);
+        glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, 0, (const void *)0);
+        glEnableVertexAttribArray(3);
+        glVertexAttribPointer(3, 3, GL_FLOAT, GL_FALSE, 0, (const void *)(uintptr_t)half);
+        glBindVertexArray(0);
+        r->stats.vertex_buffer_bytes += 2 * half;
+    }
+    glBindBuffer(GL_ARRAY_BUFFER, r->morph_vbo);
+    glBufferSubData(GL_ARRAY_BUFFER, (GLintptr)((uint64_t)first * 12u),
+                    (GLsizeiptr)((uint64_t)count * 12u), from_positions);
+    glBufferSubData(GL_ARRAY_BUFFER, (GLintptr)(half + (uint64_t)first * 12u),
+                    (GLsizeiptr)((uint64_t)count * 12u), from_normals);
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
+    rc = gl_check(err, "uploading a morph's sources");
+    if (rc != MTS_OK) {
+        r->morph_first = r->morph_end = 0;
+        return rc;
+    }
+    r->morph_first = first;
+    r->morph_end = first + count;
+    r->stats.vertex_bytes_uploaded += (uint64_t)count * 24u;
+    r->stats.morph_bytes_uploaded += (uint64_t)count * 24u;
+    return MTS_OK;
+}
+
+void mts_render_set_morph_t(mts_renderer *r, float t)
+{
+    r->morph_t = t < 0 ? 0 : t > 1 ? 1 : t;
 }
 
 uint32_t mts_render_vertex_count(const mts_renderer *r)
@@ -1233,7 +1336,7 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
     glDepthFunc(GL_LESS);
     glFrontFace(GL_CCW);
     glCullFace(GL_BACK);
-    if (st->cull_back_faces)
+    if (!st->show_back_faces)
         glEnable(GL_CULL_FACE);
     else
         glDisable(GL_CULL_FACE);
@@ -1256,6 +1359,8 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
     glUniform1f(r->u_ambient, clampf(st->ambient, 0.0f, 1.0f));
     glUniform3fv(r->u_color, 1, st->color);
     glUniform1i(r->u_flat, st->flat_shading != 0);
+    glUniform2ui(r->u_morph, r->morph_first, r->morph_end);
+    glUniform1f(r->u_morph_t, r->morph_t);
     glBindVertexArray(r->vao);
 
     uint32_t calls = 0;
@@ -1345,12 +1450,13 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
         indices += r->wire_count;
     }
     glBindVertexArray(0);
-    glFinish();
+    if (r->opts.timed)
+        glFinish();
     double t1 = mts_clock_seconds();
     rc = gl_check(err, "drawing");
     if (rc != MTS_OK)
         return rc;
-    r->stats.last_draw_seconds = t1 - t0;
+    r->stats.last_draw_seconds = r->opts.timed ? t1 - t0 : 0;
     r->stats.last_draw_calls = calls;
     r->stats.last_draw_indices = indices;
     r->stats.last_draw_index_bytes = packed_mode ? index_bytes : indices * 4u;

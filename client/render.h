@@ -157,15 +157,16 @@ typedef struct mts_render_layout {
 void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *layout);
 
 typedef enum mts_render_draw_mode {
-    MTS_RENDER_DRAW_RESTART = 0,
+    /* the live strips joined into one strip by repeated indices (degenerate
+       windows), no restarts: the default (0) */
+    MTS_RENDER_DRAW_JOINED = 0,
+    MTS_RENDER_DRAW_RESTART,
     MTS_RENDER_DRAW_PER_STRIP,
     MTS_RENDER_DRAW_MULTI,
     MTS_RENDER_DRAW_LIST, /* the triangle list given to mts_render_set_list, not the strips:
                              for measuring strips against lists on the same vertices */
-    MTS_RENDER_DRAW_COMPACT, /* the live strips packed end to end, one restart between
-                                two, in a buffer of their own (no slot padding) */
-    MTS_RENDER_DRAW_JOINED   /* the live strips joined into one strip by repeated
-                                indices (degenerate windows), no restarts */
+    MTS_RENDER_DRAW_COMPACT /* the live strips packed end to end, one restart between
+                               two, in a buffer of their own (no slot padding) */
 } mts_render_draw_mode;
 
 typedef struct mts_render_camera {
@@ -179,7 +180,7 @@ typedef struct mts_render_style {
     float color[3];      /* the surface colour */
     float ambient;       /* [0,1]: ambient share of the lighting */
     int color_by_strip;  /* each strip its own colour (draws strip by strip) */
-    int cull_back_faces; /* 1 by default */
+    int show_back_faces; /* 0: clockwise triangles are culled */
     mts_render_draw_mode draw_mode;
     /* Draw the triangles' edges over the surface (hidden-line wireframe):
      * the edges given by mts_render_update_wireframe as GL_LINES, the
@@ -199,11 +200,22 @@ typedef struct mts_render_options {
     uint32_t width, height; /* framebuffer size, 1..GL_MAX_RENDERBUFFER_SIZE */
     mts_render_camera camera;
     mts_render_style style;
+    /* Each draw waits for the frame (glFinish) and fills
+     * stats.last_draw_seconds: for measurements (benchmarks, the budget LOD
+     * policy). Off, a draw returns once GL has the commands; reading the
+     * frame back waits for it anyway. */
+    int timed;
 } mts_render_options;
 
 /* 512x512, yaw 30, pitch 20, zoom 1, fov 35, dark blue-grey background,
  * light grey surface, ambient 0.25, culling on, JOINED, no wireframe
- * (dark edges when turned on). */
+ * (dark edges when turned on), untimed.
+ *
+ * A zeroed options struct means the same but for the view's direction (yaw
+ * and pitch 0: from +Z, level): where 0 is no usable value -- a size, zoom,
+ * field of view, an all-zero colour -- the renderer takes the default, and
+ * the zero enums and flags are the defaults (JOINED, culling on). ambient 0
+ * is taken as the default too; a negative ambient means none. */
 void mts_render_options_default(mts_render_options *opts);
 
 typedef struct mts_renderer mts_renderer;
@@ -254,8 +266,9 @@ void mts_render_set_style(mts_renderer *r, const mts_render_style *style);
  * eye towards the box centre), for callers that need the view (tests). */
 void mts_render_eye(const mts_renderer *r, float eye[3], float dir[3]);
 
-/* Draws a frame into the framebuffer and waits for it (glFinish), so
- * stats.last_draw_seconds is the frame's time, clear to finish. */
+/* Draws a frame into the framebuffer. With options.timed it waits for it
+ * (glFinish) and stats.last_draw_seconds is the frame's time, clear to
+ * finish. */
 mts_result mts_render_draw(mts_renderer *r, mts_error *err);
 
 /* Windowed contexts: copies the last frame to the window surface (scaled
@@ -270,6 +283,19 @@ mts_result mts_render_present(mts_renderer *r, mts_error *err);
 /* New framebuffer size (a window was resized): the renderbuffers are
  * reallocated and the camera's aspect follows; geometry stays. */
 mts_result mts_render_resize(mts_renderer *r, uint32_t width, uint32_t height, mts_error *err);
+
+/* Geomorphs: vertices first .. first+count-1 are drawn at
+ * mix(from, their own, t) -- positions and normals -- where from is given
+ * here (3 floats a vertex each, the same count), t by
+ * mts_render_set_morph_t (0 until then). One range at a time: a new call
+ * replaces it; count 0 turns morphing off. The vertex shader picks the range
+ * by gl_VertexID (the index fetched), so strips and the packed buffer are
+ * untouched: a morph costs one upload of its range's 24 bytes a vertex,
+ * then a uniform a frame. The buffer for it is made at the first call. */
+mts_result mts_render_set_morph(mts_renderer *r, uint32_t first, uint32_t count,
+                                const float *from_positions, const float *from_normals,
+                                mts_error *err);
+void mts_render_set_morph_t(mts_renderer *r, float t);
 
 /* Rebuilds the wireframe's edges from the runtime's current strips: three
  * edges per non-degenerate triangle (shared edges twice: simpler than a
@@ -295,12 +321,13 @@ typedef struct mts_render_stats {
     uint64_t packed_builds;   /* COMPACT / JOINED buffers rebuilt (their bytes are in
                                * index_bytes_uploaded too) */
     uint64_t packed_bytes;    /* the packed buffer now */
+    uint64_t morph_bytes_uploaded; /* geomorph sources (in vertex_bytes_uploaded too) */
     /* the last mts_render_update_strips */
     uint32_t last_update_strips; /* strips it covered (all of them for a full upload) */
     uint64_t last_update_bytes;
     int last_update_full;
     /* the last mts_render_draw */
-    double last_draw_seconds; /* CPU time clear .. glFinish (CLOCK_MONOTONIC) */
+    double last_draw_seconds; /* options.timed: CPU time clear .. glFinish (monotonic) */
     uint32_t last_draw_calls;
     uint64_t last_draw_indices; /* indices submitted, restarts included */
     uint64_t last_draw_index_bytes; /* their bytes (COMPACT and JOINED may use 16 bits) */

@@ -127,6 +127,7 @@ static int draw_and_read(mts_test *t, mts_renderer *r, frame *f, const char *png
 static void options(mts_render_options *o)
 {
     mts_render_options_default(o);
+    o->timed = 1; /* the cases print draw times */
     o->width = SIDE;
     o->height = SIDE;
 }
@@ -356,7 +357,7 @@ static void test_back_faces_culled(mts_test *t)
     CHECKF(t, fg > foreground(&f[0]) / 2, "whole cow reversed: %u pixels, cow %u", fg,
            foreground(&f[0]));
     mts_render_options off = o;
-    off.style.cull_back_faces = 0;
+    off.style.show_back_faces = 1;
     mts_render_set_style(flipped, &off.style);
     if (!draw_and_read(t, flipped, &f[3], NULL))
         goto done;

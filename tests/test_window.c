@@ -181,9 +181,56 @@ static void test_window_screenshots(mts_test *t)
     /* detect_leaks=0: llvmpipe's threads upset LeakSanitizer (see test_e2e) */
     snprintf(cmd, sizeof cmd,
              "cd %s && DISPLAY=:%d ASAN_OPTIONS=detect_leaks=0 timeout 120 %s/mts-client %s cow "
-             "--window --size 640x480 --script %s --json 2>client.log",
+             "--window --size 640x480 --script %s --json --morph-ms 0 2>client.log",
              dir, display, bin_dir, listen, script);
     int rc = mts_test_run(cmd, out, sizeof out);
+
+    /* geomorphs (the window's default, here 400 ms): End from the base
+     * starts a morph to the full level; a shot 0.1 s into it is a frame
+     * between the levels, named so, and the HUD says it is morphing */
+    char mscript[800], mout[8192];
+    snprintf(mscript, sizeof mscript, "%s/morph.txt", dir);
+    f = fopen(mscript, "w");
+    CHECK(t, f != NULL);
+    if (f) {
+        fputs("0.5 key Home\n1.2 key End\n1.3 key s\n2.0 key s\n2.2 key q\n", f);
+        fclose(f);
+    }
+    snprintf(cmd, sizeof cmd,
+             "cd %s && DISPLAY=:%d ASAN_OPTIONS=detect_leaks=0 timeout 120 %s/mts-client %s cow "
+             "--window --size 640x480 --script %s --json --morph-ms 400 2>morph.log",
+             dir, display, bin_dir, listen, mscript);
+    int mrc = mts_test_run(cmd, mout, sizeof mout);
+    CHECKF(t, mrc == 0 && strstr(mout, "\"complete\":true"), "exit %d: %s", mrc, mout);
+    const char *m1 = strstr(mout, "{\"file\":");
+    const char *m2 = m1 ? strstr(m1 + 1, "{\"file\":") : NULL;
+    CHECKF(t, m1 && m2, "two screenshots wanted: %s", mout);
+    if (m1 && m2) {
+        char file1[300], hud1[1024], file2[300], hud2[1024];
+        json_s(m1, "file", file1, sizeof file1);
+        json_s(m1, "hud", hud1, sizeof hud1);
+        json_s(m2, "file", file2, sizeof file2);
+        json_s(m2, "hud", hud2, sizeof hud2);
+        CHECKF(t, strstr(file1, "_morph") && strstr(hud1, "morphing 400 ms"),
+               "the shot 0.1 s after End: %s, HUD '%s'", file1, hud1);
+        CHECKF(t, !strstr(file2, "_morph") && strstr(hud2, "morph 400 ms") &&
+                      !strstr(hud2, "morphing"),
+               "the shot after the morph: %s, HUD '%s'", file2, hud2);
+        CHECKF(t, json_u(m1, "level") == json_u(m2, "level") &&
+                      json_u(m2, "level") == json_u(mout, "levels"),
+               "a morph up shows the level it goes to: %s", mout);
+        char p1[1100], p2[1100];
+        unsigned char *d1 = NULL, *d2 = NULL;
+        long s1 = 0, s2 = 0;
+        snprintf(p1, sizeof p1, "%s/%s", dir, file1);
+        snprintf(p2, sizeof p2, "%s/%s", dir, file2);
+        CHECKF(t, read_whole(p1, &d1, &s1) && read_whole(p2, &d2, &s2), "%s or %s missing", p1,
+               p2);
+        CHECKF(t, !(d1 && d2 && s1 == s2 && !memcmp(d1, d2, (size_t)s1)),
+               "the mid-morph frame is the final frame");
+        free(d1);
+        free(d2);
+    }
     char clog[800], logtext[4096];
     snprintf(clog, sizeof clog, "%s/client.log", dir);
     mts_test_read_file(clog, logtext, sizeof logtext);

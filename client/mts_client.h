@@ -1,0 +1,46 @@
+/* mts-client's own parts, shared by its headless run (mts_client.c) and its
+ * window (mts_client_window.c). Program code: it prints; the library's
+ * modules (session, view, render, ...) do not. */
+#ifndef MTS_CLIENT_H
+#define MTS_CLIENT_H
+
+#include <stdint.h>
+
+#include "cli.h"
+#include "lodpolicy.h"
+#include "render.h"
+#include "session.h"
+#include "view.h"
+
+typedef struct client_run {
+    int render, quiet;
+    const char *png, *model;
+    uint32_t png_levels[64];
+    int png_level_count;
+    uint32_t next_png; /* index into png_levels, sorted ascending */
+    mts_render_options ro;
+    double morph_ms;  /* --morph-ms; negative: not given (the window's default) */
+    mts_render_context *ctx;
+    mts_view view;    /* made at the base mesh */
+    int have_view;
+    double ms_render;
+    cli_bar bar;
+    mts_error err;
+    int failed;
+    uint32_t pngs_written;
+    char png_paths[8][512];
+} client_run;
+
+/* One triangle through a throw-away renderer with the run's options, so
+ * the driver's first-draw work (llvmpipe compiles a shader variant) is done
+ * before the model's first frame. */
+int client_warm_up(client_run *rn);
+
+/* What went to GL over the run, beside the final buffers, as --json keys. */
+void client_json_uploads(cli_json *j, const mts_renderer *r);
+
+/* --window from start to exit status. */
+int client_window_main(client_run *rn, mts_session_options *so, const char *script_path,
+                       int json, const mts_lod_policy_options *po);
+
+#endif
