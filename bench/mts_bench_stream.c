@@ -23,19 +23,23 @@
 #include "modelfile.h"
 #include "render.h"
 #include "stream.h"
+#include "view.h"
 #include "wire.h"
 
 #include <meshoptimizer.h>
 
-/* Decodes and applies a whole connection's bytes; with a renderer, uploads
- * each batch's vertices and changed strips too. Returns seconds, 0 on error. */
-static double apply_all(const mts_buf *b, mts_renderer *r, mts_error *err)
+/* Decodes and applies a whole connection's bytes; with a context, keeps a
+ * view (the client's path to GL: client/view.h) in step at each batch, as
+ * mts-client does, without drawing. Returns seconds (the view's creation at
+ * the base mesh, a shader compile, left out), 0 on error. */
+static double apply_all(const mts_buf *b, mts_render_context *ctx, mts_error *err)
 {
     mts_stream_client c;
     mts_stream_client_init(&c);
     mts_wire_reader rd = {0};
-    double t0 = cli_now();
-    uint32_t uploaded = 0;
+    mts_view view;
+    int have_view = 0;
+    double t0 = cli_now(), t_create = 0;
     int ok = mts_wire_reader_feed(&rd, b->data, b->size, err) == MTS_OK;
     uint8_t type;
     const uint8_t *p;
@@ -43,18 +47,23 @@ static double apply_all(const mts_buf *b, mts_renderer *r, mts_error *err)
     while (ok && mts_wire_reader_next(&rd, &type, &p, &n, err) == 1) {
         mts_stream_event ev;
         ok = mts_stream_client_frame(&c, type, p, n, &ev, err) == MTS_OK;
-        if (ok && r && (ev == MTS_EV_BASE || ev == MTS_EV_BATCH)) {
-            uint32_t have = c.model.base_vertex_count + c.splits;
-            ok = mts_render_append_vertices(r, uploaded, have - uploaded,
-                                            c.model.positions + 3 * (size_t)uploaded,
-                                            c.model.normals + 3 * (size_t)uploaded, err) ==
-                     MTS_OK &&
-                 mts_render_update_strips(r, &c.lod, err) == MTS_OK;
-            mts_lod_clear_changed(&c.lod);
-            uploaded = have;
+        if (!ok || !ctx || (ev != MTS_EV_BASE && ev != MTS_EV_BATCH))
+            continue;
+        mts_view_source src = mts_view_source_of_stream(&c);
+        if (!have_view) {
+            double tc = cli_now();
+            mts_render_options ro;
+            mts_render_options_default(&ro);
+            ro.style.flat_shading = !(c.info.flags & MTS_INFO_NORMALS);
+            ok = mts_view_create(&view, ctx, &ro, &src, NULL, err) == MTS_OK;
+            have_view = ok;
+            t_create = cli_now() - tc;
         }
+        ok = ok && mts_view_sync(&view, &src, MTS_VIEW_NEWEST, 0, err) == MTS_OK;
     }
-    double t = cli_now() - t0;
+    double t = cli_now() - t0 - t_create;
+    if (have_view)
+        mts_view_free(&view);
     mts_wire_reader_free(&rd);
     mts_stream_client_free(&c);
     return ok ? t : 0;
@@ -62,8 +71,8 @@ static double apply_all(const mts_buf *b, mts_renderer *r, mts_error *err)
 
 /* Medians of 5 runs of apply_all on a connection's bytes b, without GL
  * upload and (with a context) with it; *gl stays 0 without one. */
-static void apply_median(const mts_buf *b, const mts_stream *s, mts_render_context *ctx,
-                         double *no_gl, double *gl, mts_error *err)
+static void apply_median(const mts_buf *b, mts_render_context *ctx, double *no_gl, double *gl,
+                         mts_error *err)
 {
     double t[5] = {0}, tg[5] = {0};
     apply_all(b, NULL, err); /* warm-up: first-touch page faults are not decoding */
@@ -76,22 +85,8 @@ static void apply_median(const mts_buf *b, const mts_stream *s, mts_render_conte
     *gl = 0;
     if (!ctx)
         return;
-    for (int k = 0; k < 5; k++) {
-        mts_lod lod;
-        mts_renderer *r = NULL;
-        mts_render_options ro;
-        mts_render_options_default(&ro);
-        ro.timed = 1; /* the draw timings read last_draw_seconds */
-        ro.style.flat_shading = !(s->model.flags & MTS_MODEL_NORMALS_GIVEN);
-        if (mts_lod_init(&lod, &s->model, MTS_LOD_AT_BASE, err) == MTS_OK) {
-            mts_render_layout layout;
-            mts_render_layout_from_lod(&lod, &layout);
-            if (mts_renderer_create(ctx, &ro, &layout, &r, err) == MTS_OK)
-                tg[k] = apply_all(b, r, err);
-            mts_renderer_destroy(r);
-            mts_lod_free(&lod);
-        }
-    }
+    for (int k = 0; k < 5; k++)
+        tg[k] = apply_all(b, ctx, err);
     qsort(tg, 5, sizeof(double), bench_cmp_double);
     *gl = tg[2];
 }
@@ -529,10 +524,10 @@ int main(int argc, char **argv)
 
         /* apply throughput, median of 5, of each form */
         double no_gl = 0, gl_med = 0, rec_no_gl = 0, rec_gl = 0;
-        apply_median(&b, &s, have_gl ? ctx : NULL, &no_gl, &gl_med, &err);
+        apply_median(&b, have_gl ? ctx : NULL, &no_gl, &gl_med, &err);
         mts_buf rb = {0};
         size_t rec_full = bench_connection_bytes(s.records_form, m.level_count, &rb);
-        apply_median(&rb, &s, have_gl ? ctx : NULL, &rec_no_gl, &rec_gl, &err);
+        apply_median(&rb, have_gl ? ctx : NULL, &rec_no_gl, &rec_gl, &err);
         mts_buf_free(&rb);
         double splits = m.level_count;
         printf("%-14s apply %u splits: %.2f ms decode+apply (%.2f M splits/s)", "", m.level_count,
