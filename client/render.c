@@ -322,12 +322,17 @@ struct mts_renderer {
     uint64_t index_count; /* offset[strip_count] */
     float bbox_min[3], bbox_max[3];
 
-    GLuint program, vao, vbo, ibo, fbo, color_rb, depth_rb;
+    /* two programs: [0] plain, [1] with the geomorph's mix, drawn only
+     * while a morph runs, so a still frame pays nothing for it */
+    struct render_program {
+        GLuint id;
+        GLint u_mvp, u_normal, u_color, u_light, u_ambient, u_flat, u_morph, u_morph_t;
+    } prog[2];
+    GLuint vao, vbo, ibo, fbo, color_rb, depth_rb;
     GLuint list_ibo; /* MTS_RENDER_DRAW_LIST only */
     uint32_t list_count;
     GLuint wire_ibo; /* style.wireframe: GL_LINES over the triangles' edges */
     uint64_t wire_count;
-    GLint u_mvp, u_normal, u_color, u_light, u_ambient, u_flat, u_morph, u_morph_t;
     /* geomorphs: where vertices morph_first .. morph_end-1 come from
      * (positions for every vertex id, then normals), made at the first
      * mts_render_set_morph */
@@ -580,30 +585,35 @@ void mts_render_eye(const mts_renderer *r, float eye[3], float dir[3])
 
 /* ---- shader ----------------------------------------------------------- */
 
+/* compiled twice, MORPH 0 and 1 (after the #version line) */
 static const char *vertex_src =
-    "#version 300 es\n"
     "layout(location = 0) in vec3 a_position;\n"
     "layout(location = 1) in vec3 a_normal;\n"
-    "layout(location = 2) in vec3 a_from_position;\n"
-    "layout(location = 3) in vec3 a_from_normal;\n"
     "uniform mat4 u_mvp;\n"
     "uniform mat3 u_normal;\n"
-    "uniform uvec2 u_morph;\n" /* the vertex ids morphing: [x, y) */
-    "uniform float u_morph_t;\n"
     "out vec3 v_normal;\n"
     "out vec3 v_view;\n" /* rotated into view space: slopes for flat shading */
+    "#if MORPH\n"
+    "layout(location = 2) in vec3 a_from_position;\n"
+    "layout(location = 3) in vec3 a_from_normal;\n"
+    "uniform uvec2 u_morph;\n" /* the vertex ids morphing: [x, y) */
+    "uniform float u_morph_t;\n"
+    "#endif\n"
     "void main() {\n"
+    "    vec3 p = a_position, n = a_normal;\n"
+    "#if MORPH\n"
     "    uint id = uint(gl_VertexID);\n" /* the index fetched */
-    "    bool m = id >= u_morph.x && id < u_morph.y;\n"
-    "    vec3 p = m ? mix(a_from_position, a_position, u_morph_t) : a_position;\n"
-    "    vec3 n = m ? mix(a_from_normal, a_normal, u_morph_t) : a_normal;\n"
+    "    if (id >= u_morph.x && id < u_morph.y) {\n"
+    "        p = mix(a_from_position, a_position, u_morph_t);\n"
+    "        n = mix(a_from_normal, a_normal, u_morph_t);\n"
+    "    }\n"
+    "#endif\n"
     "    v_normal = u_normal * n;\n"
     "    v_view = u_normal * p;\n"
     "    gl_Position = u_mvp * vec4(p, 1.0);\n"
     "}\n";
 
 static const char *fragment_src =
-    "#version 300 es\n"
     "precision highp float;\n"
     "in vec3 v_normal;\n"
     "in vec3 v_view;\n"
@@ -623,7 +633,7 @@ static const char *fragment_src =
     "    o_color = vec4(u_color * (u_ambient + (1.0 - u_ambient) * d), 1.0);\n"
     "}\n";
 
-static mts_result compile(GLenum type, const char *src, GLuint *out, mts_error *err)
+static mts_result compile(GLenum type, const char *src, int morph, GLuint *out, mts_error *err)
 {
     GLuint s = glCreateShader(type);
     if (!s) {
@@ -631,7 +641,9 @@ static mts_result compile(GLenum type, const char *src, GLuint *out, mts_error *
         return rc != MTS_OK ? rc
                             : mts_error_set(err, MTS_ERR_INTERNAL, "GL: glCreateShader returned 0");
     }
-    glShaderSource(s, 1, &src, NULL);
+    const char *parts[3] = {"#version 300 es\n", morph ? "#define MORPH 1\n" : "#define MORPH 0\n",
+                            src};
+    glShaderSource(s, 3, parts, NULL);
     glCompileShader(s);
     GLint ok = 0;
     glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
@@ -646,38 +658,39 @@ static mts_result compile(GLenum type, const char *src, GLuint *out, mts_error *
     return MTS_OK;
 }
 
-static mts_result build_program(mts_renderer *r, mts_error *err)
+static mts_result build_program(mts_renderer *r, int morph, mts_error *err)
 {
+    struct render_program *pg = &r->prog[morph];
     GLuint vs = 0, fs = 0;
-    mts_result rc = compile(GL_VERTEX_SHADER, vertex_src, &vs, err);
+    mts_result rc = compile(GL_VERTEX_SHADER, vertex_src, morph, &vs, err);
     if (rc != MTS_OK)
         return rc;
-    rc = compile(GL_FRAGMENT_SHADER, fragment_src, &fs, err);
+    rc = compile(GL_FRAGMENT_SHADER, fragment_src, morph, &fs, err);
     if (rc != MTS_OK) {
         glDeleteShader(vs);
         return rc;
     }
-    r->program = glCreateProgram();
-    glAttachShader(r->program, vs);
-    glAttachShader(r->program, fs);
-    glLinkProgram(r->program);
+    pg->id = glCreateProgram();
+    glAttachShader(pg->id, vs);
+    glAttachShader(pg->id, fs);
+    glLinkProgram(pg->id);
     glDeleteShader(vs);
     glDeleteShader(fs);
     GLint ok = 0;
-    glGetProgramiv(r->program, GL_LINK_STATUS, &ok);
+    glGetProgramiv(pg->id, GL_LINK_STATUS, &ok);
     if (!ok) {
         char log[400] = {0};
-        glGetProgramInfoLog(r->program, sizeof log, NULL, log);
+        glGetProgramInfoLog(pg->id, sizeof log, NULL, log);
         return mts_error_set(err, MTS_ERR_INTERNAL, "GL: program does not link: %s", log);
     }
-    r->u_mvp = glGetUniformLocation(r->program, "u_mvp");
-    r->u_normal = glGetUniformLocation(r->program, "u_normal");
-    r->u_color = glGetUniformLocation(r->program, "u_color");
-    r->u_light = glGetUniformLocation(r->program, "u_light");
-    r->u_ambient = glGetUniformLocation(r->program, "u_ambient");
-    r->u_flat = glGetUniformLocation(r->program, "u_flat");
-    r->u_morph = glGetUniformLocation(r->program, "u_morph");
-    r->u_morph_t = glGetUniformLocation(r->program, "u_morph_t");
+    pg->u_mvp = glGetUniformLocation(pg->id, "u_mvp");
+    pg->u_normal = glGetUniformLocation(pg->id, "u_normal");
+    pg->u_color = glGetUniformLocation(pg->id, "u_color");
+    pg->u_light = glGetUniformLocation(pg->id, "u_light");
+    pg->u_ambient = glGetUniformLocation(pg->id, "u_ambient");
+    pg->u_flat = glGetUniformLocation(pg->id, "u_flat");
+    pg->u_morph = glGetUniformLocation(pg->id, "u_morph");
+    pg->u_morph_t = glGetUniformLocation(pg->id, "u_morph_t");
     return gl_check(err, "building the shader program");
 }
 
@@ -717,8 +730,9 @@ void mts_renderer_destroy(mts_renderer *r)
         glDeleteBuffers(6, bufs);
         if (r->vao)
             glDeleteVertexArrays(1, &r->vao);
-        if (r->program)
-            glDeleteProgram(r->program);
+        for (int i = 0; i < 2; i++)
+            if (r->prog[i].id)
+                glDeleteProgram(r->prog[i].id);
         glGetError(); /* nothing to report from here */
     }
     free(r->offset);
@@ -819,7 +833,9 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
                              r->max_capacity);
     }
 
-    rc = build_program(r, err);
+    rc = build_program(r, 0, err);
+    if (rc == MTS_OK)
+        rc = build_program(r, 1, err);
     if (rc != MTS_OK)
         goto fail;
 
@@ -1349,18 +1365,21 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
         glDisable(GL_POLYGON_OFFSET_FILL);
     }
 
-    glUseProgram(r->program);
-    glUniformMatrix4fv(r->u_mvp, 1, GL_FALSE, r->mvp);
-    glUniformMatrix3fv(r->u_normal, 1, GL_FALSE, r->normal);
+    const struct render_program *pg = &r->prog[r->morph_end > r->morph_first];
+    glUseProgram(pg->id);
+    glUniformMatrix4fv(pg->u_mvp, 1, GL_FALSE, r->mvp);
+    glUniformMatrix3fv(pg->u_normal, 1, GL_FALSE, r->normal);
     /* towards the light, view space: above-left of the camera, in front */
     float light[3] = {-0.45f, 0.6f, 0.66f};
     normalize3(light);
-    glUniform3fv(r->u_light, 1, light);
-    glUniform1f(r->u_ambient, clampf(st->ambient, 0.0f, 1.0f));
-    glUniform3fv(r->u_color, 1, st->color);
-    glUniform1i(r->u_flat, st->flat_shading != 0);
-    glUniform2ui(r->u_morph, r->morph_first, r->morph_end);
-    glUniform1f(r->u_morph_t, r->morph_t);
+    glUniform3fv(pg->u_light, 1, light);
+    glUniform1f(pg->u_ambient, clampf(st->ambient, 0.0f, 1.0f));
+    glUniform3fv(pg->u_color, 1, st->color);
+    glUniform1i(pg->u_flat, st->flat_shading != 0);
+    if (r->morph_end > r->morph_first) {
+        glUniform2ui(pg->u_morph, r->morph_first, r->morph_end);
+        glUniform1f(pg->u_morph_t, r->morph_t);
+    }
     glBindVertexArray(r->vao);
 
     uint32_t calls = 0;
@@ -1409,7 +1428,7 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
             if (st->color_by_strip) {
                 float c[3];
                 strip_color(s, c);
-                glUniform3fv(r->u_color, 1, c);
+                glUniform3fv(pg->u_color, 1, c);
             }
             glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)r->length[s], GL_UNSIGNED_INT,
                            (const void *)(uintptr_t)((uint64_t)r->offset[s] * 4u));
@@ -1440,8 +1459,8 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
     if (wire) {
         glDisable(GL_POLYGON_OFFSET_FILL);
         glDepthFunc(GL_LEQUAL);
-        glUniform1f(r->u_ambient, 1.0f); /* flat: the edge colour as it is */
-        glUniform3fv(r->u_color, 1, st->wire_color);
+        glUniform1f(pg->u_ambient, 1.0f); /* flat: the edge colour as it is */
+        glUniform3fv(pg->u_color, 1, st->wire_color);
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->wire_ibo);
         glDrawElements(GL_LINES, (GLsizei)r->wire_count, GL_UNSIGNED_INT, (const void *)0);
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
