@@ -87,6 +87,10 @@ typedef struct mts_model {
     uint32_t *level_indices; /* sum of strip lengths, restarts not counted */
 
     char source[256]; /* where the model came from (file name), informational */
+    /* What a cached model was built from and how: a server's cache
+     * (server/catalog.c) is used only while this equals the key it makes
+     * from the mesh file and its build options. Empty for other models. */
+    char build_key[256];
 } mts_model;
 
 void mts_model_free(mts_model *model);

@@ -23,14 +23,15 @@ enum {
     SEC_SOURCE,
     SEC_CAPACITY, /* version 2 */
     SEC_GROWTH,   /* version 3 */
-    SEC_LAST = SEC_GROWTH
+    SEC_KEY,      /* version 5.1 */
+    SEC_LAST = SEC_KEY
 };
 
 static const char *const section_names[] = {"?",           "info",   "positions",
                                             "normals",     "full strips",
                                             "base strips", "splits", "levels",
                                             "source",      "capacity",
-                                            "growth"};
+                                            "growth",      "build key"};
 
 #define HEADER_SIZE 16u
 #define ENTRY_SIZE 24u
@@ -134,7 +135,8 @@ static void layout_sizes(layout *l)
 
 static int fixed_size(uint32_t id)
 {
-    return id != SEC_SPLITS && id != SEC_LEVELS && id != SEC_SOURCE && id != SEC_GROWTH;
+    return id != SEC_SPLITS && id != SEC_LEVELS && id != SEC_SOURCE && id != SEC_GROWTH &&
+           id != SEC_KEY;
 }
 
 /* Per-level counts change by a little from one level to the next. */
@@ -265,6 +267,7 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
                 (uint32_t)capacity_total, {0}};
     layout_sizes(&l);
     size_t source_len = strnlen(m->source, sizeof m->source);
+    size_t key_len = strnlen(m->build_key, sizeof m->build_key);
     size_t splits_cap = mts_reccodec_bound(m, 0, m->level_count);
     size_t levels_cap = ((size_t)m->level_count + 1) * 3 * MTS_VARINT32_MAX_BYTES;
     uint8_t *splits = malloc(splits_cap + 1), *levels = malloc(levels_cap);
@@ -293,8 +296,10 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
     l.size[SEC_SPLITS] = splits_len;
     l.size[SEC_LEVELS] = levels_encode(m, levels);
     l.size[SEC_SOURCE] = source_len;
+    l.size[SEC_KEY] = key_len;
 
-    /* growth is the last section id: without it, one section fewer */
+    /* growth and the build key are the last section ids: a model without
+     * growth (made by hand) is written without both */
     const uint32_t count = has_growth ? SEC_LAST : SEC_GROWTH - 1;
     uint64_t offset[SEC_LAST + 1] = {0};
     uint64_t at = align8(HEADER_SIZE + (uint64_t)ENTRY_SIZE * count);
@@ -331,8 +336,10 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
     free(splits);
     free(levels);
     memcpy(buf + offset[SEC_SOURCE], m->source, source_len);
-    if (has_growth)
+    if (has_growth) {
         memcpy(buf + offset[SEC_GROWTH], growth, (size_t)l.size[SEC_GROWTH]);
+        memcpy(buf + offset[SEC_KEY], m->build_key, key_len);
+    }
     free(growth);
 
     memcpy(buf, "MTSM", 4);
@@ -448,7 +455,7 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
         sec_size[id] = len;
     }
     for (uint32_t id = 1; id <= SEC_LAST; id++) {
-        if (!sec[id] && id != SEC_SOURCE && id != SEC_GROWTH)
+        if (!sec[id] && id != SEC_SOURCE && id != SEC_GROWTH && id != SEC_KEY)
             return mts_error_set(err, MTS_ERR_FORMAT, "%s: section '%s' is missing", name,
                                  section_names[id]);
     }
@@ -580,6 +587,8 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     }
     for (size_t i = 0; i < source_len && i + 1 < sizeof m->source; i++)
         m->source[i] = sec[SEC_SOURCE][i] ? (char)sec[SEC_SOURCE][i] : '?';
+    for (size_t i = 0; sec[SEC_KEY] && i < sec_size[SEC_KEY] && i + 1 < sizeof m->build_key; i++)
+        m->build_key[i] = sec[SEC_KEY][i] ? (char)sec[SEC_KEY][i] : '?';
     if ((rc = mts_model_validate(m, err)) != MTS_OK) {
         mts_error_prefix(err, "%s", name);
         goto fail;

@@ -8,7 +8,8 @@
  *   16  section_count x { u32 id, u32 crc32c, u64 offset, u64 size }
  *       sections, each 8-byte aligned
  *
- * Sections (all required but SOURCE and GROWTH; unknown ids are skipped):
+ * Sections (all required but SOURCE, GROWTH and KEY; unknown ids are
+ * skipped):
  *   1 INFO        u32 vertices, base_vertices, levels, strips, full_indices,
  *                 base_indices, record_words, capacity_total;
  *                 f32 bbox_min[3], bbox_max[3]; u32 flags (model.h's
@@ -28,6 +29,8 @@
  *                 the lists of an explicit one), all varints. What a stream
  *                 sends instead of the records; absent only in models made
  *                 by hand, which a server refuses to stream
+ *  11 KEY         UTF-8 text: the build key (model.h), written with GROWTH
+ *                 (empty when there is none); absent in older files
  * Fixed-size sections must have exactly the size INFO's counts give; the
  * varint sections must parse to exactly their end, and INFO's counts must
  * fit their sizes (a varint is a byte at least) before anything is allocated.
@@ -54,7 +57,7 @@
 #include "model.h"
 
 #define MTS_MODELFILE_MAJOR 5
-#define MTS_MODELFILE_MINOR 0
+#define MTS_MODELFILE_MINOR 1 /* 5.1: the KEY section */
 
 /* Serialises a model into a new buffer (free with free()). */
 mts_result mts_modelfile_encode(const mts_model *model, uint8_t **data, size_t *size,

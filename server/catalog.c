@@ -477,7 +477,7 @@ static mts_result add_mesh_file(mts_catalog *cat, const char *name, const char *
     /* The cache key: what the mesh is now and how it is built. The figures
      * come first so that a long file name, cut at the model's 255
      * characters, never hides them. */
-    char key[sizeof e->model.source];
+    char key[sizeof e->model.build_key];
     snprintf(key, sizeof key, "size %llu, mtime %lld.%09ld, base_vertices %u, mtsm %d: %s",
              (unsigned long long)st.st_size, (long long)st.st_mtim.tv_sec,
              (long)st.st_mtim.tv_nsec, cat->opts.base_vertices, MTS_MODELFILE_MAJOR, file);
@@ -497,7 +497,7 @@ static mts_result add_mesh_file(mts_catalog *cat, const char *name, const char *
                 if (mts_modelfile_load(cache, &e->model, &cerr) != MTS_OK) {
                     report_to(rep, MTS_CATALOG_NOTE, path,
                               "%s: the cache does not load (%s): rebuilding", name, cerr.msg);
-                } else if (strcmp(e->model.source, key) != 0) {
+                } else if (strcmp(e->model.build_key, key) != 0) {
                     mts_model_free(&e->model);
                     report_to(rep, MTS_CATALOG_NOTE, path,
                               "%s: the cache %s was built from another version of the mesh or "
@@ -527,10 +527,11 @@ static mts_result add_mesh_file(mts_catalog *cat, const char *name, const char *
     if ((r = mts_mesh_load(path, NULL, &mesh, NULL, err)) != MTS_OK)
         goto done;
     mts_progress_report(&p, "load", 1);
-    if ((r = build_into(cat, e, &mesh, key, err)) != MTS_OK) {
+    if ((r = build_into(cat, e, &mesh, path, err)) != MTS_OK) {
         mts_error_prefix(err, "%s", path);
         goto done;
     }
+    snprintf(e->model.build_key, sizeof e->model.build_key, "%s", key);
     double t1 = mts_clock_seconds();
     e->origin = MTS_CATALOG_BUILT;
     const char *cached_note = "not cached";

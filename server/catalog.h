@@ -23,7 +23,8 @@
  *                                      used only when it is ours, no symlink, not
  *                                      writable by others).
  * Cache files start with '.', so a later scan never takes them for models.
- * A cache is used only when its SOURCE text (model.source) is exactly the key
+ * A cache is used only when its build key (model.build_key, the model file's
+ * KEY section; model.source is only the mesh's path) is exactly the key
  * of the mesh as it is now: "size S, mtime SEC.NSEC, base_vertices B,
  * mtsm MAJOR: F". So a mesh that changed in any way (newer, or replaced by
  * an older file, or another size) or other build options mean a rebuild, and
