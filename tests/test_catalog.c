@@ -19,6 +19,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "clock.h"
 #include "build.h"
 #include "catalog.h"
 #include "crc32c.h"
@@ -120,12 +121,6 @@ static int set_mtime(const char *path, time_t sec)
     return utimensat(AT_FDCWD, path, ts, 0) == 0;
 }
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 /* ------------------------------------------------------------------------ */
 /* Reports                                                                   */
@@ -741,8 +736,8 @@ static int start_http_server(char *why, size_t why_size)
                    "--directory", www, (char *)NULL);
             _exit(127);
         }
-        double t0 = now_s();
-        while (now_s() - t0 < 15) {
+        double t0 = mts_clock_seconds();
+        while (mts_clock_seconds() - t0 < 15) {
             if (port_accepts(port)) {
                 http_pid = pid;
                 http_port = port;
@@ -982,9 +977,9 @@ static void test_url_failures(mts_test *t)
     snprintf(url, sizeof url, "http://user:secret@127.0.0.1:%d/cow.off", port);
     mts_fetch_options fo = {0};
     fo.connect_timeout_ms = 2000;
-    double t0 = now_s();
+    double t0 = mts_clock_seconds();
     CHECK(t, mts_fetch_url(url, &fo, &r, &err) == MTS_ERR_IO);
-    double dt = now_s() - t0;
+    double dt = mts_clock_seconds() - t0;
     CHECKF(t, dt < 2.5, "took %.2f s", dt);
     CHECKF(t, strstr(err.msg, "127.0.0.1") && !strstr(err.msg, "secret"), "message: %s",
            err.msg);
@@ -1039,9 +1034,9 @@ static void test_url_failures(mts_test *t)
     snprintf(url, sizeof url, "http://127.0.0.1:%d/x.off", port);
     fo = (mts_fetch_options){0};
     fo.timeout_ms = 500;
-    t0 = now_s();
+    t0 = mts_clock_seconds();
     CHECK(t, mts_fetch_url(url, &fo, &r, &err) == MTS_ERR_IO);
-    dt = now_s() - t0;
+    dt = mts_clock_seconds() - t0;
     CHECKF(t, dt >= 0.4 && dt < 3, "took %.2f s", dt);
     CHECKF(t, strstr(err.msg, "timed out") && strstr(err.msg, "500 ms"), "message: %s", err.msg);
     canned_stop(pid);

@@ -24,6 +24,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "clock.h"
 #include "modelfile.h"
 #include "build.h"
 #include "mesh.h"
@@ -520,12 +521,6 @@ static void stop_pid(pid_t pid, int sig)
     waitpid(pid, NULL, 0);
 }
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 /* The value of "key": in a JSON line, as text ("" when absent). */
 static void json_get(const char *json, const char *key, char *out, size_t size)
@@ -731,13 +726,13 @@ static int broken_run(mts_test *t, fixture *f, pid_t *server, int after, size_t 
              "--json --verify --model-file %s %s %s) 2>&1",
              bin_dir, pport, f->model_file, f->render, extra);
     FILE *p = popen(cmd, "r");
-    double t_cut = now_s();
+    double t_cut = mts_clock_seconds();
     struct pollfd pf = {to_parent[0], POLLIN, 0};
     char b = 0;
     int cut = poll(&pf, 1, 20000) == 1 && read(to_parent[0], &b, 1) == 1 && b == 'c';
     CHECKF(t, cut, "the proxy never cut the stream");
     if (cut) {
-        t_cut = now_s();
+        t_cut = mts_clock_seconds();
         /* the server dies with the client's stream cut short, then the
          * proxy lets the client see it */
         stop_pid(*server, SIGKILL);
@@ -754,7 +749,7 @@ static int broken_run(mts_test *t, fixture *f, pid_t *server, int after, size_t 
     size_t n = p ? fread(out, 1, size - 1, p) : 0;
     out[n] = 0;
     int st = p ? pclose(p) : -1;
-    *seconds_after_cut = now_s() - t_cut;
+    *seconds_after_cut = mts_clock_seconds() - t_cut;
     close(to_parent[0]);
     close(to_proxy[1]);
     stop_pid(proxy, SIGKILL);

@@ -25,6 +25,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "clock.h"
 #include "test.h"
 #include "test_proc.h"
 
@@ -52,12 +53,6 @@
 
 static char bin_dir[512], tmp_dir[512];
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 static int free_port(void)
 {
@@ -160,8 +155,8 @@ static void show_tail(const char *what, const char *path)
  * early when *pid exits. */
 static int wait_for(const char *path, const char *needle, pid_t *pid, double seconds)
 {
-    double end = now_s() + seconds;
-    while (now_s() < end) {
+    double end = mts_clock_seconds() + seconds;
+    while (mts_clock_seconds() < end) {
         char *s = slurp(path);
         int ok = s && (!needle || strstr(s, needle));
         free(s);
@@ -402,9 +397,9 @@ static void test_two_servers_behind_nginx(mts_test *t)
         snprintf(cmd, sizeof cmd,
                  "timeout -k 5 %d '%s/mts-stress' 127.0.0.1:%d cow --clients %d --json",
                  STRESS_LIMIT_S, bin_dir, lb_port, CLIENTS);
-        double t0 = now_s();
+        double t0 = mts_clock_seconds();
         rc = mts_test_run(cmd, out, sizeof out);
-        double secs = now_s() - t0;
+        double secs = mts_clock_seconds() - t0;
         const char *json = strstr(out, "{\"");
         long clients = json ? json_long(json, "clients") : -1;
         long ok = json ? json_long(json, "succeeded") : -1;
