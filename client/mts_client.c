@@ -586,12 +586,8 @@ int main(int argc, char **argv)
     }
     uint32_t triangles = 0;
     if (c.have_lod) {
-        mts_strip_stats ss = {0};
-        for (uint32_t s = 0; s < c.lod.strip_count; s++) {
-            uint32_t len;
-            const uint32_t *str = mts_lod_strip(&c.lod, s, &len);
-            mts_strip_stats_add(&ss, str, len);
-        }
+        mts_strip_stats ss;
+        mts_lod_strip_stats(&c.lod, &ss);
         triangles = (uint32_t)ss.triangles;
     }
     if (json) {

@@ -194,12 +194,8 @@ mts_result mts_view_sync(mts_view *v, const mts_view_source *src, uint32_t level
         if (v->wireframe && (rc = mts_render_update_wireframe(v->renderer, v->lod, err)) != MTS_OK)
             return rc;
         v->wire_stale = 0;
-        mts_strip_stats ss = {0};
-        for (uint32_t s = 0; s < v->lod->strip_count; s++) {
-            uint32_t len;
-            const uint32_t *str = mts_lod_strip(v->lod, s, &len);
-            mts_strip_stats_add(&ss, str, len);
-        }
+        mts_strip_stats ss;
+        mts_lod_strip_stats(v->lod, &ss);
         v->shown.level = v->lod->level;
         v->shown.triangles = (uint32_t)ss.triangles;
         v->shown.strips = ss.strips;

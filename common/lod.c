@@ -322,3 +322,10 @@ mts_result mts_lod_set_level(mts_lod *lod, uint32_t target, mts_error *err)
     }
     return MTS_OK;
 }
+
+void mts_lod_strip_stats(const mts_lod *lod, mts_strip_stats *stats)
+{
+    memset(stats, 0, sizeof *stats);
+    for (uint32_t s = 0; s < lod->strip_count; s++)
+        mts_strip_stats_add(stats, lod->data + lod->slot[s], lod->length[s]);
+}

@@ -21,6 +21,7 @@
 
 #include "error.h"
 #include "model.h"
+#include "strips.h"
 
 typedef struct mts_lod {
     const mts_model *model;
@@ -95,6 +96,9 @@ static inline const uint32_t *mts_lod_changed(const mts_lod *lod, uint32_t *coun
     return lod->changed_list;
 }
 void mts_lod_clear_changed(mts_lod *lod);
+
+/* The figures of the strips at the current level (strips.h's counting). */
+void mts_lod_strip_stats(const mts_lod *lod, mts_strip_stats *stats);
 
 /* Bytes the runtime holds beyond the model. */
 uint64_t mts_lod_memory_bytes(const mts_lod *lod);

@@ -21,6 +21,7 @@
 #include "render.h"
 #include "strips.h"
 #include "test.h"
+#include "test_gl.h"
 
 #define SIDE 256u
 
@@ -31,21 +32,7 @@ static mts_mesh g_mesh;
 static mts_model g_cow;
 static int g_cow_ok;
 
-#define NEED_CONTEXT(t)                                                                \
-    do {                                                                               \
-        if (!g_ctx) {                                                                  \
-            const char *req = getenv("MTS_TEST_REQUIRE_EGL");                          \
-            if (req && *req && strcmp(req, "0") != 0) {                                \
-                CHECKF(t, 0, "no EGL context: %s", g_ctx_err.msg);                     \
-                return;                                                                \
-            }                                                                          \
-            SKIP(t, "no EGL context: %s", g_ctx_err.msg);                              \
-        }                                                                              \
-        if (!g_cow_ok) {                                                               \
-            CHECKF(t, 0, "the cow did not build");                                     \
-            return;                                                                    \
-        }                                                                              \
-    } while (0)
+#define NEED_CONTEXT(t) MTS_TEST_NEED_GL(t, g_ctx, g_ctx_err, g_cow_ok)
 
 static void png_path(char *buf, size_t size, const char *name)
 {
@@ -58,32 +45,19 @@ typedef struct frame {
     uint8_t px[SIDE * SIDE * 4];
 } frame;
 
-static int differs(const uint8_t *a, const uint8_t *b, int tol)
-{
-    for (int c = 0; c < 3; c++) {
-        int d = (int)a[c] - (int)b[c];
-        if (d > tol || d < -tol)
-            return 1;
-    }
-    return 0;
-}
-
 /* Pixels that are not the background (the top-left pixel: the camera keeps a
  * margin around the model). */
 static uint32_t foreground(const frame *f)
 {
     uint32_t n = 0;
     for (uint32_t i = 0; i < SIDE * SIDE; i++)
-        n += (uint32_t)differs(f->px + 4 * i, f->px, 2);
+        n += (uint32_t)mts_test_pixel_differs(f->px + 4 * i, f->px, 2);
     return n;
 }
 
 static uint32_t pixels_differing(const frame *a, const frame *b, int tol)
 {
-    uint32_t n = 0;
-    for (uint32_t i = 0; i < SIDE * SIDE; i++)
-        n += (uint32_t)differs(a->px + 4 * i, b->px + 4 * i, tol);
-    return n;
+    return mts_test_pixels_differing(a->px, b->px, SIDE * SIDE, tol);
 }
 
 /* Pixels of strong colour (the cow's surface is a light grey). */
@@ -415,7 +389,7 @@ static void test_flat_shading(mts_test *t)
         uint32_t n = 0;
         for (uint32_t i = 0; i < SIDE * SIDE; i++) {
             const uint8_t *p = f[k].px + 4 * i;
-            if (!differs(p, f[k].px, 2))
+            if (!mts_test_pixel_differs(p, f[k].px, 2))
                 continue;
             n++;
             sum[k] += p[0];

@@ -18,6 +18,7 @@
 #include "model.h"
 #include "render.h"
 #include "test.h"
+#include "test_gl.h"
 #include "view.h"
 
 #define SIDE 256u
@@ -27,21 +28,7 @@ static mts_error g_ctx_err;
 static mts_model g_cow;
 static int g_cow_ok;
 
-#define NEED_CONTEXT(t)                                                                \
-    do {                                                                               \
-        if (!g_ctx) {                                                                  \
-            const char *req = getenv("MTS_TEST_REQUIRE_EGL");                          \
-            if (req && *req && strcmp(req, "0") != 0) {                                \
-                CHECKF(t, 0, "no EGL context: %s", g_ctx_err.msg);                     \
-                return;                                                                \
-            }                                                                          \
-            SKIP(t, "no EGL context: %s", g_ctx_err.msg);                              \
-        }                                                                              \
-        if (!g_cow_ok) {                                                               \
-            CHECKF(t, 0, "the cow did not build");                                     \
-            return;                                                                    \
-        }                                                                              \
-    } while (0)
+#define NEED_CONTEXT(t) MTS_TEST_NEED_GL(t, g_ctx, g_ctx_err, g_cow_ok)
 
 typedef struct frame {
     uint8_t px[SIDE * SIDE * 4];
@@ -65,17 +52,9 @@ static double frame_diff(const frame *a, const frame *b)
     return (double)sum / (double)sizeof a->px;
 }
 
-/* Pixels that differ by more than tol in some channel. */
 static uint32_t pixels_differing(const frame *a, const frame *b, int tol)
 {
-    uint32_t n = 0;
-    for (size_t i = 0; i < SIDE * SIDE; i++)
-        for (int c = 0; c < 3; c++)
-            if (abs((int)a->px[4 * i + c] - (int)b->px[4 * i + c]) > tol) {
-                n++;
-                break;
-            }
-    return n;
+    return mts_test_pixels_differing(a->px, b->px, SIDE * SIDE, tol);
 }
 
 static int view_frame(mts_test *t, mts_view *v, frame *f)
