@@ -115,7 +115,7 @@ static int draw(client_run *rn, mts_stream_client *c, uint32_t level)
 /* What went to GL (the whole run) beside what the last frame drew from: the
  * vertices and the index buffer of the draw path (the packed one by
  * default), so a run's uploads read as a multiple of its final buffers. */
-void client_json_uploads(cli_json *j, const mts_renderer *r)
+static void json_uploads(cli_json *j, const mts_renderer *r)
 {
     if (!r)
         return;
@@ -127,6 +127,23 @@ void client_json_uploads(cli_json *j, const mts_renderer *r)
                      (rs.packed_bytes ? rs.packed_bytes : rs.last_draw_index_bytes));
     if (rs.morph_bytes_uploaded)
         cli_json_u64(j, "gl_morph_bytes", rs.morph_bytes_uploaded);
+}
+
+void client_json_run(cli_json *j, const mts_stream_client *c, const mts_session_stats *st,
+                     const client_run *rn)
+{
+    if (c->end_checksum) { /* END came: the mesh checksum at the final level */
+        char hex[17];
+        snprintf(hex, sizeof hex, "%016llx", (unsigned long long)c->checksum);
+        cli_json_str(j, "checksum", hex);
+    }
+    cli_json_u64(j, "reconnects", st->reconnects);
+    cli_json_num(j, "ms_connect", st->ms_connect, 3);
+    cli_json_num(j, "ms_base", st->ms_base, 3);
+    cli_json_num(j, "ms_final", st->ms_final, 3);
+    cli_json_num(j, "ms_apply", st->ms_apply, 3);
+    cli_json_num(j, "ms_render", rn->ms_render, 3);
+    json_uploads(j, rn->have_view ? rn->view.renderer : NULL);
 }
 
 static int write_png(client_run *rn, const char *path)
@@ -605,18 +622,7 @@ int main(int argc, char **argv)
             cli_json_u64(&j, "level_received", received);
         }
         cli_json_u64(&j, "triangles", triangles);
-        if (c.end_checksum) { /* END came: the mesh checksum at the final level */
-            char hex[17];
-            snprintf(hex, sizeof hex, "%016llx", (unsigned long long)c.checksum);
-            cli_json_str(&j, "checksum", hex);
-        }
-        cli_json_u64(&j, "reconnects", st.reconnects);
-        cli_json_num(&j, "ms_connect", st.ms_connect, 3);
-        cli_json_num(&j, "ms_base", st.ms_base, 3);
-        cli_json_num(&j, "ms_final", st.ms_final, 3);
-        cli_json_num(&j, "ms_apply", st.ms_apply, 3);
-        cli_json_num(&j, "ms_render", rn.ms_render, 3);
-        client_json_uploads(&j, rn.have_view ? rn.view.renderer : NULL);
+        client_json_run(&j, &c, &st, &rn);
         if (verified >= 0)
             cli_json_bool(&j, "verified", verified);
         if (rc != MTS_OK)

@@ -10,6 +10,7 @@
 #include "lodpolicy.h"
 #include "render.h"
 #include "session.h"
+#include "stream.h"
 #include "view.h"
 
 typedef struct client_run {
@@ -36,8 +37,11 @@ typedef struct client_run {
  * before the model's first frame. */
 int client_warm_up(client_run *rn);
 
-/* What went to GL over the run, beside the final buffers, as --json keys. */
-void client_json_uploads(cli_json *j, const mts_renderer *r);
+/* The --json keys both runs write after the level's: the checksum (once
+ * END came), reconnects, the session's times, the render time, and what
+ * went to GL over the run beside the final buffers. */
+void client_json_run(cli_json *j, const mts_stream_client *c, const mts_session_stats *st,
+                     const client_run *rn);
 
 /* --window from start to exit status. */
 int client_window_main(client_run *rn, mts_session_options *so, const char *script_path,

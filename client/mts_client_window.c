@@ -466,18 +466,7 @@ int client_window_main(client_run *rn, mts_session_options *so, const char *scri
         cli_json_u64(&j, "level", c.have_lod ? c.lod.level : 0);
         cli_json_u64(&j, "levels", c.info.levels);
         cli_json_u64(&j, "triangles", triangles);
-        if (c.end_checksum) {
-            char hex[17];
-            snprintf(hex, sizeof hex, "%016llx", (unsigned long long)c.checksum);
-            cli_json_str(&j, "checksum", hex);
-        }
-        cli_json_u64(&j, "reconnects", st.reconnects);
-        cli_json_num(&j, "ms_connect", st.ms_connect, 3);
-        cli_json_num(&j, "ms_base", st.ms_base, 3);
-        cli_json_num(&j, "ms_final", st.ms_final, 3);
-        cli_json_num(&j, "ms_apply", st.ms_apply, 3);
-        cli_json_num(&j, "ms_render", rn->ms_render, 3);
-        client_json_uploads(&j, rn->have_view ? rn->view.renderer : NULL);
+        client_json_run(&j, &c, &st, rn);
         cli_json_num(&j, "morph_ms", rn->have_view ? rn->view.opts.morph_ms : 0, 1);
         cli_json_u64(&j, "frames", wn.frames);
         /* while the stream came (the loop's start to its end): frames/s then */
