@@ -1,7 +1,8 @@
 /* The fuzz targets' entry code (tests/fuzz/fuzz_*.c) in the ordinary builds:
  * every input a fuzzer found a bug with, kept in tests/fuzz/regressions/
- * <target>/ after the fix, and every seed (tests/fuzz/fuzz_seeds.h) goes
- * through the same function LLVMFuzzerTestOneInput calls. A target checks its
+ * <target>/ after the fix, every input of the corpus `make fuzz-long` keeps
+ * in tests/fuzz/corpus/<target>/, and every seed (tests/fuzz/fuzz_seeds.h)
+ * goes through the same function LLVMFuzzerTestOneInput calls. A target checks its
  * own promises and aborts when one breaks, so a regression ends this program
  * (and the ASan build catches what a plain build would not). */
 #include <dirent.h>
@@ -140,12 +141,13 @@ static uint8_t *read_all(const char *path, size_t *size)
     return b.data ? b.data : malloc(1); /* an empty input is an input */
 }
 
-static void test_regressions(mts_test *t)
+/* Every file in root/<target>/ through its target's entry code. */
+static void run_folders(mts_test *t, const char *root, const char *what)
 {
     unsigned total = 0;
     for (size_t i = 0; i < sizeof targets / sizeof targets[0]; i++) {
         char dir[256];
-        snprintf(dir, sizeof dir, "tests/fuzz/regressions/%s", targets[i].name);
+        snprintf(dir, sizeof dir, "%s/%s", root, targets[i].name);
         DIR *d = opendir(dir);
         if (!d)
             continue; /* no bug found in this target yet */
@@ -164,7 +166,7 @@ static void test_regressions(mts_test *t)
             if (!data)
                 continue;
             if (getenv("MTS_TEST_VERBOSE"))
-                fprintf(stderr, "  regression %s (%zu bytes)\n", path, size);
+                fprintf(stderr, "  %s %s (%zu bytes)\n", what, path, size);
             targets[i].run(data, size);
             free(data);
             total++;
@@ -172,7 +174,19 @@ static void test_regressions(mts_test *t)
         closedir(d);
     }
     if (getenv("MTS_TEST_VERBOSE"))
-        fprintf(stderr, "  %u regression inputs\n", total);
+        fprintf(stderr, "  %u %s inputs\n", total, what);
+}
+
+static void test_regressions(mts_test *t)
+{
+    run_folders(t, "tests/fuzz/regressions", "regression");
+}
+
+/* The corpus make fuzz-long keeps (only inputs that reached new coverage):
+ * each one again, so a change that breaks what once held shows here. */
+static void test_corpus(mts_test *t)
+{
+    run_folders(t, "tests/fuzz/corpus", "corpus");
 }
 
 int main(void)
@@ -182,5 +196,6 @@ int main(void)
     RUN(&t, test_seeds);
     RUN(&t, test_stream_seeds_end);
     RUN(&t, test_regressions);
+    RUN(&t, test_corpus);
     return mts_test_end(&t);
 }
