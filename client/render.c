@@ -965,25 +965,44 @@ mts_result mts_render_set_morph(mts_renderer *r, uint32_t first, uint32_t count,
     mts_result rc = mts_render_context_make_current(r->ctx, err);
     if (rc != MTS_OK)
         return rc;
+    /* positions as they are (the morph's first frame must be the old
+     * level's surface), normals in 10 bits a component
+     * (GL_INT_2_10_10_10_REV): 16 bytes a vertex instead of 24 */
     uint64_t half = (uint64_t)r->vertex_capacity * 12u;
+    uint32_t *packed = malloc((size_t)count * sizeof *packed);
+    if (!packed)
+        return mts_error_set(err, MTS_ERR_NOMEM, "render: a morph of %u vertices", count);
+    for (uint32_t i = 0; i < count; i++) {
+        uint32_t w = 0;
+        for (int c = 0; c < 3; c++) {
+            float x = from_normals[3 * (size_t)i + c];
+            x = isfinite(x) ? clampf(x, -1.0f, 1.0f) : 0.0f;
+            int q = (int)lrintf(x * 511.0f);
+            w |= ((uint32_t)q & 0x3FFu) << (10 * c);
+        }
+        packed[i] = w;
+    }
     if (!r->morph_vbo) {
         glGenBuffers(1, &r->morph_vbo);
         glBindBuffer(GL_ARRAY_BUFFER, r->morph_vbo);
-        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(2 * half), NULL, GL_DYNAMIC_DRAW);
+        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(half + (uint64_t)r->vertex_capacity * 4u),
+                     NULL, GL_DYNAMIC_DRAW);
         glBindVertexArray(r->vao);
         glEnableVertexAttribArray(2);
         glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, 0, (const void *)0);
         glEnableVertexAttribArray(3);
-        glVertexAttribPointer(3, 3, GL_FLOAT, GL_FALSE, 0, (const void *)(uintptr_t)half);
+        glVertexAttribPointer(3, 4, GL_INT_2_10_10_10_REV, GL_TRUE, 0,
+                              (const void *)(uintptr_t)half);
         glBindVertexArray(0);
-        r->stats.vertex_buffer_bytes += 2 * half;
+        r->stats.vertex_buffer_bytes += half + (uint64_t)r->vertex_capacity * 4u;
     }
     glBindBuffer(GL_ARRAY_BUFFER, r->morph_vbo);
     glBufferSubData(GL_ARRAY_BUFFER, (GLintptr)((uint64_t)first * 12u),
                     (GLsizeiptr)((uint64_t)count * 12u), from_positions);
-    glBufferSubData(GL_ARRAY_BUFFER, (GLintptr)(half + (uint64_t)first * 12u),
-                    (GLsizeiptr)((uint64_t)count * 12u), from_normals);
+    glBufferSubData(GL_ARRAY_BUFFER, (GLintptr)(half + (uint64_t)first * 4u),
+                    (GLsizeiptr)((uint64_t)count * 4u), packed);
     glBindBuffer(GL_ARRAY_BUFFER, 0);
+    free(packed);
     rc = gl_check(err, "uploading a morph's sources");
     if (rc != MTS_OK) {
         r->morph_first = r->morph_end = 0;
@@ -991,8 +1010,8 @@ mts_result mts_render_set_morph(mts_renderer *r, uint32_t first, uint32_t count,
     }
     r->morph_first = first;
     r->morph_end = first + count;
-    r->stats.vertex_bytes_uploaded += (uint64_t)count * 24u;
-    r->stats.morph_bytes_uploaded += (uint64_t)count * 24u;
+    r->stats.vertex_bytes_uploaded += (uint64_t)count * 16u;
+    r->stats.morph_bytes_uploaded += (uint64_t)count * 16u;
     return MTS_OK;
 }
 
@@ -1365,7 +1384,10 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
         glDisable(GL_POLYGON_OFFSET_FILL);
     }
 
-    const struct render_program *pg = &r->prog[r->morph_end > r->morph_first];
+    /* at t = 1 every vertex is at its own place: the plain program draws
+     * that exactly (mix() may round on the way) */
+    const int morph = r->morph_end > r->morph_first && r->morph_t < 1;
+    const struct render_program *pg = &r->prog[morph];
     glUseProgram(pg->id);
     glUniformMatrix4fv(pg->u_mvp, 1, GL_FALSE, r->mvp);
     glUniformMatrix3fv(pg->u_normal, 1, GL_FALSE, r->normal);
@@ -1376,7 +1398,7 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
     glUniform1f(pg->u_ambient, clampf(st->ambient, 0.0f, 1.0f));
     glUniform3fv(pg->u_color, 1, st->color);
     glUniform1i(pg->u_flat, st->flat_shading != 0);
-    if (r->morph_end > r->morph_first) {
+    if (morph) {
         glUniform2ui(pg->u_morph, r->morph_first, r->morph_end);
         glUniform1f(pg->u_morph_t, r->morph_t);
     }

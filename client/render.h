@@ -290,8 +290,9 @@ mts_result mts_render_resize(mts_renderer *r, uint32_t width, uint32_t height, m
  * mts_render_set_morph_t (0 until then). One range at a time: a new call
  * replaces it; count 0 turns morphing off. The vertex shader picks the range
  * by gl_VertexID (the index fetched), so strips and the packed buffer are
- * untouched: a morph costs one upload of its range's 24 bytes a vertex,
- * then a uniform a frame. The buffer for it is made at the first call. */
+ * untouched: a morph costs one upload of its range's 16 bytes a vertex
+ * (positions as given, normals in 10 bits a component), then a uniform a
+ * frame. The buffer for it is made at the first call. */
 mts_result mts_render_set_morph(mts_renderer *r, uint32_t first, uint32_t count,
                                 const float *from_positions, const float *from_normals,
                                 mts_error *err);

@@ -264,7 +264,7 @@ static void test_view_morph(mts_test *t)
     mts_render_stats rs;
     mts_render_get_stats(v.renderer, &rs);
     /* each morph sends its range's sources once: 0->a, a->b, b->a */
-    uint64_t want = 24ull * (a + (b - a) + (b - a));
+    uint64_t want = 16ull * (a + (b - a) + (b - a));
     CHECKF(t, rs.morph_bytes_uploaded == want, "%llu morph bytes, want %llu",
            (unsigned long long)rs.morph_bytes_uploaded, (unsigned long long)want);
     mts_view_free(&v);
