@@ -213,7 +213,7 @@ fuzz: deps
 # executions or FUZZ_LONG_SECONDS, whichever comes first, FUZZ_JOBS targets
 # at once (one a core), the slowest first; what they grew is merged into
 # tests/fuzz/corpus/<target> (only inputs that add coverage), which every
-# later `make fuzz` starts from. Figures in bench/out/fuzz-long.json.
+# later `make fuzz` starts from. Figures in bench/fuzz-long.json.
 FUZZ_LONG_RUNS    ?= 10000000
 FUZZ_LONG_SECONDS ?= 3600
 FUZZ_JOBS         ?= $(shell nproc 2>/dev/null || echo 1)
@@ -221,7 +221,7 @@ fuzz-long: deps
 	@$(MAKE) --no-print-directory fuzz-build
 	@rm -rf $(FUZZ_DIR)/seeds
 	@$(FUZZ_DIR)/bin/fuzz-seeds $(FUZZ_DIR)/seeds tests/data/cow.off
-	@scripts/fuzz.sh --jobs $(FUZZ_JOBS) --keep --json bench/out/fuzz-long.json \
+	@scripts/fuzz.sh --jobs $(FUZZ_JOBS) --keep --json bench/fuzz-long.json \
 		$(FUZZ_DIR) 1 $(FUZZ_LONG_RUNS) $(FUZZ_LONG_SECONDS) $(FUZZ_TARGETS)
 
 fuzz-build: $(FUZZ_BINS) $(FUZZ_DIR)/bin/fuzz-seeds
