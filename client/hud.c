@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "glprog.h"
+
 /* The classic 5x7 font, ASCII 32..126, one byte per column, bit 0 the top
  * row; a 96th entry is a full block, used for the background box. */
 static const uint8_t font[96][5] = {
@@ -113,23 +115,6 @@ static mts_result gl_failed(mts_error *err, const char *what)
     return mts_error_set(err, MTS_ERR_INTERNAL, "HUD: GL error 0x%04x %s", (unsigned)e, what);
 }
 
-static mts_result shader(GLenum type, const char *src, GLuint *out, mts_error *err)
-{
-    GLuint s = glCreateShader(type);
-    glShaderSource(s, 1, &src, NULL);
-    glCompileShader(s);
-    GLint ok = 0;
-    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-        char log[400] = {0};
-        glGetShaderInfoLog(s, sizeof log, NULL, log);
-        glDeleteShader(s);
-        return mts_error_set(err, MTS_ERR_INTERNAL, "HUD: shader does not compile: %s", log);
-    }
-    *out = s;
-    return MTS_OK;
-}
-
 void mts_hud_destroy(mts_hud *h)
 {
     if (!h)
@@ -160,25 +145,8 @@ mts_result mts_hud_create(mts_render_context *ctx, mts_hud **out, mts_error *err
         return mts_error_set(err, MTS_ERR_NOMEM, "HUD");
     h->ctx = ctx;
     glGetError();
-    GLuint vs = 0, fs = 0;
-    if ((rc = shader(GL_VERTEX_SHADER, vs_src, &vs, err)) != MTS_OK)
+    if ((rc = mts_glprog_build("HUD", &vs_src, 1, &fs_src, 1, &h->program, err)) != MTS_OK)
         goto fail;
-    if ((rc = shader(GL_FRAGMENT_SHADER, fs_src, &fs, err)) != MTS_OK) {
-        glDeleteShader(vs);
-        goto fail;
-    }
-    h->program = glCreateProgram();
-    glAttachShader(h->program, vs);
-    glAttachShader(h->program, fs);
-    glLinkProgram(h->program);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint ok = 0;
-    glGetProgramiv(h->program, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        rc = mts_error_set(err, MTS_ERR_INTERNAL, "HUD: program does not link");
-        goto fail;
-    }
     h->u_size = glGetUniformLocation(h->program, "u_size");
     h->u_font = glGetUniformLocation(h->program, "u_font");
 

@@ -14,6 +14,7 @@
 #include <time.h>
 
 #include "clock.h"
+#include "glprog.h"
 #include "pngwrite.h"
 
 #ifndef EGL_PLATFORM_SURFACELESS_MESA
@@ -633,56 +634,14 @@ static const char *fragment_src =
     "    o_color = vec4(u_color * (u_ambient + (1.0 - u_ambient) * d), 1.0);\n"
     "}\n";
 
-static mts_result compile(GLenum type, const char *src, int morph, GLuint *out, mts_error *err)
-{
-    GLuint s = glCreateShader(type);
-    if (!s) {
-        mts_result rc = gl_check(err, "glCreateShader");
-        return rc != MTS_OK ? rc
-                            : mts_error_set(err, MTS_ERR_INTERNAL, "GL: glCreateShader returned 0");
-    }
-    const char *parts[3] = {"#version 300 es\n", morph ? "#define MORPH 1\n" : "#define MORPH 0\n",
-                            src};
-    glShaderSource(s, 3, parts, NULL);
-    glCompileShader(s);
-    GLint ok = 0;
-    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-        char log[400] = {0};
-        glGetShaderInfoLog(s, sizeof log, NULL, log);
-        glDeleteShader(s);
-        return mts_error_set(err, MTS_ERR_INTERNAL, "GL: %s shader does not compile: %s",
-                             type == GL_VERTEX_SHADER ? "vertex" : "fragment", log);
-    }
-    *out = s;
-    return MTS_OK;
-}
-
 static mts_result build_program(mts_renderer *r, int morph, mts_error *err)
 {
     struct render_program *pg = &r->prog[morph];
-    GLuint vs = 0, fs = 0;
-    mts_result rc = compile(GL_VERTEX_SHADER, vertex_src, morph, &vs, err);
+    const char *head[2] = {"#version 300 es\n", morph ? "#define MORPH 1\n" : "#define MORPH 0\n"};
+    const char *vs[3] = {head[0], head[1], vertex_src}, *fs[3] = {head[0], head[1], fragment_src};
+    mts_result rc = mts_glprog_build("render", vs, 3, fs, 3, &pg->id, err);
     if (rc != MTS_OK)
         return rc;
-    rc = compile(GL_FRAGMENT_SHADER, fragment_src, morph, &fs, err);
-    if (rc != MTS_OK) {
-        glDeleteShader(vs);
-        return rc;
-    }
-    pg->id = glCreateProgram();
-    glAttachShader(pg->id, vs);
-    glAttachShader(pg->id, fs);
-    glLinkProgram(pg->id);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint ok = 0;
-    glGetProgramiv(pg->id, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        char log[400] = {0};
-        glGetProgramInfoLog(pg->id, sizeof log, NULL, log);
-        return mts_error_set(err, MTS_ERR_INTERNAL, "GL: program does not link: %s", log);
-    }
     pg->u_mvp = glGetUniformLocation(pg->id, "u_mvp");
     pg->u_normal = glGetUniformLocation(pg->id, "u_normal");
     pg->u_color = glGetUniformLocation(pg->id, "u_color");
