@@ -77,44 +77,89 @@ static int has_extension(const char *list, const char *name)
     return 0;
 }
 
-mts_result mts_render_context_create_headless(mts_render_context **out, mts_error *err)
+/* The display of an EGL platform (its client extension checked first), in a
+ * new context struct with neither surface nor context yet. */
+static mts_result open_display(const char *extension, EGLenum platform, void *native,
+                               const char *name, mts_render_context **out, mts_error *err)
 {
-    if (!out)
-        return mts_error_set(err, MTS_ERR_ARG, "render: NULL context pointer");
-    *out = NULL;
-
     const char *client_ext = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
     if (!client_ext)
         return egl_fail(err, "eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS)");
-    if (!has_extension(client_ext, "EGL_MESA_platform_surfaceless"))
+    if (!has_extension(client_ext, extension))
         return mts_error_set(err, MTS_ERR_IO,
-                             "EGL: no EGL_MESA_platform_surfaceless (is Mesa's libEGL "
-                             "installed? client extensions: %.300s)",
-                             *client_ext ? client_ext : "none");
+                             "EGL: no %s (is Mesa's libEGL installed? client extensions: "
+                             "%.300s)",
+                             extension, *client_ext ? client_ext : "none");
     PFNEGLGETPLATFORMDISPLAYEXTPROC get_platform_display =
         (PFNEGLGETPLATFORMDISPLAYEXTPROC)eglGetProcAddress("eglGetPlatformDisplayEXT");
     if (!get_platform_display)
         return mts_error_set(err, MTS_ERR_IO, "EGL: no eglGetPlatformDisplayEXT");
-
     mts_render_context *c = calloc(1, sizeof *c);
     if (!c)
         return mts_error_set(err, MTS_ERR_NOMEM, "render: context");
     c->surface = EGL_NO_SURFACE;
     c->context = EGL_NO_CONTEXT;
-    mts_result rc;
-
-    c->display = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, NULL);
+    char what[120];
+    c->display = get_platform_display(platform, native, NULL);
     if (c->display == EGL_NO_DISPLAY) {
-        rc = egl_fail(err, "eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA)");
+        snprintf(what, sizeof what, "eglGetPlatformDisplayEXT (%s platform)", name);
+        mts_result rc = egl_fail(err, what);
         free(c);
         return rc;
     }
     EGLint major = 0, minor = 0;
     if (!eglInitialize(c->display, &major, &minor)) {
-        rc = egl_fail(err, "eglInitialize (surfaceless platform)");
+        snprintf(what, sizeof what, "eglInitialize (%s platform)", name);
+        mts_result rc = egl_fail(err, what);
         free(c);
         return rc;
     }
+    *out = c;
+    return MTS_OK;
+}
+
+/* A GLES 3 config with these attributes, and the GLES API bound. */
+static mts_result choose_config(mts_render_context *c, const EGLint *attribs, const char *kind,
+                                EGLConfig *config, mts_error *err)
+{
+    EGLint configs = 0;
+    if (!eglChooseConfig(c->display, attribs, config, 1, &configs))
+        return egl_fail(err, "eglChooseConfig");
+    if (configs < 1)
+        return mts_error_set(err, MTS_ERR_IO, "EGL: no %s config with EGL_OPENGL_ES3_BIT", kind);
+    if (!eglBindAPI(EGL_OPENGL_ES_API))
+        return egl_fail(err, "eglBindAPI(EGL_OPENGL_ES_API)");
+    return MTS_OK;
+}
+
+/* A GLES 3.0 context on config, current on c's surface (or none). */
+static mts_result make_context(mts_render_context *c, EGLConfig config, mts_error *err)
+{
+    const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION,
+                                      0, EGL_NONE};
+    c->context = eglCreateContext(c->display, config, EGL_NO_CONTEXT, context_attribs);
+    if (c->context == EGL_NO_CONTEXT)
+        return egl_fail(err, "eglCreateContext (GLES 3.0)");
+    if (!eglMakeCurrent(c->display, c->surface, c->surface, c->context))
+        return egl_fail(err, c->surface == EGL_NO_SURFACE ? "eglMakeCurrent (no surface)"
+                                                          : "eglMakeCurrent (window)");
+    const char *renderer = (const char *)glGetString(GL_RENDERER);
+    const char *version = (const char *)glGetString(GL_VERSION);
+    snprintf(c->description, sizeof c->description, "%s | %s", renderer ? renderer : "?",
+             version ? version : "?");
+    return MTS_OK;
+}
+
+mts_result mts_render_context_create_headless(mts_render_context **out, mts_error *err)
+{
+    if (!out)
+        return mts_error_set(err, MTS_ERR_ARG, "render: NULL context pointer");
+    *out = NULL;
+    mts_render_context *c = NULL;
+    mts_result rc = open_display("EGL_MESA_platform_surfaceless", EGL_PLATFORM_SURFACELESS_MESA,
+                                 EGL_DEFAULT_DISPLAY, "surfaceless", &c, err);
+    if (rc != MTS_OK)
+        return rc;
     if (!has_extension(eglQueryString(c->display, EGL_EXTENSIONS),
                        "EGL_KHR_surfaceless_context")) {
         rc = mts_error_set(err, MTS_ERR_IO, "EGL: display has no EGL_KHR_surfaceless_context");
@@ -124,34 +169,9 @@ mts_result mts_render_context_create_headless(mts_render_context **out, mts_erro
     const EGLint config_attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_ES3_BIT,
                                      EGL_SURFACE_TYPE, 0, EGL_NONE};
     EGLConfig config;
-    EGLint configs = 0;
-    if (!eglChooseConfig(c->display, config_attribs, &config, 1, &configs)) {
-        rc = egl_fail(err, "eglChooseConfig");
+    if ((rc = choose_config(c, config_attribs, "surfaceless", &config, err)) != MTS_OK ||
+        (rc = make_context(c, config, err)) != MTS_OK)
         goto fail;
-    }
-    if (configs < 1) {
-        rc = mts_error_set(err, MTS_ERR_IO, "EGL: no config with EGL_OPENGL_ES3_BIT");
-        goto fail;
-    }
-    if (!eglBindAPI(EGL_OPENGL_ES_API)) {
-        rc = egl_fail(err, "eglBindAPI(EGL_OPENGL_ES_API)");
-        goto fail;
-    }
-    const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION,
-                                      0, EGL_NONE};
-    c->context = eglCreateContext(c->display, config, EGL_NO_CONTEXT, context_attribs);
-    if (c->context == EGL_NO_CONTEXT) {
-        rc = egl_fail(err, "eglCreateContext (GLES 3.0)");
-        goto fail;
-    }
-    if (!eglMakeCurrent(c->display, EGL_NO_SURFACE, EGL_NO_SURFACE, c->context)) {
-        rc = egl_fail(err, "eglMakeCurrent (no surface)");
-        goto fail;
-    }
-    const char *renderer = (const char *)glGetString(GL_RENDERER);
-    const char *version = (const char *)glGetString(GL_VERSION);
-    snprintf(c->description, sizeof c->description, "%s | %s", renderer ? renderer : "?",
-             version ? version : "?");
     *out = c;
     return MTS_OK;
 fail:
@@ -165,39 +185,16 @@ mts_result mts_render_context_create_window(void *native_display, unsigned long 
     if (!out || !native_display)
         return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to create_window");
     *out = NULL;
-    const char *client_ext = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
-    if (!client_ext)
-        return egl_fail(err, "eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS)");
-    if (!has_extension(client_ext, "EGL_EXT_platform_x11"))
-        return mts_error_set(err, MTS_ERR_IO, "EGL: no EGL_EXT_platform_x11 (client extensions: "
-                                              "%.300s)",
-                             *client_ext ? client_ext : "none");
-    PFNEGLGETPLATFORMDISPLAYEXTPROC get_platform_display =
-        (PFNEGLGETPLATFORMDISPLAYEXTPROC)eglGetProcAddress("eglGetPlatformDisplayEXT");
     PFNEGLCREATEPLATFORMWINDOWSURFACEEXTPROC create_window_surface =
         (PFNEGLCREATEPLATFORMWINDOWSURFACEEXTPROC)eglGetProcAddress(
             "eglCreatePlatformWindowSurfaceEXT");
-    if (!get_platform_display || !create_window_surface)
-        return mts_error_set(err, MTS_ERR_IO, "EGL: no eglGetPlatformDisplayEXT or "
-                                              "eglCreatePlatformWindowSurfaceEXT");
-    mts_render_context *c = calloc(1, sizeof *c);
-    if (!c)
-        return mts_error_set(err, MTS_ERR_NOMEM, "render: context");
-    c->surface = EGL_NO_SURFACE;
-    c->context = EGL_NO_CONTEXT;
-    mts_result rc;
-    c->display = get_platform_display(EGL_PLATFORM_X11_EXT, native_display, NULL);
-    if (c->display == EGL_NO_DISPLAY) {
-        rc = egl_fail(err, "eglGetPlatformDisplayEXT(EGL_PLATFORM_X11_EXT)");
-        free(c);
+    if (!create_window_surface)
+        return mts_error_set(err, MTS_ERR_IO, "EGL: no eglCreatePlatformWindowSurfaceEXT");
+    mts_render_context *c = NULL;
+    mts_result rc = open_display("EGL_EXT_platform_x11", EGL_PLATFORM_X11_EXT, native_display,
+                                 "X11", &c, err);
+    if (rc != MTS_OK)
         return rc;
-    }
-    EGLint major = 0, minor = 0;
-    if (!eglInitialize(c->display, &major, &minor)) {
-        rc = egl_fail(err, "eglInitialize (X11 platform)");
-        free(c);
-        return rc;
-    }
     /* 8-bit RGB: the window shows the renderer's RGBA8 frame as it is; no
      * depth here, the renderer's framebuffer has its own */
     const EGLint config_attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_ES3_BIT,
@@ -205,19 +202,8 @@ mts_result mts_render_context_create_window(void *native_display, unsigned long 
                                      EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8,
                                      EGL_NONE};
     EGLConfig config;
-    EGLint configs = 0;
-    if (!eglChooseConfig(c->display, config_attribs, &config, 1, &configs)) {
-        rc = egl_fail(err, "eglChooseConfig (window)");
+    if ((rc = choose_config(c, config_attribs, "window", &config, err)) != MTS_OK)
         goto fail;
-    }
-    if (configs < 1) {
-        rc = mts_error_set(err, MTS_ERR_IO, "EGL: no window config with EGL_OPENGL_ES3_BIT");
-        goto fail;
-    }
-    if (!eglBindAPI(EGL_OPENGL_ES_API)) {
-        rc = egl_fail(err, "eglBindAPI(EGL_OPENGL_ES_API)");
-        goto fail;
-    }
     /* EGL_EXT_platform_x11: the native window is passed as a Window* */
     unsigned long xid = native_window;
     c->surface = create_window_surface(c->display, config, &xid, NULL);
@@ -225,22 +211,9 @@ mts_result mts_render_context_create_window(void *native_display, unsigned long 
         rc = egl_fail(err, "eglCreatePlatformWindowSurfaceEXT");
         goto fail;
     }
-    const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION,
-                                      0, EGL_NONE};
-    c->context = eglCreateContext(c->display, config, EGL_NO_CONTEXT, context_attribs);
-    if (c->context == EGL_NO_CONTEXT) {
-        rc = egl_fail(err, "eglCreateContext (GLES 3.0)");
+    if ((rc = make_context(c, config, err)) != MTS_OK)
         goto fail;
-    }
-    if (!eglMakeCurrent(c->display, c->surface, c->surface, c->context)) {
-        rc = egl_fail(err, "eglMakeCurrent (window)");
-        goto fail;
-    }
     eglSwapInterval(c->display, 1); /* a hint: servers without vblank ignore it */
-    const char *renderer = (const char *)glGetString(GL_RENDERER);
-    const char *version = (const char *)glGetString(GL_VERSION);
-    snprintf(c->description, sizeof c->description, "%s | %s", renderer ? renderer : "?",
-             version ? version : "?");
     *out = c;
     return MTS_OK;
 fail:
