@@ -9,14 +9,18 @@
 
 mts_view_source mts_view_source_of_stream(struct mts_stream_client *c)
 {
-    mts_view_source s = {&c->lod, &c->model, c->model.base_vertex_count + c->splits,
+    /* the stream's runtime stops at the stop level; the last batch's splits
+     * beyond it are decoded (its checks need them) but not shown */
+    uint32_t levels = c->splits < c->stop_level ? c->splits : c->stop_level;
+    mts_view_source s = {&c->lod, &c->model, c->model.base_vertex_count + c->splits, levels,
                          c->announced};
     return s;
 }
 
 mts_view_source mts_view_source_of_model(mts_lod *lod, const mts_model *model)
 {
-    mts_view_source s = {lod, model, model->vertex_count, model->strip_count};
+    mts_view_source s = {lod, model, model->vertex_count, model->level_count,
+                         model->strip_count};
     return s;
 }
 
@@ -172,6 +176,8 @@ mts_result mts_view_sync(mts_view *v, const mts_view_source *src, uint32_t level
     }
     uint32_t available =
         src->vertices > m->base_vertex_count ? src->vertices - m->base_vertex_count : 0;
+    if (available > src->levels)
+        available = src->levels;
     if (v->have_own) {
         /* slots the source laid out since (their capacities are in the model
          * both share) are laid out before the view may use them */

@@ -55,6 +55,8 @@ typedef struct mts_view_source {
     mts_lod *lod;             /* the source's runtime */
     const mts_model *model;   /* its model (positions, normals, parents, capacities) */
     uint32_t vertices;        /* vertices present: base + the splits that came */
+    uint32_t levels;          /* the highest level to show: a stream's stop level, where
+                                 the last batch may bring splits past it */
     uint32_t announced;       /* slots laid out in lod (all of them for a whole model) */
 } mts_view_source;
 
