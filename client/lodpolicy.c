@@ -230,3 +230,25 @@ uint32_t mts_lod_policy_choose(mts_lod_policy *p, uint32_t available, const mts_
     p->chosen = 1;
     return l;
 }
+
+double mts_lod_policy_stop_triangles(const mts_lod_policy_options *o, double distance,
+                                     float fov_y, int width, int height,
+                                     uint32_t full_triangles)
+{
+    if (!o || (o->kind != MTS_LOD_POLICY_DISTANCE && o->kind != MTS_LOD_POLICY_AREA) ||
+        !(distance > 0) || !isfinite(distance))
+        return 0;
+    /* a stand-in model: a unit box, no levels, the listing's full count */
+    mts_model m;
+    memset(&m, 0, sizeof m);
+    for (int i = 0; i < 3; i++) {
+        m.bbox_min[i] = -1;
+        m.bbox_max[i] = 1;
+    }
+    m.level_triangles = &full_triangles;
+    mts_lod_policy p;
+    mts_lod_policy_init(&p, o, &m);
+    mts_lod_view v = {1, fov_y, width, height};
+    v.distance = (float)(distance * mts_lod_policy_frame_distance(&p, &v));
+    return mts_lod_policy_view_triangles(&p, &v);
+}

@@ -93,6 +93,18 @@ double mts_lod_policy_view_triangles(const mts_lod_policy *p, const mts_lod_view
  * view's field of view and window shape: d0 of the distance policy. */
 double mts_lod_policy_frame_distance(const mts_lod_policy *p, const mts_lod_view *view);
 
+/* Before a stream, so that its stop point can be asked for: the triangles
+ * distance and area want with the camera at `distance` times the framing
+ * distance, for a model of full_triangles (a MODELS listing gives it), a
+ * view of this field of view (radians) and window. The framed bounding
+ * sphere's size cancels, so no model is needed: these are the triangles
+ * mts_lod_policy_view_triangles gives once the model is in, at the same
+ * view. 0 for received and budget, which need what comes (or its frame
+ * times). */
+double mts_lod_policy_stop_triangles(const mts_lod_policy_options *o, double distance,
+                                     float fov_y, int width, int height,
+                                     uint32_t full_triangles);
+
 /* "received", "distance", "area", "budget" -> kind; 0 when unknown. */
 int mts_lod_policy_parse(const char *name, mts_lod_policy_kind *kind);
 const char *mts_lod_policy_name(mts_lod_policy_kind kind);

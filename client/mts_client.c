@@ -264,6 +264,65 @@ static int parse_size(const char *s, uint32_t *w, uint32_t *h)
     return 1;
 }
 
+/* A MODELS listing's entry for one model: what the camera policies need to
+ * ask for their stop point before the stream. */
+typedef struct listed {
+    const char *name;
+    mts_wire_model_entry entry;
+    int found;
+} listed;
+
+static void find_model(void *user, const mts_wire_model_entry *m)
+{
+    listed *l = user;
+    if (!strcmp(m->name, l->name)) {
+        l->entry = *m;
+        l->found = 1;
+    }
+}
+
+/* --lod-policy distance or area: the level they choose is known from the
+ * view and the model's full triangle count (the server's MODELS listing,
+ * a few dozen bytes), so the stream is asked to stop there instead of
+ * coming whole: HELLO's triangle stop, which the server resolves with the
+ * model's own per-level counts to the highest level within the budget --
+ * the policy's choice, counted exactly. Returns 1 when the stop was set
+ * (*asked the triangles, *list_bytes and *full_bytes the listing's figures). */
+static int policy_stop(mts_session_options *so, const client_run *rn,
+                       const mts_lod_policy_options *po, double distance, uint32_t *asked,
+                       uint64_t *list_bytes, uint64_t *full_bytes)
+{
+    mts_session_options lo = *so;
+    lo.list = 1;
+    lo.on_event = NULL;
+    lo.resume = 0;
+    mts_stream_client lc;
+    mts_stream_client_init(&lc);
+    listed l;
+    memset(&l, 0, sizeof l);
+    l.name = rn->model;
+    lc.on_model = find_model;
+    lc.user = &l;
+    mts_session_stats st;
+    mts_error err = {0};
+    mts_result rc = mts_session_run(&lo, &lc, &st, &err);
+    mts_stream_client_free(&lc);
+    if (rc != MTS_OK || !l.found)
+        return 0; /* the stream comes whole and the policy picks after it */
+    double t = mts_lod_policy_stop_triangles(po, distance,
+                                             rn->ro.camera.fov_y_deg * 3.14159265f / 180.0f,
+                                             (int)rn->ro.width, (int)rn->ro.height,
+                                             l.entry.triangles);
+    if (!(t >= 0) || t > UINT32_MAX)
+        return 0;
+    so->hello.stop_kind = MTS_STOP_TRIANGLES;
+    so->hello.stop_value = (uint32_t)t;
+    *asked = (uint32_t)t;
+    *list_bytes = st.bytes;
+    *full_bytes = l.entry.stream_bytes;
+    return 1;
+}
+
 static void print_model(void *user, const mts_wire_model_entry *m)
 {
     (void)user;
@@ -557,6 +616,11 @@ int main(int argc, char **argv)
         mts_render_context_destroy(rn.ctx);
         return CLI_EXIT_FAIL;
     }
+    uint32_t asked = 0;
+    uint64_t list_bytes = 0, full_bytes = 0;
+    int stop_asked = !list && stops == 0 &&
+                     (po.kind == MTS_LOD_POLICY_DISTANCE || po.kind == MTS_LOD_POLICY_AREA) &&
+                     policy_stop(&so, &rn, &po, distance, &asked, &list_bytes, &full_bytes);
     mts_stream_client c;
     mts_stream_client_init(&c);
     c.on_model = print_model;
@@ -583,7 +647,10 @@ int main(int argc, char **argv)
         if (rc == MTS_OK)
             level_pngs(&rn, &c, 1);
         uint32_t final_level = MTS_VIEW_NEWEST;
-        if (po.kind != MTS_LOD_POLICY_RECEIVED &&
+        /* a stop the policy asked for is its level already (the server
+         * resolved it with the real counts, where the client has a linear
+         * estimate): drawn as it came */
+        if (po.kind != MTS_LOD_POLICY_RECEIVED && !stop_asked &&
             !apply_policy(&rn, &c, &po, distance, &final_level) && rc == MTS_OK) {
             rc = rn.err.code ? rn.err.code : MTS_ERR_INTERNAL;
             err = rn.err;
@@ -620,6 +687,14 @@ int main(int argc, char **argv)
         if (po.kind != MTS_LOD_POLICY_RECEIVED) {
             cli_json_str(&j, "lod_policy", mts_lod_policy_name(po.kind));
             cli_json_u64(&j, "level_received", received);
+            /* the stop it asked for, the listing that told it the model's
+             * size, and what the whole stream would have cost */
+            cli_json_bool(&j, "stop_asked", stop_asked);
+            if (stop_asked) {
+                cli_json_u64(&j, "triangles_asked", asked);
+                cli_json_u64(&j, "list_bytes", list_bytes);
+                cli_json_u64(&j, "full_stream_bytes", full_bytes);
+            }
         }
         cli_json_u64(&j, "triangles", triangles);
         client_json_run(&j, &c, &st, &rn);
@@ -634,7 +709,12 @@ int main(int argc, char **argv)
                rn.model, c.have_lod ? c.lod.level : 0, c.info.levels, triangles, c.batches,
                (unsigned long long)st.bytes, st.ms_final ? st.ms_final : 0, st.ms_base,
                st.ms_apply, rn.ms_render);
-        if (po.kind != MTS_LOD_POLICY_RECEIVED)
+        if (po.kind != MTS_LOD_POLICY_RECEIVED && stop_asked)
+            printf("  lod policy %s: asked for %u triangles, %llu of the whole stream's %llu "
+                   "bytes\n",
+                   mts_lod_policy_name(po.kind), asked, (unsigned long long)st.bytes,
+                   (unsigned long long)full_bytes);
+        else if (po.kind != MTS_LOD_POLICY_RECEIVED)
             printf("  lod policy %s: level %u of %u received\n", mts_lod_policy_name(po.kind),
                    c.lod.level, received);
         for (uint32_t i = 0; i < rn.pngs_written && i < 8; i++)
