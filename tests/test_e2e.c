@@ -526,6 +526,80 @@ static void test_records_form_programs(mts_test *t)
     }
 }
 
+/* --lod-policy distance and area ask for their stop point (issue 22): the
+ * bytes received are those of the stream stopped at the level they chose,
+ * exactly -- the same bytes, level and checksum as --triangles with the
+ * triangles they asked for -- far fewer than the whole stream's; and the
+ * level drawn is the level received, also at a stop level inside a batch
+ * (--level 300: the last batch brings splits past it). */
+static void test_policy_asks_stop(mts_test *t)
+{
+    char out[8192], ref[8192], cmd[4096], dir[600], log[700];
+    snprintf(dir, sizeof dir, "%s/e2e_policy_models", tmp_dir);
+    snprintf(cmd, sizeof cmd, "mkdir -p %s && cp tests/data/cow.off %s/", dir, dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
+    int port = free_port();
+    char listen[64], server_bin[600];
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
+    snprintf(server_bin, sizeof server_bin, "%s/mts-server", bin_dir);
+    snprintf(log, sizeof log, "%s/e2e_policy_srv.log", tmp_dir);
+    char *argv[] = {server_bin, "--models", dir, "--listen", listen, NULL};
+    pid_t spid = spawn(argv, log);
+    snprintf(cmd, sizeof cmd,
+             "for i in $(seq 1 100); do %s/mts-client %s --list >/dev/null && exit 0; sleep 0.1; "
+             "done; exit 1",
+             bin_dir, listen);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "server did not come up (%s)", log);
+    const char *policies[2] = {"distance --distance 4", "area --distance 3"};
+    for (int i = 0; i < 2; i++) {
+        snprintf(cmd, sizeof cmd,
+                 "ASAN_OPTIONS=detect_leaks=0 %s/mts-client %s cow --size 128x128 --json "
+                 "--lod-policy %s",
+                 bin_dir, listen, policies[i]);
+        int rc = mts_test_run(cmd, out, sizeof out);
+        if (rc != 0 && strstr(out, "EGL") && !getenv("MTS_TEST_REQUIRE_EGL")) {
+            stop(spid);
+            SKIP(t, "no EGL here: %s", out);
+        }
+        CHECKF(t, rc == 0 && strstr(out, "\"complete\":true") &&
+                      strstr(out, "\"stop_asked\":true"),
+               "%s: exit %d: %s", policies[i], rc, out);
+        char asked[32], bytes[32], full[32], level[32], received[32], sum[40];
+        json_value(out, "triangles_asked", asked, sizeof asked);
+        json_value(out, "bytes", bytes, sizeof bytes);
+        json_value(out, "full_stream_bytes", full, sizeof full);
+        json_value(out, "level", level, sizeof level);
+        json_value(out, "level_received", received, sizeof received);
+        json_value(out, "checksum", sum, sizeof sum);
+        CHECKF(t, atol(asked) > 0 && atol(bytes) > 0 && atol(bytes) * 3 < atol(full),
+               "%s: %s triangles asked, %s bytes of %s", policies[i], asked, bytes, full);
+        CHECKF(t, !strcmp(level, received), "%s: drew %s, received %s", policies[i], level,
+               received);
+        snprintf(cmd, sizeof cmd,
+                 "ASAN_OPTIONS=detect_leaks=0 %s/mts-client %s cow --no-render --json "
+                 "--triangles %s",
+                 bin_dir, listen, asked);
+        rc = mts_test_run(cmd, ref, sizeof ref);
+        char rbytes[32], rlevel[32], rsum[40];
+        json_value(ref, "bytes", rbytes, sizeof rbytes);
+        json_value(ref, "level", rlevel, sizeof rlevel);
+        json_value(ref, "checksum", rsum, sizeof rsum);
+        CHECKF(t, rc == 0 && !strcmp(bytes, rbytes) && !strcmp(level, rlevel) &&
+                      !strcmp(sum, rsum) && sum[0],
+               "%s: %s bytes, level %s, checksum %s; --triangles %s: %s, %s, %s", policies[i],
+               bytes, level, sum, asked, rbytes, rlevel, rsum);
+    }
+    /* a stop inside a batch is drawn at the stop level */
+    snprintf(cmd, sizeof cmd,
+             "ASAN_OPTIONS=detect_leaks=0 %s/mts-client %s cow --size 64x64 --json --level 300",
+             bin_dir, listen);
+    int rc = mts_test_run(cmd, out, sizeof out);
+    char level[32];
+    json_value(out, "level", level, sizeof level);
+    CHECKF(t, rc == 0 && !strcmp(level, "300"), "--level 300 drew level %s: %s", level, out);
+    stop(spid);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -541,5 +615,6 @@ int main(int argc, char **argv)
     RUN(&t, test_url_models);
     RUN(&t, test_pngs_at_three_levels);
     RUN(&t, test_records_form_programs);
+    RUN(&t, test_policy_asks_stop);
     return mts_test_end(&t);
 }
