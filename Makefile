@@ -20,7 +20,7 @@ WARN     := -Wall -Wextra -Werror
 # The wire's float steps (Draco's dequantization, normal codes) must round the
 # same on every build: no fused multiply-add (clang contracts by default).
 FP       := -ffp-contract=off
-CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(FP) $(WARN) -Icommon -Iprotocol -Iclient -Iserver -Itools
+CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(FP) $(WARN) -Icommon -Iprotocol -Iclient -Iserver -Itools -Ibench
 # OpenMesh's headers are not -Wextra clean and trip -Wmaybe-uninitialized when
 # inlined; the shims stay -Wall -Werror otherwise.
 # NDEBUG: OpenMesh asserts on property type names with string compares in
@@ -102,11 +102,19 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
+# the draw paths the renderer is measured against (bench/drawmodes.c): the
+# benches draw them, test_render checks they draw the same picture
+DRAWMODES_OBJ := $(BUILD)/obj/bench/drawmodes.o
+$(BUILD)/tests/test_render: $(BUILD)/obj/tests/test_render.o $(DRAWMODES_OBJ) $(CLI_OBJ) $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
 $(BENCH): $(BUILD)/obj/bench/mts_bench.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -lmeshoptimizer -o $@
 
-$(BUILD)/bin/mts-bench-stream: $(BUILD)/obj/bench/mts_bench_stream.o $(CLI_OBJ) $(LIB)
+$(BUILD)/bin/mts-bench-stream: $(BUILD)/obj/bench/mts_bench_stream.o $(DRAWMODES_OBJ) $(CLI_OBJ) \
+		$(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -lmeshoptimizer -o $@
 
@@ -114,7 +122,7 @@ $(BUILD)/bin/mts-bench-apply: $(BUILD)/obj/bench/mts_bench_apply.o $(CLI_OBJ) $(
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(BUILD)/bin/mts-bench-walk: $(BUILD)/obj/bench/mts_bench_walk.o $(CLI_OBJ) $(LIB)
+$(BUILD)/bin/mts-bench-walk: $(BUILD)/obj/bench/mts_bench_walk.o $(DRAWMODES_OBJ) $(CLI_OBJ) $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 

@@ -15,6 +15,7 @@
 #include <sys/stat.h>
 #include <time.h>
 
+#include "drawmodes.h"
 #include "bench_common.h"
 #include "build.h"
 #include "cli.h"
@@ -91,14 +92,15 @@ static void apply_median(const mts_buf *b, mts_render_context *ctx, double *no_g
     *gl = tg[2];
 }
 
-/* Median frame time of n draws in the renderer's current mode. */
-static double frame_ms(mts_renderer *r, int n, mts_error *err)
+/* Median frame time of n draws in a mode. */
+static double frame_ms(mts_renderer *r, mts_drawmodes *dm, mts_drawmode mode, int n,
+                       mts_error *err)
 {
     double t[32];
     if (n > 32)
         n = 32;
     for (int i = 0; i < n; i++) {
-        if (mts_render_draw(r, err) != MTS_OK)
+        if (mts_drawmodes_draw(dm, r, mode, err) != MTS_OK)
             return 0;
         mts_render_stats st;
         mts_render_get_stats(r, &st);
@@ -121,6 +123,7 @@ static int draw_compare(mts_render_context *ctx, const mts_model *m, draw_figure
 {
     mts_lod lod;
     mts_renderer *r = NULL;
+    mts_drawmodes dm = {0};
     uint32_t *list = NULL, *opt = NULL;
     int ok = 0;
     if (mts_lod_init(&lod, m, MTS_LOD_AT_FULL, err) != MTS_OK)
@@ -138,7 +141,7 @@ static int draw_compare(mts_render_context *ctx, const mts_model *m, draw_figure
             MTS_OK ||
         mts_render_update_strips(r, &lod, err) != MTS_OK)
         goto done;
-    f->strips_ms = frame_ms(r, 21, err);
+    f->strips_ms = frame_ms(r, &dm, MTS_DRAWMODE_JOINED, 21, err);
     mts_strip_stats ss = {0};
     list = malloc(((size_t)m->level_triangles[m->level_count] + 1) * 12);
     opt = malloc(((size_t)m->level_triangles[m->level_count] + 1) * 12);
@@ -154,20 +157,19 @@ static int draw_compare(mts_render_context *ctx, const mts_model *m, draw_figure
     }
     f->strip_index_bytes = mts_strip_stats_draw_indices(&ss) * 4;
     f->list_index_bytes = (uint64_t)n * 4;
-    mts_render_style style = ro.style;
-    style.draw_mode = MTS_RENDER_DRAW_LIST;
-    mts_render_set_style(r, &style);
-    if (mts_render_set_list(r, list, (uint32_t)n, err) != MTS_OK)
+    if (mts_drawmodes_set_list(&dm, r, list, (uint32_t)n, err) != MTS_OK)
         goto done;
-    f->list_ms = frame_ms(r, 21, err);
+    f->list_ms = frame_ms(r, &dm, MTS_DRAWMODE_LIST, 21, err);
     meshopt_optimizeVertexCache(opt, list, n, m->vertex_count);
-    if (mts_render_set_list(r, opt, (uint32_t)n, err) != MTS_OK)
+    if (mts_drawmodes_set_list(&dm, r, opt, (uint32_t)n, err) != MTS_OK)
         goto done;
-    f->list_opt_ms = frame_ms(r, 21, err);
+    f->list_opt_ms = frame_ms(r, &dm, MTS_DRAWMODE_LIST, 21, err);
     ok = 1;
 done:
     free(list);
     free(opt);
+    if (r && mts_render_context_make_current(ctx, NULL) == MTS_OK)
+        mts_drawmodes_free(&dm);
     mts_renderer_destroy(r);
     mts_lod_free(&lod);
     return ok;
@@ -189,10 +191,9 @@ static int dt_rounds = 7;
 enum { DT_RESTART, DT_MULTI, DT_PER_STRIP, DT_COMPACT, DT_JOINED, DT_LIST, DT_LIST_OPT, DT_MODES };
 static const char *const dt_names[DT_MODES] = {"restart", "multi",  "per_strip", "compact",
                                                "joined",  "list", "list_opt"};
-static const mts_render_draw_mode dt_mode[DT_MODES] = {
-    MTS_RENDER_DRAW_RESTART, MTS_RENDER_DRAW_MULTI, MTS_RENDER_DRAW_PER_STRIP,
-    MTS_RENDER_DRAW_COMPACT, MTS_RENDER_DRAW_JOINED, MTS_RENDER_DRAW_LIST,
-    MTS_RENDER_DRAW_LIST};
+static const mts_drawmode dt_mode[DT_MODES] = {
+    MTS_DRAWMODE_RESTART, MTS_DRAWMODE_MULTI, MTS_DRAWMODE_PER_STRIP, MTS_DRAWMODE_COMPACT,
+    MTS_DRAWMODE_JOINED,  MTS_DRAWMODE_LIST,  MTS_DRAWMODE_LIST};
 
 static double cpu_s(void)
 {
@@ -205,16 +206,17 @@ static double cpu_s(void)
  * CPU ms per frame over them (llvmpipe's threads included: the work done,
  * which other load on a shared machine disturbs far less than the wall
  * time); index bytes read. */
-static double dt_frames(mts_renderer *r, double *cpu_ms, uint64_t *index_bytes, mts_error *err)
+static double dt_frames(mts_renderer *r, mts_drawmodes *dm, mts_drawmode mode, double *cpu_ms,
+                        uint64_t *index_bytes, mts_error *err)
 {
     double t[DT_FRAMES];
     mts_render_stats st;
     for (int i = 0; i < 3; i++)
-        if (mts_render_draw(r, err) != MTS_OK)
+        if (mts_drawmodes_draw(dm, r, mode, err) != MTS_OK)
             return -1;
     double c0 = cpu_s();
     for (int i = 0; i < DT_FRAMES; i++) {
-        if (mts_render_draw(r, err) != MTS_OK)
+        if (mts_drawmodes_draw(dm, r, mode, err) != MTS_OK)
             return -1;
         mts_render_get_stats(r, &st);
         t[i] = st.last_draw_seconds * 1e3;
@@ -236,6 +238,7 @@ static int draw_table(mts_render_context *ctx, const mts_model *m, const char *n
     const int nf = dt_nf;
     mts_lod lod;
     mts_renderer *r = NULL;
+    mts_drawmodes dm = {0};
     uint32_t *list = NULL, *opt = NULL;
     int ok = 0;
     if (mts_lod_init(&lod, m, MTS_LOD_AT_FULL, err) != MTS_OK)
@@ -278,13 +281,11 @@ static int draw_table(mts_render_context *ctx, const mts_model *m, const char *n
         uint64_t bytes[DT_MODES] = {0};
         for (int round = 0; round < dt_rounds; round++)
             for (int k = 0; k < DT_MODES; k++) {
-                mts_render_style style = ro.style;
-                style.draw_mode = dt_mode[k];
-                mts_render_set_style(r, &style);
                 if ((k == DT_LIST || k == DT_LIST_OPT) &&
-                    mts_render_set_list(r, k == DT_LIST ? list : opt, (uint32_t)n, err) != MTS_OK)
+                    mts_drawmodes_set_list(&dm, r, k == DT_LIST ? list : opt, (uint32_t)n,
+                                           err) != MTS_OK)
                     goto done;
-                ms[k][round] = dt_frames(r, &cpu[k][round], &bytes[k], err);
+                ms[k][round] = dt_frames(r, &dm, dt_mode[k], &cpu[k][round], &bytes[k], err);
                 if (ms[k][round] < 0)
                     goto done;
             }
@@ -336,6 +337,8 @@ static int draw_table(mts_render_context *ctx, const mts_model *m, const char *n
 done:
     free(list);
     free(opt);
+    if (r && mts_render_context_make_current(ctx, NULL) == MTS_OK)
+        mts_drawmodes_free(&dm);
     mts_renderer_destroy(r);
     mts_lod_free(&lod);
     return ok;

@@ -46,6 +46,7 @@
 #include <sys/stat.h>
 #include <time.h>
 
+#include "drawmodes.h"
 #include "build.h"
 #include "cli.h"
 #include "clock.h"
@@ -96,6 +97,7 @@ static int walk_run(mts_render_context *ctx, const mts_model *m, const walk_cfg 
 {
     mts_lod lod;
     mts_renderer *r = NULL;
+    mts_drawmodes dm = {0};
     int ok = 0;
     if (mts_lod_init(&lod, m, MTS_LOD_AT_BASE, err) != MTS_OK)
         return 0;
@@ -104,8 +106,6 @@ static int walk_run(mts_render_context *ctx, const mts_model *m, const walk_cfg 
     ro.timed = 1; /* the draw timings read last_draw_seconds */
     ro.width = c->width;
     ro.height = c->height;
-    if (mode == MODE_LIST)
-        ro.style.draw_mode = MTS_RENDER_DRAW_LIST;
     mts_render_layout layout;
     mts_render_layout_from_lod(&lod, &layout);
     if (mts_renderer_create(ctx, &ro, &layout, &r, err) != MTS_OK ||
@@ -135,14 +135,15 @@ static int walk_run(mts_render_context *ctx, const mts_model *m, const walk_cfg 
         size_t n = mode == MODE_LIST ? strips_to_list(&lod, list) : 0;
         double t1 = (1e3 * mts_clock_seconds());
         if (mode == MODE_LIST) {
-            if (mts_render_set_list(r, list, (uint32_t)n, err) != MTS_OK)
+            if (mts_drawmodes_set_list(&dm, r, list, (uint32_t)n, err) != MTS_OK)
                 goto done;
         } else if (mts_render_update_strips(r, &lod, err) != MTS_OK) {
             goto done;
         }
         mts_lod_clear_changed(&lod);
         double t2 = (1e3 * mts_clock_seconds());
-        if (mts_render_draw(r, err) != MTS_OK)
+        if (mts_drawmodes_draw(&dm, r, mode == MODE_LIST ? MTS_DRAWMODE_LIST : MTS_DRAWMODE_JOINED,
+                               err) != MTS_OK)
             goto done;
         mts_render_stats st;
         mts_render_get_stats(r, &st);
@@ -156,6 +157,8 @@ static int walk_run(mts_render_context *ctx, const mts_model *m, const walk_cfg 
     }
     ok = 1;
 done:
+    if (r && mts_render_context_make_current(ctx, NULL) == MTS_OK)
+        mts_drawmodes_free(&dm);
     mts_renderer_destroy(r);
     mts_lod_free(&lod);
     return ok;

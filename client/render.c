@@ -1,5 +1,6 @@
 /* The renderer (render.h has the design). */
 #include "render.h"
+#include "render_internal.h"
 
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
@@ -303,8 +304,6 @@ struct mts_renderer {
         GLint u_mvp, u_normal, u_color, u_light, u_ambient, u_flat, u_morph, u_morph_t;
     } prog[2];
     GLuint vao, vbo, ibo, fbo, color_rb, depth_rb;
-    GLuint list_ibo; /* MTS_RENDER_DRAW_LIST only */
-    uint32_t list_count;
     GLuint wire_ibo; /* style.wireframe: GL_LINES over the triangles' edges */
     uint64_t wire_count;
     /* geomorphs: where vertices morph_first .. morph_end-1 come from
@@ -315,7 +314,7 @@ struct mts_renderer {
     float morph_t;
 
     uint32_t *staging; /* max_capacity + 1 */
-    /* COMPACT and JOINED: a host copy of the slot buffer (the strips' current
+    /* the packed draws: a host copy of the slot buffer (the strips' current
      * indices at offset[s]), from which the packed buffer is rebuilt at the
      * first draw after the strips changed */
     uint32_t *host;
@@ -328,8 +327,6 @@ struct mts_renderer {
      * it, so it is filled only when a mode that does draws (upload_slots) */
     int slots_stale;
     int packed_u16;            /* GL_UNSIGNED_SHORT (every vertex id below 0xFFFF) */
-    GLsizei *multi_count;
-    const void **multi_offset;
     PFNGLMULTIDRAWELEMENTSEXTPROC multi_draw;
 
     float mvp[16], normal[9], eye[3], dir[3];
@@ -381,10 +378,6 @@ void mts_render_options_default(mts_render_options *o)
     o->style.ambient = 0.25f;
     o->style.color_by_strip = 0;
     o->style.show_back_faces = 0;
-    /* JOINED: the fastest strip mode on llvmpipe, and about as fast as a
-     * vertex-cache-optimized triangle list while reading fewer indices
-     * (docs/strips.md, "Drawing them"; make bench, "Draw path") */
-    o->style.draw_mode = MTS_RENDER_DRAW_JOINED;
     o->style.wireframe = 0;
     o->style.flat_shading = 0;
     o->style.wire_color[0] = 0.08f;
@@ -658,8 +651,8 @@ void mts_renderer_destroy(mts_renderer *r)
             glDeleteFramebuffers(1, &r->fbo);
         GLuint rbs[2] = {r->color_rb, r->depth_rb};
         glDeleteRenderbuffers(2, rbs);
-        GLuint bufs[6] = {r->vbo, r->ibo, r->list_ibo, r->wire_ibo, r->packed_ibo, r->morph_vbo};
-        glDeleteBuffers(6, bufs);
+        GLuint bufs[5] = {r->vbo, r->ibo, r->wire_ibo, r->packed_ibo, r->morph_vbo};
+        glDeleteBuffers(5, bufs);
         if (r->vao)
             glDeleteVertexArrays(1, &r->vao);
         for (int i = 0; i < 2; i++)
@@ -673,8 +666,6 @@ void mts_renderer_destroy(mts_renderer *r)
     free(r->staging);
     free(r->host);
     free(r->packed);
-    free(r->multi_count);
-    free(r->multi_offset);
     free(r);
 }
 
@@ -739,9 +730,7 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
     r->offset = malloc(n * sizeof *r->offset);
     r->capacity = malloc(n * sizeof *r->capacity);
     r->length = calloc(n, sizeof *r->length);
-    r->multi_count = malloc(n * sizeof *r->multi_count);
-    r->multi_offset = malloc(n * sizeof *r->multi_offset);
-    if (!r->offset || !r->capacity || !r->length || !r->multi_count || !r->multi_offset) {
+    if (!r->offset || !r->capacity || !r->length) {
         mts_renderer_destroy(r);
         return mts_error_set(err, MTS_ERR_NOMEM, "render: %llu indices",
                              (unsigned long long)index_count);
@@ -978,11 +967,13 @@ static mts_result check_strip(const mts_renderer *r, uint32_t s, const uint32_t 
 }
 
 /* Whether the draw path reads the packed buffer, not the slot buffer. */
+/* what the packed buffer holds (packed_kind; -1: stale) */
+enum { PACK_JOINED = 0, PACK_COMPACT = 1 };
+
+/* The packed buffer is drawn unless each strip is drawn in its colour. */
 static int draws_packed(const mts_renderer *r)
 {
-    const mts_render_style *st = &r->opts.style;
-    return !st->color_by_strip &&
-           (st->draw_mode == MTS_RENDER_DRAW_COMPACT || st->draw_mode == MTS_RENDER_DRAW_JOINED);
+    return !r->opts.style.color_by_strip;
 }
 
 /* Fills the whole slot buffer from the host copy (each strip, then restarts
@@ -1188,30 +1179,6 @@ static void strip_color(uint32_t s, float rgb[3])
     }
 }
 
-mts_result mts_render_set_list(mts_renderer *r, const uint32_t *indices, uint32_t count,
-                               mts_error *err)
-{
-    if (!r || (count && !indices) || count % 3 || count > (uint32_t)INT32_MAX)
-        return mts_error_set(err, MTS_ERR_ARG, "render: a triangle list of %u indices", count);
-    for (uint32_t i = 0; i < count; i++) {
-        if (indices[i] >= r->stats.vertices)
-            return mts_error_set(err, MTS_ERR_RANGE,
-                                 "render: list index %u is past the %u vertices uploaded",
-                                 indices[i], r->stats.vertices);
-    }
-    mts_result rc = mts_render_context_make_current(r->ctx, err);
-    if (rc != MTS_OK)
-        return rc;
-    if (!r->list_ibo)
-        glGenBuffers(1, &r->list_ibo);
-    glBindVertexArray(0);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->list_ibo);
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)count * 4, indices, GL_STATIC_DRAW);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, 0);
-    r->list_count = count;
-    return gl_check(err, "uploading a triangle list");
-}
-
 /* Rebuilds the packed buffer for COMPACT or JOINED from the host copy of
  * the strips (strips shorter than 3 draw nothing and are left out). JOINED
  * joins strip b to the strip before it (ending in q) by q b0, plus another
@@ -1227,7 +1194,7 @@ static mts_result build_packed(mts_renderer *r, int kind, mts_error *err)
             need += r->length[s];
             live++;
         }
-    need += (uint64_t)live * (kind == MTS_RENDER_DRAW_JOINED ? 3u : 1u);
+    need += (uint64_t)live * (kind == PACK_JOINED ? 3u : 1u);
     if (need > (uint64_t)INT32_MAX)
         return mts_error_set(err, MTS_ERR_LIMIT, "render: %llu packed indices",
                              (unsigned long long)need);
@@ -1251,7 +1218,7 @@ static mts_result build_packed(mts_renderer *r, int kind, mts_error *err)
             continue;
         const uint32_t *src = r->host + r->offset[s];
         if (n > 0) {
-            if (kind == MTS_RENDER_DRAW_JOINED) {
+            if (kind == PACK_JOINED) {
                 uint32_t q = AT(n - 1);
                 PUT(q);
                 PUT(src[0]);
@@ -1283,7 +1250,13 @@ static mts_result build_packed(mts_renderer *r, int kind, mts_error *err)
     return MTS_OK;
 }
 
-mts_result mts_render_draw(mts_renderer *r, mts_error *err)
+mts_render_context *mts__render_context(const mts_renderer *r)
+{
+    return r->ctx;
+}
+
+mts_result mts__render_frame_begin(mts_renderer *r, int wireframe, int slots,
+                                   mts__render_frame *f, mts_error *err)
 {
     if (!r)
         return mts_error_set(err, MTS_ERR_ARG, "render: NULL renderer");
@@ -1291,7 +1264,8 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
     if (rc != MTS_OK)
         return rc;
     const mts_render_style *st = &r->opts.style;
-    double t0 = mts_clock_seconds();
+    memset(f, 0, sizeof *f);
+    f->t0 = mts_clock_seconds();
 
     glBindFramebuffer(GL_FRAMEBUFFER, r->fbo);
     glViewport(0, 0, (GLsizei)r->opts.width, (GLsizei)r->opts.height);
@@ -1308,8 +1282,8 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
     else
         glDisable(GL_CULL_FACE);
     glEnable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
-    int wire = st->wireframe && r->wire_count && st->draw_mode != MTS_RENDER_DRAW_LIST;
-    if (wire) { /* the surface a little behind its edges */
+    f->wire = wireframe && st->wireframe && r->wire_count;
+    if (f->wire) { /* the surface a little behind its edges */
         glEnable(GL_POLYGON_OFFSET_FILL);
         glPolygonOffset(1.0f, 1.0f);
     } else {
@@ -1320,6 +1294,7 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
      * that exactly (mix() may round on the way) */
     const int morph = r->morph_end > r->morph_first && r->morph_t < 1;
     const struct render_program *pg = &r->prog[morph];
+    f->program = morph;
     glUseProgram(pg->id);
     glUniformMatrix4fv(pg->u_mvp, 1, GL_FALSE, r->mvp);
     glUniformMatrix3fv(pg->u_normal, 1, GL_FALSE, r->normal);
@@ -1335,82 +1310,42 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
         glUniform1f(pg->u_morph_t, r->morph_t);
     }
     glBindVertexArray(r->vao);
-
-    uint32_t calls = 0;
-    uint64_t indices = 0, index_bytes = 0;
-    int packed_mode = draws_packed(r);
-    if (!packed_mode && st->draw_mode != MTS_RENDER_DRAW_LIST && r->slots_stale &&
-        !upload_slots(r)) {
+    if (slots && r->slots_stale && !upload_slots(r)) {
         glBindVertexArray(0);
         return mts_error_set(err, MTS_ERR_NOMEM, "render: %llu indices",
                              (unsigned long long)r->index_count);
     }
-    if (packed_mode) {
-        /* the element binding is VAO state: swap the packed buffer in and back */
-        if (r->packed_kind != (int)st->draw_mode) {
-            rc = build_packed(r, (int)st->draw_mode, err);
-            if (rc != MTS_OK) {
-                glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
-                glBindVertexArray(0);
-                return rc;
-            }
-        } else {
-            glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->packed_ibo);
-        }
-        if (r->packed_count) {
-            glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)r->packed_count,
-                           r->packed_u16 ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT, (const void *)0);
-            calls = 1;
-            indices = r->packed_count;
-            index_bytes = r->packed_count * (r->packed_u16 ? 2u : 4u);
-        }
-        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
-    } else if (st->draw_mode == MTS_RENDER_DRAW_LIST) {
-        if (r->list_count) {
-            /* the element binding is VAO state: swap it in and back */
-            glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->list_ibo);
-            glDrawElements(GL_TRIANGLES, (GLsizei)r->list_count, GL_UNSIGNED_INT, (const void *)0);
-            glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
-            calls = 1;
-            indices = r->list_count;
-        }
-    } else if (st->color_by_strip || st->draw_mode == MTS_RENDER_DRAW_PER_STRIP ||
-        (st->draw_mode == MTS_RENDER_DRAW_MULTI && !r->multi_draw)) {
-        for (uint32_t s = 0; s < r->strip_count; s++) {
-            if (r->length[s] < 3)
-                continue;
-            if (st->color_by_strip) {
-                float c[3];
-                strip_color(s, c);
-                glUniform3fv(pg->u_color, 1, c);
-            }
-            glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)r->length[s], GL_UNSIGNED_INT,
-                           (const void *)(uintptr_t)((uint64_t)r->offset[s] * 4u));
-            calls++;
-            indices += r->length[s];
-        }
-    } else if (st->draw_mode == MTS_RENDER_DRAW_MULTI) {
-        GLsizei n = 0;
-        for (uint32_t s = 0; s < r->strip_count; s++) {
-            if (r->length[s] < 3)
-                continue;
-            r->multi_count[n] = (GLsizei)r->length[s];
-            r->multi_offset[n] = (const void *)(uintptr_t)((uint64_t)r->offset[s] * 4u);
-            indices += r->length[s];
-            n++;
-        }
-        if (n) {
-            r->multi_draw(GL_TRIANGLE_STRIP, r->multi_count, GL_UNSIGNED_INT, r->multi_offset,
-                          n);
-            calls = 1;
-        }
-    } else if (r->index_count) {
-        glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)r->index_count, GL_UNSIGNED_INT,
-                       (const void *)0);
-        calls = 1;
-        indices = r->index_count;
+    f->strip_count = r->strip_count;
+    f->offset = r->offset;
+    f->length = r->length;
+    f->slot_indices = r->index_count;
+    f->multi_draw = (void (*)(void))r->multi_draw;
+    f->u_color = pg->u_color;
+    return MTS_OK;
+}
+
+mts_result mts__render_packed(mts_renderer *r, int compact, unsigned *ibo, uint64_t *count,
+                              int *u16, mts_error *err)
+{
+    int kind = compact ? PACK_COMPACT : PACK_JOINED;
+    if (r->packed_kind != kind) {
+        mts_result rc = build_packed(r, kind, err);
+        if (rc != MTS_OK)
+            return rc;
     }
-    if (wire) {
+    *ibo = r->packed_ibo;
+    *count = r->packed_count;
+    *u16 = r->packed_u16;
+    return MTS_OK;
+}
+
+mts_result mts__render_frame_end(mts_renderer *r, const mts__render_frame *f, uint32_t calls,
+                                 uint64_t indices, uint64_t index_bytes, mts_error *err)
+{
+    const mts_render_style *st = &r->opts.style;
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo); /* the VAO's own again */
+    if (f->wire) {
+        const struct render_program *pg = &r->prog[f->program];
         glDisable(GL_POLYGON_OFFSET_FILL);
         glDepthFunc(GL_LEQUAL);
         glUniform1f(pg->u_ambient, 1.0f); /* flat: the edge colour as it is */
@@ -1421,19 +1356,64 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
         glDepthFunc(GL_LESS);
         calls++;
         indices += r->wire_count;
+        index_bytes += r->wire_count * 4u;
     }
     glBindVertexArray(0);
     if (r->opts.timed)
         glFinish();
     double t1 = mts_clock_seconds();
-    rc = gl_check(err, "drawing");
+    mts_result rc = gl_check(err, "drawing");
     if (rc != MTS_OK)
         return rc;
-    r->stats.last_draw_seconds = r->opts.timed ? t1 - t0 : 0;
+    r->stats.last_draw_seconds = r->opts.timed ? t1 - f->t0 : 0;
     r->stats.last_draw_calls = calls;
     r->stats.last_draw_indices = indices;
-    r->stats.last_draw_index_bytes = packed_mode ? index_bytes : indices * 4u;
+    r->stats.last_draw_index_bytes = index_bytes;
     return MTS_OK;
+}
+
+/* The frame: the live strips joined into one packed strip (see the top),
+ * or, with color_by_strip, each strip of the slot buffer in its colour. */
+mts_result mts_render_draw(mts_renderer *r, mts_error *err)
+{
+    mts__render_frame f;
+    const int per_strip = r && r->opts.style.color_by_strip;
+    mts_result rc = mts__render_frame_begin(r, 1, per_strip, &f, err);
+    if (rc != MTS_OK)
+        return rc;
+    uint32_t calls = 0;
+    uint64_t indices = 0, index_bytes = 0;
+    if (per_strip) {
+        for (uint32_t s = 0; s < r->strip_count; s++) {
+            if (r->length[s] < 3)
+                continue;
+            float c[3];
+            strip_color(s, c);
+            glUniform3fv(f.u_color, 1, c);
+            glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)r->length[s], GL_UNSIGNED_INT,
+                           (const void *)(uintptr_t)((uint64_t)r->offset[s] * 4u));
+            calls++;
+            indices += r->length[s];
+        }
+        index_bytes = indices * 4u;
+    } else {
+        unsigned ibo;
+        uint64_t count;
+        int u16;
+        if ((rc = mts__render_packed(r, 0, &ibo, &count, &u16, err)) != MTS_OK) {
+            mts__render_frame_end(r, &f, 0, 0, 0, NULL);
+            return rc;
+        }
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
+        if (count) {
+            glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)count,
+                           u16 ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT, (const void *)0);
+            calls = 1;
+            indices = count;
+            index_bytes = count * (u16 ? 2u : 4u);
+        }
+    }
+    return mts__render_frame_end(r, &f, calls, indices, index_bytes, err);
 }
 
 mts_result mts_render_update_wireframe(mts_renderer *r, const mts_lod *lod, mts_error *err)

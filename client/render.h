@@ -28,41 +28,38 @@
  *     rest of its range is the restart index 0xFFFFFFFF, so the last entry is
  *     always a restart and a strip that shrank leaves no stale triangles (a
  *     run of restarts draws nothing: each one only ends the current
- *     primitive). In RESTART mode one glDrawElements(GL_TRIANGLE_STRIP) with
- *     GL_PRIMITIVE_RESTART_FIXED_INDEX draws the whole model.
- *   - mts_render_update_strips keeps a host copy of the slots and, when the
- *     draw mode reads the slot buffer, re-uploads only the strips the runtime
- *     lists as changed, one glBufferSubData per strip covering max(old, new)
- *     length, or the whole buffer in one call when more than half the strips
- *     changed (the first upload after mts_lod_init, which marks every strip
- *     changed). The packed modes (JOINED, the default, and COMPACT) never
- *     read the slot buffer: it is left behind, and filled once when a mode
- *     that reads it draws; what they draw goes up once a frame, at the first
- *     draw after a change (mts_render_stats counts every byte). The caller
- *     clears the runtime's changed list afterwards.
+ *     primitive), and one glDrawElements(GL_TRIANGLE_STRIP) with
+ *     GL_PRIMITIVE_RESTART_FIXED_INDEX would draw the whole model.
+ *   - mts_render_update_strips keeps a host copy of the slots and, when a
+ *     draw reads the slot buffer (colour by strip), re-uploads only the
+ *     strips the runtime lists as changed, one glBufferSubData per strip
+ *     covering max(old, new) length, or the whole buffer in one call when
+ *     more than half the strips changed (the first upload after
+ *     mts_lod_init, which marks every strip changed). The default draw never
+ *     reads the slot buffer: it is left behind, and filled once when a draw
+ *     that reads it comes; what the default draws goes up once a frame, at
+ *     the first draw after a change (mts_render_stats counts every byte).
+ *     The caller clears the runtime's changed list afterwards.
  *
- * Draw modes: RESTART (one call over the slot buffer) and two that draw strip
- * by strip with their current lengths and no restarts: PER_STRIP (a
- * glDrawElements per non-empty strip) and MULTI (glMultiDrawElementsEXT from
- * GL_EXT_multi_draw_arrays where the driver has it, Mesa does; else the same
- * loop as PER_STRIP). GLES 3.2 core has no glMultiDrawElements.
- * Two more draw a packed buffer of their own, rebuilt from a host copy of the
+ * The draw: a packed buffer of its own, rebuilt from the host copy of the
  * strips at the first draw after they changed (O(indices drawn), one
  * glBufferData), holding only the strips of 3 or more indices, with 16-bit
- * indices when vertex_capacity <= 65535: COMPACT (one restart between two
- * strips) and JOINED, the default (each strip joined to the one before by
- * repeating the previous strip's last index and its own first, once more
+ * indices when vertex_capacity <= 65535, each strip joined to the one before
+ * by repeating the previous strip's last index and its own first, once more
  * when that leaves it at an odd position: every strip starts at an even
  * position as after a restart, so keeps its winding, and each window across
- * a joint repeats an index, so draws nothing: 2 or 3 indices a joint, no
- * restart). Why JOINED (measured with mts-bench-stream --draw-only on Mesa
- * 22.3 llvmpipe): Mesa's draw module runs its vertex pipeline once per
- * restart-delimited piece (and once per draw of a multi-draw), restarting its
- * small vertex cache each time, and RESTART also walks the slots' padding,
- * which at coarse levels is most of the buffer; one joined strip is one
- * pipeline run whose cache spans strips (figures: docs/strips.md, "Drawing
- * them"). The stored and streamed form stays the strips and their slots;
- * the packed buffer is the client's own.
+ * a joint repeats an index, so draws nothing (2 or 3 indices a joint, no
+ * restart): one glDrawElements. Why (measured with mts-bench-stream
+ * --draw-only on Mesa 22.3 llvmpipe): Mesa's draw module runs its vertex
+ * pipeline once per restart-delimited piece (and once per draw of a
+ * multi-draw), restarting its small vertex cache each time, and a draw over
+ * the slots also walks their padding, which at coarse levels is most of the
+ * buffer; one joined strip is one pipeline run whose cache spans strips
+ * (figures: docs/strips.md, "Drawing them"). The draws it is measured
+ * against -- the slot buffer with restarts, strip by strip, multi-draw, one
+ * restart between packed strips, a triangle list -- are bench/drawmodes.h's,
+ * through the seam in render_internal.h. The stored and streamed form stays
+ * the strips and their slots; the packed buffer is the client's own.
  *
  * Colour by strip: a per-vertex attribute cannot carry a strip id (strips
  * share vertices), and gl_PrimitiveID (fragment shaders, GLES 3.2) numbers
@@ -71,8 +68,8 @@
  * Mapping it back to a strip would need a prefix sum of the current
  * max(0, length - 2) per strip in a texture, re-uploaded whenever a length
  * changes, and a binary search per fragment. Instead, with color_by_strip
- * the renderer draws strip by strip with the strip's colour in a uniform (as
- * PER_STRIP): slower, for inspection only.
+ * the renderer draws strip by strip from the slot buffer with the strip's
+ * colour in a uniform: slower, for inspection only.
  *
  * Shading: Lambert from a directional light above-left of the camera plus
  * ambient, per-vertex normals, back-face culling of clockwise triangles
@@ -156,18 +153,6 @@ typedef struct mts_render_layout {
 /* The layout a runtime's model needs (its vertex count, bbox and slots). */
 void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *layout);
 
-typedef enum mts_render_draw_mode {
-    /* the live strips joined into one strip by repeated indices (degenerate
-       windows), no restarts: the default (0) */
-    MTS_RENDER_DRAW_JOINED = 0,
-    MTS_RENDER_DRAW_RESTART,
-    MTS_RENDER_DRAW_PER_STRIP,
-    MTS_RENDER_DRAW_MULTI,
-    MTS_RENDER_DRAW_LIST, /* the triangle list given to mts_render_set_list, not the strips:
-                             for measuring strips against lists on the same vertices */
-    MTS_RENDER_DRAW_COMPACT /* the live strips packed end to end, one restart between
-                               two, in a buffer of their own (no slot padding) */
-} mts_render_draw_mode;
 
 typedef struct mts_render_camera {
     float yaw_deg, pitch_deg; /* pitch is clamped to [-89, 89] */
@@ -181,7 +166,6 @@ typedef struct mts_render_style {
     float ambient;       /* [0,1]: ambient share of the lighting */
     int color_by_strip;  /* each strip its own colour (draws strip by strip) */
     int show_back_faces; /* 0: clockwise triangles are culled */
-    mts_render_draw_mode draw_mode;
     /* Draw the triangles' edges over the surface (hidden-line wireframe):
      * the edges given by mts_render_update_wireframe as GL_LINES, the
      * surface pushed back with polygon offset so that visible edges win the
@@ -208,13 +192,13 @@ typedef struct mts_render_options {
 } mts_render_options;
 
 /* 512x512, yaw 30, pitch 20, zoom 1, fov 35, dark blue-grey background,
- * light grey surface, ambient 0.25, culling on, JOINED, no wireframe
+ * light grey surface, ambient 0.25, culling on, no wireframe
  * (dark edges when turned on), untimed.
  *
  * A zeroed options struct means the same but for the view's direction (yaw
  * and pitch 0: from +Z, level): where 0 is no usable value -- a size, zoom,
  * field of view, an all-zero colour -- the renderer takes the default, and
- * the zero enums and flags are the defaults (JOINED, culling on). ambient 0
+ * the zero flags are the defaults (culling on). ambient 0
  * is taken as the default too; a negative ambient means none. */
 void mts_render_options_default(mts_render_options *opts);
 
@@ -239,7 +223,7 @@ uint32_t mts_render_vertex_count(const mts_renderer *r);
 
 /* Sets strip s to the given indices (length <= its capacity; every index below
  * the vertices uploaded, else MTS_ERR_RANGE and nothing changes). One
- * glBufferSubData of max(old, new) length when the draw mode reads the slot
+ * glBufferSubData of max(old, new) length when the draw reads the slot
  * buffer (else the host copy only; see the top). The building block of
  * mts_render_update_strips, for callers without a runtime. */
 mts_result mts_render_set_strip(mts_renderer *r, uint32_t s, const uint32_t *indices,
@@ -252,12 +236,6 @@ mts_result mts_render_set_strip(mts_renderer *r, uint32_t s, const uint32_t *ind
  * slot and every index is below the vertices uploaded; on failure nothing is
  * uploaded. Leaves lod's changed list alone: the caller clears it. */
 mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_error *err);
-
-/* An indexed triangle list (3 indices a triangle, each below the vertices
- * uploaded) in a buffer of its own, drawn instead of the strips in
- * MTS_RENDER_DRAW_LIST mode. */
-mts_result mts_render_set_list(mts_renderer *r, const uint32_t *indices, uint32_t count,
-                               mts_error *err);
 
 void mts_render_set_camera(mts_renderer *r, const mts_render_camera *camera);
 void mts_render_set_style(mts_renderer *r, const mts_render_style *style);
@@ -319,7 +297,7 @@ typedef struct mts_render_stats {
     uint64_t index_bytes_uploaded;
     uint64_t strip_uploads;   /* strips uploaded one by one */
     uint64_t full_uploads;    /* whole index buffer uploads */
-    uint64_t packed_builds;   /* COMPACT / JOINED buffers rebuilt (their bytes are in
+    uint64_t packed_builds;   /* packed buffers rebuilt (their bytes are in
                                * index_bytes_uploaded too) */
     uint64_t packed_bytes;    /* the packed buffer now */
     uint64_t morph_bytes_uploaded; /* geomorph sources (in vertex_bytes_uploaded too) */
@@ -331,7 +309,7 @@ typedef struct mts_render_stats {
     double last_draw_seconds; /* options.timed: CPU time clear .. glFinish (monotonic) */
     uint32_t last_draw_calls;
     uint64_t last_draw_indices; /* indices submitted, restarts included */
-    uint64_t last_draw_index_bytes; /* their bytes (COMPACT and JOINED may use 16 bits) */
+    uint64_t last_draw_index_bytes; /* their bytes (the packed buffer may use 16 bits) */
     int multi_draw_available;   /* GL_EXT_multi_draw_arrays */
 } mts_render_stats;
 

@@ -22,6 +22,7 @@
 #include "strips.h"
 #include "test.h"
 #include "test_gl.h"
+#include "drawmodes.h"
 
 #define SIDE 256u
 
@@ -32,7 +33,16 @@ static mts_mesh g_mesh;
 static mts_model g_cow;
 static int g_cow_ok;
 
-#define NEED_CONTEXT(t) MTS_TEST_NEED_GL(t, g_ctx, g_ctx_err, g_cow_ok)
+/* the draw path draw_and_read takes: the renderer's own unless a case
+ * compares others (bench/drawmodes.h) */
+static mts_drawmodes g_dm;
+static mts_drawmode g_mode;
+
+#define NEED_CONTEXT(t)                                                                \
+    do {                                                                               \
+        g_mode = MTS_DRAWMODE_JOINED;                                                  \
+        MTS_TEST_NEED_GL(t, g_ctx, g_ctx_err, g_cow_ok);                               \
+    } while (0)
 
 static void png_path(char *buf, size_t size, const char *name)
 {
@@ -81,7 +91,7 @@ static uint32_t saturated(const frame *f)
 static int draw_and_read(mts_test *t, mts_renderer *r, frame *f, const char *png)
 {
     mts_error err = {0};
-    mts_result rc = mts_render_draw(r, &err);
+    mts_result rc = mts_drawmodes_draw(&g_dm, r, g_mode, &err);
     CHECKF(t, rc == MTS_OK, "draw: %s", err.msg);
     if (rc != MTS_OK)
         return 0;
@@ -473,7 +483,7 @@ static void test_small_move_uploads_changed_strips(mts_test *t)
     CHECK(t, mts_lod_set_level(&lod, mid, &err) == MTS_OK);
     mts_render_options o;
     options(&o);
-    o.style.draw_mode = MTS_RENDER_DRAW_RESTART;
+    o.style.color_by_strip = 1; /* the renderer's own draw that reads the slot buffer */
     mts_renderer *r = renderer_for(t, &lod, &o), *fresh = NULL;
     uint32_t *old_len = malloc(((size_t)g_cow.strip_count + 1) * sizeof *old_len);
     frame *f = calloc(2, sizeof *f);
@@ -576,7 +586,7 @@ static void test_packed_path_uploads(mts_test *t)
     /* the slot buffer, read at last: filled once, the same picture */
     mts_render_reset_counters(r);
     mts_render_style rs = o.style;
-    rs.draw_mode = MTS_RENDER_DRAW_RESTART;
+    g_mode = MTS_DRAWMODE_RESTART;
     mts_render_set_style(r, &rs);
     if (!draw_and_read(t, r, &f[1], NULL))
         goto done;
@@ -610,11 +620,11 @@ static void test_draw_modes(mts_test *t)
     if (!r || !f || t->case_failed)
         goto done;
     mts_render_stats st;
-    mts_render_draw_mode modes[3] = {MTS_RENDER_DRAW_RESTART, MTS_RENDER_DRAW_PER_STRIP,
-                                     MTS_RENDER_DRAW_MULTI};
+    mts_drawmode modes[3] = {MTS_DRAWMODE_RESTART, MTS_DRAWMODE_PER_STRIP,
+                                     MTS_DRAWMODE_MULTI};
     for (int i = 0; i < 3; i++) {
         mts_render_style s = o.style;
-        s.draw_mode = modes[i];
+        g_mode = modes[i];
         mts_render_set_style(r, &s);
         if (!draw_and_read(t, r, &f[i], NULL))
             goto done;
@@ -637,8 +647,9 @@ static void test_draw_modes(mts_test *t)
         }
     }
     mts_render_style s = o.style;
-    s.color_by_strip = 1;
+    s.color_by_strip = 1; /* the renderer's own draw, strip by strip */
     mts_render_set_style(r, &s);
+    g_mode = MTS_DRAWMODE_JOINED;
     if (!draw_and_read(t, r, &f[3], "cow_strips"))
         goto done;
     CHECK(t, saturated(&f[0]) < SIDE * SIDE / 100);
@@ -684,9 +695,9 @@ static void test_all_modes_same_picture(mts_test *t)
     }
     const uint32_t n = g_cow.level_count;
     const uint32_t levels[] = {n, n / 2, n / 10, n / 50, 0, n / 3, n};
-    const mts_render_draw_mode modes[] = {MTS_RENDER_DRAW_PER_STRIP, MTS_RENDER_DRAW_MULTI,
-                                          MTS_RENDER_DRAW_COMPACT, MTS_RENDER_DRAW_JOINED,
-                                          MTS_RENDER_DRAW_LIST};
+    const mts_drawmode modes[] = {MTS_DRAWMODE_PER_STRIP, MTS_DRAWMODE_MULTI,
+                                          MTS_DRAWMODE_COMPACT, MTS_DRAWMODE_JOINED,
+                                          MTS_DRAWMODE_LIST};
     for (size_t li = 0; li < sizeof levels / sizeof levels[0]; li++) {
         CHECK(t, mts_lod_set_level(&lod, levels[li], &err) == MTS_OK);
         for (int k = 0; k < 2; k++)
@@ -699,19 +710,19 @@ static void test_all_modes_same_picture(mts_test *t)
             for (uint32_t k = 0; k + 2 < len; k++)
                 nl += 3 * (size_t)mts_strip_window(str, k, list + nl);
         }
-        CHECK(t, mts_render_set_list(r[0], list, (uint32_t)nl, &err) == MTS_OK);
+        CHECK(t, mts_drawmodes_set_list(&g_dm, r[0], list, (uint32_t)nl, &err) == MTS_OK);
         mts_render_style s = o.style;
-        s.draw_mode = MTS_RENDER_DRAW_RESTART;
+        g_mode = MTS_DRAWMODE_RESTART;
         mts_render_set_style(r[0], &s);
         if (!draw_and_read(t, r[0], &f[0], NULL))
             goto done;
         CHECK(t, foreground(&f[0]) > 100);
         for (int k = 0; k < 2; k++)
             for (size_t mi = 0; mi < sizeof modes / sizeof modes[0]; mi++) {
-                if (k == 1 && modes[mi] != MTS_RENDER_DRAW_COMPACT &&
-                    modes[mi] != MTS_RENDER_DRAW_JOINED)
+                if (k == 1 && modes[mi] != MTS_DRAWMODE_COMPACT &&
+                    modes[mi] != MTS_DRAWMODE_JOINED)
                     continue;
-                s.draw_mode = modes[mi];
+                g_mode = modes[mi];
                 mts_render_set_style(r[k], &s);
                 if (!draw_and_read(t, r[k], &f[1], NULL))
                     goto done;
@@ -720,7 +731,7 @@ static void test_all_modes_same_picture(mts_test *t)
                 uint32_t d = pixels_differing(&f[0], &f[1], 0);
                 CHECKF(t, d == 0, "level %u, mode %d (%u-bit): %u pixels differ from restart",
                        levels[li], (int)modes[mi], k ? 32 : 16, d);
-                if (modes[mi] == MTS_RENDER_DRAW_COMPACT || modes[mi] == MTS_RENDER_DRAW_JOINED) {
+                if (modes[mi] == MTS_DRAWMODE_COMPACT || modes[mi] == MTS_DRAWMODE_JOINED) {
                     CHECK(t, st.last_draw_calls == 1);
                     CHECK(t, st.last_draw_index_bytes == st.last_draw_indices * (k ? 4u : 2u));
                     /* no slot padding: at most 3 joining indices a strip */
@@ -787,12 +798,12 @@ static void test_slots_announced_later(mts_test *t)
     CHECKF(t, mts_render_update_strips(r[0], &late, &err) == MTS_OK, "%s", err.msg);
     mts_lod_clear_changed(&late);
     CHECK(t, late.relayout_from == UINT32_MAX);
-    static const mts_render_draw_mode modes[] = {MTS_RENDER_DRAW_JOINED, MTS_RENDER_DRAW_RESTART,
-                                                 MTS_RENDER_DRAW_PER_STRIP,
-                                                 MTS_RENDER_DRAW_MULTI,
-                                                 MTS_RENDER_DRAW_COMPACT};
+    static const mts_drawmode modes[] = {MTS_DRAWMODE_JOINED, MTS_DRAWMODE_RESTART,
+                                                 MTS_DRAWMODE_PER_STRIP,
+                                                 MTS_DRAWMODE_MULTI,
+                                                 MTS_DRAWMODE_COMPACT};
     for (size_t i = 0; i < sizeof modes / sizeof modes[0] && !t->case_failed; i++) {
-        o.style.draw_mode = modes[i];
+        g_mode = modes[i];
         mts_render_set_style(r[0], &o.style);
         mts_render_set_style(r[1], &o.style);
         if (!draw_and_read(t, r[0], &f[0], NULL) || !draw_and_read(t, r[1], &f[1], NULL))
@@ -1004,6 +1015,8 @@ int main(void)
     RUN(&t, test_camera);
     RUN(&t, test_errors);
 
+    if (g_ctx && mts_render_context_make_current(g_ctx, NULL) == MTS_OK)
+        mts_drawmodes_free(&g_dm);
     mts_render_context_destroy(g_ctx);
     if (g_cow_ok)
         mts_model_free(&g_cow);
