@@ -289,7 +289,7 @@ static void find_model(void *user, const mts_wire_model_entry *m)
  * model's own per-level counts to the highest level within the budget --
  * the policy's choice, counted exactly. Returns 1 when the stop was set
  * (*asked the triangles, *list_bytes and *full_bytes the listing's figures). */
-static int policy_stop(mts_session_options *so, const client_run *rn,
+int client_policy_stop(mts_session_options *so, const client_run *rn,
                        const mts_lod_policy_options *po, double distance, uint32_t *asked,
                        uint64_t *list_bytes, uint64_t *full_bytes)
 {
@@ -621,7 +621,7 @@ int main(int argc, char **argv)
     uint64_t list_bytes = 0, full_bytes = 0;
     int stop_asked = !list && stops == 0 &&
                      (po.kind == MTS_LOD_POLICY_DISTANCE || po.kind == MTS_LOD_POLICY_AREA) &&
-                     policy_stop(&so, &rn, &po, distance, &asked, &list_bytes, &full_bytes);
+                     client_policy_stop(&so, &rn, &po, distance, &asked, &list_bytes, &full_bytes);
     mts_stream_client c;
     mts_stream_client_init(&c);
     c.on_model = print_model;

@@ -43,6 +43,13 @@ int client_warm_up(client_run *rn);
 void client_json_run(cli_json *j, const mts_stream_client *c, const mts_session_stats *st,
                      const client_run *rn);
 
+/* --lod-policy distance or area before the stream: the triangles they want
+ * at the camera's start, from the server's listing, set as the HELLO's
+ * stop (mts_client.c says more). 1 when set. */
+int client_policy_stop(mts_session_options *so, const client_run *rn,
+                       const mts_lod_policy_options *po, double distance, uint32_t *asked,
+                       uint64_t *list_bytes, uint64_t *full_bytes);
+
 /* --window from start to exit status. */
 int client_window_main(client_run *rn, mts_session_options *so, const char *script_path,
                        int json, const mts_lod_policy_options *po);

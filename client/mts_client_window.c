@@ -64,7 +64,27 @@ typedef struct win {
     mts_lod_policy policy;
     int use_policy;
     double last_frame_ms;
+    /* more on demand: a stream that stopped short of the full level goes on
+     * (mts_stream_client_continue) when the view asks for more */
+    int fetching;            /* the stream going now is a continuation */
+    uint32_t continuations;
+    uint64_t bytes_before;   /* of the conversations before this one */
 } win;
+
+/* The camera as the policies see it. */
+static mts_lod_view win_view(const win *wn)
+{
+    const mts_render_options *ro = &wn->rn->ro;
+    float eye[3], dir[3], d = 0;
+    mts_render_eye(wn->rn->view.renderer, eye, dir);
+    for (int i = 0; i < 3; i++) {
+        float cen = 0.5f * (wn->c->model.bbox_min[i] + wn->c->model.bbox_max[i]);
+        d += (eye[i] - cen) * (eye[i] - cen);
+    }
+    mts_lod_view view = {sqrtf(d), ro->camera.fov_y_deg * 3.14159265f / 180.0f,
+                         (int)ro->width, (int)ro->height};
+    return view;
+}
 
 /* The level the view shows: the policy's choice -- by default "received",
  * the newest level the stream has brought -- until a level key fixes one;
@@ -76,16 +96,36 @@ static uint32_t win_choose_level(win *wn)
         return wn->manual_level < available ? wn->manual_level : available;
     if (!wn->use_policy || !wn->rn->have_view)
         return available;
-    const mts_render_options *ro = &wn->rn->ro;
-    float eye[3], dir[3], d = 0;
-    mts_render_eye(wn->rn->view.renderer, eye, dir);
-    for (int i = 0; i < 3; i++) {
-        float cen = 0.5f * (wn->c->model.bbox_min[i] + wn->c->model.bbox_max[i]);
-        d += (eye[i] - cen) * (eye[i] - cen);
-    }
-    mts_lod_view view = {sqrtf(d), ro->camera.fov_y_deg * 3.14159265f / 180.0f,
-                         (int)ro->width, (int)ro->height};
+    mts_lod_view view = win_view(wn);
     return mts_lod_policy_choose(&wn->policy, available, &view, wn->last_frame_ms);
+}
+
+/* What more the view asks for of a stream that ended short of the full
+ * level: a level key past what came (a level stop), or the camera policy's
+ * triangles for the view now, over a tenth more than the stop gave (so a
+ * small zoom does not start a conversation). 0 when nothing. */
+static int win_wants_more(const win *wn, uint8_t *kind, uint32_t *value)
+{
+    const mts_stream_client *c = wn->c;
+    if (wn->streaming || wn->failed_stream || !c->have_lod || !c->end_checksum ||
+        c->stop_level >= c->info.levels || !wn->rn->have_view)
+        return 0;
+    if (wn->manual) {
+        if (wn->manual_level <= c->stop_level)
+            return 0;
+        *kind = MTS_STOP_LEVEL;
+        *value = wn->manual_level;
+        return 1;
+    }
+    if (!wn->use_policy || wn->po->kind == MTS_LOD_POLICY_BUDGET)
+        return 0;
+    mts_lod_view view = win_view(wn);
+    double want = mts_lod_policy_view_triangles(&wn->policy, &view);
+    if (!(want > 1.1 * c->info.stop_triangles) || want > UINT32_MAX)
+        return 0;
+    *kind = MTS_STOP_TRIANGLES;
+    *value = (uint32_t)want;
+    return 1;
 }
 
 /* Batch boundaries: the levels after each whole batch (MODEL_INFO). */
@@ -109,7 +149,9 @@ static uint32_t win_batch_step(const win *wn, uint32_t level, int up)
 static void win_key(win *wn, mts_key key)
 {
     uint32_t cur = wn->rn->have_view ? wn->rn->view.lod->level : 0;
-    uint32_t levels = wn->c->info.levels, avail = wn->c->lod.level;
+    /* past what came only where the stream stopped short: that asks for more */
+    uint32_t levels = wn->c->info.levels,
+             avail = wn->c->end_checksum && !wn->failed_stream ? levels : wn->c->lod.level;
     uint32_t tenth = levels / 10 ? levels / 10 : 1;
     switch (key) {
     case MTS_KEY_PLUS:
@@ -199,7 +241,7 @@ static int win_on_event(void *user, mts_stream_event ev, mts_stream_client *c)
 {
     win *wn = user;
     client_run *rn = wn->rn;
-    if (ev == MTS_EV_RESUMED && !rn->quiet)
+    if (ev == MTS_EV_RESUMED && !rn->quiet && !wn->fetching)
         fprintf(stderr, "mts-client: reconnected; resuming at batch %u of %u\n", c->batches,
                 c->info.batch_count);
     if (ev == MTS_EV_BASE && !rn->have_view) {
@@ -240,15 +282,18 @@ static void win_hud_text(win *wn, double now)
     const mts_stream_client *c = wn->c;
     const mts_session_stats *st = wn->st;
     double secs = st->ms_final > 0 ? st->ms_final / 1e3 : (now - wn->t_start) / 1e3;
+    uint64_t bytes = wn->bytes_before + st->bytes;
     double mbs = secs > 0 ? (double)st->bytes / secs / 1e6 : 0;
-    const char *state = wn->failed_stream ? wn->status
-                        : wn->streaming   ? "streaming"
-                                          : "complete";
+    const char *state = wn->failed_stream                 ? wn->status
+                        : wn->streaming && wn->fetching   ? "fetching"
+                        : wn->streaming                   ? "streaming"
+                        : c->stop_level < c->info.levels ? "complete to here (zoom in for more)"
+                                                          : "complete";
     const mts_view *v = &wn->rn->view;
     if (!wn->rn->have_view || !v->have_figures) {
         snprintf(wn->hud_text, sizeof wn->hud_text,
                  "%s  waiting for the base mesh\n%.1f frames/s  %llu bytes  %.2f MB/s  %s",
-                 wn->rn->model, wn->fps, (unsigned long long)st->bytes, mbs, state);
+                 wn->rn->model, wn->fps, (unsigned long long)bytes, mbs, state);
         return;
     }
     char morph[64] = "morph off";
@@ -263,7 +308,7 @@ static void win_hud_text(win *wn, double now)
              wn->rn->model, v->shown.level, c->info.levels, c->lod.level,
              wn->manual ? "fixed" : "following", v->shown.triangles, v->shown.strips,
              v->shown.triangles ? (double)v->shown.indices / v->shown.triangles : 0.0, morph,
-             wn->fps, (unsigned long long)st->bytes, mbs, state);
+             wn->fps, (unsigned long long)bytes, mbs, state);
 }
 
 static int win_frame(win *wn, double now)
@@ -392,6 +437,25 @@ static mts_result win_run(win *wn, mts_session_options *so, const char *script_p
             next_frame = (1e3 * mts_clock_seconds());
         for (;;) {
             double left = next_frame - (1e3 * mts_clock_seconds());
+            uint8_t kind;
+            uint32_t value;
+            if (!wn->streaming && win_wants_more(wn, &kind, &value)) {
+                /* more on demand: the same stream from the batches held,
+                 * to the new stop (PROTOCOL.md, "Continuing") */
+                uint32_t batch;
+                uint64_t id;
+                if ((rc = mts_stream_client_continue(wn->c, &batch, &id, err)) != MTS_OK)
+                    return rc;
+                so->hello.stop_kind = kind;
+                so->hello.stop_value = value;
+                so->hello.resume_batch = batch;
+                so->hello.stream_id = id;
+                wn->bytes_before += wn->st->bytes;
+                if ((rc = mts_session_begin(so, wn->c, wn->st, &sess, err)) != MTS_OK)
+                    return rc;
+                wn->streaming = wn->fetching = 1;
+                wn->continuations++;
+            }
             if (!wn->streaming) {
                 if (left > 0) {
                     struct pollfd pf = {mts_window_fd(wn->w), POLLIN, 0};
@@ -401,7 +465,9 @@ static mts_result win_run(win *wn, mts_session_options *so, const char *script_p
             }
             wn->streaming = mts_session_poll(sess, left > 0 ? (int)left : 0);
             if (!wn->streaming) {
-                win_stream_ended(wn);
+                if (!wn->fetching)
+                    win_stream_ended(wn);
+                wn->fetching = 0;
                 rc = mts_session_end(sess, err);
                 if (rc != MTS_OK) {
                     /* the window stays up with the last whole batch; q ends it */
@@ -443,6 +509,14 @@ int client_window_main(client_run *rn, mts_session_options *so, const char *scri
     wn.c = &c;
     wn.st = &st;
     mts_error err = {0};
+    /* the camera policies ask for their level's stop, as headless; zooming
+     * in then asks for more (win_wants_more) */
+    uint32_t asked = 0;
+    uint64_t list_bytes = 0, full_bytes = 0;
+    if (so->hello.stop_kind == MTS_STOP_FULL &&
+        (po->kind == MTS_LOD_POLICY_DISTANCE || po->kind == MTS_LOD_POLICY_AREA))
+        client_policy_stop(so, rn, po, 1.0 / rn->ro.camera.zoom, &asked, &list_bytes,
+                           &full_bytes);
     mts_result rc = win_run(&wn, so, script_path, po, &err);
     if (rn->failed && rc == MTS_OK) {
         rc = rn->err.code ? rn->err.code : MTS_ERR_INTERNAL;
@@ -460,7 +534,7 @@ int client_window_main(client_run *rn, mts_session_options *so, const char *scri
         cli_json_begin(&j, stdout);
         cli_json_str(&j, "model", rn->model);
         cli_json_bool(&j, "complete", complete);
-        cli_json_u64(&j, "bytes", st.bytes);
+        cli_json_u64(&j, "bytes", wn.bytes_before + st.bytes);
         cli_json_u64(&j, "batches", c.batches);
         cli_json_str(&j, "form", c.records ? "records" : "splits");
         cli_json_u64(&j, "level", c.have_lod ? c.lod.level : 0);
@@ -469,6 +543,8 @@ int client_window_main(client_run *rn, mts_session_options *so, const char *scri
         client_json_run(&j, &c, &st, rn);
         cli_json_num(&j, "morph_ms", rn->have_view ? rn->view.opts.morph_ms : 0, 1);
         cli_json_u64(&j, "frames", wn.frames);
+        /* conversations that went on past the stop because the view asked */
+        cli_json_u64(&j, "continuations", wn.continuations);
         /* while the stream came (the loop's start to its end): frames/s then */
         cli_json_u64(&j, "frames_streaming", wn.frames_streaming);
         cli_json_num(&j, "seconds_streaming", wn.ms_streaming / 1e3, 3);
@@ -497,7 +573,7 @@ int client_window_main(client_run *rn, mts_session_options *so, const char *scri
         printf("%s: level %u of %u received, %u triangles, %u batches, %llu bytes; %llu frames "
                "shown%s\n",
                rn->model, c.lod.level, c.info.levels, triangles, c.batches,
-               (unsigned long long)st.bytes, (unsigned long long)wn.frames,
+               (unsigned long long)(wn.bytes_before + st.bytes), (unsigned long long)wn.frames,
                wn.quit_early ? " (quit before the end of the stream)" : "");
         for (uint32_t i = 0; i < wn.shot_count; i++)
             printf("  wrote %s\n", wn.shots[i].file);

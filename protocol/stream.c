@@ -1475,8 +1475,11 @@ static mts_result check_resumed_info(mts_stream_client *c, const uint8_t *p, siz
     else if (mi.vertices != a->vertices || mi.base_vertices != a->base_vertices ||
              mi.levels != a->levels || mi.triangles != a->triangles || mi.strips != a->strips)
         what = "counts";
-    else if (mi.stop_level != a->stop_level || mi.stop_triangles != a->stop_triangles)
+    else if (!c->continuing &&
+             (mi.stop_level != a->stop_level || mi.stop_triangles != a->stop_triangles))
         what = "stop levels";
+    else if (c->continuing && (mi.stop_level < c->lod.level || mi.stop_level > a->levels))
+        what = "stop levels (a continuation's may only rise)";
     else if (mi.flags != a->flags)
         what = "flags (normals, form)";
     else if (memcmp(mi.bbox_min, a->bbox_min, 12) != 0 ||
@@ -1491,6 +1494,18 @@ static mts_result check_resumed_info(mts_stream_client *c, const uint8_t *p, siz
     else if (mi.key_count != a->key_count ||
              (a->key_count && memcmp(mi.key_levels, a->key_levels, (size_t)a->key_count * 4) != 0))
         what = "key levels";
+    if (!what && c->continuing) {
+        /* the new stop: the runtime goes up to it as far as the splits held
+         * allow (the last batch decoded may reach past the old stop) */
+        c->info.stop_level = c->stop_level = mi.stop_level;
+        c->info.stop_triangles = mi.stop_triangles;
+        uint32_t target = c->splits < c->stop_level ? c->splits : c->stop_level;
+        rc = mts_lod_set_level(&c->lod, target, err);
+        if (rc != MTS_OK) {
+            mts_wire_model_info_free(&mi);
+            return rc;
+        }
+    }
     if (what)
         rc = mts_error_set(err, MTS_ERR_FORMAT,
                            "MODEL_INFO on resume: '%s' is now another stream (%s differ: stream "
@@ -2124,6 +2139,21 @@ int mts_stream_client_resume_point(const mts_stream_client *c, uint32_t *resume_
         *stream_id = c->info.stream_id;
     }
     return 1;
+}
+
+mts_result mts_stream_client_continue(mts_stream_client *c, uint32_t *resume_batch,
+                                      uint64_t *stream_id, mts_error *err)
+{
+    if (c->state != ST_DONE || !c->have_lod || !c->end_checksum || c->lod.broken)
+        return mts_error_set(err, MTS_ERR_ARG,
+                             "stream: only a stream that ended with a checked END continues");
+    *resume_batch = c->batches;
+    *stream_id = c->info.stream_id;
+    c->state = ST_INFO;
+    c->resuming = 1;
+    c->continuing = 1;
+    c->end_checksum = 0;
+    return MTS_OK;
 }
 
 mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)

@@ -176,6 +176,7 @@ typedef struct mts_stream_client {
     uint16_t error_code;
     char error_text[256];
     int resuming;       /* in a conversation after a broken one (see reconnected) */
+    int continuing;     /* ... that goes on past the stop level (see continue) */
     int rejected;       /* the last frame failed its CRC: rejected whole, nothing of it
                          * applied, and the client can go on: a resume asks for that
                          * frame again (PROTOCOL.md, "Split coding") */
@@ -220,5 +221,20 @@ int mts_stream_client_resume_point(const mts_stream_client *c, uint32_t *resume_
  * skipped, and BATCH frames go on from c->batches. MTS_ERR_ARG when
  * resume_point returns 0. */
 mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err);
+
+/* Continuing a stream that ended at its stop level towards a higher one
+ * (PROTOCOL.md, "Continuing"): a preview that zooms in asks for more. Call
+ * after END was checked; it readies c for a new conversation (a new frame
+ * reader, as after a break) whose HELLO asks for the new stop point with
+ * *resume_batch (c->batches: every batch the client decoded, including the
+ * splits of the last one past the old stop) and *stream_id. The MODEL_INFO
+ * must describe the same stream in everything but its stop level, which
+ * may not fall below the level the client is at (MTS_ERR_FORMAT); the
+ * runtime then moves up to the new stop as far as the splits held allow,
+ * the batches that follow take it the rest of the way, and END is checked
+ * at the new stop. It gives MTS_EV_RESUMED. MTS_ERR_ARG when the stream did
+ * not end with a checked END (an ERROR, a failure, or still going). */
+mts_result mts_stream_client_continue(mts_stream_client *c, uint32_t *resume_batch,
+                                      uint64_t *stream_id, mts_error *err);
 
 #endif

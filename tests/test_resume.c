@@ -325,6 +325,113 @@ static void test_cut_anywhere_then_resume_records(mts_test *t)
     mts_stream_free(&s);
 }
 
+/* Continuing past the stop (issue 22: a preview that zooms in asks for
+ * more): a stream stopped at one level, then asked for a higher stop from
+ * the batches it holds, ends with the checksum and vertices of an unbroken
+ * stream to that level, at every step; a step that lies within the splits
+ * already held (the last batch reaches past a stop inside it) needs no
+ * batch; the bytes are the unbroken stream's plus each further
+ * conversation's MODEL_INFO and END (and BASE again after a stop at level
+ * 0, which holds no batch). A lower stop, or continuing a stream that did
+ * not end, is refused. Both forms. */
+static void continue_steps(mts_test *t, const mts_stream *s, const uint32_t *stops, int nstops,
+                           const char *label)
+{
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_error err = {0};
+    tally n = {0};
+    size_t total = 0;
+    for (int k = 0; k < nstops && !t->case_failed; k++) {
+        uint32_t batch = 0;
+        uint64_t id = 0;
+        if (k > 0)
+            CHECKF(t, mts_stream_client_continue(&c, &batch, &id, &err) == MTS_OK, "%s: %s",
+                   label, err.msg);
+        CHECK(t, batch == (k ? c.batches : 0));
+        mts_buf b = {0};
+        CHECKF(t, conversation(s, stops[k], batch, id, &b), "%s: no conversation to %u from %u",
+               label, stops[k], batch);
+        total += b.size;
+        mts_result rc = feed(&c, b.data, b.size, (uint64_t)k, &n, &err);
+        mts_buf_free(&b);
+        CHECKF(t, rc == MTS_OK, "%s, step to %u: %s", label, stops[k], err.msg);
+        CHECKF(t, c.have_lod && c.lod.level == stops[k] && c.end_checksum &&
+                      c.checksum == s->level_checksum[stops[k]] && c.checksum == c.end_checksum,
+               "%s, step to %u: level %u, checksum %016llx, unbroken %016llx", label, stops[k],
+               c.lod.level, (unsigned long long)c.checksum,
+               (unsigned long long)s->level_checksum[stops[k]]);
+        size_t nv = (size_t)s->model.base_vertex_count + stops[k];
+        CHECKF(t, memcmp(c.model.positions, s->model.positions, nv * 12) == 0,
+               "%s, step to %u: vertices differ", label, stops[k]);
+    }
+    CHECKF(t, n.base == 1 && n.info == 1 && n.end == nstops && n.resumed == nstops - 1,
+           "%s: %d BASE, %d INFO, %d END, %d RESUMED", label, n.base, n.info, n.end, n.resumed);
+    /* the bytes: the unbroken stream to the last stop, plus MODEL_INFO and
+     * END (and BASE after a stop with no batch) for every further step */
+    mts_buf whole = {0};
+    conversation(s, stops[nstops - 1], 0, 0, &whole);
+    mts_buf info = {0};
+    mts_stream_put_model_info(s, stops[nstops - 1], &info);
+    size_t extra = 0;
+    for (int k = 1; k < nstops; k++)
+        extra += info.size + 32 + (stops[k - 1] < s->batch_first[0] + 1 ? s->batch_offset[0] : 0);
+    CHECKF(t, total >= whole.size && total <= whole.size + extra,
+           "%s: %zu bytes in all, the unbroken stream %zu (+%zu allowed)", label, total,
+           whole.size, extra);
+    mts_buf_free(&whole);
+    mts_buf_free(&info);
+    /* lower than the level held: refused */
+    if (c.lod.level > 0 && !t->case_failed) {
+        uint32_t batch;
+        uint64_t id;
+        CHECK(t, mts_stream_client_continue(&c, &batch, &id, &err) == MTS_OK);
+        mts_buf b = {0};
+        conversation(s, c.lod.level - 1, batch > 0 ? batch - 1 : 0, id, &b);
+        mts_result rc = feed(&c, b.data, b.size, 7, &n, &err);
+        CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, "may only rise"), "%s: %s", label,
+               err.msg);
+        mts_buf_free(&b);
+    }
+    mts_stream_client_free(&c);
+}
+
+static void test_continue_past_the_stop(mts_test *t)
+{
+    mts_stream s;
+    mts_stream_options o = {0};
+    o.with_records = 1;
+    if (!build_stream(t, &o, &s))
+        return;
+    const mts_stream *forms[2] = {&s, s.records_form};
+    for (int f = 0; f < 2 && forms[f]; f++) {
+        const mts_stream *x = forms[f];
+        const uint32_t n = x->model.level_count;
+        /* a stop inside the second batch, one within the splits that batch
+         * brought, then on to a third and the full level */
+        uint32_t inside = x->batch_first[1] + 3, held = inside + 2;
+        const uint32_t a[] = {inside, held, n / 3, n};
+        const uint32_t b[] = {0, n / 7, n / 7, n};
+        const uint32_t c[] = {n / 2, n};
+        char label[64];
+        snprintf(label, sizeof label, "%s, inside/held/third/full", f ? "records" : "splits");
+        continue_steps(t, x, a, 4, label);
+        snprintf(label, sizeof label, "%s, base/seventh/again/full", f ? "records" : "splits");
+        continue_steps(t, x, b, 4, label);
+        snprintf(label, sizeof label, "%s, half/full", f ? "records" : "splits");
+        continue_steps(t, x, c, 2, label);
+    }
+    /* a stream still going does not continue */
+    mts_stream_client cl;
+    mts_stream_client_init(&cl);
+    mts_error err = {0};
+    uint32_t batch;
+    uint64_t id;
+    CHECK(t, mts_stream_client_continue(&cl, &batch, &id, &err) == MTS_ERR_ARG);
+    mts_stream_client_free(&cl);
+    mts_stream_free(&s);
+}
+
 /* A client that began in one form cannot go on in the other: the forms are
  * two streams (two stream_ids). A server that checks answers `stale`; one
  * that does not sends the other form, which is refused whole. */
@@ -930,6 +1037,7 @@ int main(int argc, char **argv)
     RUN(&t, test_cut_anywhere_then_resume);
     RUN(&t, test_other_stream_refused);
     RUN(&t, test_cut_anywhere_then_resume_records);
+    RUN(&t, test_continue_past_the_stop);
     RUN(&t, test_other_form_refused);
     RUN(&t, test_server_killed_and_restarted);
     RUN(&t, test_server_killed_and_restarted_records);

@@ -6,6 +6,10 @@
  *     level and triangles reported for it, and the last one -- End, the full
  *     stream -- with the client's own "level" and "triangles";
  *   - --json counts the frames shown while the stream came, and its seconds;
+ *   - geomorphs: a shot mid-morph is named so and its HUD says morphing;
+ *   - more on demand: with --lod-policy distance the stream stops at the
+ *     policy's level, zooming in continues it, and the end is an unbroken
+ *     stream's checksum;
  *   - a malformed script line is refused with the file and line named.
  * Skips with the reason when Xvfb is not installed, unless
  * MTS_TEST_REQUIRE_EGL is set (CI: deps.sh installs it). */
@@ -231,6 +235,46 @@ static void test_window_screenshots(mts_test *t)
         free(d1);
         free(d2);
     }
+
+    /* more on demand: the distance policy asks for its level's stop, and
+     * zooming in continues the stream from the batches held; the end is the
+     * checksum of an unbroken stream to the level reached */
+    char zscript[800], zout[8192], ref[4096];
+    snprintf(zscript, sizeof zscript, "%s/zoom.txt", dir);
+    f = fopen(zscript, "w");
+    CHECK(t, f != NULL);
+    if (f) {
+        fputs("0.8 key s\n1.0 scroll 8\n2.5 key s\n2.8 key q\n", f);
+        fclose(f);
+    }
+    snprintf(cmd, sizeof cmd,
+             "cd %s && DISPLAY=:%d ASAN_OPTIONS=detect_leaks=0 timeout 120 %s/mts-client %s cow "
+             "--window --size 640x480 --script %s --json --lod-policy distance --distance 4 "
+             "2>zoom.log",
+             dir, display, bin_dir, listen, zscript);
+    int zrc = mts_test_run(cmd, zout, sizeof zout);
+    CHECKF(t, zrc == 0 && strstr(zout, "\"complete\":true"), "exit %d: %s", zrc, zout);
+    const char *z1 = strstr(zout, "{\"file\":");
+    const char *z2 = z1 ? strstr(z1 + 1, "{\"file\":") : NULL;
+    CHECKF(t, z1 && z2, "two screenshots wanted: %s", zout);
+    long zl = json_u(zout, "level");
+    if (z1 && z2) {
+        char hud1[1024];
+        json_s(z1, "hud", hud1, sizeof hud1);
+        CHECKF(t, json_u(z1, "level") < json_u(z2, "level") && json_u(z2, "level") == zl &&
+                      zl < json_u(zout, "levels") && json_u(zout, "continuations") >= 1,
+               "zooming in did not fetch more: %s", zout);
+        CHECKF(t, strstr(hud1, "zoom in for more") != NULL, "HUD before the zoom: '%s'", hud1);
+    }
+    char zsum[40] = "", rsum[40] = "";
+    json_s(zout, "checksum", zsum, sizeof zsum);
+    snprintf(cmd, sizeof cmd,
+             "ASAN_OPTIONS=detect_leaks=0 %s/mts-client %s cow --level %ld --no-render --json",
+             bin_dir, listen, zl);
+    CHECK(t, mts_test_run(cmd, ref, sizeof ref) == 0);
+    json_s(ref, "checksum", rsum, sizeof rsum);
+    CHECKF(t, zsum[0] && !strcmp(zsum, rsum), "checksum %s after the zoom, %s unbroken to %ld",
+           zsum, rsum, zl);
     char clog[800], logtext[4096];
     snprintf(clog, sizeof clog, "%s/client.log", dir);
     mts_test_read_file(clog, logtext, sizeof logtext);
