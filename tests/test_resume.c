@@ -333,7 +333,7 @@ static void test_cut_anywhere_then_resume_records(mts_test *t)
  * batch; the bytes are the unbroken stream's plus each further
  * conversation's MODEL_INFO and END (and BASE again after a stop at level
  * 0, which holds no batch). A lower stop, or continuing a stream that did
- * not end, is refused. Both forms. */
+ * not end, is refused. Both forms, and from every batch of cow to full. */
 static void continue_steps(mts_test *t, const mts_stream *s, const uint32_t *stops, int nstops,
                            const char *label)
 {
@@ -420,6 +420,23 @@ static void test_continue_past_the_stop(mts_test *t)
         continue_steps(t, x, b, 4, label);
         snprintf(label, sizeof label, "%s, half/full", f ? "records" : "splits");
         continue_steps(t, x, c, 2, label);
+    }
+    /* from every batch boundary of cow (and one split into each batch) on
+     * to the full level, both forms */
+    for (int f = 0; f < 2 && forms[f] && !t->case_failed; f++) {
+        const mts_stream *x = forms[f];
+        for (uint32_t k = 0; k < x->batch_count && !t->case_failed; k++) {
+            for (uint32_t d = 0; d < 2; d++) {
+                uint32_t stop = x->batch_first[k] + d;
+                if (stop >= x->model.level_count)
+                    continue;
+                const uint32_t st[2] = {stop, x->model.level_count};
+                char label[80];
+                snprintf(label, sizeof label, "%s, from %u to full", f ? "records" : "splits",
+                         stop);
+                continue_steps(t, x, st, 2, label);
+            }
+        }
     }
     /* a stream still going does not continue */
     mts_stream_client cl;
