@@ -14,6 +14,8 @@ static void usage(FILE *f)
     fputs("usage: mts-stress [HOST[:PORT]] MODEL --clients N [--concurrency C] [--ramp S]\n"
           "                  [--level L | --triangles N | --fraction F] [--no-apply] [--verify]\n"
           "                  [--records] [--threads T] [--appliers A]\n"
+          "                  [--continue-level L | --continue-triangles N |\n"
+          "                   --continue-fraction F [--continue-share S]]\n"
           "                  [--connect-timeout S] [--io-timeout S] [--json] [--quiet]\n"
           "       mts-stress HOST:PORT --http PATH --clients N ...   (a static file server)\n"
           "\n"
@@ -26,6 +28,12 @@ static void usage(FILE *f)
           "  --concurrency C      at most C connected at once (default: all N)\n"
           "  --ramp S             start the clients evenly over S seconds (default 0)\n"
           "  --level L / --triangles N / --fraction F   where each client stops (default: full)\n"
+          "  --continue-level L / --continue-triangles N / --continue-fraction F\n"
+          "                       previews that ask for more: after END at its stop, a\n"
+          "                       client connects again and continues from the batches it\n"
+          "                       holds to this stop (PROTOCOL.md, \"Continuing\"), checked\n"
+          "                       at its END; applying clients only\n"
+          "  --continue-share S   only this share of the clients continues (0..1, default 1)\n"
           "  --no-apply           only read and frame the stream; do not decode or apply\n"
           "                       (loads the server, not this process)\n"
           "  --records            ask for the records form (PROTOCOL.md): far more bytes,\n"
@@ -123,6 +131,23 @@ int main(int argc, char **argv)
             else
                 so.appliers = x;
             i++;
+        } else if (!strncmp(a, "--continue-", 11) && strcmp(a, "--continue-share") != 0) {
+            char base[40];
+            snprintf(base, sizeof base, "--%s", a + 11);
+            if (cli_parse_stop(base, v, &so.continue_kind, &so.continue_value) <= 0) {
+                fprintf(stderr, "mts-stress: %s needs %s\n", a,
+                        strcmp(base, "--fraction") ? "a whole number" : "a number from 0 to 1");
+                return CLI_EXIT_USAGE;
+            }
+            i++;
+        } else if (!strcmp(a, "--continue-share")) {
+            if (!v || !cli_parse_double(v, &so.continue_share) || !(so.continue_share > 0) ||
+                so.continue_share > 1) {
+                fprintf(stderr, "mts-stress: --continue-share needs a number above 0, at most "
+                                "1\n");
+                return CLI_EXIT_USAGE;
+            }
+            i++;
         } else if ((stop = cli_parse_stop(a, v, &so.hello.stop_kind, &so.hello.stop_value))) {
             if (stop < 0) {
                 fprintf(stderr, "mts-stress: %s needs %s\n", a,
@@ -174,6 +199,11 @@ int main(int argc, char **argv)
         fprintf(stderr, "mts-stress: give one of --level, --triangles, --fraction\n");
         return CLI_EXIT_USAGE;
     }
+    if (so.continue_kind && (so.no_apply || so.http_path)) {
+        fprintf(stderr, "mts-stress: --continue-* needs applying clients (not --no-apply or "
+                        "--http)\n");
+        return CLI_EXIT_USAGE;
+    }
     const char *model = pos[npos - 1];
     if (!mts_wire_valid_name(model, strlen(model))) {
         fprintf(stderr, "mts-stress: '%s' is not a model name ([A-Za-z0-9._-], 1..64)\n", model);
@@ -222,6 +252,7 @@ int main(int argc, char **argv)
         cli_json_u64(&j, "concurrency", so.concurrency ? so.concurrency : so.clients);
         cli_json_u64(&j, "bytes", r.bytes);
         cli_json_u64(&j, "batches", r.batches);
+        cli_json_u64(&j, "continuations", r.continuations);
         cli_json_num(&j, "seconds", r.seconds, 3);
         cli_json_num(&j, "mb_per_s", r.mb_per_s, 2);
         cli_json_num(&j, "batches_per_s", r.batches_per_s, 1);
@@ -244,6 +275,8 @@ int main(int argc, char **argv)
                r.seconds);
         printf("  %.1f MB, %.1f MB/s, %.0f batches/s; this process used %.2f s of CPU\n",
                (double)r.bytes / 1e6, r.mb_per_s, r.batches_per_s, cpu);
+        if (r.continuations)
+            printf("  %u clients continued past their first stop\n", r.continuations);
         if (r.succeeded)
             printf("  ms to base   p50 %.1f  p90 %.1f  p99 %.1f  max %.1f\n"
                    "  ms to final  p50 %.1f  p90 %.1f  p99 %.1f  max %.1f\n",

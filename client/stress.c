@@ -48,6 +48,9 @@ typedef struct sclient {
     uint32_t skim_left;  /* payload bytes of the current frame still to come */
     uint8_t *skim_keep;  /* the current control frame's payload, or NULL */
     uint32_t skim_kept;
+    /* continuing (options.continue_kind): the second conversation's HELLO */
+    uint8_t *hello2;
+    uint32_t hello2_size;
 } sclient;
 
 typedef struct stress {
@@ -93,6 +96,8 @@ static void sc_release(stress *s, sclient *c)
     c->http_head = NULL;
     free(c->skim_keep);
     c->skim_keep = NULL;
+    free(c->hello2);
+    c->hello2 = NULL;
     if (c->decoder) {
         mts_stream_client_free(c->decoder);
         free(c->decoder);
@@ -126,6 +131,8 @@ static void sc_succeed(stress *s, sclient *c, double now)
     sc_release(s, c);
 }
 
+static void sc_connect(stress *s, sclient *c);
+
 static void sc_start(stress *s, sclient *c, double now)
 {
     s->rep->started++;
@@ -138,6 +145,12 @@ static void sc_start(stress *s, sclient *c, double now)
             return;
         }
     }
+    sc_connect(s, c);
+}
+
+/* A connection for c's conversation: HELLO goes when it is up. */
+static void sc_connect(stress *s, sclient *c)
+{
     int e = 0, r = mts_net_connect_start(s->addr, &c->fd, &e);
     if (r < 0) {
         /* out of descriptors or local ports is this machine's limit, not the server's */
@@ -165,8 +178,10 @@ static void sc_send(stress *s, sclient *c, double now)
         }
         c->state = SC_SENDING;
     }
-    while (c->hello_sent < s->hello_size) {
-        ssize_t w = send(c->fd, s->hello + c->hello_sent, s->hello_size - c->hello_sent,
+    const uint8_t *hello = c->hello2 ? c->hello2 : s->hello;
+    const size_t size = c->hello2 ? c->hello2_size : s->hello_size;
+    while (c->hello_sent < size) {
+        ssize_t w = send(c->fd, hello + c->hello_sent, size - c->hello_sent,
                          MSG_NOSIGNAL | MSG_DONTWAIT);
         if (w < 0 && errno == EINTR)
             continue;
@@ -392,6 +407,58 @@ static int sc_skim(stress *s, sclient *c, const uint8_t *p, size_t n)
     return 1;
 }
 
+/* After END: a client chosen to ask for more connects again and continues
+ * to options.continue_kind/value from the batches it holds. 1 when it does
+ * (or failed trying, released), 0 when it is done. */
+static int sc_continues(stress *s, sclient *c)
+{
+    const mts_stress_options *o = s->o;
+    if (!o->continue_kind || c->hello2)
+        return 0; /* no continuation asked, or this was it */
+    double share = o->continue_share > 0 && o->continue_share < 1 ? o->continue_share : 1;
+    uint64_t i = (uint64_t)(c - s->c);
+    if ((uint64_t)((double)(i + 1) * share) == (uint64_t)((double)i * share))
+        return 0; /* not one of the share */
+    uint32_t batch;
+    uint64_t id;
+    mts_error err = {0};
+    if (mts_stream_client_continue(c->decoder, &batch, &id, &err) != MTS_OK) {
+        sc_fail(s, c, MTS_STRESS_LOCAL, "continue: %s", err.msg);
+        return 1;
+    }
+    mts_wire_hello h = o->hello;
+    if (h.major == 0) {
+        h.major = MTS_WIRE_MAJOR;
+        h.minor = MTS_WIRE_MINOR;
+    }
+    h.stop_kind = o->continue_kind;
+    h.stop_value = o->continue_value;
+    h.resume_batch = batch;
+    h.stream_id = id;
+    /* the form held, whatever was asked (PROTOCOL.md, "Resuming") */
+    h.flags = c->decoder->records ? (uint8_t)(h.flags | MTS_HELLO_RECORDS)
+                                  : (uint8_t)(h.flags & ~MTS_HELLO_RECORDS);
+    mts_buf b = {0};
+    mts_wire_put_hello(&b, &h);
+    if (b.failed) {
+        mts_buf_free(&b);
+        sc_fail(s, c, MTS_STRESS_LOCAL, "out of memory");
+        return 1;
+    }
+    c->hello2 = b.data;
+    c->hello2_size = (uint32_t)b.size;
+    sc_close_socket(s, c);
+    mts_wire_reader_free(&c->reader);
+    memset(&c->reader, 0, sizeof c->reader);
+    c->eof = 0;
+    c->hello_sent = 0;
+    c->got_info = c->got_base = 0;
+    s->rep->continuations++;
+    c->t_last = mts_clock_seconds(); /* the I/O timeout counts from here */
+    sc_connect(s, c);
+    return 1;
+}
+
 /* Apply mode: applies c's whole frames until the deadline. 0 once c has
  * ended (succeeded or failed and released), 2 when the deadline stopped it,
  * 1 when it waits for bytes. */
@@ -414,6 +481,8 @@ static int sc_apply(stress *s, sclient *c, double deadline)
         if (!sc_frame_apply(s, c, type, p, n, &done))
             return 0; /* failed and released */
         if (done) {
+            if (sc_continues(s, c))
+                return 0; /* connecting again, or failed and released */
             /* the clock again, not the round's: a round of many applying
              * clients can take long enough to blur the percentiles */
             sc_succeed(s, c, mts_clock_seconds());
@@ -672,6 +741,7 @@ static void report_add(mts_stress_report *to, const mts_stress_report *r)
     to->bytes += r->bytes;
     to->batches += r->batches;
     to->splits += r->splits;
+    to->continuations += r->continuations;
     if (r->seconds > to->seconds)
         to->seconds = r->seconds;
 }

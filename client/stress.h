@@ -41,6 +41,7 @@ typedef struct mts_stress_report {
     uint32_t failures[MTS_STRESS_FAILURE_KINDS];
     char first_error[MTS_STRESS_FAILURE_KINDS][160]; /* the first message of each kind */
     uint64_t bytes, batches, splits;
+    uint32_t continuations; /* conversations that went on past a client's first stop */
     double seconds; /* since the first connection attempt */
     /* Filled at the end, over the clients that succeeded (0 when none): */
     double ms_base[4];  /* p50, p90, p99, max: connect started -> base mesh in */
@@ -63,6 +64,14 @@ typedef struct mts_stress_options {
                              * oldest first (the others' bytes wait, read as they
                              * come, so the server sees every client keep up); 0: 8 */
     int verify;             /* with no_apply: still check every BATCH's CRC */
+    /* Previews that ask for more (PROTOCOL.md, "Continuing"; applying
+     * clients only): after END at the hello's stop, a share of the clients
+     * (continue_share in (0, 1]; 0: all) connects again and continues to
+     * this stop (MTS_STOP_FRACTION etc.; continue_kind 0: none), checked at
+     * its END as the first was. */
+    uint8_t continue_kind;
+    uint32_t continue_value;
+    double continue_share;
     /* Not mtstream at all: GET this path over HTTP/1.0 (one response per
      * connection) and count the body, so a static file server (nginx) can be
      * measured by the same clients on the same bytes. NULL: mtstream. */

@@ -361,6 +361,37 @@ static void test_quiet_keeps_stats(mts_test *t)
     CHECKF(t, !strstr(logtext, "peer=") && !strstr(logtext, "added:"), "%s", logtext);
 }
 
+/* Previews that ask for more (issue 22): half the clients stop at a tenth,
+ * the other half continue to a half from the batches they hold, in both
+ * forms; every client completes with its END checked, and the batches are
+ * exactly those of the two stops (none sent twice). */
+static void test_continuing_clients(mts_test *t)
+{
+    server sv;
+    CHECK(t, server_start(&sv, "continue", NULL));
+    char out[4096], ref_lo[4096], ref_hi[4096];
+    CHECK(t, stress(&sv, "cow --clients 1 --fraction 0.1 --json", ref_lo, sizeof ref_lo) == 0);
+    CHECK(t, stress(&sv, "cow --clients 1 --fraction 0.5 --json", ref_hi, sizeof ref_hi) == 0);
+    long lo = json_num(ref_lo, "batches"), hi = json_num(ref_hi, "batches");
+    for (int records = 0; records < 2; records++) {
+        int rc = stress(&sv,
+                        records ? "cow --clients 8 --fraction 0.1 --continue-fraction 0.5 "
+                                  "--continue-share 0.5 --records --json"
+                                : "cow --clients 8 --fraction 0.1 --continue-fraction 0.5 "
+                                  "--continue-share 0.5 --json",
+                        out, sizeof out);
+        CHECKF(t, rc == 0 && json_num(out, "succeeded") == 8 && json_num(out, "failed") == 0 &&
+                      json_num(out, "continuations") == 4,
+               "records %d: exit %d: %s", records, rc, out);
+        if (!records)
+            CHECKF(t, json_num(out, "batches") == 4 * lo + 4 * hi,
+                   "%ld batches, want 4 x %ld + 4 x %ld", json_num(out, "batches"), lo, hi);
+    }
+    CHECK(t, stress(&sv, "cow --clients 2 --no-apply --continue-fraction 0.5 --json", out,
+                    sizeof out) == 2);
+    CHECK(t, server_stop(&sv) == 0);
+}
+
 /* A stop (SIGTERM) while the models still load ends mts-server with status
  * 1 and a line saying so, not killed by the signal (issue 19: exit 143). A
  * grid mesh of 180,000 triangles takes seconds to build; the stop comes
@@ -479,6 +510,7 @@ int main(int argc, char **argv)
     RUN(&t, test_slow_reader);
     RUN(&t, test_workers_rate_stats);
     RUN(&t, test_quiet_keeps_stats);
+    RUN(&t, test_continuing_clients);
     RUN(&t, test_stop_while_loading);
     RUN(&t, test_fetch_timeout_option);
     return mts_test_end(&t);
