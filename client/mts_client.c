@@ -42,7 +42,8 @@ static void usage(FILE *f)
           "  --lod-policy P      the level drawn at the end: received (default: all that\n"
           "                      came), distance or area (from the camera: the stream is\n"
           "                      asked to stop at their level), budget (the largest\n"
-          "                      level that draws within 1000/--fps ms)\n"
+          "                      level that draws within 1000/--fps ms: an eighth of the\n"
+          "                      model first, then more while frames fit)\n"
           "  --fps N             budget's target frames per second (default 60)\n"
           "  --distance D        camera at D times the framing distance (default 1)\n"
           "  --verify            check every batch's CRC and the final checksum (always\n"
@@ -187,7 +188,7 @@ static int level_pngs(client_run *rn, mts_stream_client *c, int final)
 static int on_event(void *user, mts_stream_event ev, mts_stream_client *c)
 {
     client_run *rn = user;
-    if (ev == MTS_EV_RESUMED && !rn->quiet) {
+    if (ev == MTS_EV_RESUMED && !rn->quiet && !c->continuing) {
         cli_bar_done(&rn->bar);
         fprintf(stderr, "mts-client: reconnected; resuming at batch %u of %u\n", c->batches,
                 c->info.batch_count);
@@ -310,10 +311,14 @@ int client_policy_stop(mts_session_options *so, const client_run *rn,
     mts_stream_client_free(&lc);
     if (rc != MTS_OK || !l.found)
         return 0; /* the stream comes whole and the policy picks after it */
-    double t = mts_lod_policy_stop_triangles(po, distance,
-                                             rn->ro.camera.fov_y_deg * 3.14159265f / 180.0f,
-                                             (int)rn->ro.width, (int)rn->ro.height,
-                                             l.entry.triangles);
+    /* budget cannot know its level before frames are timed: a first guess,
+     * an eighth of the model, then more while frames stay in the budget */
+    double t = po->kind == MTS_LOD_POLICY_BUDGET
+                   ? l.entry.triangles / 8.0
+                   : mts_lod_policy_stop_triangles(po, distance,
+                                                   rn->ro.camera.fov_y_deg * 3.14159265f / 180.0f,
+                                                   (int)rn->ro.width, (int)rn->ro.height,
+                                                   l.entry.triangles);
     if (!(t >= 0) || t > UINT32_MAX)
         return 0;
     so->hello.stop_kind = MTS_STOP_TRIANGLES;
@@ -380,8 +385,9 @@ static int compare_with_file(const char *path, mts_stream_client *c, mts_error *
  * change to glFinish, until the level has held for 10 frames (at most 120).
  * Only changed strips are re-uploaded (the coherent runtime). */
 static int apply_policy(client_run *rn, mts_stream_client *c, const mts_lod_policy_options *po,
-                        double distance, uint32_t *level)
+                        double distance, uint32_t *level, double *want_more)
 {
+    *want_more = 0;
     mts_lod_policy p;
     mts_lod_policy_init(&p, po, &c->model);
     mts_strip_stats base = {0};
@@ -403,6 +409,9 @@ static int apply_policy(client_run *rn, mts_stream_client *c, const mts_lod_poli
             return 0;
         last_ms = (1e3 * mts_clock_seconds()) - t;
     }
+    /* all that came fits the budget: the triangles it would take */
+    if (*level == received && p.ms_per_triangle > 0)
+        *want_more = p.opt.headroom * (1000.0 / p.opt.fps) / p.ms_per_triangle;
     return 1;
 }
 
@@ -549,6 +558,8 @@ int main(int argc, char **argv)
         return CLI_EXIT_USAGE;
     }
     rn.ro.camera.zoom = (float)(1 / distance);
+    /* budget reads frame times: frames that are waited for */
+    rn.ro.timed = po.kind == MTS_LOD_POLICY_BUDGET;
     if (stops > 1) {
         fprintf(stderr, "mts-client: give one of --level, --triangles, --fraction\n");
         return CLI_EXIT_USAGE;
@@ -617,10 +628,9 @@ int main(int argc, char **argv)
         mts_render_context_destroy(rn.ctx);
         return CLI_EXIT_FAIL;
     }
-    uint32_t asked = 0;
+    uint32_t asked = 0, continuations = 0;
     uint64_t list_bytes = 0, full_bytes = 0;
-    int stop_asked = !list && stops == 0 &&
-                     (po.kind == MTS_LOD_POLICY_DISTANCE || po.kind == MTS_LOD_POLICY_AREA) &&
+    int stop_asked = !list && stops == 0 && po.kind != MTS_LOD_POLICY_RECEIVED &&
                      client_policy_stop(&so, &rn, &po, distance, &asked, &list_bytes, &full_bytes);
     mts_stream_client c;
     mts_stream_client_init(&c);
@@ -648,13 +658,36 @@ int main(int argc, char **argv)
         if (rc == MTS_OK)
             level_pngs(&rn, &c, 1);
         uint32_t final_level = MTS_VIEW_NEWEST;
-        /* a stop the policy asked for is its level already (the server
-         * resolved it with the real counts, where the client has a linear
-         * estimate): drawn as it came */
-        if (po.kind != MTS_LOD_POLICY_RECEIVED && !stop_asked &&
-            !apply_policy(&rn, &c, &po, distance, &final_level) && rc == MTS_OK) {
-            rc = rn.err.code ? rn.err.code : MTS_ERR_INTERNAL;
-            err = rn.err;
+        /* a stop distance or area asked for is their level already (the
+         * server resolved it with the real counts, where the client has a
+         * linear estimate): drawn as it came. budget times frames, and while
+         * all that came fits, asks for what would (up to 8 times) */
+        int pick = po.kind != MTS_LOD_POLICY_RECEIVED &&
+                   (!stop_asked || po.kind == MTS_LOD_POLICY_BUDGET);
+        for (int more = 0; pick && rc == MTS_OK; more++) {
+            double want = 0;
+            if (!apply_policy(&rn, &c, &po, distance, &final_level, &want)) {
+                rc = rn.err.code ? rn.err.code : MTS_ERR_INTERNAL;
+                err = rn.err;
+                break;
+            }
+            if (!stop_asked || more == 8 || c.stop_level >= c.info.levels ||
+                !(want > 1.1 * c.info.stop_triangles))
+                break;
+            uint32_t batch;
+            uint64_t id;
+            if ((rc = mts_stream_client_continue(&c, &batch, &id, &err)) != MTS_OK)
+                break;
+            so.hello.stop_kind = MTS_STOP_TRIANGLES;
+            so.hello.stop_value = want > UINT32_MAX ? UINT32_MAX : (uint32_t)want;
+            so.hello.resume_batch = batch;
+            so.hello.stream_id = id;
+            uint64_t before = st.bytes;
+            rc = mts_session_run(&so, &c, &st, &err);
+            st.bytes += before;
+            continuations++;
+            received = c.lod.level;
+            final_level = MTS_VIEW_NEWEST;
         }
         if (draw(&rn, &c, final_level) && rn.png)
             write_png(&rn, rn.png);
@@ -693,6 +726,7 @@ int main(int argc, char **argv)
             cli_json_bool(&j, "stop_asked", stop_asked);
             if (stop_asked) {
                 cli_json_u64(&j, "triangles_asked", asked);
+                cli_json_u64(&j, "continuations", continuations);
                 cli_json_u64(&j, "list_bytes", list_bytes);
                 cli_json_u64(&j, "full_stream_bytes", full_bytes);
             }

@@ -531,7 +531,8 @@ static void test_records_form_programs(mts_test *t)
  * exactly -- the same bytes, level and checksum as --triangles with the
  * triangles they asked for -- far fewer than the whole stream's; and the
  * level drawn is the level received, also at a stop level inside a batch
- * (--level 300: the last batch brings splits past it). */
+ * (--level 300: the last batch brings splits past it); budget asks for a
+ * first guess and continues while frames fit. */
 static void test_policy_asks_stop(mts_test *t)
 {
     char out[8192], ref[8192], cmd[4096], dir[600], log[700];
@@ -589,6 +590,26 @@ static void test_policy_asks_stop(mts_test *t)
                "%s: %s bytes, level %s, checksum %s; --triangles %s: %s, %s, %s", policies[i],
                bytes, level, sum, asked, rbytes, rlevel, rsum);
     }
+    /* budget: a first guess, then more while frames fit; with a budget no
+     * frame can miss (--fps 0.01: 100 s a frame) it continues to the full
+     * level, the unbroken stream's checksum */
+    snprintf(cmd, sizeof cmd,
+             "ASAN_OPTIONS=detect_leaks=0 %s/mts-client %s cow --size 64x64 --json "
+             "--lod-policy budget --fps 0.01",
+             bin_dir, listen);
+    int brc = mts_test_run(cmd, out, sizeof out);
+    snprintf(cmd, sizeof cmd, "ASAN_OPTIONS=detect_leaks=0 %s/mts-client %s cow --no-render --json",
+             bin_dir, listen);
+    CHECK(t, mts_test_run(cmd, ref, sizeof ref) == 0);
+    char bl[32], bls[32], bc[32], bsum[40], fsum[40];
+    json_value(out, "level", bl, sizeof bl);
+    json_value(out, "levels", bls, sizeof bls);
+    json_value(out, "continuations", bc, sizeof bc);
+    json_value(out, "checksum", bsum, sizeof bsum);
+    json_value(ref, "checksum", fsum, sizeof fsum);
+    CHECKF(t, brc == 0 && !strcmp(bl, bls) && atol(bc) >= 1 && bsum[0] && !strcmp(bsum, fsum),
+           "budget: exit %d, level %s of %s, %s continuations, checksum %s (full %s): %s", brc,
+           bl, bls, bc, bsum, fsum, out);
     /* a stop inside a batch is drawn at the stop level */
     snprintf(cmd, sizeof cmd,
              "ASAN_OPTIONS=detect_leaks=0 %s/mts-client %s cow --size 64x64 --json --level 300",
