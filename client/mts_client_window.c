@@ -101,9 +101,10 @@ static uint32_t win_choose_level(win *wn)
 }
 
 /* What more the view asks for of a stream that ended short of the full
- * level: a level key past what came (a level stop), or the camera policy's
- * triangles for the view now, over a tenth more than the stop gave (so a
- * small zoom does not start a conversation). 0 when nothing. */
+ * level: a level key past what came (a level stop), or the policy's
+ * triangles -- the camera's for the view now, or what the frame budget
+ * would take once all that came fits it -- over a tenth more than the stop
+ * gave (so a small zoom does not start a conversation). 0 when nothing. */
 static int win_wants_more(const win *wn, uint8_t *kind, uint32_t *value)
 {
     const mts_stream_client *c = wn->c;
@@ -117,10 +118,19 @@ static int win_wants_more(const win *wn, uint8_t *kind, uint32_t *value)
         *value = wn->manual_level;
         return 1;
     }
-    if (!wn->use_policy || wn->po->kind == MTS_LOD_POLICY_BUDGET)
+    if (!wn->use_policy)
         return 0;
-    mts_lod_view view = win_view(wn);
-    double want = mts_lod_policy_view_triangles(&wn->policy, &view);
+    double want;
+    if (wn->po->kind == MTS_LOD_POLICY_BUDGET) {
+        /* all that came fits the budget: the triangles that would */
+        const mts_lod_policy *p = &wn->policy;
+        if (!(p->ms_per_triangle > 0) || p->level != c->lod.level)
+            return 0;
+        want = p->opt.headroom * (1000.0 / p->opt.fps) / p->ms_per_triangle;
+    } else {
+        mts_lod_view view = win_view(wn);
+        want = mts_lod_policy_view_triangles(&wn->policy, &view);
+    }
     if (!(want > 1.1 * c->info.stop_triangles) || want > UINT32_MAX)
         return 0;
     *kind = MTS_STOP_TRIANGLES;
@@ -513,8 +523,7 @@ int client_window_main(client_run *rn, mts_session_options *so, const char *scri
      * in then asks for more (win_wants_more) */
     uint32_t asked = 0;
     uint64_t list_bytes = 0, full_bytes = 0;
-    if (so->hello.stop_kind == MTS_STOP_FULL &&
-        (po->kind == MTS_LOD_POLICY_DISTANCE || po->kind == MTS_LOD_POLICY_AREA))
+    if (so->hello.stop_kind == MTS_STOP_FULL && po->kind != MTS_LOD_POLICY_RECEIVED)
         client_policy_stop(so, rn, po, 1.0 / rn->ro.camera.zoom, &asked, &list_bytes,
                            &full_bytes);
     mts_result rc = win_run(&wn, so, script_path, po, &err);
