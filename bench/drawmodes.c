@@ -111,24 +111,12 @@ mts_result mts_drawmodes_draw(mts_drawmodes *d, mts_renderer *r, mts_drawmode mo
         bytes = indices * 4u;
         break;
     }
-    case MTS_DRAWMODE_COMPACT: {
-        unsigned ibo;
-        uint64_t count;
-        int u16;
-        if ((rc = mts__render_packed(r, 1, &ibo, &count, &u16, err)) != MTS_OK) {
+    case MTS_DRAWMODE_COMPACT:
+        if ((rc = mts__render_draw_packed(r, 1, &calls, &indices, &bytes, err)) != MTS_OK) {
             mts__render_frame_end(r, &f, 0, 0, 0, NULL);
             return rc;
         }
-        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
-        if (count) {
-            glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)count,
-                           u16 ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT, (const void *)0);
-            calls = 1;
-            indices = count;
-            bytes = count * (u16 ? 2u : 4u);
-        }
         break;
-    }
     case MTS_DRAWMODE_LIST:
         if (d->list_count) {
             glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d->list_ibo);

@@ -1339,6 +1339,28 @@ mts_result mts__render_packed(mts_renderer *r, int compact, unsigned *ibo, uint6
     return MTS_OK;
 }
 
+mts_result mts__render_draw_packed(mts_renderer *r, int compact, uint32_t *calls,
+                                   uint64_t *indices, uint64_t *index_bytes, mts_error *err)
+{
+    unsigned ibo;
+    uint64_t count;
+    int u16;
+    mts_result rc = mts__render_packed(r, compact, &ibo, &count, &u16, err);
+    if (rc != MTS_OK)
+        return rc;
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
+    *calls = 0;
+    *indices = *index_bytes = 0;
+    if (count) {
+        glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)count, u16 ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT,
+                       (const void *)0);
+        *calls = 1;
+        *indices = count;
+        *index_bytes = count * (u16 ? 2u : 4u);
+    }
+    return MTS_OK;
+}
+
 mts_result mts__render_frame_end(mts_renderer *r, const mts__render_frame *f, uint32_t calls,
                                  uint64_t indices, uint64_t index_bytes, mts_error *err)
 {
@@ -1396,22 +1418,10 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
             indices += r->length[s];
         }
         index_bytes = indices * 4u;
-    } else {
-        unsigned ibo;
-        uint64_t count;
-        int u16;
-        if ((rc = mts__render_packed(r, 0, &ibo, &count, &u16, err)) != MTS_OK) {
-            mts__render_frame_end(r, &f, 0, 0, 0, NULL);
-            return rc;
-        }
-        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
-        if (count) {
-            glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)count,
-                           u16 ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT, (const void *)0);
-            calls = 1;
-            indices = count;
-            index_bytes = count * (u16 ? 2u : 4u);
-        }
+    } else if ((rc = mts__render_draw_packed(r, 0, &calls, &indices, &index_bytes, err)) !=
+               MTS_OK) {
+        mts__render_frame_end(r, &f, 0, 0, 0, NULL);
+        return rc;
     }
     return mts__render_frame_end(r, &f, calls, indices, index_bytes, err);
 }

@@ -44,6 +44,11 @@ mts_result mts__render_frame_begin(mts_renderer *r, int wireframe, int slots,
 mts_result mts__render_packed(mts_renderer *r, int compact, unsigned *ibo, uint64_t *count,
                               int *u16, mts_error *err);
 
+/* mts__render_packed, then one draw of it: *calls, *indices and
+ * *index_bytes what it drew. Between begin and end. */
+mts_result mts__render_draw_packed(mts_renderer *r, int compact, uint32_t *calls,
+                                   uint64_t *indices, uint64_t *index_bytes, mts_error *err);
+
 mts_result mts__render_frame_end(mts_renderer *r, const mts__render_frame *f, uint32_t calls,
                                  uint64_t indices, uint64_t index_bytes, mts_error *err);
 

@@ -380,24 +380,36 @@ static void test_url_models(mts_test *t)
 
 /* mts-server + mts-client with pictures at three levels: they exist, are not
  * blank (a blank frame compresses to a few hundred bytes) and differ. */
-static void test_pngs_at_three_levels(mts_test *t)
+/* An mts-server on a free loopback port over a folder of cow.off, up once
+ * it lists its models; listen gets its address. flag: an extra option or
+ * NULL. Returns the pid, or -1 (a failed check says why). */
+static pid_t cow_server(mts_test *t, const char *name, const char *flag, char *listen,
+                        size_t listen_size)
 {
-    char out[8192], cmd[4096], dir[600], log[700];
-    snprintf(dir, sizeof dir, "%s/e2e_models", tmp_dir);
-    snprintf(cmd, sizeof cmd, "mkdir -p %s && cp tests/data/cow.off %s/", dir, dir);
+    char out[4096], cmd[2048], dir[600], log[700], server_bin[600];
+    snprintf(dir, sizeof dir, "%s/e2e_%s_models", tmp_dir, name);
+    snprintf(cmd, sizeof cmd, "rm -rf %s && mkdir -p %s && cp tests/data/cow.off %s/", dir, dir,
+             dir);
     CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
-    int port = free_port();
-    char listen[64], server_bin[600];
-    snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
+    snprintf(listen, listen_size, "127.0.0.1:%d", free_port());
     snprintf(server_bin, sizeof server_bin, "%s/mts-server", bin_dir);
-    snprintf(log, sizeof log, "%s/e2e_png_srv.log", tmp_dir);
-    char *argv[] = {server_bin, "--models", dir, "--listen", listen, NULL};
+    snprintf(log, sizeof log, "%s/e2e_%s_srv.log", tmp_dir, name);
+    char *argv[] = {server_bin, "--models", dir, "--listen", listen,
+                    (char *)(flag ? flag : "--quiet"), NULL};
     pid_t spid = spawn(argv, log);
     snprintf(cmd, sizeof cmd,
              "for i in $(seq 1 100); do %s/mts-client %s --list >/dev/null && exit 0; sleep 0.1; "
              "done; exit 1",
              bin_dir, listen);
-    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
+    int up = mts_test_run(cmd, out, sizeof out) == 0;
+    CHECKF(t, up, "server did not come up (%s)", log);
+    return spid;
+}
+
+static void test_pngs_at_three_levels(mts_test *t)
+{
+    char out[8192], cmd[4096], listen[64];
+    pid_t spid = cow_server(t, "png", NULL, listen, sizeof listen);
     char png[700];
     snprintf(png, sizeof png, "%s/e2e_cow.png", tmp_dir);
     /* In the sanitizer build LeakSanitizer's exit-time scan crashes while it
@@ -466,27 +478,12 @@ static void json_value(const char *json, const char *key, char *out, size_t size
  * splits form and completes all the same. */
 static void test_records_form_programs(mts_test *t)
 {
-    char out[8192], cmd[4096], dir[600];
-    snprintf(dir, sizeof dir, "%s/e2e_records_models", tmp_dir);
-    snprintf(cmd, sizeof cmd, "rm -rf %s && mkdir -p %s && cp tests/data/cow.off %s/", dir, dir,
-             dir);
-    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
-    char server_bin[600];
-    snprintf(server_bin, sizeof server_bin, "%s/mts-server", bin_dir);
+    char out[8192], cmd[4096];
     char splits[3][32] = {{0}}, split_bytes[32] = {0};
     for (int without = 0; without < 2; without++) {
-        int port = free_port();
-        char listen[64], log[700];
-        snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
-        snprintf(log, sizeof log, "%s/e2e_records_srv%d.log", tmp_dir, without);
-        char *argv[] = {server_bin, "--models", dir, "--listen", listen,
-                        without ? "--no-records-form" : "--quiet", NULL};
-        pid_t spid = spawn(argv, log);
-        snprintf(cmd, sizeof cmd,
-                 "for i in $(seq 1 100); do %s/mts-client %s --list >/dev/null && exit 0; "
-                 "sleep 0.1; done; exit 1",
-                 bin_dir, listen);
-        CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "server did not come up (%s)", log);
+        char listen[64];
+        pid_t spid = cow_server(t, without ? "records_without" : "records",
+                                without ? "--no-records-form" : NULL, listen, sizeof listen);
         const char *keys[3] = {"checksum", "triangles", "level"};
         for (int records = 0; records < 2; records++) {
             snprintf(cmd, sizeof cmd,
@@ -535,22 +532,8 @@ static void test_records_form_programs(mts_test *t)
  * first guess and continues while frames fit. */
 static void test_policy_asks_stop(mts_test *t)
 {
-    char out[8192], ref[8192], cmd[4096], dir[600], log[700];
-    snprintf(dir, sizeof dir, "%s/e2e_policy_models", tmp_dir);
-    snprintf(cmd, sizeof cmd, "mkdir -p %s && cp tests/data/cow.off %s/", dir, dir);
-    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
-    int port = free_port();
-    char listen[64], server_bin[600];
-    snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
-    snprintf(server_bin, sizeof server_bin, "%s/mts-server", bin_dir);
-    snprintf(log, sizeof log, "%s/e2e_policy_srv.log", tmp_dir);
-    char *argv[] = {server_bin, "--models", dir, "--listen", listen, NULL};
-    pid_t spid = spawn(argv, log);
-    snprintf(cmd, sizeof cmd,
-             "for i in $(seq 1 100); do %s/mts-client %s --list >/dev/null && exit 0; sleep 0.1; "
-             "done; exit 1",
-             bin_dir, listen);
-    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "server did not come up (%s)", log);
+    char out[8192], ref[8192], cmd[4096], listen[64];
+    pid_t spid = cow_server(t, "policy", NULL, listen, sizeof listen);
     const char *policies[2] = {"distance --distance 4", "area --distance 3"};
     for (int i = 0; i < 2; i++) {
         snprintf(cmd, sizeof cmd,
