@@ -139,7 +139,21 @@ static inline void mts_fuzz_resume_seeds(mts_fuzz_seeder *sd, const char *tag, c
         else
             mts_fuzz_emit_mode(sd, "stream_client", name, 0, b.data, b.size);
         mts_buf_free(&b);
-    }
+    }    /* continued past the stop (PROTOCOL.md, "Continuing"): to a stop inside
+     * batch 2, then from the batches held to the full level */
+    uint32_t stop = s->batch_first[2] + 3, held = 0;
+    while (held < s->batch_count && s->batch_first[held] < stop)
+        held++;
+    mts_buf b = {0};
+    mts_fuzz_conversation(s, 0, stop, SIZE_MAX, &b);
+    mts_buf_put(&b, MTS_FUZZ_CUT, MTS_FUZZ_CUT_SIZE);
+    mts_fuzz_conversation(s, held, n, SIZE_MAX, &b);
+    snprintf(name, sizeof name, "%s-continued", tag);
+    if (b.failed)
+        sd->failed = 1;
+    else
+        mts_fuzz_emit_mode(sd, "stream_client", name, 0, b.data, b.size);
+    mts_buf_free(&b);
 }
 
 static inline void mts_fuzz_request_seeds(mts_fuzz_seeder *sd, const mts_stream *s)

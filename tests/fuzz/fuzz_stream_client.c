@@ -107,10 +107,20 @@ int mts_fuzz_stream_client_ended(const uint8_t *data, size_t size, int *ended)
     c.user = &listed;
     mts_error err = {0};
     size_t at = 0;
+    int cont = 0; /* the last connection ended with END: the next one continues it */
     for (int first = 1;; first = 0) {
         const uint8_t *cut = at < size ? mts_fuzz_find_cut(bytes + at, size - at) : NULL;
         size_t len = cut ? (size_t)(cut - (bytes + at)) : size - at;
-        if (!first) {
+        if (!first && cont) {
+            /* a preview asking for more (PROTOCOL.md, "Continuing") */
+            uint32_t batch;
+            uint64_t id;
+            if (mts_stream_client_continue(&c, &batch, &id, &err) != MTS_OK) {
+                MTS_FUZZ_CHECK(err.msg[0] != 0);
+                break;
+            }
+            MTS_FUZZ_CHECK(batch == c.batches && id == c.info.stream_id);
+        } else if (!first) {
             uint32_t batch;
             uint64_t id;
             if (!mts_stream_client_resume_point(&c, &batch, &id))
@@ -123,7 +133,13 @@ int mts_fuzz_stream_client_ended(const uint8_t *data, size_t size, int *ended)
         }
         if (!(mode & 1))
             mts_fuzz_fix_stream_crcs(bytes + at, len);
-        if (mts_fuzz_connection(&c, bytes + at, len, max_piece, &seed, &end_seen) || !cut)
+        int stopped = mts_fuzz_connection(&c, bytes + at, len, max_piece, &seed, &end_seen);
+        if (!cut)
+            break;
+        /* after END more bytes are a continuation; after a refusal, nothing */
+        cont = stopped && c.have_lod && c.end_checksum && c.checksum == c.end_checksum &&
+               !c.lod.broken;
+        if (stopped && !cont)
             break;
         at += len + MTS_FUZZ_CUT_SIZE;
     }
