@@ -43,6 +43,18 @@ if [ -f "$shared/models/bunny00.off" ]; then
   for _ in 1 2 3 4 5; do
     build/bin/mts-client "127.0.0.1:$port" bunny00 --json >>"$out/loopback.txt" 2>/dev/null || status=1
   done
+  # previews that fetch what the view needs (issue 22): the distance policy's
+  # bytes beside one stream stopped at the triangles it asked for
+  : >"$out/previews.txt"
+  for d in 4 8; do
+    p=$(build/bin/mts-client "127.0.0.1:$port" bunny00 --lod-policy distance --distance "$d" \
+      --json 2>/dev/null) || status=1
+    tri=$(printf '%s' "$p" | python3 -c 'import json,sys; print(json.load(sys.stdin).get("triangles_asked", 0))' 2>/dev/null)
+    r=$(build/bin/mts-client "127.0.0.1:$port" bunny00 --triangles "${tri:-0}" --no-render \
+      --json 2>/dev/null) || status=1
+    printf '{"distance": %s, "policy": %s, "reference": %s}\n' "$d" "${p:-null}" "${r:-null}" \
+      >>"$out/previews.txt"
+  done
   kill -TERM "$server" 2>/dev/null
   wait "$server" 2>/dev/null
 fi
@@ -294,6 +306,35 @@ if runs:
           f"(base decoded and drawn) {loop['ms_base_median']:.1f} ms after connect, full level "
           f"{loop['ms_final_median']:.1f} ms, decode+apply {loop['ms_apply_median']:.1f} ms, "
           f"render {loop['ms_render_median']:.1f} ms, {loop['bytes']} bytes")
+previews = []
+try:
+    with open(os.path.join(out, "previews.txt")) as f:
+        for line in f:
+            if not line.strip():
+                continue
+            x = json.loads(line)
+            p, r = x.get("policy") or {}, x.get("reference") or {}
+            if not p or not r:
+                continue
+            got = p.get("bytes", 0) + p.get("list_bytes", 0)
+            previews.append({"distance": x["distance"], "level": p.get("level"),
+                             "triangles_asked": p.get("triangles_asked"), "bytes": p.get("bytes"),
+                             "list_bytes": p.get("list_bytes"),
+                             "stream_stopped_there_bytes": r.get("bytes"),
+                             "ratio": got / r["bytes"] if r.get("bytes") else None,
+                             "same_checksum": p.get("checksum") == r.get("checksum"),
+                             "full_stream_bytes": p.get("full_stream_bytes")})
+except (OSError, ValueError, KeyError):
+    pass
+if previews:
+    stream["previews"] = previews
+    print("\nPreviews (issue 22): --lod-policy distance asks for its stop (bunny00; bytes with "
+          "the listing, against one stream stopped at the triangles asked)")
+    for v in previews:
+        print(f"  distance {v['distance']}x: level {v['level']}, {v['bytes']} + {v['list_bytes']} B "
+              f"against {v['stream_stopped_there_bytes']} B ({v['ratio']:.3f}x), checksum "
+              f"{'the same' if v['same_checksum'] else 'DIFFERS'}; the whole stream "
+              f"{v['full_stream_bytes']} B")
 res["stream"] = stream
 
 stress = {}
