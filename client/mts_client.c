@@ -503,8 +503,7 @@ int main(int argc, char **argv)
             i++;
         } else if ((stop = cli_parse_stop(a, v, &so.hello.stop_kind, &so.hello.stop_value))) {
             if (stop < 0) {
-                fprintf(stderr, "mts-client: %s needs %s\n", a,
-                        strcmp(a, "--fraction") ? "a whole number" : "a number from 0 to 1");
+                fprintf(stderr, "mts-client: %s needs %s\n", a, cli_stop_value_kind(a));
                 return CLI_EXIT_USAGE;
             }
             stops++;

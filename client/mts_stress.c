@@ -135,8 +135,7 @@ int main(int argc, char **argv)
             char base[40];
             snprintf(base, sizeof base, "--%s", a + 11);
             if (cli_parse_stop(base, v, &so.continue_kind, &so.continue_value) <= 0) {
-                fprintf(stderr, "mts-stress: %s needs %s\n", a,
-                        strcmp(base, "--fraction") ? "a whole number" : "a number from 0 to 1");
+                fprintf(stderr, "mts-stress: %s needs %s\n", a, cli_stop_value_kind(a));
                 return CLI_EXIT_USAGE;
             }
             i++;
@@ -150,8 +149,7 @@ int main(int argc, char **argv)
             i++;
         } else if ((stop = cli_parse_stop(a, v, &so.hello.stop_kind, &so.hello.stop_value))) {
             if (stop < 0) {
-                fprintf(stderr, "mts-stress: %s needs %s\n", a,
-                        strcmp(a, "--fraction") ? "a whole number" : "a number from 0 to 1");
+                fprintf(stderr, "mts-stress: %s needs %s\n", a, cli_stop_value_kind(a));
                 return CLI_EXIT_USAGE;
             }
             stops++;

@@ -257,6 +257,12 @@ int cli_raise_nofile(uint64_t need, uint64_t *now, uint64_t *hard)
     return 1;
 }
 
+const char *cli_stop_value_kind(const char *opt)
+{
+    const char *dash = strrchr(opt, '-');
+    return dash && !strcmp(dash, "-fraction") ? "a number from 0 to 1" : "a whole number";
+}
+
 int cli_parse_stop(const char *opt, const char *value, uint8_t *kind, uint32_t *stop_value)
 {
     if (!strcmp(opt, "--level") || !strcmp(opt, "--triangles")) {

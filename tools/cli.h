@@ -77,6 +77,10 @@ int cli_raise_nofile(uint64_t need, uint64_t *now, uint64_t *hard);
  * 0: opt is another option; -1: its value is missing or malformed. */
 int cli_parse_stop(const char *opt, const char *value, uint8_t *kind, uint32_t *stop_value);
 
+/* What a stop option's value must be, for the usage message: "a whole
+ * number" (--level, --triangles) or "a number from 0 to 1" (--fraction). */
+const char *cli_stop_value_kind(const char *opt);
+
 /* "name" from "dir/name.ext". */
 void cli_stem(const char *path, char *out, size_t size);
 
