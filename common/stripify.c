@@ -31,17 +31,18 @@
  *     way, the neighbour with fewer free neighbours of its own (taking the
  *     swap for it), so that no triangle is stranded as a strip of its own;
  *     on ties it goes on without a swap. (Growing backwards from the seed as
- *     well is implemented but off: it did not pay, see the test file);
+ *     well is implemented but off: it did not pay, see docs/strips.md);
  *  3. tunnelling: short alternating sequences of "link an end into a path,
  *     cut the path next to it" that end by joining two ends (one strip
  *     fewer) or that remove swaps, kept when 3 S + W drops; searched from
- *     every path end and from every swap (cut there first), in passes
- *     until nothing changes;
+ *     every path end and from every swap (cut there first), depth 4, in
+ *     passes until nothing changes. The search is tunnel.c's
+ *     (mts__tunnel_search), the one the builder runs again after;
  *  4. encoding each path into indices with the winding of strips.h
  *     (striplinks.c).
  * The link structure of 3. (cover masks, labels, undo log, the moves and
- * their costs) is striplinks.h's, shared with tunnel.c; the search is ours.
- * Measured figures and the variants that lost are in tests/test_stripify.c.
+ * their costs) is striplinks.h's.
+ * Measured figures and the variants that lost: docs/strips.md.
  */
 #include "stripify.h"
 
@@ -53,14 +54,12 @@
 
 #define NONE MTS__NONE
 
-/* Fixed by measurement (docs/strips.md, "The stripifier"): the tunnel
- * search's depth (link/cut steps), the cost increase a partial tunnel may
- * carry, the depth searched from the two ends of a cut swap, and the most
- * passes (the first over all triangles, the others near the last pass's
- * changes). Paths grow forwards from their seed only: growing them
+/* The tunnelling search's depth (link/cut steps), from path ends and from
+ * the two ends of a cut swap, and the most a partial tunnel may cost: fixed
+ * by measurement (docs/strips.md, "The stripifier"); tunnel.c searches
+ * shallower but wider after. Paths grow forwards from their seed only: growing them
  * backwards too gained nothing once tunnelling runs. */
-enum { TUNNEL_DEPTH = 4, TUNNEL_BOUND = 2, TUNNEL_CUT_DEPTH = 4, TUNNEL_PASSES = 16 };
-_Static_assert((int)TUNNEL_DEPTH <= (int)MTS__LINKS_MAX_DEPTH, "the undo log must hold a search");
+enum { TUNNEL_DEPTH = 4, TUNNEL_CUT_DEPTH = 4, TUNNEL_BOUND = 2 };
 
 typedef struct ctx {
     const uint32_t *tri;
@@ -177,125 +176,7 @@ static void next_stamp(ctx *c)
     }
 }
 
-/* ---- 3. tunnelling ------------------------------------------------------ */
-
-/* The cover, its labels, the undo log and the moves are striplinks.h's,
- * shared with tunnel.c; what is this file's own is the search: depth first,
- * the first cheaper state wins. */
-
-typedef struct opt {
-    mts__links L;
-    int depth, cut_depth, bound;
-} opt;
-
-/* Was the link across edge e of t added by the search in progress? Such a
- * link is not in the labelled paths, so the search must not cut it
- * (paths_ok could not place the cut). */
-static int added_now(const mts__links *L, uint32_t t, unsigned e)
-{
-    for (int i = 0; i < L->nundo; i++) {
-        const mts__link_op *op = &L->undo[i];
-        if (op->added && ((op->t == t && op->et == e) || (op->u == t && op->eu == e)))
-            return 1;
-    }
-    return 0;
-}
-
-/* Keeps the search's changes, relabels every path they touched and marks
- * the triangles around them for the next pass. */
-static void accept(mts__links *L)
-{
-    mts__links_relabel(L, L->undo, L->nundo);
-    L->nundo = 0;
-}
-
-/* Depth-first search for a tunnel from the path end z; cum is the change of
- * 3 S + W so far. Stops at the first state that costs less than at the
- * start and has no cycle (returns 1, changes kept in the undo log); else
- * restores the links and returns 0. A step has at most 3 x 2 choices, so a
- * search visits at most 6^depth states; the bound on cum prunes most. (Marks
- * that let a search go through each edge once were tried: same strips, same
- * time, so the search stays exhaustive.) */
-static int tunnel(opt *o, uint32_t z, int depth, int cum)
-{
-    mts__links *L = &o->L;
-    for (unsigned i = 0; i < 3; i++) {
-        uint32_t y = L->nb[3 * (size_t)z + i];
-        if (y == NONE || (L->mask[z] >> i & 1) || mts__links_linked(L, z, y))
-            continue;
-        int here = L->nundo;
-        if (mts__links_count(L, y) < 2) {
-            /* y is an end too: join the two paths, one strip fewer */
-            int d = mts__move_join(L, z, i);
-            if (cum + d < 0 && mts__links_paths_ok(L))
-                return 1;
-            mts__links_undo_to(L, here);
-            continue;
-        }
-        if (depth == 0)
-            continue;
-        for (unsigned e = 0; e < 3; e++) {
-            /* link z to y and cut y from yi: the end moves to yi */
-            if (!(L->mask[y] >> e & 1) || added_now(L, y, e))
-                continue;
-            uint32_t yi = L->nb[3 * (size_t)y + e];
-            int d = mts__move_shift(L, z, i, e);
-            if (cum + d < 0 && mts__links_paths_ok(L))
-                return 1;
-            if (cum + d <= o->bound && tunnel(o, yi, depth - 1, cum + d))
-                return 1;
-            mts__links_undo_to(L, here);
-        }
-    }
-    return 0;
-}
-
-static void improve(opt *o, int passes)
-{
-    mts__links *L = &o->L;
-    uint32_t n = L->n;
-    mts__links_label_all(L);
-    if (passes > 254)
-        passes = 254;
-    for (int pass = 1; pass <= passes; pass++) {
-        int changed = 0;
-        L->pass = (uint8_t)pass;
-        for (uint32_t t = 0; t < n; t++) {
-            /* after the first pass, only where the last one changed
-             * something: elsewhere every search would fail again */
-            if (pass > 1 && L->touched[t] < pass - 1)
-                continue;
-            L->nundo = 0;
-            if (mts__links_count(L, t) < 2) {
-                if (tunnel(o, t, o->depth, 0)) {
-                    accept(L);
-                    changed = 1;
-                    t--; /* t may still be an end: try it again */
-                }
-                continue;
-            }
-            /* Interior triangle with a swap towards a later neighbour u: cut
-             * there (+3 for the new path, -1 swap and whatever the new ends
-             * lose) and look for a tunnel from either new end that rejoins
-             * the pieces more cheaply. */
-            uint32_t pt = mts__links_pivot(L, t);
-            for (unsigned e = 0; e < 3; e++) {
-                uint32_t u = mts__links_swap_at(L, t, e, pt);
-                if (u == NONE)
-                    continue;
-                int d = mts__move_cut(L, t, e);
-                if (tunnel(o, t, o->cut_depth, d) || tunnel(o, u, o->cut_depth, d)) {
-                    accept(L);
-                    changed = 1;
-                    break;
-                }
-                mts__links_undo_to(L, 0);
-            }
-        }
-        if (!changed)
-            break;
-    }
-}
+/* ---- 3. tunnelling: tunnel.c's search (mts__tunnel_search) ---------- */
 
 /* 1 when a strip read from the end triangle a needs a swap at its second
  * triangle b: b, at odd parity, goes on without a swap only if it turns
@@ -319,7 +200,7 @@ static mts_result stripify_impl(const uint32_t *triangles, uint32_t triangle_cou
 {
     mts_result rc = MTS_OK;
     ctx c = {0};
-    opt o = {0};
+    mts__links L = {0};
     uint32_t *order = NULL, *starts = NULL, *trial = NULL, *best = NULL, *fwd = NULL,
              *bwd = NULL;
 
@@ -367,9 +248,9 @@ static mts_result stripify_impl(const uint32_t *triangles, uint32_t triangle_cou
     best = malloc((size_t)n * sizeof *best);
     fwd = malloc((size_t)n * sizeof *fwd);
     bwd = malloc((size_t)n * sizeof *bwd);
-    o.L.mask = calloc(n, 1);
+    L.mask = calloc(n, 1);
     if (!c.nb || !c.used || !c.deg || !c.mark || !c.bucket[0] || !c.bucket[1] || !c.bucket[2] ||
-        !order || !starts || !trial || !best || !fwd || !bwd || !o.L.mask) {
+        !order || !starts || !trial || !best || !fwd || !bwd || !L.mask) {
         rc = mts_error_set(err, MTS_ERR_NOMEM, "stripify: out of memory for %u triangles", n);
         goto cleanup;
     }
@@ -431,35 +312,33 @@ static mts_result stripify_impl(const uint32_t *triangles, uint32_t triangle_cou
     }
 
     /* Paths as links, then tunnelling. */
-    o.L.n = n;
-    o.L.tri = c.tri;
-    o.L.nb = c.nb;
+    L.n = n;
+    L.tri = c.tri;
+    L.nb = c.nb;
     for (uint32_t s = 0; s < strip_count; s++) {
         for (uint32_t k = starts[s]; k + 1 < starts[s + 1]; k++) {
             uint32_t x = order[k], y = order[k + 1];
-            unsigned e = mts__links_free_edge(&o.L, x, y);
+            unsigned e = mts__links_free_edge(&L, x, y);
             if (e == 3) {
                 rc = mts_error_set(err, MTS_ERR_INTERNAL, "stripify: path %u is broken", s);
                 goto cleanup;
             }
-            mts__links_set(&o.L, x, e);
+            mts__links_set(&L, x, e);
         }
     }
     {
-        o.L.pid = fwd;
-        o.L.pos = bwd;
-        o.L.touched = calloc(n, 1);
-        o.L.plen = malloc((size_t)n * sizeof *o.L.plen);
-        o.L.lab = calloc(n, sizeof *o.L.lab);
-        o.L.max_path = MTS_STRIPIFY_MAX_STRIP;
-        if (!o.L.touched || !o.L.plen || !o.L.lab) {
+        L.pid = fwd;
+        L.pos = bwd;
+        L.touched = calloc(n, 1);
+        L.plen = malloc((size_t)n * sizeof *L.plen);
+        L.pend = malloc((size_t)n * sizeof *L.pend);
+        L.lab = calloc(n, sizeof *L.lab);
+        L.max_path = MTS_STRIPIFY_MAX_STRIP;
+        if (!L.touched || !L.plen || !L.pend || !L.lab) {
             rc = mts_error_set(err, MTS_ERR_NOMEM, "stripify: out of memory for %u triangles", n);
             goto cleanup;
         }
-        o.depth = TUNNEL_DEPTH;
-        o.cut_depth = TUNNEL_CUT_DEPTH < TUNNEL_DEPTH ? TUNNEL_CUT_DEPTH : TUNNEL_DEPTH;
-        o.bound = TUNNEL_BOUND;
-        improve(&o, TUNNEL_PASSES);
+        mts__tunnel_search(&L, TUNNEL_DEPTH, TUNNEL_CUT_DEPTH, TUNNEL_BOUND, NULL);
     }
 
     /* Read the paths out in the order the greedy pass placed their first
@@ -473,14 +352,14 @@ static mts_result stripify_impl(const uint32_t *triangles, uint32_t triangle_cou
         uint32_t t = trial[s];
         if (c.used[t])
             continue;
-        uint32_t e0 = mts__links_path_end(&o.L, t), start = e0;
+        uint32_t e0 = mts__links_path_end(&L, t), start = e0;
         if (e0 == NONE) {
             rc = mts_error_set(err, MTS_ERR_INTERNAL, "stripify: triangle %u is on a cycle", t);
             goto cleanup;
         }
-        if (o.L.mask[e0]) {
-            uint32_t e1 = mts__links_path_end(&o.L, e0);
-            int f0 = start_swap(&o.L, e0), f1 = start_swap(&o.L, e1);
+        if (L.mask[e0]) {
+            uint32_t e1 = mts__links_path_end(&L, e0);
+            int f0 = start_swap(&L, e0), f1 = start_swap(&L, e1);
             if ((f0 && !f1) || (f0 == f1 && e1 < e0))
                 start = e1;
         }
@@ -489,7 +368,7 @@ static mts_result stripify_impl(const uint32_t *triangles, uint32_t triangle_cou
         while (cur != NONE && placed < n) {
             c.used[cur] = 1;
             order[placed++] = cur;
-            uint32_t nx = mts__links_step(&o.L, prev, cur);
+            uint32_t nx = mts__links_step(&L, prev, cur);
             prev = cur;
             cur = nx;
         }
@@ -549,10 +428,11 @@ cleanup:
     free(best);
     free(fwd);
     free(bwd);
-    free(o.L.mask);
-    free(o.L.touched);
-    free(o.L.plen);
-    free(o.L.lab);
+    free(L.mask);
+    free(L.touched);
+    free(L.plen);
+    free(L.pend);
+    free(L.lab);
     return rc;
 }
 

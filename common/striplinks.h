@@ -378,4 +378,17 @@ void mts__links_label_all(mts__links *L);
  * touched and marks the triangles around them with the current pass. */
 void mts__links_relabel(mts__links *L, const mts__link_op *ops, int nops);
 
+/* ---- the search (tunnel.c) ---------------------------------------------- */
+
+/* Tunnels the cover L in passes until no change up to depth link/cut steps
+ * (at most MTS__LINKS_MAX_DEPTH) from any path end, or cut_depth from the
+ * two ends of a cut swap (< 0: none), makes 3 S + W smaller, start swaps
+ * included; the best change from each start is kept, and partial tunnels
+ * that cost more than bound are not followed. L must have every
+ * array (pid, pos, plen, pend, lab, touched) allocated for L->n triangles,
+ * lab zeroed; its labels are made here. Returns the passes run; *changes
+ * (when not NULL) grows by the changes kept. */
+uint32_t mts__tunnel_search(mts__links *L, int depth, int cut_depth, int bound,
+                            uint32_t *changes);
+
 #endif

@@ -91,12 +91,13 @@ _Static_assert((int)MAX_DEPTH <= (int)MTS__LINKS_MAX_DEPTH, "the undo log must h
 /* the pass is kept in a byte next to each triangle (striplinks.h) */
 _Static_assert(MAX_PASSES <= 255, "a pass must fit mts__links.pass");
 
-/* The cover, its labels, the undo log and the moves are striplinks.h's,
- * shared with stripify.c; what is this file's own is the search (the best
- * of all tunnels up to the bound) and the annealing. */
+/* The cover, its labels, the undo log and the moves are striplinks.h's;
+ * this file's own are the search (the best of all tunnels up to the bound,
+ * which stripify.c runs too, mts__tunnel_search) and the annealing. */
 typedef struct tun {
     mts__links L;
     int depth, cut_depth;
+    int bound; /* the most a partial tunnel may cost (3 S + W) */
     uint32_t changes;
     /* the search in progress */
     int nvisit;
@@ -247,10 +248,10 @@ static inline int full_cost(mts__links *L, int d, int limit)
  * times). cum is the change of 3 S + W so far, the start swaps left out
  * (they are looked up per candidate, full_cost); every state cheaper than
  * o->best_d, start swaps in, that keeps paths is recorded. A tunnel visits
- * each triangle once
- * (so a solid edge is always one of the labelled paths, never a link the
- * search added). At most 2 x 2 choices a step; partial costs over
- * PARTIAL_BOUND are not followed. */
+ * each triangle once (so a solid edge is always one of the labelled paths,
+ * never a link the search added). At most 2 x 2 choices a step; partial
+ * costs over o->bound (PARTIAL_BOUND here, stripify.c's own) are not
+ * followed. */
 static void search(tun *o, uint32_t z, int depth, int cum)
 {
     mts__links *L = &o->L;
@@ -284,7 +285,7 @@ static void search(tun *o, uint32_t z, int depth, int cum)
                 if (full < o->best_d)
                     record(o, full);
             }
-            if (d <= PARTIAL_BOUND) {
+            if (d <= o->bound) {
                 o->visit[o->nvisit++] = yi;
                 search(o, yi, depth - 1, d);
                 o->nvisit--;
@@ -365,6 +366,24 @@ static uint32_t improve(tun *o)
             break;
     }
     return pass > MAX_PASSES ? MAX_PASSES : pass;
+}
+
+/* The search on a cover a caller built (stripify.c's greedy paths): see
+ * striplinks.h. */
+uint32_t mts__tunnel_search(mts__links *L, int depth, int cut_depth, int bound,
+                            uint32_t *changes)
+{
+    tun o;
+    memset(&o, 0, sizeof o);
+    o.L = *L;
+    o.depth = depth < 0 ? 0 : depth > MAX_DEPTH ? MAX_DEPTH : depth;
+    o.cut_depth = cut_depth > MAX_DEPTH ? MAX_DEPTH : cut_depth;
+    o.bound = bound;
+    uint32_t passes = improve(&o);
+    *L = o.L;
+    if (changes)
+        *changes += o.changes;
+    return passes;
 }
 
 /* ---- annealing ----------------------------------------------------------- */
@@ -577,6 +596,7 @@ static mts_result tunnel_dense(const mts_strips *in, uint32_t vertex_count,
     if (length >= 1 && n > 0) {
         o.depth = (length - 1) / 2;
         o.cut_depth = o.depth;
+        o.bound = PARTIAL_BOUND;
         o.L.pid = malloc((size_t)n * sizeof *o.L.pid);
         o.L.pos = malloc((size_t)n * sizeof *o.L.pos);
         o.L.plen = malloc((size_t)n * sizeof *o.L.plen);
