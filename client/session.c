@@ -375,7 +375,9 @@ static void stream_step(mts_session *s, int timeout_ms)
         return;
     }
     do {
-        ssize_t got = recv(s->fd, s->buf, SESSION_CHUNK, 0);
+        ssize_t got = mts_net_read(s->fd, s->buf, SESSION_CHUNK);
+        if (got == MTS_NET_AGAIN)
+            return;
         if (got == 0) {
             conversation_failed(
                 s,
@@ -387,10 +389,6 @@ static void stream_step(mts_session *s, int timeout_ms)
             return;
         }
         if (got < 0) {
-            if (errno == EINTR)
-                continue;
-            if (errno == EAGAIN || errno == EWOULDBLOCK)
-                return;
             conversation_failed(s,
                                 mts_error_set(err, MTS_ERR_IO,
                                               "connection lost after %llu bytes (%s)",

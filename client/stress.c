@@ -536,7 +536,9 @@ static void sc_read(stress *s, sclient *c, double now)
 {
     /* a few reads per wake-up, then the others get their turn */
     for (int round = 0; round < 4; round++) {
-        ssize_t got = recv(c->fd, s->chunk, 1 << 16, MSG_DONTWAIT);
+        ssize_t got = mts_net_read(c->fd, s->chunk, 1 << 16);
+        if (got == MTS_NET_AGAIN)
+            return;
         if (got == 0 && s->o->http_path && !c->http_head && c->http_body == c->http_length) {
             sc_succeed(s, c, mts_clock_seconds());
             return;
@@ -553,10 +555,6 @@ static void sc_read(stress *s, sclient *c, double now)
             return;
         }
         if (got < 0) {
-            if (errno == EINTR)
-                continue;
-            if (errno == EAGAIN || errno == EWOULDBLOCK)
-                return;
             sc_fail(s, c, MTS_STRESS_CLOSED, "after %llu bytes: %s",
                     (unsigned long long)c->reader.bytes_in, strerror(errno));
             return;

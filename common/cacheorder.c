@@ -565,30 +565,27 @@ int mts__order_paths(mts__order_path *encs, uint32_t paths, const uint32_t *buf,
     savev = malloc(((size_t)max_path * 2 + 3) * sizeof *savev);
     if (!vstart || !vlast || !f.stamp || !f.ring || !cand || !save || !savev)
         goto done;
-    for (uint32_t v = 0; v < vertex_count; v++)
-        vlast[v] = NONE;
-    for (uint32_t p = 0; p < paths; p++) {
-        const uint32_t *s = buf + encs[p].at[0];
-        for (uint32_t k = 0; k < encs[p].len[0]; k++) {
-            if (vlast[s[k]] != p) {
-                vlast[s[k]] = p;
-                vstart[s[k] + 1]++;
-            }
+    /* the paths through each vertex (CSR): counted, then filled */
+    for (int fill = 0; fill < 2; fill++) {
+        if (fill) {
+            for (uint32_t v = 0; v < vertex_count; v++)
+                vstart[v + 1] += vstart[v];
+            vpaths = malloc((size_t)vstart[vertex_count] * sizeof *vpaths + 1);
+            if (!vpaths)
+                goto done;
         }
-    }
-    for (uint32_t v = 0; v < vertex_count; v++)
-        vstart[v + 1] += vstart[v];
-    vpaths = malloc((size_t)vstart[vertex_count] * sizeof *vpaths + 1);
-    if (!vpaths)
-        goto done;
-    for (uint32_t v = 0; v < vertex_count; v++)
-        vlast[v] = NONE;
-    for (uint32_t p = 0; p < paths; p++) {
-        const uint32_t *s = buf + encs[p].at[0];
-        for (uint32_t k = 0; k < encs[p].len[0]; k++) {
-            if (vlast[s[k]] != p) {
+        for (uint32_t v = 0; v < vertex_count; v++)
+            vlast[v] = NONE;
+        for (uint32_t p = 0; p < paths; p++) {
+            const uint32_t *s = buf + encs[p].at[0];
+            for (uint32_t k = 0; k < encs[p].len[0]; k++) {
+                if (vlast[s[k]] == p)
+                    continue;
                 vlast[s[k]] = p;
-                vpaths[vstart[s[k]]++] = p;
+                if (fill)
+                    vpaths[vstart[s[k]]++] = p;
+                else
+                    vstart[s[k] + 1]++;
             }
         }
     }

@@ -1228,59 +1228,59 @@ static int ply_binary(ply *P, int type, double *out)
     return isfinite(*out) ? 0 : 2;
 }
 
-static int ply_get_float(ply *P, int type, float *out)
+/* One value as a double: binary as stored, ASCII through the float scanner. */
+static int ply_get_real(ply *P, int type, double *out)
 {
-    if (P->format != PLY_ASCII) {
-        double d;
-        int r = ply_binary(P, type, &d);
-        if (r == 0) {
-            if (fabs(d) > FLT_MAX)
-                return 2;
-            *out = (float)d;
-        }
-        return r;
-    }
+    if (P->format != PLY_ASCII)
+        return ply_binary(P, type, out);
     text_space(&P->t);
     if (text_eof(&P->t))
         return 1;
     const char *s = P->t.p;
-    if (mts__mesh_scan_float(&s, P->t.end, out) != 0 || !token_ends(&P->t, s))
+    float f;
+    if (mts__mesh_scan_float(&s, P->t.end, &f) != 0 || !token_ends(&P->t, s))
         return P->t.p + token_len(&P->t) >= P->t.end ? 1 : 2; /* cut inside: truncated */
     P->t.p = s;
+    *out = f;
     return 0;
+}
+
+static int ply_get_float(ply *P, int type, float *out)
+{
+    double d;
+    int r = ply_get_real(P, type, &d);
+    if (r == 0) {
+        if (fabs(d) > FLT_MAX)
+            return 2;
+        *out = (float)d;
+    }
+    return r;
 }
 
 static int ply_get_int(ply *P, int type, int64_t *out)
 {
-    if (P->format != PLY_ASCII) {
-        double d;
-        int r = ply_binary(P, type, &d);
-        if (r == 0) {
-            if (d != floor(d) || fabs(d) > 1e15)
-                return 2;
-            *out = (int64_t)d;
+    if (P->format == PLY_ASCII) {
+        text_space(&P->t);
+        if (text_eof(&P->t))
+            return 1;
+        const char *s = P->t.p;
+        if (scan_int(&s, P->t.end, out) == 0 && token_ends(&P->t, s)) {
+            P->t.p = s;
+            return 0;
         }
-        return r;
-    }
-    text_space(&P->t);
-    if (text_eof(&P->t))
-        return 1;
-    const char *s = P->t.p;
-    if (scan_int(&s, P->t.end, out) != 0 || !token_ends(&P->t, s)) {
-        /* an integral value written as a float ("3.0") in a float-typed list */
-        float f;
-        s = P->t.p;
-        int cut = P->t.p + token_len(&P->t) >= P->t.end;
+        /* else only an integral value written as a float ("3.0") in a
+         * float-typed list */
         if (type != PLY_F32 && type != PLY_F64)
-            return cut ? 1 : 2;
-        if (mts__mesh_scan_float(&s, P->t.end, &f) != 0 || !token_ends(&P->t, s))
-            return cut ? 1 : 2;
-        if (f != floorf(f) || fabsf(f) > 1e15f)
-            return 2;
-        *out = (int64_t)f;
+            return P->t.p + token_len(&P->t) >= P->t.end ? 1 : 2; /* cut inside: truncated */
     }
-    P->t.p = s;
-    return 0;
+    double d;
+    int r = ply_get_real(P, type, &d);
+    if (r == 0) {
+        if (d != floor(d) || fabs(d) > 1e15)
+            return 2;
+        *out = (int64_t)d;
+    }
+    return r;
 }
 
 /* Skips n values of one type. */

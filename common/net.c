@@ -104,3 +104,15 @@ mts_result mts_net_listen(const char *spec, int reuse_port, int backlog, int *ou
     *out = fd;
     return MTS_OK;
 }
+
+ssize_t mts_net_read(int fd, void *buf, size_t cap)
+{
+    for (;;) {
+        ssize_t got = recv(fd, buf, cap, MSG_DONTWAIT);
+        if (got >= 0)
+            return got;
+        if (errno == EINTR)
+            continue;
+        return errno == EAGAIN || errno == EWOULDBLOCK ? MTS_NET_AGAIN : MTS_NET_FAILED;
+    }
+}

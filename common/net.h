@@ -8,6 +8,7 @@
 #define MTS_NET_H
 
 #include <netdb.h>
+#include <sys/types.h>
 
 #include "error.h"
 
@@ -35,5 +36,11 @@ void mts_net_nodelay(int fd);
  * processes share the port) and an accept queue of `backlog`. */
 mts_result mts_net_listen(const char *spec, int reuse_port, int backlog, int *fd,
                           mts_error *err);
+
+/* What fd has now, at most cap bytes into buf, without blocking (an
+ * interrupted read is retried): > 0 the bytes read, 0 the peer closed,
+ * MTS_NET_AGAIN nothing yet, MTS_NET_FAILED an error left in errno. */
+enum { MTS_NET_AGAIN = -1, MTS_NET_FAILED = -2 };
+ssize_t mts_net_read(int fd, void *buf, size_t cap);
 
 #endif

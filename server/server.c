@@ -474,7 +474,7 @@ static void conn_read(mts_server *s, conn *c)
             if (rounds >= 16)
                 return;
             uint8_t sink[4096];
-            ssize_t r = recv(c->fd, sink, sizeof sink, MSG_DONTWAIT);
+            ssize_t r = mts_net_read(c->fd, sink, sizeof sink);
             if (r > 0)
                 continue;
             if (r == 0 && c->linger_until > 0) {
@@ -484,22 +484,16 @@ static void conn_read(mts_server *s, conn *c)
                  * would fire forever, so stop watching it; writing goes on */
                 c->rd_closed = 1;
                 update_events(s, c);
-            } else if (errno == EINTR) {
-                continue;
-            } else if (errno != EAGAIN && errno != EWOULDBLOCK) {
+            } else if (r == MTS_NET_FAILED) {
                 conn_close(s, c, "error: reset by peer");
             }
             return;
         }
-        ssize_t r = recv(c->fd, c->in + c->in_len, IN_MAX - c->in_len, MSG_DONTWAIT);
-        if (r == 0) {
-            conn_close(s, c, "error: closed before hello");
-            return;
-        }
-        if (r < 0) {
-            if (errno == EINTR)
-                continue;
-            if (errno != EAGAIN && errno != EWOULDBLOCK)
+        ssize_t r = mts_net_read(c->fd, c->in + c->in_len, IN_MAX - c->in_len);
+        if (r <= 0) {
+            if (r == 0)
+                conn_close(s, c, "error: closed before hello");
+            else if (r == MTS_NET_FAILED)
                 conn_close(s, c, "error: reset by peer");
             return;
         }
