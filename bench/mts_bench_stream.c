@@ -115,6 +115,32 @@ typedef struct draw_figures {
     uint64_t strip_index_bytes, list_index_bytes;
 } draw_figures;
 
+/* A renderer of side x side pixels holding m's vertices, shaded as
+ * mts-client shades it (flat when the stream has no normals), timed (the
+ * draw timings read last_draw_seconds), and lod at m's full level. */
+static int full_renderer(mts_render_context *ctx, const mts_model *m, uint32_t side,
+                         mts_lod *lod, mts_renderer **r, mts_error *err)
+{
+    *r = NULL;
+    if (mts_lod_init(lod, m, MTS_LOD_AT_FULL, err) != MTS_OK)
+        return 0;
+    mts_render_options ro;
+    mts_render_options_default(&ro);
+    ro.timed = 1;
+    ro.width = ro.height = side;
+    ro.style.flat_shading = !(m->flags & MTS_MODEL_NORMALS_GIVEN);
+    mts_render_layout layout;
+    mts_render_layout_from_lod(lod, &layout);
+    if (mts_renderer_create(ctx, &ro, &layout, r, err) == MTS_OK &&
+        mts_render_append_vertices(*r, 0, m->vertex_count, m->positions, m->normals, err) ==
+            MTS_OK)
+        return 1;
+    mts_renderer_destroy(*r);
+    *r = NULL;
+    mts_lod_free(lod);
+    return 0;
+}
+
 /* The full level drawn as restart strips, as the plain triangle list of the
  * same triangles (in strip order) and as that list after
  * meshopt_optimizeVertexCache: same vertices, shader and camera. */
@@ -126,20 +152,9 @@ static int draw_compare(mts_render_context *ctx, const mts_model *m, draw_figure
     mts_drawmodes dm = {0};
     uint32_t *list = NULL, *opt = NULL;
     int ok = 0;
-    if (mts_lod_init(&lod, m, MTS_LOD_AT_FULL, err) != MTS_OK)
+    if (!full_renderer(ctx, m, 1024, &lod, &r, err))
         return 0;
-    mts_render_options ro;
-    mts_render_options_default(&ro);
-    ro.timed = 1; /* the draw timings read last_draw_seconds */
-    ro.width = ro.height = 1024;
-    /* shaded as mts-client shades this model (flat when the stream has no normals) */
-    ro.style.flat_shading = !(m->flags & MTS_MODEL_NORMALS_GIVEN);
-    mts_render_layout layout;
-    mts_render_layout_from_lod(&lod, &layout);
-    if (mts_renderer_create(ctx, &ro, &layout, &r, err) != MTS_OK ||
-        mts_render_append_vertices(r, 0, m->vertex_count, m->positions, m->normals, err) !=
-            MTS_OK ||
-        mts_render_update_strips(r, &lod, err) != MTS_OK)
+    if (mts_render_update_strips(r, &lod, err) != MTS_OK)
         goto done;
     f->strips_ms = frame_ms(r, &dm, MTS_DRAWMODE_JOINED, 21, err);
     mts_strip_stats ss = {0};
@@ -241,22 +256,12 @@ static int draw_table(mts_render_context *ctx, const mts_model *m, const char *n
     mts_drawmodes dm = {0};
     uint32_t *list = NULL, *opt = NULL;
     int ok = 0;
-    if (mts_lod_init(&lod, m, MTS_LOD_AT_FULL, err) != MTS_OK)
+    if (!full_renderer(ctx, m, dt_side, &lod, &r, err))
         return 0;
-    mts_render_options ro;
-    mts_render_options_default(&ro);
-    ro.timed = 1; /* the draw timings read last_draw_seconds */
-    ro.width = ro.height = dt_side;
-    ro.style.flat_shading = !(m->flags & MTS_MODEL_NORMALS_GIVEN);
-    mts_render_layout layout;
-    mts_render_layout_from_lod(&lod, &layout);
     size_t cap = ((size_t)m->level_triangles[m->level_count] + 1) * 3;
     list = malloc(cap * sizeof *list);
     opt = malloc(cap * sizeof *opt);
-    if (!list || !opt ||
-        mts_renderer_create(ctx, &ro, &layout, &r, err) != MTS_OK ||
-        mts_render_append_vertices(r, 0, m->vertex_count, m->positions, m->normals, err) !=
-            MTS_OK)
+    if (!list || !opt)
         goto done;
     printf("%-14s %5s %7s %8s", name, "vert%", "tris", "");
     for (int k = 0; k < DT_MODES; k++)

@@ -501,13 +501,11 @@ int main(int argc, char **argv)
             }
             *(!strcmp(a, "--fps") ? &po.fps : &distance) = x;
             i++;
-        } else if ((stop = cli_parse_stop(a, v, &so.hello.stop_kind, &so.hello.stop_value))) {
-            if (stop < 0) {
-                fprintf(stderr, "mts-client: %s needs %s\n", a, cli_stop_value_kind(a));
+        } else if ((stop = cli_option_stop(argc, argv, &i, "mts-client", &so.hello.stop_kind,
+                                           &so.hello.stop_value))) {
+            if (stop < 0)
                 return CLI_EXIT_USAGE;
-            }
             stops++;
-            i++;
         } else if (!strcmp(a, "--png") || !strcmp(a, "--model-file")) {
             if (!v) {
                 fprintf(stderr, "mts-client: %s needs a file name\n", a);

@@ -117,20 +117,12 @@ int main(int argc, char **argv)
             so.hello.flags |= MTS_HELLO_RECORDS;
         } else if (!strcmp(a, "--clients") || !strcmp(a, "--concurrency") ||
                    !strcmp(a, "--threads") || !strcmp(a, "--appliers")) {
-            uint32_t x;
-            if (!v || !cli_parse_u32(v, &x) || x == 0) {
-                fprintf(stderr, "mts-stress: %s needs a positive number\n", a);
+            uint32_t *x = !strcmp(a, "--clients")       ? &so.clients
+                          : !strcmp(a, "--concurrency") ? &so.concurrency
+                          : !strcmp(a, "--threads")     ? &so.threads
+                                                        : &so.appliers;
+            if (!cli_option_u32(argc, argv, &i, "mts-stress", 1, UINT32_MAX, x))
                 return CLI_EXIT_USAGE;
-            }
-            if (!strcmp(a, "--clients"))
-                so.clients = x;
-            else if (!strcmp(a, "--concurrency"))
-                so.concurrency = x;
-            else if (!strcmp(a, "--threads"))
-                so.threads = x;
-            else
-                so.appliers = x;
-            i++;
         } else if (!strncmp(a, "--continue-", 11) && strcmp(a, "--continue-share") != 0) {
             char base[40];
             snprintf(base, sizeof base, "--%s", a + 11);
@@ -147,13 +139,11 @@ int main(int argc, char **argv)
                 return CLI_EXIT_USAGE;
             }
             i++;
-        } else if ((stop = cli_parse_stop(a, v, &so.hello.stop_kind, &so.hello.stop_value))) {
-            if (stop < 0) {
-                fprintf(stderr, "mts-stress: %s needs %s\n", a, cli_stop_value_kind(a));
+        } else if ((stop = cli_option_stop(argc, argv, &i, "mts-stress", &so.hello.stop_kind,
+                                           &so.hello.stop_value))) {
+            if (stop < 0)
                 return CLI_EXIT_USAGE;
-            }
             stops++;
-            i++;
         } else if (!strcmp(a, "--http")) {
             if (!v) {
                 fprintf(stderr, "mts-stress: --http needs a path\n");

@@ -258,19 +258,14 @@ int main(int argc, char **argv)
             }
         } else if (!strcmp(a, "--idle-timeout") || !strcmp(a, "--handshake-timeout") ||
                    !strcmp(a, "--grace") || !strcmp(a, "--prepare-wait")) {
-            double s;
-            if (!parse_seconds(v, &s)) {
+            double *s = !strcmp(a, "--idle-timeout")    ? &so.idle_timeout
+                        : !strcmp(a, "--prepare-wait")  ? &so.prepare_wait
+                        : !strcmp(a, "--handshake-timeout") ? &so.handshake_timeout
+                                                            : &so.grace;
+            if (!parse_seconds(v, s)) {
                 fprintf(stderr, "mts-server: %s needs a positive number of seconds\n", a);
                 return CLI_EXIT_USAGE;
             }
-            if (!strcmp(a, "--idle-timeout"))
-                so.idle_timeout = s;
-            else if (!strcmp(a, "--prepare-wait"))
-                so.prepare_wait = s;
-            else if (!strcmp(a, "--handshake-timeout"))
-                so.handshake_timeout = s;
-            else
-                so.grace = s;
         } else if (!strcmp(a, "--workers")) {
             if (!cli_parse_u32(v, &nworkers) || nworkers == 0 || nworkers > 256) {
                 fprintf(stderr, "mts-server: --workers needs a number from 1 to 256\n");

@@ -263,6 +263,18 @@ const char *cli_stop_value_kind(const char *opt)
     return dash && !strcmp(dash, "-fraction") ? "a number from 0 to 1" : "a whole number";
 }
 
+int cli_option_stop(int argc, char **argv, int *i, const char *prog, uint8_t *kind,
+                    uint32_t *stop_value)
+{
+    const char *opt = argv[*i], *v = *i + 1 < argc ? argv[*i + 1] : NULL;
+    int r = cli_parse_stop(opt, v, kind, stop_value);
+    if (r < 0)
+        fprintf(stderr, "%s: %s needs %s\n", prog, opt, cli_stop_value_kind(opt));
+    else if (r > 0)
+        ++*i;
+    return r;
+}
+
 int cli_parse_stop(const char *opt, const char *value, uint8_t *kind, uint32_t *stop_value)
 {
     if (!strcmp(opt, "--level") || !strcmp(opt, "--triangles")) {

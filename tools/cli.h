@@ -81,6 +81,13 @@ int cli_parse_stop(const char *opt, const char *value, uint8_t *kind, uint32_t *
  * number" (--level, --triangles) or "a number from 0 to 1" (--fraction). */
 const char *cli_stop_value_kind(const char *opt);
 
+/* cli_parse_stop on the option argv[*i] and the word after it: 1 it was a
+ * stop option (*i moves onto its value), 0 another option, -1 a missing or
+ * bad value, said on stderr as "prog: OPTION needs ..." for main() to exit
+ * with CLI_EXIT_USAGE. */
+int cli_option_stop(int argc, char **argv, int *i, const char *prog, uint8_t *kind,
+                    uint32_t *stop_value);
+
 /* "name" from "dir/name.ext". */
 void cli_stem(const char *path, char *out, size_t size);
 
