@@ -76,15 +76,13 @@ enum {
     PARTIAL_BOUND = 3,
     MAX_PASSES = 64,
     DEFAULT_CACHE = 32,
-    /* annealing moves per triangle: quality grows with it, slowly (bunny00,
-     * idx/tri after: 64 -> 1.2184, 80 -> 1.2175, 96 -> 1.2163, 112 ->
-     * 1.2152; 1.0 / 1.2 / 1.3 / 1.6 s); 96 keeps the pass under 2 s */
+    /* annealing moves per triangle: quality grows with it, slowly; 96
+     * keeps the pass under 2 s on bunny00 (docs/strips.md) */
     DEFAULT_ANNEAL = MTS_TUNNEL_DEFAULT_ANNEAL,
 };
 /* Temperatures (in units of 3 S + W) from the first to the last of the
- * annealing's stages, geometric between: measured on bunny00 at 60 moves a
- * triangle, 1.0 -> 0.1 and 0.8 -> 0.1 are best (1.2218 / 1.2224), hotter
- * starts (2.0, 1.5) lose (1.238 / 1.236), a colder end (0.05) too (1.2229). */
+ * annealing's stages, geometric between: the best pair measured on bunny00
+ * (docs/strips.md); hotter starts and colder ends lose. */
 #define ANNEAL_T0 0.8
 #define ANNEAL_T1 0.1
 _Static_assert((int)MAX_DEPTH <= (int)MTS__LINKS_MAX_DEPTH, "the undo log must hold a search");
