@@ -89,6 +89,18 @@ static pid_t fake_server(int lfd, const mts_buf *const *answers, int count, unsi
     }
 }
 
+/* cow's stream (s, b: its whole answer) and a fake_server sending b to
+ * each connection; its port in *port. */
+static pid_t fake_cow_server(mts_test *t, mts_stream *s, mts_buf *b, unsigned per_byte_us,
+                             int *port)
+{
+    int lfd = mts_test_listen_any(port);
+    CHECK(t, lfd >= 0);
+    whole_answer(s, b);
+    const mts_buf *answer = b;
+    return fake_server(lfd, &answer, 1, per_byte_us);
+}
+
 /* A server that sends a real stream for cow but dies after `cut` bytes. */
 static void test_server_dies_mid_stream(mts_test *t)
 {
@@ -138,12 +150,9 @@ static void test_info_for_another_model(mts_test *t)
     mts_stream s;
     if (!cow_stream(t, &s))
         return;
-    int port, lfd = mts_test_listen_any(&port);
-    CHECK(t, lfd >= 0);
+    int port;
     mts_buf b = {0};
-    whole_answer(&s, &b);
-    const mts_buf *answer = &b;
-    pid_t pid = fake_server(lfd, &answer, 1, 0);
+    pid_t pid = fake_cow_server(t, &s, &b, 0, &port);
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d horse --no-render --json", bin_dir,
              port);
@@ -164,12 +173,9 @@ static void test_trickle_bounded(mts_test *t)
     mts_stream s;
     if (!cow_stream(t, &s))
         return;
-    int port, lfd = mts_test_listen_any(&port);
-    CHECK(t, lfd >= 0);
+    int port;
     mts_buf b = {0};
-    whole_answer(&s, &b);
-    const mts_buf *answer = &b;
-    pid_t pid = fake_server(lfd, &answer, 1, 100000);
+    pid_t pid = fake_cow_server(t, &s, &b, 100000, &port);
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd,
              "%s/mts-client 127.0.0.1:%d cow --no-render --json --timeout 5 --max-time 1.5",
@@ -284,45 +290,12 @@ static void test_peer_text_not_utf8(mts_test *t)
     mts_buf_free(&b);
 }
 
-typedef struct proc {
-    pid_t pid;
-} proc;
-
-static pid_t spawn(char *const argv[], const char *log)
-{
-    pid_t pid = fork();
-    if (pid == 0) {
-        FILE *f = freopen(log, "w", stderr);
-        (void)f;
-        if (!freopen("/dev/null", "w", stdout))
-            _exit(126);
-        execvp(argv[0], argv);
-        _exit(127);
-    }
-    return pid;
-}
-
-static void stop(pid_t pid)
-{
-    if (pid <= 0)
-        return;
-    kill(pid, SIGTERM);
-    waitpid(pid, NULL, 0);
-}
-
-static int free_port(void)
-{
-    int port, fd = mts_test_listen_any(&port);
-    close(fd);
-    return port;
-}
-
 static void test_url_models(mts_test *t)
 {
     char out[8192], cmd[4096];
     if (mts_test_run("python3 -c 'import http.server'", out, sizeof out) != 0)
         SKIP(t, "python3 with http.server is not available");
-    int web = free_port(), mts = free_port();
+    int web = mts_test_free_port(), mts = mts_test_free_port();
     char webport[16], listen[64], log_web[600], log_srv[600], url_ok[256], url_big[256];
     snprintf(webport, sizeof webport, "%d", web);
     snprintf(listen, sizeof listen, "127.0.0.1:%d", mts);
@@ -330,7 +303,7 @@ static void test_url_models(mts_test *t)
     snprintf(log_srv, sizeof log_srv, "%s/e2e_srv.log", tmp_dir);
     char *web_argv[] = {"python3", "-m", "http.server", webport, "--bind", "127.0.0.1",
                         "--directory", "tests/data", NULL};
-    pid_t wpid = spawn(web_argv, log_web);
+    pid_t wpid = mts_test_spawn(web_argv, log_web);
     /* until the web server answers */
     snprintf(cmd, sizeof cmd,
              "for i in $(seq 1 50); do python3 -c 'import urllib.request,sys; "
@@ -347,26 +320,18 @@ static void test_url_models(mts_test *t)
     char *srv_argv[] = {server_bin, "--listen", listen, "--model", url_ok,
                         "--model", "ftpmodel=ftp://127.0.0.1/cow.off",
                         "--model", "filemodel=file:///etc/passwd", "--quiet", NULL};
-    pid_t spid = spawn(srv_argv, log_srv);
-    snprintf(cmd, sizeof cmd,
-             "for i in $(seq 1 100); do %s/mts-client 127.0.0.1:%d --list && exit 0; sleep 0.1; "
-             "done; exit 1",
-             bin_dir, mts);
-    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "server did not come up: %s", out);
+    pid_t spid = mts_test_spawn(srv_argv, log_srv);
+    CHECKF(t, mts_test_wait_models(bin_dir, listen, NULL, 100, out, sizeof out),
+           "server did not come up: %s", out);
     CHECKF(t, strstr(out, "cowweb") && !strstr(out, "ftpmodel") && !strstr(out, "filemodel"),
            "%s", out);
     snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cowweb --no-render --json --verify",
              bin_dir, mts);
     CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
     CHECK(t, strstr(out, "\"complete\":true") && strstr(out, "\"triangles\":5804"));
-    stop(spid);
-    FILE *f = fopen(log_srv, "r");
-    char logtext[8192] = {0};
-    if (f) {
-        size_t n = fread(logtext, 1, sizeof logtext - 1, f);
-        logtext[n] = 0;
-        fclose(f);
-    }
+    mts_test_stop(spid);
+    char logtext[8192];
+    mts_test_read_file(log_srv, logtext, sizeof logtext);
     CHECKF(t, strstr(logtext, "ftp://") && strstr(logtext, "file://"),
            "refusals not reported: %s", logtext);
 
@@ -375,7 +340,7 @@ static void test_url_models(mts_test *t)
              bin_dir, listen, url_big);
     CHECK(t, mts_test_run(cmd, out, sizeof out) == 1);
     CHECKF(t, strstr(out, "1000") != NULL, "%s", out);
-    stop(wpid);
+    mts_test_stop(wpid);
 }
 
 /* mts-server + mts-client with pictures at three levels: they exist, are not
@@ -391,18 +356,14 @@ static pid_t cow_server(mts_test *t, const char *name, const char *flag, char *l
     snprintf(cmd, sizeof cmd, "rm -rf %s && mkdir -p %s && cp tests/data/cow.off %s/", dir, dir,
              dir);
     CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
-    snprintf(listen, listen_size, "127.0.0.1:%d", free_port());
+    snprintf(listen, listen_size, "127.0.0.1:%d", mts_test_free_port());
     snprintf(server_bin, sizeof server_bin, "%s/mts-server", bin_dir);
     snprintf(log, sizeof log, "%s/e2e_%s_srv.log", tmp_dir, name);
     char *argv[] = {server_bin, "--models", dir, "--listen", listen,
                     (char *)(flag ? flag : "--quiet"), NULL};
-    pid_t spid = spawn(argv, log);
-    snprintf(cmd, sizeof cmd,
-             "for i in $(seq 1 100); do %s/mts-client %s --list >/dev/null && exit 0; sleep 0.1; "
-             "done; exit 1",
-             bin_dir, listen);
-    int up = mts_test_run(cmd, out, sizeof out) == 0;
-    CHECKF(t, up, "server did not come up (%s)", log);
+    pid_t spid = mts_test_spawn(argv, log);
+    CHECKF(t, mts_test_wait_models(bin_dir, listen, NULL, 100, out, sizeof out),
+           "server did not come up (%s)", log);
     return spid;
 }
 
@@ -421,7 +382,7 @@ static void test_pngs_at_three_levels(mts_test *t)
              "--size 256x256",
              bin_dir, listen, png);
     int rc = mts_test_run(cmd, out, sizeof out);
-    stop(spid);
+    mts_test_stop(spid);
     if (rc != 0 && strstr(out, "EGL") && !getenv("MTS_TEST_REQUIRE_EGL"))
         SKIP(t, "no EGL here: %s", out);
     CHECKF(t, rc == 0, "%s", out);
@@ -455,23 +416,6 @@ static void test_pngs_at_three_levels(mts_test *t)
         free(data[i]);
 }
 
-/* The value of "key": in a JSON line, as text ("" when absent). */
-static void json_value(const char *json, const char *key, char *out, size_t size)
-{
-    char k[64];
-    snprintf(k, sizeof k, "\"%s\":", key);
-    const char *p = strstr(json, k);
-    out[0] = 0;
-    if (!p)
-        return;
-    p += strlen(k);
-    size_t n = strcspn(p, ",}\n");
-    if (n >= size)
-        n = size - 1;
-    memcpy(out, p, n);
-    out[n] = 0;
-}
-
 /* mts-client --records against mts-server: the records form by default
  * ("form":"records", many more bytes, the splits client's checksum and
  * triangles); against mts-server --no-records-form the same request gets the
@@ -499,16 +443,16 @@ static void test_records_form_programs(mts_test *t)
                    without ? "--no-records-form, " : "", records ? "--records" : "splits", want,
                    out);
             char v[64], bytes[32];
-            json_value(out, "bytes", bytes, sizeof bytes);
+            mts_test_json(out, "bytes", bytes, sizeof bytes);
             if (!without && !records) {
                 for (int k = 0; k < 3; k++)
-                    json_value(out, keys[k], splits[k], sizeof splits[k]);
+                    mts_test_json(out, keys[k], splits[k], sizeof splits[k]);
                 snprintf(split_bytes, sizeof split_bytes, "%s", bytes);
                 CHECKF(t, splits[0][0] != 0, "no checksum: %s", out);
                 continue;
             }
             for (int k = 0; k < 3; k++) {
-                json_value(out, keys[k], v, sizeof v);
+                mts_test_json(out, keys[k], v, sizeof v);
                 CHECKF(t, strcmp(v, splits[k]) == 0, "%s: %s, the splits client's %s", keys[k], v,
                        splits[k]);
             }
@@ -519,7 +463,7 @@ static void test_records_form_programs(mts_test *t)
                 CHECKF(t, atol(bytes) > 4 * atol(split_bytes), "bytes %s, splits %s", bytes,
                        split_bytes);
         }
-        stop(spid);
+        mts_test_stop(spid);
     }
 }
 
@@ -542,19 +486,19 @@ static void test_policy_asks_stop(mts_test *t)
                  bin_dir, listen, policies[i]);
         int rc = mts_test_run(cmd, out, sizeof out);
         if (rc != 0 && strstr(out, "EGL") && !getenv("MTS_TEST_REQUIRE_EGL")) {
-            stop(spid);
+            mts_test_stop(spid);
             SKIP(t, "no EGL here: %s", out);
         }
         CHECKF(t, rc == 0 && strstr(out, "\"complete\":true") &&
                       strstr(out, "\"stop_asked\":true"),
                "%s: exit %d: %s", policies[i], rc, out);
         char asked[32], bytes[32], full[32], level[32], received[32], sum[40];
-        json_value(out, "triangles_asked", asked, sizeof asked);
-        json_value(out, "bytes", bytes, sizeof bytes);
-        json_value(out, "full_stream_bytes", full, sizeof full);
-        json_value(out, "level", level, sizeof level);
-        json_value(out, "level_received", received, sizeof received);
-        json_value(out, "checksum", sum, sizeof sum);
+        mts_test_json(out, "triangles_asked", asked, sizeof asked);
+        mts_test_json(out, "bytes", bytes, sizeof bytes);
+        mts_test_json(out, "full_stream_bytes", full, sizeof full);
+        mts_test_json(out, "level", level, sizeof level);
+        mts_test_json(out, "level_received", received, sizeof received);
+        mts_test_json(out, "checksum", sum, sizeof sum);
         CHECKF(t, atol(asked) > 0 && atol(bytes) > 0 && atol(bytes) * 3 < atol(full),
                "%s: %s triangles asked, %s bytes of %s", policies[i], asked, bytes, full);
         CHECKF(t, !strcmp(level, received), "%s: drew %s, received %s", policies[i], level,
@@ -565,9 +509,9 @@ static void test_policy_asks_stop(mts_test *t)
                  bin_dir, listen, asked);
         rc = mts_test_run(cmd, ref, sizeof ref);
         char rbytes[32], rlevel[32], rsum[40];
-        json_value(ref, "bytes", rbytes, sizeof rbytes);
-        json_value(ref, "level", rlevel, sizeof rlevel);
-        json_value(ref, "checksum", rsum, sizeof rsum);
+        mts_test_json(ref, "bytes", rbytes, sizeof rbytes);
+        mts_test_json(ref, "level", rlevel, sizeof rlevel);
+        mts_test_json(ref, "checksum", rsum, sizeof rsum);
         CHECKF(t, rc == 0 && !strcmp(bytes, rbytes) && !strcmp(level, rlevel) &&
                       !strcmp(sum, rsum) && sum[0],
                "%s: %s bytes, level %s, checksum %s; --triangles %s: %s, %s, %s", policies[i],
@@ -585,11 +529,11 @@ static void test_policy_asks_stop(mts_test *t)
              bin_dir, listen);
     CHECK(t, mts_test_run(cmd, ref, sizeof ref) == 0);
     char bl[32], bls[32], bc[32], bsum[40], fsum[40];
-    json_value(out, "level", bl, sizeof bl);
-    json_value(out, "levels", bls, sizeof bls);
-    json_value(out, "continuations", bc, sizeof bc);
-    json_value(out, "checksum", bsum, sizeof bsum);
-    json_value(ref, "checksum", fsum, sizeof fsum);
+    mts_test_json(out, "level", bl, sizeof bl);
+    mts_test_json(out, "levels", bls, sizeof bls);
+    mts_test_json(out, "continuations", bc, sizeof bc);
+    mts_test_json(out, "checksum", bsum, sizeof bsum);
+    mts_test_json(ref, "checksum", fsum, sizeof fsum);
     CHECKF(t, brc == 0 && !strcmp(bl, bls) && atol(bc) >= 1 && bsum[0] && !strcmp(bsum, fsum),
            "budget: exit %d, level %s of %s, %s continuations, checksum %s (full %s): %s", brc,
            bl, bls, bc, bsum, fsum, out);
@@ -599,9 +543,9 @@ static void test_policy_asks_stop(mts_test *t)
              bin_dir, listen);
     int rc = mts_test_run(cmd, out, sizeof out);
     char level[32];
-    json_value(out, "level", level, sizeof level);
+    mts_test_json(out, "level", level, sizeof level);
     CHECKF(t, rc == 0 && !strcmp(level, "300"), "--level 300 drew level %s: %s", level, out);
-    stop(spid);
+    mts_test_stop(spid);
 }
 
 int main(int argc, char **argv)

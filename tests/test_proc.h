@@ -1,8 +1,10 @@
 /* Processes for end-to-end tests: start a program with its stderr in a log,
  * stop it, find a free loopback port, wait until a server answers, read a
- * log back. Tests that run the programs find them beside their own binary
- * (build/bin for build/tests, build/asan/bin for build/asan/tests), so the
- * ASan build tests the ASan programs. */
+ * log or a --json line back; and a stream client fed a connection's bytes,
+ * as the programs' tests and the in-memory stream tests both do. Tests that
+ * run the programs find them beside their own binary (build/bin for
+ * build/tests, build/asan/bin for build/asan/tests), so the ASan build tests
+ * the ASan programs. */
 #ifndef MTS_TEST_PROC_H
 #define MTS_TEST_PROC_H
 
@@ -12,12 +14,17 @@
 #include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
+
+#include "stream.h"
+#include "test.h"
+#include "wire.h"
 
 /* Runs fn(arg) in a child process limited to `bytes` of address space:
  * 1 when it returned nonzero there, 0 when it returned 0, ran out of
@@ -135,6 +142,23 @@ static inline int mts_test_wait_port(int port, double seconds)
     return 0;
 }
 
+/* Lists the models of the mts-server at listen (bin_dir's mts-client
+ * --list) every 0.1 s, `tries` times at most, until the listing names
+ * `model` (any listing when NULL): 1 when it did. The last output in out. */
+static inline int mts_test_wait_models(const char *bin_dir, const char *listen, const char *model,
+                                       int tries, char *out, size_t size)
+{
+    char cmd[1200];
+    snprintf(cmd, sizeof cmd, "%s/mts-client %s --list", bin_dir, listen);
+    for (int i = 0; i < tries; i++) {
+        if (mts_test_run(cmd, out, size) == 0 && (!model || strstr(out, model)))
+            return 1;
+        struct timespec ts = {0, 100 * 1000 * 1000};
+        nanosleep(&ts, NULL);
+    }
+    return 0;
+}
+
 /* The first size-1 bytes of a file, NUL-terminated ("" when unreadable). */
 static inline void mts_test_read_file(const char *path, char *out, size_t size)
 {
@@ -145,6 +169,79 @@ static inline void mts_test_read_file(const char *path, char *out, size_t size)
     size_t n = fread(out, 1, size - 1, f);
     out[n] = 0;
     fclose(f);
+}
+
+/* The value of "key": in a JSON line, as text up to the next ',', '}' or
+ * line end ("" when absent). */
+static inline void mts_test_json(const char *json, const char *key, char *out, size_t size)
+{
+    char k[64];
+    snprintf(k, sizeof k, "\"%s\":", key);
+    const char *p = strstr(json, k);
+    out[0] = 0;
+    if (!p)
+        return;
+    p += strlen(k);
+    size_t n = strcspn(p, ",}\n");
+    if (n >= size)
+        n = size - 1;
+    memcpy(out, p, n);
+    out[n] = 0;
+}
+
+/* The number after "key": in a JSON line, or -1. */
+static inline long mts_test_json_long(const char *json, const char *key)
+{
+    char k[64];
+    snprintf(k, sizeof k, "\"%s\":", key);
+    const char *p = strstr(json, k);
+    return p ? strtol(p + strlen(k), NULL, 10) : -1;
+}
+
+/* Events a stream client gave, by kind. */
+typedef struct mts_test_events {
+    int info, base, batch, end, resumed, error;
+} mts_test_events;
+
+/* Feeds data to c as one connection does: in pieces of 1 to max_piece bytes
+ * drawn from seed, through a fresh frame reader (a frame left incomplete is
+ * dropped with it), up to the end or the first error, the reader's or the
+ * client's; adds the events to *n. */
+static inline mts_result mts_test_feed(mts_stream_client *c, const uint8_t *data, size_t size,
+                                       uint64_t seed, size_t max_piece, mts_test_events *n,
+                                       mts_error *err)
+{
+    mts_wire_reader r = {0};
+    mts_result rc = MTS_OK;
+    size_t at = 0;
+    while (at < size && rc == MTS_OK) {
+        seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+        size_t piece = 1 + (size_t)((seed >> 33) % max_piece);
+        if (piece > size - at)
+            piece = size - at;
+        if ((rc = mts_wire_reader_feed(&r, data + at, piece, err)) != MTS_OK)
+            break;
+        at += piece;
+        uint8_t type;
+        const uint8_t *p;
+        size_t len;
+        int got;
+        while (rc == MTS_OK && (got = mts_wire_reader_next(&r, &type, &p, &len, err)) == 1) {
+            mts_stream_event ev;
+            if ((rc = mts_stream_client_frame(c, type, p, len, &ev, err)) != MTS_OK)
+                break;
+            n->info += ev == MTS_EV_INFO;
+            n->base += ev == MTS_EV_BASE;
+            n->batch += ev == MTS_EV_BATCH;
+            n->end += ev == MTS_EV_END;
+            n->resumed += ev == MTS_EV_RESUMED;
+            n->error += ev == MTS_EV_ERROR;
+        }
+        if (rc == MTS_OK && got < 0)
+            rc = err->code;
+    }
+    mts_wire_reader_free(&r);
+    return rc;
 }
 
 #endif

@@ -180,6 +180,40 @@ static mts_renderer *renderer_for_triangles(mts_test *t, const mts_render_option
     return r;
 }
 
+/* What most cases start from: the cow's runtime started `at` and moved to
+ * `level`, the default options, a renderer for them and `frames` frames. */
+typedef struct cow_case {
+    mts_lod lod;
+    mts_render_options o;
+    mts_renderer *r;
+    frame *f;
+} cow_case;
+
+/* 1 when all of it is there and no check failed; cow_case_free either way. */
+static int cow_case_init(mts_test *t, cow_case *c, mts_lod_start at, uint32_t level,
+                         size_t frames)
+{
+    mts_error err = {0};
+    memset(c, 0, sizeof *c);
+    options(&c->o);
+    mts_result rc = mts_lod_init(&c->lod, &g_cow, at, &err);
+    CHECKF(t, rc == MTS_OK, "lod: %s", err.msg);
+    if (rc != MTS_OK)
+        return 0;
+    CHECK(t, mts_lod_set_level(&c->lod, level, &err) == MTS_OK);
+    c->r = renderer_for(t, &c->lod, &c->o);
+    c->f = calloc(frames, sizeof *c->f);
+    CHECK(t, c->f != NULL);
+    return c->r && c->f && !t->case_failed;
+}
+
+static void cow_case_free(cow_case *c)
+{
+    free(c->f);
+    mts_renderer_destroy(c->r);
+    mts_lod_free(&c->lod);
+}
+
 /* ---- cases ------------------------------------------------------------ */
 
 static void test_context(mts_test *t)
@@ -196,36 +230,31 @@ static void test_cow_levels(mts_test *t)
 {
     NEED_CONTEXT(t);
     mts_error err = {0};
-    mts_lod lod;
-    CHECK(t, mts_lod_init(&lod, &g_cow, MTS_LOD_AT_FULL, &err) == MTS_OK);
-    mts_render_options o;
-    options(&o);
-    mts_renderer *r = renderer_for(t, &lod, &o);
-    frame *f = calloc(3, sizeof *f);
-    if (!r || !f || t->case_failed)
+    cow_case c;
+    if (!cow_case_init(t, &c, MTS_LOD_AT_FULL, g_cow.level_count, 3))
         goto done;
     mts_render_stats st;
-    mts_render_get_stats(r, &st);
+    mts_render_get_stats(c.r, &st);
     /* the default draws the packed buffer, built at the first frame: until
      * then no index went to GL, and the slot buffer waits for a mode that
      * reads it */
     CHECK(t, st.full_uploads == 0 && st.index_bytes_uploaded == 0 && st.packed_builds == 0);
     /* every slot's capacity (the longest it is at any level) and a separator */
-    CHECK(t, st.index_buffer_bytes == 4ull * (lod.slot[g_cow.strip_count] + g_cow.strip_count));
+    CHECK(t, st.index_buffer_bytes == 4ull * (c.lod.slot[g_cow.strip_count] + g_cow.strip_count));
 
     uint32_t levels[3] = {g_cow.level_count, mts_model_level_for_fraction(&g_cow, 0.1), 0};
     const char *names[3] = {"cow_full", "cow_10pct", "cow_base"};
     uint32_t fg[3];
     for (int i = 0; i < 3; i++) {
-        CHECK(t, mts_lod_set_level(&lod, levels[i], &err) == MTS_OK);
-        CHECKF(t, mts_render_update_strips(r, &lod, &err) == MTS_OK, "%s", err.msg);
-        mts_lod_clear_changed(&lod);
-        if (!draw_and_read(t, r, &f[i], names[i]))
+        CHECK(t, mts_lod_set_level(&c.lod, levels[i], &err) == MTS_OK);
+        CHECKF(t, mts_render_update_strips(c.r, &c.lod, &err) == MTS_OK, "%s", err.msg);
+        mts_lod_clear_changed(&c.lod);
+        if (!draw_and_read(t, c.r, &c.f[i], names[i]))
             goto done;
-        fg[i] = foreground(&f[i]);
+        fg[i] = foreground(&c.f[i]);
         /* the background is the requested colour: 0.12, 0.14, 0.18 */
-        CHECKF(t, f[i].px[0] == 31 && f[i].px[1] == 36 && f[i].px[2] == 46,
-               "background %u %u %u", f[i].px[0], f[i].px[1], f[i].px[2]);
+        CHECKF(t, c.f[i].px[0] == 31 && c.f[i].px[1] == 36 && c.f[i].px[2] == 46,
+               "background %u %u %u", c.f[i].px[0], c.f[i].px[1], c.f[i].px[2]);
         CHECKF(t, fg[i] > SIDE * SIDE / 10, "%s: only %u of %u pixels drawn", names[i], fg[i],
                SIDE * SIDE);
         CHECKF(t, fg[i] < SIDE * SIDE * 7 / 10, "%s: %u of %u pixels drawn", names[i], fg[i],
@@ -233,7 +262,7 @@ static void test_cow_levels(mts_test *t)
     }
     for (int i = 0; i < 3; i++)
         for (int j = i + 1; j < 3; j++) {
-            uint32_t d = pixels_differing(&f[i], &f[j], 8);
+            uint32_t d = pixels_differing(&c.f[i], &c.f[j], 8);
             CHECKF(t, d > SIDE * SIDE / 200, "%s and %s differ in %u pixels only", names[i],
                    names[j], d);
         }
@@ -241,14 +270,12 @@ static void test_cow_levels(mts_test *t)
     CHECKF(t, fg[2] > fg[0] / 2 && fg[2] < fg[0] * 2, "full %u, base %u pixels", fg[0], fg[2]);
 
     if (getenv("MTS_TEST_VERBOSE")) {
-        mts_render_get_stats(r, &st);
+        mts_render_get_stats(c.r, &st);
         fprintf(stderr, "  cow base level %ux%u: %.3f ms, %llu indices\n", SIDE, SIDE,
                 st.last_draw_seconds * 1e3, (unsigned long long)st.last_draw_indices);
     }
 done:
-    free(f);
-    mts_renderer_destroy(r);
-    mts_lod_free(&lod);
+    cow_case_free(&c);
 }
 
 /* The strips at the full level draw the same picture as the mesh they were
@@ -257,25 +284,18 @@ done:
 static void test_full_level_matches_mesh(mts_test *t)
 {
     NEED_CONTEXT(t);
-    mts_error err = {0};
-    mts_lod lod;
-    CHECK(t, mts_lod_init(&lod, &g_cow, MTS_LOD_AT_FULL, &err) == MTS_OK);
-    mts_render_options o;
-    options(&o);
-    mts_renderer *strips = renderer_for(t, &lod, &o);
+    cow_case c;
+    int ok = cow_case_init(t, &c, MTS_LOD_AT_FULL, g_cow.level_count, 2);
     mts_renderer *tris =
-        renderer_for_triangles(t, &o, g_mesh.triangles, g_mesh.triangle_count, 0);
-    frame *f = calloc(2, sizeof *f);
-    if (strips && tris && f && !t->case_failed && draw_and_read(t, strips, &f[0], NULL) &&
-        draw_and_read(t, tris, &f[1], "cow_mesh_triangles")) {
-        uint32_t d = pixels_differing(&f[0], &f[1], 8);
+        renderer_for_triangles(t, &c.o, g_mesh.triangles, g_mesh.triangle_count, 0);
+    if (ok && tris && !t->case_failed && draw_and_read(t, c.r, &c.f[0], NULL) &&
+        draw_and_read(t, tris, &c.f[1], "cow_mesh_triangles")) {
+        uint32_t d = pixels_differing(&c.f[0], &c.f[1], 8);
         CHECKF(t, d < SIDE * SIDE / 1000, "strips and mesh differ in %u pixels", d);
-        CHECK(t, foreground(&f[1]) > SIDE * SIDE / 10);
+        CHECK(t, foreground(&c.f[1]) > SIDE * SIDE / 10);
     }
-    free(f);
-    mts_renderer_destroy(strips);
     mts_renderer_destroy(tris);
-    mts_lod_free(&lod);
+    cow_case_free(&c);
 }
 
 /* Culling: the triangles facing the camera draw the whole visible surface;
@@ -426,47 +446,42 @@ static void test_restart_runs_draw_nothing(mts_test *t)
 {
     NEED_CONTEXT(t);
     mts_error err = {0};
-    mts_lod lod;
-    CHECK(t, mts_lod_init(&lod, &g_cow, MTS_LOD_AT_FULL, &err) == MTS_OK);
-    mts_render_options o;
-    options(&o);
-    mts_renderer *wide = renderer_for(t, &lod, &o), *tight = NULL;
-    frame *f = calloc(2, sizeof *f);
-    if (!wide || !f || t->case_failed)
+    cow_case c;
+    mts_renderer *tight = NULL;
+    if (!cow_case_init(t, &c, MTS_LOD_AT_FULL, g_cow.level_count, 2))
         goto done;
+    mts_renderer *wide = c.r;
     /* full -> base: every strip shrinks in place */
-    CHECK(t, mts_lod_set_level(&lod, 0, &err) == MTS_OK);
-    CHECK(t, mts_render_update_strips(wide, &lod, &err) == MTS_OK);
-    mts_lod_clear_changed(&lod);
+    CHECK(t, mts_lod_set_level(&c.lod, 0, &err) == MTS_OK);
+    CHECK(t, mts_render_update_strips(wide, &c.lod, &err) == MTS_OK);
+    mts_lod_clear_changed(&c.lod);
 
     mts_render_layout layout;
-    mts_render_layout_from_lod(&lod, &layout);
+    mts_render_layout_from_lod(&c.lod, &layout);
     layout.slot = g_cow.base.offsets; /* capacity = base length */
     layout.room = 0;
-    CHECKF(t, mts_renderer_create(g_ctx, &o, &layout, &tight, &err) == MTS_OK, "%s", err.msg);
+    CHECKF(t, mts_renderer_create(g_ctx, &c.o, &layout, &tight, &err) == MTS_OK, "%s", err.msg);
     if (!tight)
         goto done;
     CHECK(t, mts_render_append_vertices(tight, 0, g_cow.vertex_count, g_cow.positions,
                                         g_cow.normals, &err) == MTS_OK);
     for (uint32_t s = 0; s < g_cow.strip_count; s++) {
         uint32_t len;
-        const uint32_t *idx = mts_lod_strip(&lod, s, &len);
+        const uint32_t *idx = mts_lod_strip(&c.lod, s, &len);
         CHECKF(t, mts_render_set_strip(tight, s, idx, len, &err) == MTS_OK, "%s", err.msg);
     }
     mts_render_stats ws, ts;
     mts_render_get_stats(wide, &ws);
     mts_render_get_stats(tight, &ts);
     CHECK(t, ws.index_buffer_bytes > 2 * ts.index_buffer_bytes);
-    if (!draw_and_read(t, wide, &f[0], NULL) || !draw_and_read(t, tight, &f[1], NULL))
+    if (!draw_and_read(t, wide, &c.f[0], NULL) || !draw_and_read(t, tight, &c.f[1], NULL))
         goto done;
-    uint32_t d = pixels_differing(&f[0], &f[1], 0);
+    uint32_t d = pixels_differing(&c.f[0], &c.f[1], 0);
     CHECKF(t, d == 0, "restart runs change %u pixels", d);
-    CHECK(t, foreground(&f[0]) > SIDE * SIDE / 10);
+    CHECK(t, foreground(&c.f[0]) > SIDE * SIDE / 10);
 done:
-    free(f);
-    mts_renderer_destroy(wide);
     mts_renderer_destroy(tight);
-    mts_lod_free(&lod);
+    cow_case_free(&c);
 }
 
 /* Drawing the slot buffer (RESTART), a small move re-uploads exactly the
@@ -550,58 +565,51 @@ static void test_packed_path_uploads(mts_test *t)
 {
     NEED_CONTEXT(t);
     mts_error err = {0};
-    mts_lod lod;
-    CHECK(t, mts_lod_init(&lod, &g_cow, MTS_LOD_AT_BASE, &err) == MTS_OK);
-    mts_render_options o;
-    options(&o);
-    mts_renderer *r = renderer_for(t, &lod, &o);
-    frame *f = calloc(2, sizeof *f);
-    if (!r || !f || t->case_failed)
+    cow_case c;
+    if (!cow_case_init(t, &c, MTS_LOD_AT_BASE, 0, 2))
         goto done;
     mts_render_stats st;
     const uint32_t mid = g_cow.level_count / 2;
     for (uint32_t target = mid; target <= mid + 40; target += 20) {
-        mts_render_reset_counters(r);
-        CHECK(t, mts_lod_set_level(&lod, target, &err) == MTS_OK);
+        mts_render_reset_counters(c.r);
+        CHECK(t, mts_lod_set_level(&c.lod, target, &err) == MTS_OK);
         for (int k = 0; k < 2; k++) { /* two updates before the frame: one rebuild */
-            CHECKF(t, mts_render_update_strips(r, &lod, &err) == MTS_OK, "%s", err.msg);
-            mts_lod_clear_changed(&lod);
+            CHECKF(t, mts_render_update_strips(c.r, &c.lod, &err) == MTS_OK, "%s", err.msg);
+            mts_lod_clear_changed(&c.lod);
         }
-        mts_render_get_stats(r, &st);
+        mts_render_get_stats(c.r, &st);
         CHECK(t, st.index_bytes_uploaded == 0 && st.strip_uploads == 0 && st.full_uploads == 0);
-        if (!draw_and_read(t, r, &f[0], NULL))
+        if (!draw_and_read(t, c.r, &c.f[0], NULL))
             goto done;
-        mts_render_get_stats(r, &st);
+        mts_render_get_stats(c.r, &st);
         CHECKF(t, st.packed_builds == 1 && st.index_bytes_uploaded == st.packed_bytes &&
                       st.packed_bytes == st.last_draw_index_bytes,
                "%llu builds, %llu bytes uploaded, packed %llu", (unsigned long long)st.packed_builds,
                (unsigned long long)st.index_bytes_uploaded, (unsigned long long)st.packed_bytes);
         /* a frame with nothing changed uploads nothing */
-        mts_render_reset_counters(r);
-        if (!draw_and_read(t, r, &f[0], NULL))
+        mts_render_reset_counters(c.r);
+        if (!draw_and_read(t, c.r, &c.f[0], NULL))
             goto done;
-        mts_render_get_stats(r, &st);
+        mts_render_get_stats(c.r, &st);
         CHECK(t, st.index_bytes_uploaded == 0 && st.packed_builds == 0);
     }
     /* the slot buffer, read at last: filled once, the same picture */
-    mts_render_reset_counters(r);
-    mts_render_style rs = o.style;
+    mts_render_reset_counters(c.r);
+    mts_render_style rs = c.o.style;
     g_mode = MTS_DRAWMODE_RESTART;
-    mts_render_set_style(r, &rs);
-    if (!draw_and_read(t, r, &f[1], NULL))
+    mts_render_set_style(c.r, &rs);
+    if (!draw_and_read(t, c.r, &c.f[1], NULL))
         goto done;
-    mts_render_get_stats(r, &st);
+    mts_render_get_stats(c.r, &st);
     CHECK(t, st.full_uploads == 1 && st.index_bytes_uploaded == st.index_buffer_bytes);
-    CHECK(t, pixels_differing(&f[0], &f[1], 0) == 0);
-    mts_render_reset_counters(r);
-    if (!draw_and_read(t, r, &f[1], NULL))
+    CHECK(t, pixels_differing(&c.f[0], &c.f[1], 0) == 0);
+    mts_render_reset_counters(c.r);
+    if (!draw_and_read(t, c.r, &c.f[1], NULL))
         goto done;
-    mts_render_get_stats(r, &st);
+    mts_render_get_stats(c.r, &st);
     CHECK(t, st.index_bytes_uploaded == 0);
 done:
-    free(f);
-    mts_renderer_destroy(r);
-    mts_lod_free(&lod);
+    cow_case_free(&c);
 }
 
 /* Strip by strip (glDrawElements each, glMultiDrawElementsEXT) draws what one
@@ -609,57 +617,48 @@ done:
 static void test_draw_modes(mts_test *t)
 {
     NEED_CONTEXT(t);
-    mts_error err = {0};
-    mts_lod lod;
-    CHECK(t, mts_lod_init(&lod, &g_cow, MTS_LOD_AT_FULL, &err) == MTS_OK);
-    CHECK(t, mts_lod_set_level(&lod, g_cow.level_count / 3, &err) == MTS_OK);
-    mts_render_options o;
-    options(&o);
-    mts_renderer *r = renderer_for(t, &lod, &o);
-    frame *f = calloc(4, sizeof *f);
-    if (!r || !f || t->case_failed)
+    cow_case c;
+    if (!cow_case_init(t, &c, MTS_LOD_AT_FULL, g_cow.level_count / 3, 4))
         goto done;
     mts_render_stats st;
     mts_drawmode modes[3] = {MTS_DRAWMODE_RESTART, MTS_DRAWMODE_PER_STRIP,
                                      MTS_DRAWMODE_MULTI};
     for (int i = 0; i < 3; i++) {
-        mts_render_style s = o.style;
+        mts_render_style s = c.o.style;
         g_mode = modes[i];
-        mts_render_set_style(r, &s);
-        if (!draw_and_read(t, r, &f[i], NULL))
+        mts_render_set_style(c.r, &s);
+        if (!draw_and_read(t, c.r, &c.f[i], NULL))
             goto done;
-        mts_render_get_stats(r, &st);
+        mts_render_get_stats(c.r, &st);
         if (i == 0)
             CHECK(t, st.last_draw_calls == 1 &&
                          st.last_draw_indices * 4 == st.index_buffer_bytes);
         if (i == 1) {
             uint32_t drawn = 0;
-            for (uint32_t k = 0; k < lod.strip_count; k++)
-                drawn += lod.length[k] >= 3;
+            for (uint32_t k = 0; k < c.lod.strip_count; k++)
+                drawn += c.lod.length[k] >= 3;
             CHECK(t, st.last_draw_calls == drawn);
         }
         if (i == 2 && st.multi_draw_available)
             CHECK(t, st.last_draw_calls == 1);
         if (i > 0) {
-            CHECK(t, st.last_draw_indices <= g_cow.level_indices[lod.level]);
-            uint32_t d = pixels_differing(&f[0], &f[i], 0);
+            CHECK(t, st.last_draw_indices <= g_cow.level_indices[c.lod.level]);
+            uint32_t d = pixels_differing(&c.f[0], &c.f[i], 0);
             CHECKF(t, d == 0, "mode %d differs from restart in %u pixels", i, d);
         }
     }
-    mts_render_style s = o.style;
+    mts_render_style s = c.o.style;
     s.color_by_strip = 1; /* the renderer's own draw, strip by strip */
-    mts_render_set_style(r, &s);
+    mts_render_set_style(c.r, &s);
     g_mode = MTS_DRAWMODE_JOINED;
-    if (!draw_and_read(t, r, &f[3], "cow_strips"))
+    if (!draw_and_read(t, c.r, &c.f[3], "cow_strips"))
         goto done;
-    CHECK(t, saturated(&f[0]) < SIDE * SIDE / 100);
-    CHECKF(t, saturated(&f[3]) > foreground(&f[3]) / 2, "%u saturated of %u", saturated(&f[3]),
-           foreground(&f[3]));
-    CHECK(t, pixels_differing(&f[0], &f[3], 2) < foreground(&f[0]) + 10);
+    CHECK(t, saturated(&c.f[0]) < SIDE * SIDE / 100);
+    CHECKF(t, saturated(&c.f[3]) > foreground(&c.f[3]) / 2, "%u saturated of %u",
+           saturated(&c.f[3]), foreground(&c.f[3]));
+    CHECK(t, pixels_differing(&c.f[0], &c.f[3], 2) < foreground(&c.f[0]) + 10);
 done:
-    free(f);
-    mts_renderer_destroy(r);
-    mts_lod_free(&lod);
+    cow_case_free(&c);
 }
 
 /* Every draw mode draws the same picture, pixel for pixel, at several levels
@@ -673,24 +672,21 @@ static void test_all_modes_same_picture(mts_test *t)
 {
     NEED_CONTEXT(t);
     mts_error err = {0};
-    mts_lod lod;
-    CHECK(t, mts_lod_init(&lod, &g_cow, MTS_LOD_AT_FULL, &err) == MTS_OK);
-    mts_render_options o;
-    options(&o);
-    mts_renderer *r[2] = {renderer_for(t, &lod, &o), NULL};
+    cow_case c;
+    int ok = cow_case_init(t, &c, MTS_LOD_AT_FULL, g_cow.level_count, 2);
+    mts_renderer *r[2] = {c.r, NULL};
     mts_render_layout layout;
-    mts_render_layout_from_lod(&lod, &layout);
+    mts_render_layout_from_lod(&c.lod, &layout);
     layout.vertex_capacity = 70000; /* 32-bit packed indices */
-    CHECKF(t, mts_renderer_create(g_ctx, &o, &layout, &r[1], &err) == MTS_OK, "%s", err.msg);
-    frame *f = calloc(2, sizeof *f);
+    CHECKF(t, mts_renderer_create(g_ctx, &c.o, &layout, &r[1], &err) == MTS_OK, "%s", err.msg);
     uint32_t *list = malloc(((size_t)g_cow.level_triangles[g_cow.level_count] + 1) * 12);
-    if (!r[0] || !r[1] || !f || !list || t->case_failed)
+    if (!ok || !r[1] || !list || t->case_failed)
         goto done;
     CHECK(t, mts_render_append_vertices(r[1], 0, g_cow.vertex_count, g_cow.positions,
                                         g_cow.normals, &err) == MTS_OK);
-    for (uint32_t s = 0; s < lod.strip_count; s++) { /* renderer_for cleared the changes */
+    for (uint32_t s = 0; s < c.lod.strip_count; s++) { /* renderer_for cleared the changes */
         uint32_t len;
-        const uint32_t *str = mts_lod_strip(&lod, s, &len);
+        const uint32_t *str = mts_lod_strip(&c.lod, s, &len);
         CHECK(t, mts_render_set_strip(r[1], s, str, len, &err) == MTS_OK);
     }
     const uint32_t n = g_cow.level_count;
@@ -699,24 +695,24 @@ static void test_all_modes_same_picture(mts_test *t)
                                           MTS_DRAWMODE_COMPACT, MTS_DRAWMODE_JOINED,
                                           MTS_DRAWMODE_LIST};
     for (size_t li = 0; li < sizeof levels / sizeof levels[0]; li++) {
-        CHECK(t, mts_lod_set_level(&lod, levels[li], &err) == MTS_OK);
+        CHECK(t, mts_lod_set_level(&c.lod, levels[li], &err) == MTS_OK);
         for (int k = 0; k < 2; k++)
-            CHECKF(t, mts_render_update_strips(r[k], &lod, &err) == MTS_OK, "%s", err.msg);
-        mts_lod_clear_changed(&lod);
+            CHECKF(t, mts_render_update_strips(r[k], &c.lod, &err) == MTS_OK, "%s", err.msg);
+        mts_lod_clear_changed(&c.lod);
         size_t nl = 0;
-        for (uint32_t s = 0; s < lod.strip_count; s++) {
+        for (uint32_t s = 0; s < c.lod.strip_count; s++) {
             uint32_t len;
-            const uint32_t *str = mts_lod_strip(&lod, s, &len);
+            const uint32_t *str = mts_lod_strip(&c.lod, s, &len);
             for (uint32_t k = 0; k + 2 < len; k++)
                 nl += 3 * (size_t)mts_strip_window(str, k, list + nl);
         }
         CHECK(t, mts_drawmodes_set_list(&g_dm, r[0], list, (uint32_t)nl, &err) == MTS_OK);
-        mts_render_style s = o.style;
+        mts_render_style s = c.o.style;
         g_mode = MTS_DRAWMODE_RESTART;
         mts_render_set_style(r[0], &s);
-        if (!draw_and_read(t, r[0], &f[0], NULL))
+        if (!draw_and_read(t, r[0], &c.f[0], NULL))
             goto done;
-        CHECK(t, foreground(&f[0]) > 100);
+        CHECK(t, foreground(&c.f[0]) > 100);
         for (int k = 0; k < 2; k++)
             for (size_t mi = 0; mi < sizeof modes / sizeof modes[0]; mi++) {
                 if (k == 1 && modes[mi] != MTS_DRAWMODE_COMPACT &&
@@ -724,11 +720,11 @@ static void test_all_modes_same_picture(mts_test *t)
                     continue;
                 g_mode = modes[mi];
                 mts_render_set_style(r[k], &s);
-                if (!draw_and_read(t, r[k], &f[1], NULL))
+                if (!draw_and_read(t, r[k], &c.f[1], NULL))
                     goto done;
                 mts_render_stats st;
                 mts_render_get_stats(r[k], &st);
-                uint32_t d = pixels_differing(&f[0], &f[1], 0);
+                uint32_t d = pixels_differing(&c.f[0], &c.f[1], 0);
                 CHECKF(t, d == 0, "level %u, mode %d (%u-bit): %u pixels differ from restart",
                        levels[li], (int)modes[mi], k ? 32 : 16, d);
                 if (modes[mi] == MTS_DRAWMODE_COMPACT || modes[mi] == MTS_DRAWMODE_JOINED) {
@@ -736,16 +732,14 @@ static void test_all_modes_same_picture(mts_test *t)
                     CHECK(t, st.last_draw_index_bytes == st.last_draw_indices * (k ? 4u : 2u));
                     /* no slot padding: at most 3 joining indices a strip */
                     CHECK(t, st.last_draw_indices <=
-                                 g_cow.level_indices[lod.level] + 3ull * lod.strip_count);
+                                 g_cow.level_indices[c.lod.level] + 3ull * c.lod.strip_count);
                 }
             }
     }
 done:
     free(list);
-    free(f);
-    mts_renderer_destroy(r[0]);
     mts_renderer_destroy(r[1]);
-    mts_lod_free(&lod);
+    cow_case_free(&c);
 }
 
 /* Orbiting and zooming move the picture. */
@@ -823,37 +817,29 @@ done:
 static void test_camera(mts_test *t)
 {
     NEED_CONTEXT(t);
-    mts_error err = {0};
-    mts_lod lod;
-    CHECK(t, mts_lod_init(&lod, &g_cow, MTS_LOD_AT_FULL, &err) == MTS_OK);
-    mts_render_options o;
-    options(&o);
-    mts_renderer *r = renderer_for(t, &lod, &o);
-    frame *f = calloc(3, sizeof *f);
-    if (!r || !f || t->case_failed)
+    cow_case c;
+    if (!cow_case_init(t, &c, MTS_LOD_AT_FULL, g_cow.level_count, 3))
         goto done;
-    if (!draw_and_read(t, r, &f[0], NULL))
+    if (!draw_and_read(t, c.r, &c.f[0], NULL))
         goto done;
-    mts_render_camera cam = o.camera;
+    mts_render_camera cam = c.o.camera;
     cam.yaw_deg += 180;
-    mts_render_set_camera(r, &cam);
-    if (!draw_and_read(t, r, &f[1], "cow_yaw210"))
+    mts_render_set_camera(c.r, &cam);
+    if (!draw_and_read(t, c.r, &c.f[1], "cow_yaw210"))
         goto done;
-    cam = o.camera;
+    cam = c.o.camera;
     cam.zoom = 2;
-    mts_render_set_camera(r, &cam);
-    if (!draw_and_read(t, r, &f[2], "cow_zoom2"))
+    mts_render_set_camera(c.r, &cam);
+    if (!draw_and_read(t, c.r, &c.f[2], "cow_zoom2"))
         goto done;
-    CHECK(t, pixels_differing(&f[0], &f[1], 8) > SIDE * SIDE / 20);
-    uint32_t a = foreground(&f[0]), b = foreground(&f[2]);
+    CHECK(t, pixels_differing(&c.f[0], &c.f[1], 8) > SIDE * SIDE / 20);
+    uint32_t a = foreground(&c.f[0]), b = foreground(&c.f[2]);
     CHECKF(t, b > 2 * a, "zoom 2: %u pixels, zoom 1: %u", b, a);
     float eye[3], dir[3];
-    mts_render_eye(r, eye, dir);
+    mts_render_eye(c.r, eye, dir);
     CHECK(t, dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2] > 0.99f);
 done:
-    free(f);
-    mts_renderer_destroy(r);
-    mts_lod_free(&lod);
+    cow_case_free(&c);
 }
 
 /* Bad calls are refused with a message, and change nothing. */

@@ -85,46 +85,14 @@ static int conversation(const mts_stream *s, uint32_t stop, uint32_t resume_batc
     return 1;
 }
 
-typedef struct tally {
-    int info, base, batch, end, resumed, error;
-} tally;
+typedef mts_test_events tally;
 
 /* Feeds data in seeded pieces through a fresh frame reader, as one
  * connection does; a frame left incomplete is dropped with the reader. */
 static mts_result feed(mts_stream_client *c, const uint8_t *data, size_t size, uint64_t seed,
                        tally *n, mts_error *err)
 {
-    mts_wire_reader r = {0};
-    mts_result rc = MTS_OK;
-    size_t at = 0;
-    while (at < size && rc == MTS_OK) {
-        seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-        size_t piece = 1 + (size_t)((seed >> 33) % 1500);
-        if (piece > size - at)
-            piece = size - at;
-        if ((rc = mts_wire_reader_feed(&r, data + at, piece, err)) != MTS_OK)
-            break;
-        at += piece;
-        uint8_t type;
-        const uint8_t *p;
-        size_t len;
-        int got;
-        while (rc == MTS_OK && (got = mts_wire_reader_next(&r, &type, &p, &len, err)) == 1) {
-            mts_stream_event ev;
-            if ((rc = mts_stream_client_frame(c, type, p, len, &ev, err)) != MTS_OK)
-                break;
-            n->info += ev == MTS_EV_INFO;
-            n->base += ev == MTS_EV_BASE;
-            n->batch += ev == MTS_EV_BATCH;
-            n->end += ev == MTS_EV_END;
-            n->resumed += ev == MTS_EV_RESUMED;
-            n->error += ev == MTS_EV_ERROR;
-        }
-        if (rc == MTS_OK && got < 0)
-            rc = err->code;
-    }
-    mts_wire_reader_free(&r);
-    return rc;
+    return mts_test_feed(c, data, size, seed, 1500, n, err);
 }
 
 /* Streams to `stop` over connections that break at cuts[0], cuts[1], ...
@@ -237,6 +205,45 @@ static void test_cut_anywhere_then_resume(mts_test *t)
     mts_stream_free(&s);
 }
 
+/* cow's stream and its records form (s->records_form); 0, with nothing
+ * held and a check failed, without either. */
+static int build_with_records(mts_test *t, mts_stream *s)
+{
+    mts_stream_options o = {0};
+    o.with_records = 1;
+    if (!build_stream(t, &o, s))
+        return 0;
+    CHECKF(t, s->records_form != NULL, "with_records = 1 built no records form");
+    if (!s->records_form)
+        mts_stream_free(s);
+    return s->records_form != NULL;
+}
+
+/* Where batch k begins in a conversation to stop (after its MODEL_INFO). */
+static size_t batch_at(const mts_stream *s, uint32_t stop, uint32_t k)
+{
+    mts_buf info = {0};
+    mts_stream_put_model_info(s, stop, &info);
+    size_t at = info.size + s->batch_offset[k];
+    mts_buf_free(&info);
+    return at;
+}
+
+/* A fresh client c, fed a's conversation `first` up to cut (inside batch 4)
+ * and broken there: it holds 4 batches, would resume at batch 4 of a, and
+ * takes the next conversation as a resume. */
+static void break_in_batch_4(mts_test *t, const mts_stream *a, const mts_buf *first, size_t cut,
+                             mts_stream_client *c, tally *k, mts_error *err)
+{
+    mts_stream_client_init(c);
+    *k = (tally){0};
+    CHECK(t, feed(c, first->data, cut, 1, k, err) == MTS_OK && c->batches == 4);
+    uint32_t batch;
+    uint64_t id;
+    CHECK(t, mts_stream_client_resume_point(c, &batch, &id) && batch == 4 && id == a->stream_id);
+    CHECK(t, mts_stream_client_reconnected(c, err) == MTS_OK);
+}
+
 /* A resumed conversation that brings another stream is refused whole. */
 static void test_other_stream_refused(mts_test *t)
 {
@@ -253,33 +260,24 @@ static void test_other_stream_refused(mts_test *t)
     const uint32_t n = a.model.level_count;
     mts_buf first = {0}, second = {0};
     conversation(&a, n, 0, 0, &first);
-    mts_buf info = {0};
-    mts_stream_put_model_info(&a, n, &info);
-    size_t cut = info.size + a.batch_offset[4] + 10; /* inside batch 4 */
-    mts_buf_free(&info);
+    size_t cut = batch_at(&a, n, 4) + 10; /* inside batch 4 */
 
-    mts_stream_client c;
-    mts_stream_client_init(&c);
-    mts_error err = {0};
-    tally k = {0};
-    CHECK(t, feed(&c, first.data, cut, 1, &k, &err) == MTS_OK && c.batches == 4);
-    uint32_t batch;
-    uint64_t id;
-    CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == 4 && id == a.stream_id);
     /* a server that does not check stream_id sends the other stream */
-    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK);
-    conversation(&b, n, batch, b.stream_id, &second);
+    mts_stream_client c;
+    mts_error err = {0};
+    tally k;
+    break_in_batch_4(t, &a, &first, cut, &c, &k, &err);
+    conversation(&b, n, 4, b.stream_id, &second);
     mts_result rc = feed(&c, second.data, second.size, 2, &k, &err);
     CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, "not mixing"), "%d: %s", rc, err.msg);
     CHECK(t, c.batches == 4 && c.lod.level == a.batch_first[4]); /* untouched */
+    uint32_t batch;
+    uint64_t id;
     CHECK(t, !mts_stream_client_resume_point(&c, &batch, &id));
     mts_stream_client_free(&c);
 
     /* the server that checks answers ERROR stale: an event, not a mix */
-    mts_stream_client_init(&c);
-    k = (tally){0};
-    CHECK(t, feed(&c, first.data, cut, 1, &k, &err) == MTS_OK);
-    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK);
+    break_in_batch_4(t, &a, &first, cut, &c, &k, &err);
     mts_buf_free(&second);
     CHECK(t, !conversation(&b, n, 4, a.stream_id, &second));
     CHECK(t, feed(&c, second.data, second.size, 3, &k, &err) == MTS_OK);
@@ -314,9 +312,7 @@ static void test_other_stream_refused(mts_test *t)
 static void test_cut_anywhere_then_resume_records(mts_test *t)
 {
     mts_stream s;
-    mts_stream_options o = {0};
-    o.with_records = 1;
-    if (!build_stream(t, &o, &s))
+    if (!build_with_records(t, &s))
         return;
     const mts_stream *r = s.records_form;
     CHECK(t, r != NULL && r->stream_id != s.stream_id && r->batch_count > 4);
@@ -399,9 +395,7 @@ static void continue_steps(mts_test *t, const mts_stream *s, const uint32_t *sto
 static void test_continue_past_the_stop(mts_test *t)
 {
     mts_stream s;
-    mts_stream_options o = {0};
-    o.with_records = 1;
-    if (!build_stream(t, &o, &s))
+    if (!build_with_records(t, &s))
         return;
     const mts_stream *forms[2] = {&s, s.records_form};
     for (int f = 0; f < 2 && forms[f]; f++) {
@@ -455,39 +449,23 @@ static void test_continue_past_the_stop(mts_test *t)
 static void test_other_form_refused(mts_test *t)
 {
     mts_stream s;
-    mts_stream_options o = {0};
-    o.with_records = 1;
-    if (!build_stream(t, &o, &s))
+    if (!build_with_records(t, &s))
         return;
     const mts_stream *r = s.records_form;
-    CHECK(t, r != NULL);
-    if (!r) {
-        mts_stream_free(&s);
-        return;
-    }
     const uint32_t n = s.model.level_count;
     const mts_stream *began[2] = {r, &s}, *then[2] = {&s, r};
     for (int i = 0; i < 2; i++) {
         const mts_stream *a = began[i], *b = then[i];
         mts_buf first = {0}, second = {0};
         conversation(a, n, 0, 0, &first);
-        mts_buf info = {0};
-        mts_stream_put_model_info(a, n, &info);
-        size_t cut = info.size + a->batch_offset[4] + 10; /* inside batch 4 */
-        mts_buf_free(&info);
+        size_t cut = batch_at(a, n, 4) + 10; /* inside batch 4 */
         mts_stream_client c;
-        mts_stream_client_init(&c);
         mts_error err = {0};
-        tally k = {0};
-        CHECK(t, feed(&c, first.data, cut, 1, &k, &err) == MTS_OK && c.batches == 4);
+        tally k;
+        break_in_batch_4(t, a, &first, cut, &c, &k, &err);
         CHECK(t, c.records == a->records);
-        uint32_t batch;
-        uint64_t id;
-        CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == 4 &&
-                 id == a->stream_id);
-        CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK);
         /* the server that checks: the other form's stream_id is not this one */
-        CHECK(t, !conversation(b, n, batch, id, &second));
+        CHECK(t, !conversation(b, n, 4, a->stream_id, &second));
         mts_stream_client d;
         mts_stream_client_init(&d);
         tally kd = {0};
@@ -496,11 +474,13 @@ static void test_other_form_refused(mts_test *t)
         mts_stream_client_free(&d);
         /* the server that does not: sends the other form from batch 4 */
         mts_buf_free(&second);
-        conversation(b, n, batch, b->stream_id, &second);
+        conversation(b, n, 4, b->stream_id, &second);
         mts_result rc = feed(&c, second.data, second.size, 3, &k, &err);
         CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, "not mixing"), "began %s: %d %s",
                a->records ? "records" : "splits", rc, err.msg);
         CHECK(t, c.batches == 4 && c.lod.level == a->batch_first[4] && !c.lod.broken);
+        uint32_t batch;
+        uint64_t id;
         CHECK(t, !mts_stream_client_resume_point(&c, &batch, &id));
         mts_stream_client_free(&c);
         mts_buf_free(&first);
@@ -510,29 +490,6 @@ static void test_other_form_refused(mts_test *t)
 }
 
 /* ---- over loopback ---- */
-
-static int free_port(void)
-{
-    int port, fd = mts_test_listen_any(&port);
-    if (fd < 0)
-        return -1;
-    close(fd);
-    return port;
-}
-
-static int connect_port(int port)
-{
-    int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    struct sockaddr_in a = {0};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    a.sin_port = htons((uint16_t)port);
-    if (fd >= 0 && connect(fd, (struct sockaddr *)&a, sizeof a) == 0)
-        return fd;
-    if (fd >= 0)
-        close(fd);
-    return -1;
-}
 
 static int send_all(int fd, const uint8_t *p, size_t n)
 {
@@ -586,7 +543,7 @@ static void proxy_main(int lfd, int upstream, size_t cut, int tell, int wait, in
         int cfd = accept(lfd, NULL, NULL);
         if (cfd < 0)
             _exit(1);
-        int ufd = connect_port(upstream);
+        int ufd = mts_test_connect(upstream);
         if (ufd < 0) {
             struct linger lg = {1, 0};
             setsockopt(cfd, SOL_SOCKET, SO_LINGER, &lg, sizeof lg);
@@ -645,23 +602,6 @@ static void stop_pid(pid_t pid, int sig)
     waitpid(pid, NULL, 0);
 }
 
-
-/* The value of "key": in a JSON line, as text ("" when absent). */
-static void json_get(const char *json, const char *key, char *out, size_t size)
-{
-    char k[64];
-    snprintf(k, sizeof k, "\"%s\":", key);
-    const char *p = strstr(json, k);
-    out[0] = 0;
-    if (!p)
-        return;
-    p += strlen(k);
-    size_t n = strcspn(p, ",}\n");
-    if (n >= size)
-        n = size - 1;
-    memcpy(out, p, n);
-    out[n] = 0;
-}
 
 typedef struct fixture {
     char models[600], other[600], model_file[700], log[700];
@@ -727,22 +667,16 @@ static int setup(mts_test *t, fixture *f, pid_t *server)
         CHECKF(t, 0, "%s", err.msg);
         return 0;
     }
-    mts_buf info = {0};
-    mts_stream_put_model_info(&s, s.model.level_count, &info);
     f->cut_batch = 10;
-    f->cut = info.size + s.batch_offset[f->cut_batch] + 7;
+    f->cut = batch_at(&s, s.model.level_count, f->cut_batch) + 7;
     CHECK(t, s.batch_count > 20 && s.records_form);
     if (s.records_form) {
-        mts_buf rinfo = {0};
-        mts_stream_put_model_info(s.records_form, s.model.level_count, &rinfo);
-        f->cut_records = rinfo.size + s.records_form->batch_offset[f->cut_batch] + 7;
+        f->cut_records = batch_at(s.records_form, s.model.level_count, f->cut_batch) + 7;
         f->records_size = s.records_form->size;
-        mts_buf_free(&rinfo);
     }
-    mts_buf_free(&info);
     mts_stream_free(&s);
 
-    f->port = free_port();
+    f->port = mts_test_free_port();
     *server = spawn_server(f->models, f->port, f->log);
     if (!server_up(f->port)) {
         CHECKF(t, 0, "the server did not come up (log: %s)", f->log);
@@ -880,45 +814,77 @@ static int broken_run(mts_test *t, fixture *f, pid_t *server, int after, size_t 
     return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
-static void test_server_killed_and_restarted(mts_test *t)
+/* A client's broken run, as broken_case gives it. */
+typedef struct client_run {
+    int rc;      /* its exit status */
+    double secs; /* from the cut to its end */
+    char out[16384];
+} client_run;
+
+/* The fixture and a broken run against its server (started with flag, or
+ * none; the cut is into the records form with `records`), the server
+ * stopped after; NULL when there is no fixture (the case skips or failed). */
+static fixture *broken_case(mts_test *t, const char *flag, int after, int records,
+                            const char *extra, client_run *r)
 {
     pid_t server;
     fixture *f = start_fixture(t, &server);
     if (!f)
-        return;
-    char out[16384];
-    double secs;
-    int rc = broken_run(t, f, &server, AFTER_CUT_RESTART, f->cut, "", out, sizeof out, &secs);
+        return NULL;
+    if (flag) {
+        stop_pid(server, SIGTERM);
+        server = spawn_server_with(f->models, f->port, f->log, flag);
+        CHECK(t, server_up(f->port));
+    }
+    r->rc = broken_run(t, f, &server, after, records ? f->cut_records : f->cut, extra, r->out,
+                       sizeof r->out, &r->secs);
     stop_pid(server, SIGTERM);
-    CHECKF(t, rc == 0, "exit %d: %s", rc, out);
-    char want[64];
-    snprintf(want, sizeof want, "connection lost at batch %u", f->cut_batch);
-    CHECKF(t, strstr(out, want) && strstr(out, "retrying in") && strstr(out, "(try 1/8)"),
-           "no retry reported: %s", out);
-    snprintf(want, sizeof want, "resuming at batch %u", f->cut_batch);
-    CHECKF(t, strstr(out, want) != NULL, "no resume reported: %s", out);
-    CHECKF(t, strstr(out, "\"complete\":true") && strstr(out, "\"verified\":true"), "%s", out);
-    /* the same mesh as the unbroken run */
+    return f;
+}
+
+/* The first `count` of checksum, triangles, level, batches and levels in a
+ * resumed run's --json output are the unbroken run's. */
+static void same_as_unbroken(mts_test *t, const fixture *f, const char *out, int count)
+{
     const char *keys[] = {"checksum", "triangles", "level", "batches", "levels"};
-    for (int i = 0; i < 5; i++) {
+    for (int i = 0; i < count; i++) {
         char a[128], b[128];
-        json_get(f->unbroken, keys[i], a, sizeof a);
-        json_get(out, keys[i], b, sizeof b);
+        mts_test_json(f->unbroken, keys[i], a, sizeof a);
+        mts_test_json(out, keys[i], b, sizeof b);
         CHECKF(t, a[0] && strcmp(a, b) == 0, "%s: %s unbroken, %s resumed", keys[i], a, b);
     }
+}
+
+static void test_server_killed_and_restarted(mts_test *t)
+{
+    client_run r;
+    fixture *f = broken_case(t, NULL, AFTER_CUT_RESTART, 0, "", &r);
+    if (!f)
+        return;
+    CHECKF(t, r.rc == 0, "exit %d: %s", r.rc, r.out);
+    char want[64];
+    snprintf(want, sizeof want, "connection lost at batch %u", f->cut_batch);
+    CHECKF(t, strstr(r.out, want) && strstr(r.out, "retrying in") && strstr(r.out, "(try 1/8)"),
+           "no retry reported: %s", r.out);
+    snprintf(want, sizeof want, "resuming at batch %u", f->cut_batch);
+    CHECKF(t, strstr(r.out, want) != NULL, "no resume reported: %s", r.out);
+    CHECKF(t, strstr(r.out, "\"complete\":true") && strstr(r.out, "\"verified\":true"), "%s",
+           r.out);
+    /* the same mesh as the unbroken run */
+    same_as_unbroken(t, f, r.out, 5);
     char rec[32];
-    json_get(out, "reconnects", rec, sizeof rec);
+    mts_test_json(r.out, "reconnects", rec, sizeof rec);
     CHECKF(t, atoi(rec) >= 1, "reconnects: '%s'", rec);
-    json_get(f->unbroken, "reconnects", rec, sizeof rec);
+    mts_test_json(f->unbroken, "reconnects", rec, sizeof rec);
     CHECK(t, strcmp(rec, "0") == 0);
     /* fewer bytes than twice the stream: the second connection did not
      * start over */
     char b1[32], b2[32];
-    json_get(f->unbroken, "bytes", b1, sizeof b1);
-    json_get(out, "bytes", b2, sizeof b2);
+    mts_test_json(f->unbroken, "bytes", b1, sizeof b1);
+    mts_test_json(r.out, "bytes", b2, sizeof b2);
     CHECKF(t, atol(b2) < atol(b1) + (long)f->cut / 2, "bytes %s, unbroken %s", b2, b1);
     if (getenv("MTS_TEST_VERBOSE"))
-        fprintf(stderr, "  resumed %.2f s after the cut:\n%s", secs, out);
+        fprintf(stderr, "  resumed %.2f s after the cut:\n%s", r.secs, r.out);
 }
 
 /* The same in the records form (mts-client --records; mts-server keeps it by
@@ -927,45 +893,34 @@ static void test_server_killed_and_restarted(mts_test *t)
  * against the model file. */
 static void test_server_killed_and_restarted_records(mts_test *t)
 {
-    pid_t server;
-    fixture *f = start_fixture(t, &server);
+    client_run r;
+    fixture *f = broken_case(t, NULL, AFTER_CUT_RESTART, 1, "--records", &r);
     if (!f)
         return;
-    char out[16384];
-    double secs;
-    int rc = broken_run(t, f, &server, AFTER_CUT_RESTART, f->cut_records, "--records", out,
-                        sizeof out, &secs);
-    stop_pid(server, SIGTERM);
-    CHECKF(t, rc == 0, "exit %d: %s", rc, out);
+    CHECKF(t, r.rc == 0, "exit %d: %s", r.rc, r.out);
     char want[64];
     snprintf(want, sizeof want, "connection lost at batch %u", f->cut_batch);
-    CHECKF(t, strstr(out, want) != NULL, "no break reported: %s", out);
+    CHECKF(t, strstr(r.out, want) != NULL, "no break reported: %s", r.out);
     snprintf(want, sizeof want, "resuming at batch %u", f->cut_batch);
-    CHECKF(t, strstr(out, want) != NULL, "no resume reported: %s", out);
-    CHECKF(t, strstr(out, "\"complete\":true") && strstr(out, "\"verified\":true") &&
-                  strstr(out, "\"form\":\"records\""),
-           "%s", out);
+    CHECKF(t, strstr(r.out, want) != NULL, "no resume reported: %s", r.out);
+    CHECKF(t, strstr(r.out, "\"complete\":true") && strstr(r.out, "\"verified\":true") &&
+                  strstr(r.out, "\"form\":\"records\""),
+           "%s", r.out);
     /* the same mesh as the unbroken splits-form run */
-    const char *keys[] = {"checksum", "triangles", "level", "batches", "levels"};
-    for (int i = 0; i < 5; i++) {
-        char a[128], b[128];
-        json_get(f->unbroken, keys[i], a, sizeof a);
-        json_get(out, keys[i], b, sizeof b);
-        CHECKF(t, a[0] && strcmp(a, b) == 0, "%s: %s unbroken, %s resumed", keys[i], a, b);
-    }
+    same_as_unbroken(t, f, r.out, 5);
     char form[32], rec[32], bytes[32];
-    json_get(f->unbroken, "form", form, sizeof form);
+    mts_test_json(f->unbroken, "form", form, sizeof form);
     CHECK(t, strcmp(form, "\"splits\"") == 0);
-    json_get(out, "reconnects", rec, sizeof rec);
+    mts_test_json(r.out, "reconnects", rec, sizeof rec);
     CHECKF(t, atoi(rec) >= 1, "reconnects: '%s'", rec);
     /* the records form, and not twice: the second connection went on from
      * batch 10 */
-    json_get(out, "bytes", bytes, sizeof bytes);
+    mts_test_json(r.out, "bytes", bytes, sizeof bytes);
     CHECKF(t, (size_t)atol(bytes) > f->records_size &&
                   (size_t)atol(bytes) < f->records_size + f->cut_records / 2,
            "bytes %s, records form %zu, cut at %zu", bytes, f->records_size, f->cut_records);
     if (getenv("MTS_TEST_VERBOSE"))
-        fprintf(stderr, "  resumed (records form) %.2f s after the cut:\n%s", secs, out);
+        fprintf(stderr, "  resumed (records form) %.2f s after the cut:\n%s", r.secs, r.out);
 }
 
 /* A --records client first served by a server without the records form
@@ -975,73 +930,52 @@ static void test_server_killed_and_restarted_records(mts_test *t)
  * stale). It ends complete, in the splits form, on the unbroken mesh. */
 static void test_resume_asks_for_the_form_held(mts_test *t)
 {
-    pid_t server;
-    fixture *f = start_fixture(t, &server);
+    client_run r;
+    fixture *f = broken_case(t, "--no-records-form", AFTER_CUT_RESTART, 0, "--records", &r);
     if (!f)
         return;
-    stop_pid(server, SIGTERM);
-    server = spawn_server_with(f->models, f->port, f->log, "--no-records-form");
-    CHECK(t, server_up(f->port));
-    char out[16384];
-    double secs;
-    int rc = broken_run(t, f, &server, AFTER_CUT_RESTART, f->cut, "--records", out, sizeof out,
-                        &secs);
-    stop_pid(server, SIGTERM);
-    CHECKF(t, rc == 0, "exit %d: %s", rc, out);
+    CHECKF(t, r.rc == 0, "exit %d: %s", r.rc, r.out);
     char want[64];
     snprintf(want, sizeof want, "resuming at batch %u", f->cut_batch);
-    CHECKF(t, strstr(out, want) != NULL, "no resume reported: %s", out);
-    CHECKF(t, strstr(out, "\"complete\":true") && strstr(out, "\"verified\":true") &&
-                  strstr(out, "\"form\":\"splits\"") && !strstr(out, "stale"),
-           "%s", out);
-    char a[128], b[128];
-    json_get(f->unbroken, "checksum", a, sizeof a);
-    json_get(out, "checksum", b, sizeof b);
-    CHECKF(t, a[0] && strcmp(a, b) == 0, "checksum: %s unbroken, %s resumed", a, b);
+    CHECKF(t, strstr(r.out, want) != NULL, "no resume reported: %s", r.out);
+    CHECKF(t, strstr(r.out, "\"complete\":true") && strstr(r.out, "\"verified\":true") &&
+                  strstr(r.out, "\"form\":\"splits\"") && !strstr(r.out, "stale"),
+           "%s", r.out);
+    same_as_unbroken(t, f, r.out, 1);
 }
 
 static void test_server_never_back(mts_test *t)
 {
-    pid_t server;
-    fixture *f = start_fixture(t, &server);
-    if (!f)
-        return;
-    char out[16384];
-    double secs;
     /* 3 tries: waits of 0.1, 0.2, 0.4 s, each at least half that (jitter) */
-    int rc = broken_run(t, f, &server, AFTER_CUT_NOTHING, f->cut, "--retries 3", out, sizeof out,
-                        &secs);
-    stop_pid(server, SIGTERM);
-    CHECKF(t, rc == 1, "exit %d: %s", rc, out);
-    CHECKF(t, strstr(out, "gave up after 3 tries") && strstr(out, "refused") &&
-                  strstr(out, "(try 3/3)") && !strstr(out, "(try 4/"),
-           "%s", out);
-    CHECKF(t, strstr(out, "\"complete\":false") && strstr(out, "\"batches\":10,"), "%s", out);
+    client_run r;
+    if (!broken_case(t, NULL, AFTER_CUT_NOTHING, 0, "--retries 3", &r))
+        return;
+    CHECKF(t, r.rc == 1, "exit %d: %s", r.rc, r.out);
+    CHECKF(t, strstr(r.out, "gave up after 3 tries") && strstr(r.out, "refused") &&
+                  strstr(r.out, "(try 3/3)") && !strstr(r.out, "(try 4/"),
+           "%s", r.out);
+    CHECKF(t, strstr(r.out, "\"complete\":false") && strstr(r.out, "\"batches\":10,"), "%s", r.out);
     if (getenv("MTS_TEST_VERBOSE"))
-        fprintf(stderr, "  gave up %.2f s after the cut:\n%s", secs, out);
-    CHECKF(t, secs >= 0.35 && secs < 5, "gave up %.2f s after the cut (want 0.35 .. 0.7 s and "
-                                        "the client's own start and exit)", secs);
+        fprintf(stderr, "  gave up %.2f s after the cut:\n%s", r.secs, r.out);
+    CHECKF(t, r.secs >= 0.35 && r.secs < 5,
+           "gave up %.2f s after the cut (want 0.35 .. 0.7 s and the client's own start and exit)",
+           r.secs);
 }
 
 static void test_stale_stream_not_retried(mts_test *t)
 {
-    pid_t server;
-    fixture *f = start_fixture(t, &server);
-    if (!f)
+    client_run r;
+    if (!broken_case(t, NULL, AFTER_CUT_OTHER_MODEL, 0, "", &r))
         return;
-    char out[16384];
-    double secs;
-    int rc = broken_run(t, f, &server, AFTER_CUT_OTHER_MODEL, f->cut, "", out, sizeof out, &secs);
-    stop_pid(server, SIGTERM);
-    CHECKF(t, rc == 1, "exit %d: %s", rc, out);
-    CHECKF(t, strstr(out, "stale") && strstr(out, "cannot resume at batch 10"), "%s", out);
-    CHECKF(t, strstr(out, "\"complete\":false") && strstr(out, "\"batches\":10,"), "%s", out);
+    CHECKF(t, r.rc == 1, "exit %d: %s", r.rc, r.out);
+    CHECKF(t, strstr(r.out, "stale") && strstr(r.out, "cannot resume at batch 10"), "%s", r.out);
+    CHECKF(t, strstr(r.out, "\"complete\":false") && strstr(r.out, "\"batches\":10,"), "%s", r.out);
     /* the answer ends it: no try after the one that got ERROR stale */
-    const char *stale = strstr(out, "stale");
-    CHECKF(t, stale && !strstr(stale, "retrying in"), "%s", out);
-    CHECKF(t, secs < 5, "ended %.2f s after the cut", secs);
+    const char *stale = strstr(r.out, "stale");
+    CHECKF(t, stale && !strstr(stale, "retrying in"), "%s", r.out);
+    CHECKF(t, r.secs < 5, "ended %.2f s after the cut", r.secs);
     if (getenv("MTS_TEST_VERBOSE"))
-        fprintf(stderr, "  ended %.2f s after the cut:\n%s", secs, out);
+        fprintf(stderr, "  ended %.2f s after the cut:\n%s", r.secs, r.out);
 }
 
 int main(int argc, char **argv)

@@ -54,23 +54,6 @@
 static char bin_dir[512], tmp_dir[512];
 
 
-static int free_port(void)
-{
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    struct sockaddr_in a = {0};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (fd < 0 || bind(fd, (struct sockaddr *)&a, sizeof a) != 0) {
-        if (fd >= 0)
-            close(fd);
-        return -1;
-    }
-    socklen_t sl = sizeof a;
-    getsockname(fd, (struct sockaddr *)&a, &sl);
-    close(fd);
-    return ntohs(a.sin_port);
-}
-
 /* Starts argv with stderr into log and stdout into out (or /dev/null). The
  * child gets SIGKILL when the test dies, so a crashed or timed-out test
  * leaves no server or nginx holding ports behind. */
@@ -185,15 +168,6 @@ static int count_ok(const char *log)
     }
     free(s);
     return n;
-}
-
-/* A number after "key": in a JSON line, or -1. */
-static long json_long(const char *json, const char *key)
-{
-    char k[64];
-    snprintf(k, sizeof k, "\"%s\":", key);
-    const char *p = strstr(json, k);
-    return p ? strtol(p + strlen(k), NULL, 10) : -1;
 }
 
 /* The nginx to run, or NULL: sbin is often not on a user's PATH. */
@@ -332,17 +306,17 @@ static void test_two_servers_behind_nginx(mts_test *t)
         return;
 
     pid_t srv[SERVERS] = {0}, lb = 0;
-    int ports[SERVERS], lb_port = free_port();
+    int ports[SERVERS], lb_port = mts_test_free_port();
     char logs[SERVERS][800], listen[SERVERS][64], server_bin[600];
     char conf[800], pidfile[800], globals[1700], lb_err[800], lb_out[800], prefix[800];
     snprintf(server_bin, sizeof server_bin, "%s/mts-server", bin_dir);
     int up = 1;
     for (int i = 0; i < SERVERS && up; i++) {
         snprintf(logs[i], sizeof logs[i], "%s/server%d.log", dir, i + 1);
-        /* A free port can be taken between free_port() and the server's
-         * bind: a server that exits at once gets another port. */
+        /* A free port can be taken before the server binds it: a server that
+         * exits at once gets another port. */
         for (int attempt = 0; attempt < 3; attempt++) {
-            ports[i] = free_port();
+            ports[i] = mts_test_free_port();
             snprintf(listen[i], sizeof listen[i], "127.0.0.1:%d", ports[i]);
             char *argv[] = {server_bin, "--models", models, "--listen", listen[i],
                             "--grace", "1", NULL};
@@ -369,7 +343,7 @@ static void test_two_servers_behind_nginx(mts_test *t)
         int lb_up = 0, conf_ok = 1;
         /* As for the servers: another port when nginx exits at once. */
         for (int attempt = 0; attempt < 3 && !lb_up; attempt++) {
-            lb_port = free_port();
+            lb_port = mts_test_free_port();
             conf_ok = write_nginx_conf(conf, load_line, lb_port, ports);
             CHECKF(t, conf_ok, "docker/nginx-stream.conf is missing or lost its marked lines");
             if (!conf_ok)
@@ -401,9 +375,9 @@ static void test_two_servers_behind_nginx(mts_test *t)
         rc = mts_test_run(cmd, out, sizeof out);
         double secs = mts_clock_seconds() - t0;
         const char *json = strstr(out, "{\"");
-        long clients = json ? json_long(json, "clients") : -1;
-        long ok = json ? json_long(json, "succeeded") : -1;
-        long failed = json ? json_long(json, "failed") : -1;
+        long clients = json ? mts_test_json_long(json, "clients") : -1;
+        long ok = json ? mts_test_json_long(json, "succeeded") : -1;
+        long failed = json ? mts_test_json_long(json, "failed") : -1;
         CHECKF(t, rc == 0, "mts-stress exit %d after %.1f s: %.3000s", rc, secs, out);
         CHECKF(t, clients == CLIENTS && ok == CLIENTS && failed == 0, "%.3000s", out);
         /* Stop the balancer and then the servers, so every connection is over

@@ -14,6 +14,7 @@
 #include "mesh.h"
 #include "stream.h"
 #include "test.h"
+#include "test_proc.h"
 #include "verify.h"
 #include "wire.h"
 
@@ -72,35 +73,43 @@ static void connection_bytes(const mts_stream *s, uint8_t kind, uint32_t value, 
     mts_stream_put_end(s, *stop, (uint32_t)out->size, out);
 }
 
-/* Feeds bytes in pieces from a seeded generator; returns the last event. */
+/* Feeds bytes in pieces from a seeded generator; *saw_end: END came. */
 static mts_result feed(mts_stream_client *c, const uint8_t *data, size_t size, uint64_t seed,
                        int *saw_end, mts_error *err)
 {
-    mts_wire_reader r = {0};
-    mts_result rc = MTS_OK;
-    size_t at = 0;
-    *saw_end = 0;
-    while (at < size && rc == MTS_OK) {
-        seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-        size_t piece = seed ? 1 + (size_t)((seed >> 33) % 977) : size;
-        if (piece > size - at)
-            piece = size - at;
-        if ((rc = mts_wire_reader_feed(&r, data + at, piece, err)) != MTS_OK)
-            break;
-        at += piece;
-        uint8_t type;
-        const uint8_t *p;
-        size_t n;
-        int got;
-        while (rc == MTS_OK && (got = mts_wire_reader_next(&r, &type, &p, &n, err)) == 1) {
-            mts_stream_event ev;
-            rc = mts_stream_client_frame(c, type, p, n, &ev, err);
-            if (ev == MTS_EV_END)
-                *saw_end = 1;
-        }
-    }
-    mts_wire_reader_free(&r);
+    mts_test_events n = {0};
+    mts_result rc = mts_test_feed(c, data, size, seed, 977, &n, err);
+    *saw_end = n.end > 0;
     return rc;
+}
+
+/* A fresh client c fed what a connection to s for (kind, value) is sent, in
+ * pieces from seed: 1 when it ended (END) without an error (else in err).
+ * The level it stops at in *stop, the bytes in *bytes (may be NULL). */
+static int receive(const mts_stream *s, uint8_t kind, uint32_t value, uint64_t seed,
+                   mts_stream_client *c, uint32_t *stop, size_t *bytes, mts_error *err)
+{
+    mts_buf b = {0};
+    connection_bytes(s, kind, value, &b, stop);
+    if (bytes)
+        *bytes = b.size;
+    mts_stream_client_init(c);
+    int saw_end;
+    mts_result rc = feed(c, b.data, b.size, seed, &saw_end, err);
+    mts_buf_free(&b);
+    return rc == MTS_OK && saw_end;
+}
+
+/* How many of the first count normals are of unit length. */
+static size_t unit_normals(const float *normals, size_t count)
+{
+    size_t unit = 0;
+    for (size_t x = 0; x < count; x++) {
+        const float *q = normals + 3 * x;
+        float l = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+        unit += l > 0.999f && l < 1.001f;
+    }
+    return unit;
 }
 
 /* The client's state equals the stream model at the client's level. */
@@ -144,21 +153,15 @@ static void test_cow_every_stop(mts_test *t)
                  {MTS_STOP_FRACTION, 500000}, {MTS_STOP_LEVEL, 999999}};
     for (size_t i = 0; i < sizeof stops / sizeof stops[0] && !t->case_failed; i++) {
         for (uint64_t seed = 0; seed < 4; seed++) {
-            mts_buf b = {0};
             uint32_t stop;
-            connection_bytes(&s, stops[i].kind, stops[i].value, &b, &stop);
             mts_stream_client c;
-            mts_stream_client_init(&c);
             mts_error err = {0};
-            int saw_end;
-            mts_result rc = feed(&c, b.data, b.size, seed, &saw_end, &err);
-            CHECKF(t, rc == MTS_OK && saw_end, "stop %zu seed %llu: %s", i,
-                   (unsigned long long)seed, err.msg);
+            CHECKF(t, receive(&s, stops[i].kind, stops[i].value, seed, &c, &stop, NULL, &err),
+                   "stop %zu seed %llu: %s", i, (unsigned long long)seed, err.msg);
             CHECK(t, c.lod.level == stop);
             CHECK(t, c.checksum == c.end_checksum);
             same_as_server(t, &s, &c);
             mts_stream_client_free(&c);
-            mts_buf_free(&b);
         }
     }
     mts_stream_free(&s);
@@ -181,27 +184,15 @@ static void test_normals_travel_when_given(mts_test *t)
     for (int k = 0; k < 2; k++) {
         mts_stream *s = both[k];
         const size_t nv = s->model.vertex_count;
-        mts_buf b = {0};
         uint32_t stop;
-        connection_bytes(s, MTS_STOP_FULL, 0, &b, &stop);
-        sizes[k] = b.size;
         mts_stream_client c;
-        mts_stream_client_init(&c);
         mts_error err = {0};
-        int saw_end;
-        mts_result rc = feed(&c, b.data, b.size, 7, &saw_end, &err);
-        CHECKF(t, rc == MTS_OK && saw_end, "%s", err.msg);
+        CHECKF(t, receive(s, MTS_STOP_FULL, 0, 7, &c, &stop, &sizes[k], &err), "%s", err.msg);
         CHECK(t, !!(c.info.flags & MTS_INFO_NORMALS) == (k == 0));
         same_as_server(t, s, &c); /* normals included, bit for bit */
-        size_t unit = 0;
-        for (size_t x = 0; x < nv; x++) {
-            const float *q = c.model.normals + 3 * x;
-            float l = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
-            unit += l > 0.999f && l < 1.001f;
-        }
+        size_t unit = unit_normals(c.model.normals, nv);
         CHECKF(t, k == 0 ? unit == nv : unit == 0, "%zu of %zu unit normals", unit, nv);
         mts_stream_client_free(&c);
-        mts_buf_free(&b);
     }
     /* 2 x 16 bits a vertex, coded: at least a byte a vertex saved */
     CHECKF(t, sizes[1] + with.model.vertex_count < sizes[0], "%zu with normals, %zu without",
@@ -333,35 +324,26 @@ static void shared_model_stops(mts_test *t, const char *file, int records)
     const uint8_t kinds[3] = {MTS_STOP_FULL, MTS_STOP_FRACTION, MTS_STOP_TRIANGLES};
     const uint32_t values[3] = {0, 250000, 40000};
     for (int i = 0; i < 3; i++) {
-        mts_buf b = {0};
         uint32_t stop;
-        connection_bytes(&s, kinds[i], values[i], &b, &stop);
+        size_t bytes;
         mts_stream_client c;
-        mts_stream_client_init(&c);
         mts_error err = {0};
-        int saw_end;
-        CHECKF(t, feed(&c, b.data, b.size, 3 + (uint64_t)i, &saw_end, &err) == MTS_OK && saw_end,
+        CHECKF(t, receive(&s, kinds[i], values[i], 3 + (uint64_t)i, &c, &stop, &bytes, &err),
                "%s", err.msg);
         CHECK(t, c.lod.level == stop);
         same_as_server(t, &s, &c);
         if (getenv("MTS_TEST_VERBOSE"))
-            fprintf(stderr, "  %s stop %d: level %u, %zu bytes\n", file, i, stop, b.size);
+            fprintf(stderr, "  %s stop %d: level %u, %zu bytes\n", file, i, stop, bytes);
         mts_stream_client_free(&c);
-        mts_buf_free(&b);
     }
     if (records && s.records_form) {
         /* the records form at the full level: the same mesh, and the
          * model's records word for word */
         const mts_stream *r = s.records_form;
-        mts_buf b = {0};
         uint32_t stop;
-        connection_bytes(r, MTS_STOP_FULL, 0, &b, &stop);
         mts_stream_client c;
-        mts_stream_client_init(&c);
         mts_error err = {0};
-        int saw_end;
-        CHECKF(t, feed(&c, b.data, b.size, 9, &saw_end, &err) == MTS_OK && saw_end, "records: %s",
-               err.msg);
+        CHECKF(t, receive(r, MTS_STOP_FULL, 0, 9, &c, &stop, NULL, &err), "records: %s", err.msg);
         CHECK(t, c.records == 1 && c.grow == NULL && c.info.stream_id == r->stream_id);
         CHECK(t, stop == s.model.level_count && c.lod.level == stop);
         CHECK(t, c.checksum == s.level_checksum[stop]);
@@ -373,7 +355,6 @@ static void shared_model_stops(mts_test *t, const char *file, int records)
             fprintf(stderr, "  %s records form: %zu bytes (splits form %zu)\n", file, r->size,
                     s.size);
         mts_stream_client_free(&c);
-        mts_buf_free(&b);
     } else if (records) {
         CHECK(t, s.records_form != NULL);
     }
@@ -504,6 +485,20 @@ static const mts_stream *cow_with_records(mts_test *t)
         CHECKF(t, 0, "building cow with its records form failed before");
     }
     return cow_rec_state > 0 ? &cow_rec : NULL;
+}
+
+/* cow (*s), its records form (*r) and what a connection to the records form
+ * for the full level is sent (b, stopping at *stop); 0 when cow did not
+ * build. */
+static int cow_records_full(mts_test *t, const mts_stream **s, const mts_stream **r, mts_buf *b,
+                            uint32_t *stop)
+{
+    *s = cow_with_records(t);
+    if (!*s)
+        return 0;
+    *r = (*s)->records_form;
+    connection_bytes(*r, MTS_STOP_FULL, 0, b, stop);
+    return 1;
 }
 
 static uint32_t get_u32(const uint8_t *p)
@@ -721,24 +716,16 @@ static void test_records_form_every_stop(mts_test *t)
                  {MTS_STOP_FRACTION, 500000}, {MTS_STOP_LEVEL, 999999}};
     for (size_t i = 0; i < sizeof stops / sizeof stops[0] && !t->case_failed; i++) {
         /* the splits form at this stop, for its END checksum */
-        mts_buf sb = {0};
         uint32_t sstop;
-        connection_bytes(s, stops[i].kind, stops[i].value, &sb, &sstop);
         mts_stream_client sc;
-        mts_stream_client_init(&sc);
-        int saw_end;
-        CHECKF(t, feed(&sc, sb.data, sb.size, 0, &saw_end, &err) == MTS_OK && saw_end,
+        CHECKF(t, receive(s, stops[i].kind, stops[i].value, 0, &sc, &sstop, NULL, &err),
                "splits, stop %zu: %s", i, err.msg);
         for (uint64_t seed = 0; seed < 4; seed++) {
-            mts_buf rb = {0};
             uint32_t stop;
-            connection_bytes(r, stops[i].kind, stops[i].value, &rb, &stop);
-            CHECK(t, stop == sstop);
             mts_stream_client c;
-            mts_stream_client_init(&c);
-            mts_result rc = feed(&c, rb.data, rb.size, seed, &saw_end, &err);
-            CHECKF(t, rc == MTS_OK && saw_end, "records, stop %zu seed %llu: %s", i,
-                   (unsigned long long)seed, err.msg);
+            CHECKF(t, receive(r, stops[i].kind, stops[i].value, seed, &c, &stop, NULL, &err),
+                   "records, stop %zu seed %llu: %s", i, (unsigned long long)seed, err.msg);
+            CHECK(t, stop == sstop);
             CHECK(t, c.records == 1 && c.grow == NULL);
             CHECK(t, (c.info.flags & MTS_INFO_RECORDS) && c.info.stream_id == r->stream_id);
             CHECK(t, c.lod.level == stop && !c.lod.broken);
@@ -758,10 +745,8 @@ static void test_records_form_every_stop(mts_test *t)
             CHECK(t, got == 0 || memcmp(c.model.record_data, s->model.record_data,
                                         (size_t)s->model.record_offsets[got] * 4) == 0);
             mts_stream_client_free(&c);
-            mts_buf_free(&rb);
         }
         mts_stream_client_free(&sc);
-        mts_buf_free(&sb);
     }
 }
 
@@ -769,13 +754,11 @@ static void test_records_form_every_stop(mts_test *t)
  * then per split three grid deltas against the parent, then the CRC. */
 static void test_records_form_batch_layout(mts_test *t)
 {
-    const mts_stream *s = cow_with_records(t);
-    if (!s)
-        return;
-    const mts_stream *r = s->records_form;
+    const mts_stream *s, *r;
     mts_buf b = {0};
     uint32_t stop;
-    connection_bytes(r, MTS_STOP_FULL, 0, &b, &stop);
+    if (!cow_records_full(t, &s, &r, &b, &stop))
+        return;
     const uint32_t nb = s->model.base_vertex_count;
     for (uint32_t k = 0; k < r->batch_count && !t->case_failed; k++) {
         const uint32_t first = s->batch_first[k], count = s->batch_first[k + 1] - first;
@@ -825,27 +808,18 @@ static void test_records_form_normals(mts_test *t)
     const uint32_t n = s.model.level_count;
     const uint32_t stops[2] = {n, n / 2};
     for (int i = 0; i < 2; i++) {
-        mts_buf b = {0};
         uint32_t stop;
-        connection_bytes(r, MTS_STOP_LEVEL, stops[i], &b, &stop);
         mts_stream_client c;
-        mts_stream_client_init(&c);
         mts_error err = {0};
-        int saw_end;
-        mts_result rc = feed(&c, b.data, b.size, 13 + (uint64_t)i, &saw_end, &err);
-        CHECKF(t, rc == MTS_OK && saw_end, "%s", err.msg);
+        CHECKF(t, receive(r, MTS_STOP_LEVEL, stops[i], 13 + (uint64_t)i, &c, &stop, NULL, &err),
+               "%s", err.msg);
         CHECK(t, c.info.flags == (MTS_INFO_NORMALS | MTS_INFO_RECORDS) && c.records);
         CHECK(t, c.lod.level == stop && c.checksum == s.level_checksum[stop]);
         same_as_server(t, &s, &c); /* normals included, bit for bit */
-        size_t nv = (size_t)s.model.base_vertex_count + stop, unit = 0;
-        for (size_t x = 0; x < nv; x++) {
-            const float *q = c.model.normals + 3 * x;
-            float l = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
-            unit += l > 0.999f && l < 1.001f;
-        }
+        size_t nv = (size_t)s.model.base_vertex_count + stop;
+        size_t unit = unit_normals(c.model.normals, nv);
         CHECKF(t, unit == nv, "%zu of %zu unit normals", unit, nv);
         mts_stream_client_free(&c);
-        mts_buf_free(&b);
     }
     mts_stream_free(&s);
 }
@@ -861,13 +835,11 @@ static void test_records_form_normals(mts_test *t)
  * refused client has nothing to resume. */
 static void test_records_form_damaged_record(mts_test *t)
 {
-    const mts_stream *s = cow_with_records(t);
-    if (!s)
-        return;
-    const mts_stream *r = s->records_form;
+    const mts_stream *s, *r;
     mts_buf b = {0};
     uint32_t stop;
-    connection_bytes(r, MTS_STOP_FULL, 0, &b, &stop);
+    if (!cow_records_full(t, &s, &r, &b, &stop))
+        return;
     const uint32_t k = 2, first = s->batch_first[k], next = s->batch_first[k + 1];
     size_t at, end, body;
     batch_frame(r, &b, k, &at, &end, &body);
@@ -958,13 +930,11 @@ static void test_records_form_damaged_record(mts_test *t)
  * at its last whole batch. */
 static void test_records_form_trailing_bytes(mts_test *t)
 {
-    const mts_stream *s = cow_with_records(t);
-    if (!s)
-        return;
-    const mts_stream *r = s->records_form;
+    const mts_stream *s, *r;
     mts_buf b = {0};
     uint32_t stop;
-    connection_bytes(r, MTS_STOP_FULL, 0, &b, &stop);
+    if (!cow_records_full(t, &s, &r, &b, &stop))
+        return;
     const uint32_t k = 2;
     size_t at, end, body;
     batch_frame(r, &b, k, &at, &end, &body);
@@ -1041,13 +1011,11 @@ static mts_result feed_padded(const mts_stream *r, const mts_buf *b, uint32_t pa
 
 static void test_records_form_padding_bounded(mts_test *t)
 {
-    const mts_stream *s = cow_with_records(t);
-    if (!s)
-        return;
-    const mts_stream *r = s->records_form;
+    const mts_stream *s, *r;
     mts_buf b = {0};
     uint32_t stop;
-    connection_bytes(r, MTS_STOP_FULL, 0, &b, &stop);
+    if (!cow_records_full(t, &s, &r, &b, &stop))
+        return;
     mts_stream_client c;
     mts_error err = {0};
     int saw_end;
@@ -1209,14 +1177,11 @@ static void test_records_form_moves_both_ways(mts_test *t)
     if (!s)
         return;
     const mts_model *sm = &s->model;
-    mts_buf b = {0};
     uint32_t stop;
-    connection_bytes(s->records_form, MTS_STOP_FULL, 0, &b, &stop);
     mts_stream_client c;
-    mts_stream_client_init(&c);
     mts_error err = {0};
-    int saw_end;
-    CHECKF(t, feed(&c, b.data, b.size, 17, &saw_end, &err) == MTS_OK && saw_end, "%s", err.msg);
+    CHECKF(t, receive(s->records_form, MTS_STOP_FULL, 0, 17, &c, &stop, NULL, &err), "%s",
+           err.msg);
     CHECK(t, c.lod.level == sm->level_count && c.lod.available == sm->level_count);
     CHECK(t, sm->key_count >= 3);
     const uint32_t path[] = {0, sm->key_levels[1], sm->level_count / 2, 1, sm->level_count,
@@ -1229,7 +1194,6 @@ static void test_records_form_moves_both_ways(mts_test *t)
     }
     CHECK(t, mts_stream_checksum(&c.lod, c.quantized) == s->level_checksum[sm->level_count]);
     mts_stream_client_free(&c);
-    mts_buf_free(&b);
 }
 
 /* A model without split descriptions (one made by hand, or by an older

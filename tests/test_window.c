@@ -100,15 +100,6 @@ static int read_whole(const char *path, unsigned char **data, long *size)
     return ok;
 }
 
-/* The unsigned number after "key": in s, or -1. */
-static long json_u(const char *s, const char *key)
-{
-    char k[64];
-    snprintf(k, sizeof k, "\"%s\":", key);
-    const char *p = strstr(s, k);
-    return p ? strtol(p + strlen(k), NULL, 10) : -1;
-}
-
 /* Copies the string value of "key" in s (escapes kept as written). */
 static void json_s(const char *s, const char *key, char *out, size_t size)
 {
@@ -123,6 +114,56 @@ static void json_s(const char *s, const char *key, char *out, size_t size)
     while (*p && i + 1 < size && !(*p == '"' && p[-1] != '\\'))
         out[i++] = *p++;
     out[i] = 0;
+}
+
+/* The --json screenshot entries in out, up to max of them into e: how many. */
+static int screenshots(const char *out, const char **e, int max)
+{
+    int n = 0;
+    for (const char *p = out; n < max && (p = strstr(p, "{\"file\":")) != NULL; p++)
+        e[n++] = p;
+    return n;
+}
+
+/* Where the windowed client runs: its folder (screenshots land there), the
+ * Xvfb display and the server's address. */
+typedef struct window_env {
+    const char *dir, *listen;
+    int display;
+} window_env;
+
+/* Runs the windowed client with `lines` as its script (dir/name.txt), stderr
+ * in dir/name.log and `opts` added; its exit status, its output in out. */
+static int run_window(mts_test *t, const window_env *w, const char *name, const char *lines,
+                      const char *opts, char *out, size_t size)
+{
+    char script[800], cmd[8192];
+    snprintf(script, sizeof script, "%s/%s.txt", w->dir, name);
+    FILE *f = fopen(script, "w");
+    CHECK(t, f != NULL);
+    if (f) {
+        fputs(lines, f);
+        fclose(f);
+    }
+    /* detect_leaks=0: llvmpipe's threads upset LeakSanitizer (see test_e2e) */
+    snprintf(cmd, sizeof cmd,
+             "cd %s && DISPLAY=:%d ASAN_OPTIONS=detect_leaks=0 timeout 120 %s/mts-client %s cow "
+             "--window --size 640x480 --script %s --json %s 2>%s.log",
+             w->dir, w->display, bin_dir, w->listen, script, opts, name);
+    return mts_test_run(cmd, out, size);
+}
+
+/* run_window, which must complete with two screenshots (into e): 1 when
+ * it did. */
+static int run_window_two_shots(mts_test *t, const window_env *w, const char *name,
+                                const char *lines, const char *opts, char *out, size_t size,
+                                const char **e)
+{
+    int rc = run_window(t, w, name, lines, opts, out, size);
+    CHECKF(t, rc == 0 && strstr(out, "\"complete\":true"), "exit %d: %s", rc, out);
+    int n = screenshots(out, e, 2);
+    CHECKF(t, n == 2, "two screenshots wanted: %s", out);
+    return n == 2;
 }
 
 static void test_window_screenshots(mts_test *t)
@@ -154,62 +195,36 @@ static void test_window_screenshots(mts_test *t)
     char *sargv[] = {server_bin, "--models", models, "--listen", listen, "--quiet", NULL};
     pid_t spid = mts_test_spawn(sargv, slog);
     /* the server builds cow first (slow under ASan): wait until it lists it */
-    snprintf(cmd, sizeof cmd,
-             "for i in $(seq 1 300); do %s/mts-client %s --list 2>/dev/null | grep -q cow && "
-             "exit 0; sleep 0.1; done; exit 1",
-             bin_dir, listen);
-    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "server did not come up: %s", out);
+    CHECKF(t, mts_test_wait_models(bin_dir, listen, "cow", 300, out, sizeof out),
+           "server did not come up: %s", out);
 
     /* times count from the first frame of the model; by 1.5 s a loopback
      * stream of cow has long ended, so End is the full level */
-    char script[800];
-    snprintf(script, sizeof script, "%s/input.txt", dir);
-    FILE *f = fopen(script, "w");
-    CHECK(t, f != NULL);
-    if (f) {
-        fputs("# three levels, the keys between them\n"
-              "0.2 key Home\n"
-              "0.4 key s\n"
-              "0.5 key +\n0.6 key +\n0.7 key +\n"
-              "0.8 key PgUp\n0.9 key PgDn\n"
-              "1.0 key s\n"
-              "1.1 key w\n1.2 key c\n1.3 key w\n1.3 key c\n"
-              "1.5 key End\n"
-              "1.6 drag 40 -10\n"
-              "1.7 scroll -2\n"
-              "2.0 key s\n"
-              "2.3 key q\n",
-              f);
-        fclose(f);
-    }
-    /* detect_leaks=0: llvmpipe's threads upset LeakSanitizer (see test_e2e) */
-    snprintf(cmd, sizeof cmd,
-             "cd %s && DISPLAY=:%d ASAN_OPTIONS=detect_leaks=0 timeout 120 %s/mts-client %s cow "
-             "--window --size 640x480 --script %s --json --morph-ms 0 2>client.log",
-             dir, display, bin_dir, listen, script);
-    int rc = mts_test_run(cmd, out, sizeof out);
+    const window_env w = {dir, listen, display};
+    int rc = run_window(t, &w, "client",
+                        "# three levels, the keys between them\n"
+                        "0.2 key Home\n"
+                        "0.4 key s\n"
+                        "0.5 key +\n0.6 key +\n0.7 key +\n"
+                        "0.8 key PgUp\n0.9 key PgDn\n"
+                        "1.0 key s\n"
+                        "1.1 key w\n1.2 key c\n1.3 key w\n1.3 key c\n"
+                        "1.5 key End\n"
+                        "1.6 drag 40 -10\n"
+                        "1.7 scroll -2\n"
+                        "2.0 key s\n"
+                        "2.3 key q\n",
+                        "--morph-ms 0", out, sizeof out);
 
     /* geomorphs (the window's default, here 400 ms): End from the base
      * starts a morph to the full level; a shot 0.1 s into it is a frame
      * between the levels, named so, and the HUD says it is morphing */
-    char mscript[800], mout[8192];
-    snprintf(mscript, sizeof mscript, "%s/morph.txt", dir);
-    f = fopen(mscript, "w");
-    CHECK(t, f != NULL);
-    if (f) {
-        fputs("0.5 key Home\n1.2 key End\n1.3 key s\n2.0 key s\n2.2 key q\n", f);
-        fclose(f);
-    }
-    snprintf(cmd, sizeof cmd,
-             "cd %s && DISPLAY=:%d ASAN_OPTIONS=detect_leaks=0 timeout 120 %s/mts-client %s cow "
-             "--window --size 640x480 --script %s --json --morph-ms 400 2>morph.log",
-             dir, display, bin_dir, listen, mscript);
-    int mrc = mts_test_run(cmd, mout, sizeof mout);
-    CHECKF(t, mrc == 0 && strstr(mout, "\"complete\":true"), "exit %d: %s", mrc, mout);
-    const char *m1 = strstr(mout, "{\"file\":");
-    const char *m2 = m1 ? strstr(m1 + 1, "{\"file\":") : NULL;
-    CHECKF(t, m1 && m2, "two screenshots wanted: %s", mout);
-    if (m1 && m2) {
+    char mout[8192];
+    const char *m[2];
+    if (run_window_two_shots(t, &w, "morph",
+                             "0.5 key Home\n1.2 key End\n1.3 key s\n2.0 key s\n2.2 key q\n",
+                             "--morph-ms 400", mout, sizeof mout, m)) {
+        const char *m1 = m[0], *m2 = m[1];
         char file1[300], hud1[1024], file2[300], hud2[1024];
         json_s(m1, "file", file1, sizeof file1);
         json_s(m1, "hud", hud1, sizeof hud1);
@@ -220,8 +235,8 @@ static void test_window_screenshots(mts_test *t)
         CHECKF(t, !strstr(file2, "_morph") && strstr(hud2, "morph 400 ms") &&
                       !strstr(hud2, "morphing"),
                "the shot after the morph: %s, HUD '%s'", file2, hud2);
-        CHECKF(t, json_u(m1, "level") == json_u(m2, "level") &&
-                      json_u(m2, "level") == json_u(mout, "levels"),
+        CHECKF(t, mts_test_json_long(m1, "level") == mts_test_json_long(m2, "level") &&
+                      mts_test_json_long(m2, "level") == mts_test_json_long(mout, "levels"),
                "a morph up shows the level it goes to: %s", mout);
         char p1[1100], p2[1100];
         unsigned char *d1 = NULL, *d2 = NULL;
@@ -239,30 +254,19 @@ static void test_window_screenshots(mts_test *t)
     /* more on demand: the distance policy asks for its level's stop, and
      * zooming in continues the stream from the batches held; the end is the
      * checksum of an unbroken stream to the level reached */
-    char zscript[800], zout[8192], ref[4096];
-    snprintf(zscript, sizeof zscript, "%s/zoom.txt", dir);
-    f = fopen(zscript, "w");
-    CHECK(t, f != NULL);
-    if (f) {
-        fputs("0.8 key s\n1.0 scroll 8\n2.5 key s\n2.8 key q\n", f);
-        fclose(f);
-    }
-    snprintf(cmd, sizeof cmd,
-             "cd %s && DISPLAY=:%d ASAN_OPTIONS=detect_leaks=0 timeout 120 %s/mts-client %s cow "
-             "--window --size 640x480 --script %s --json --lod-policy distance --distance 4 "
-             "2>zoom.log",
-             dir, display, bin_dir, listen, zscript);
-    int zrc = mts_test_run(cmd, zout, sizeof zout);
-    CHECKF(t, zrc == 0 && strstr(zout, "\"complete\":true"), "exit %d: %s", zrc, zout);
-    const char *z1 = strstr(zout, "{\"file\":");
-    const char *z2 = z1 ? strstr(z1 + 1, "{\"file\":") : NULL;
-    CHECKF(t, z1 && z2, "two screenshots wanted: %s", zout);
-    long zl = json_u(zout, "level");
-    if (z1 && z2) {
+    char zout[8192], ref[4096];
+    const char *z[2];
+    int zshots = run_window_two_shots(t, &w, "zoom",
+                                      "0.8 key s\n1.0 scroll 8\n2.5 key s\n2.8 key q\n",
+                                      "--lod-policy distance --distance 4", zout, sizeof zout, z);
+    long zl = mts_test_json_long(zout, "level");
+    if (zshots) {
+        const char *z1 = z[0], *z2 = z[1];
         char hud1[1024];
         json_s(z1, "hud", hud1, sizeof hud1);
-        CHECKF(t, json_u(z1, "level") < json_u(z2, "level") && json_u(z2, "level") == zl &&
-                      zl < json_u(zout, "levels") && json_u(zout, "continuations") >= 1,
+        long l1 = mts_test_json_long(z1, "level"), l2 = mts_test_json_long(z2, "level");
+        CHECKF(t, l1 < l2 && l2 == zl && zl < mts_test_json_long(zout, "levels") &&
+                      mts_test_json_long(zout, "continuations") >= 1,
                "zooming in did not fetch more: %s", zout);
         CHECKF(t, strstr(hud1, "zoom in for more") != NULL, "HUD before the zoom: '%s'", hud1);
     }
@@ -283,10 +287,11 @@ static void test_window_screenshots(mts_test *t)
     CHECKF(t, rc == 0, "exit %d: %s %s", rc, out, logtext);
     CHECKF(t, strstr(out, "\"complete\":true") != NULL, "%s", out);
 
-    long level = json_u(out, "level"), levels = json_u(out, "levels"),
-         triangles = json_u(out, "triangles");
+    long level = mts_test_json_long(out, "level"), levels = mts_test_json_long(out, "levels"),
+         triangles = mts_test_json_long(out, "triangles");
     /* frames while the stream came, and for how long: frames/s then */
-    long frames = json_u(out, "frames"), streaming = json_u(out, "frames_streaming");
+    long frames = mts_test_json_long(out, "frames"),
+         streaming = mts_test_json_long(out, "frames_streaming");
     const char *secs = strstr(out, "\"seconds_streaming\":");
     double seconds = secs ? strtod(secs + strlen("\"seconds_streaming\":"), NULL) : -1;
     const char *fps_at = strstr(out, "\"fps_streaming\":");
@@ -303,10 +308,7 @@ static void test_window_screenshots(mts_test *t)
         return;
     /* the three entries */
     const char *e[3];
-    const char *p = shots;
-    int n = 0;
-    while (n < 3 && (p = strstr(p, "{\"file\":")) != NULL)
-        e[n++] = p++;
+    int n = screenshots(shots, e, 3);
     CHECKF(t, n == 3, "%d screenshots: %s", n, shots);
     if (n != 3)
         return;
@@ -319,8 +321,8 @@ static void test_window_screenshots(mts_test *t)
         char file[300], hud[1024], path[1100], want[80];
         json_s(e[i], "file", file, sizeof file);
         json_s(e[i], "hud", hud, sizeof hud);
-        lv[i] = json_u(e[i], "level");
-        tri[i] = json_u(e[i], "triangles");
+        lv[i] = mts_test_json_long(e[i], "level");
+        tri[i] = mts_test_json_long(e[i], "triangles");
         char name[64];
         snprintf(name, sizeof name, "cow_L%ld.png", lv[i]);
         CHECKF(t, !strcmp(file, name), "screenshot %d is %s, want %s", i, file, name);
