@@ -252,6 +252,7 @@ static const char *reason_phrase(int status)
     case 403: return "Forbidden";
     case 404: return "Not Found";
     case 405: return "Method Not Allowed";
+    case 408: return "Request Timeout";
     case 426: return "Upgrade Required";
     case 431: return "Request Header Fields Too Large";
     case 503: return "Service Unavailable";
@@ -401,7 +402,8 @@ void mts_ws_put_close(mts_buf *b, uint16_t code, const char *reason, const uint8
     size_t rn = reason ? strnlen(reason, 123) : 0;
     p[0] = (uint8_t)(code >> 8);
     p[1] = (uint8_t)code;
-    memcpy(p + 2, reason, rn);
+    if (rn)
+        memcpy(p + 2, reason, rn);
     mts_ws_put_frame(b, MTS_WS_CLOSE, p, rn + 2, mask);
 }
 

@@ -72,7 +72,7 @@ void mts_ws_accept_key(const char *key, char out[29]);
 /* The 101 answer to an opening request. */
 void mts_ws_put_accept(mts_buf *b, const mts_ws_request *req);
 
-/* An HTTP error answer (status 400, 403, 404, 405, 426, 431, 503, 505)
+/* An HTTP error answer (status 400, 403, 404, 405, 408, 426, 431, 503, 505)
  * with text as its plain-text body; Connection: close. */
 void mts_ws_put_http_error(mts_buf *b, int status, const char *text);
 

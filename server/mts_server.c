@@ -18,9 +18,9 @@
 static void usage(FILE *f)
 {
     fputs("usage: mts-server [--models DIR] [--model NAME=PATH|URL]... [--listen ADDR:PORT]\n"
-          "                  [--max-clients N] [--idle-timeout S] [--handshake-timeout S]\n"
-          "                  [--grace S] [--max-download BYTES] [--fetch-timeout S]\n"
-          "                  [--fetch-connect-timeout S] [--workers N]\n"
+          "                  [--ws-listen ADDR:PORT] [--max-clients N] [--idle-timeout S]\n"
+          "                  [--handshake-timeout S] [--grace S] [--max-download BYTES]\n"
+          "                  [--fetch-timeout S] [--fetch-connect-timeout S] [--workers N]\n"
           "                  [--rate-limit BYTES/S] [--sndbuf BYTES] [--stats-interval S]\n"
           "                  [--prepare-threads N] [--prepare-wait S] [--no-records-form]\n"
           "                  [--quiet]\n"
@@ -37,6 +37,8 @@ static void usage(FILE *f)
           "  --models DIR           a directory of models and meshes\n"
           "  --model NAME=SOURCE    one model: a .mtsm, a mesh file or an http(s) URL\n"
           "  --listen ADDR:PORT     default 127.0.0.1:7447\n"
+          "  --ws-listen ADDR:PORT  also serve WebSocket clients (browsers) there: the same\n"
+          "                         conversation in binary messages, the same limits\n"
           "  --max-clients N        connections at once per worker (default 1024); more get\n"
           "                         ERROR busy\n"
           "  --idle-timeout S       drop a connection that takes no bytes for S s (default 30)\n"
@@ -246,6 +248,8 @@ int main(int argc, char **argv)
             models[nmodels++] = v;
         } else if (!strcmp(a, "--listen")) {
             so.listen = v;
+        } else if (!strcmp(a, "--ws-listen")) {
+            so.ws_listen = v;
         } else if (!strcmp(a, "--max-clients")) {
             if (!cli_parse_u32(v, &so.max_clients) || so.max_clients == 0) {
                 fprintf(stderr, "mts-server: --max-clients needs a positive number\n");
@@ -374,7 +378,8 @@ int main(int argc, char **argv)
         goto fail;
     }
     /* the first worker binds (port 0 picks one); the others join its port */
-    char listen_spec[300];
+    char listen_spec[300], ws_spec[300];
+    const char *ws_asked = so.ws_listen;
     for (; created < nworkers; created++) {
         if (created == 1) {
             const char *spec = so.listen ? so.listen : "127.0.0.1:7447";
@@ -382,6 +387,11 @@ int main(int argc, char **argv)
             snprintf(listen_spec, sizeof listen_spec, "%.*s:%d", (int)(colon - spec), spec,
                      mts_server_port(workers[0].server));
             so.listen = listen_spec;
+            if (so.ws_listen && (colon = strrchr(so.ws_listen, ':')) != NULL) {
+                snprintf(ws_spec, sizeof ws_spec, "%.*s:%d", (int)(colon - so.ws_listen),
+                         so.ws_listen, mts_server_ws_port(workers[0].server));
+                so.ws_listen = ws_spec;
+            }
         }
         if (mts_server_create_models(&so, table, count, &workers[created].server, &err) !=
             MTS_OK)
@@ -424,6 +434,9 @@ int main(int argc, char **argv)
                 "worker%s\n",
                 so.listen ? so.listen : "127.0.0.1:7447", mts_server_port(workers[0].server),
                 count, nworkers, nworkers == 1 ? "" : "s");
+    if (ws_asked)
+        fprintf(stderr, "mts-server: WebSocket clients on %s (port %d)\n", ws_asked,
+                mts_server_ws_port(workers[0].server));
     /* worker 0 runs on this thread; signals may land on any thread, and
      * every loop polls the one flag */
     uint32_t started = 1;

@@ -21,6 +21,7 @@
 #include "clock.h"
 #include "net.h"
 #include "wire.h"
+#include "ws.h"
 
 /* A client's first frame is a HELLO or LIST: small, so it fits here. */
 #define IN_MAX 512
@@ -31,9 +32,32 @@ typedef enum phase { READING = 0, WAITING, WRITING } phase;
 /* How a conversation ends, as the stats count it (the log says more). */
 typedef enum conn_end { CONN_OPEN = 0, CONN_SERVED, CONN_REFUSED } conn_end;
 
+/* A WebSocket client's state (--ws-listen): the opening request while it
+ * comes, then frames both ways around the same conversation. */
+typedef struct ws_state {
+    int open;                 /* the 101 is queued: frames from here */
+    uint8_t req[MTS_WS_MAX_REQUEST];
+    size_t req_len;
+    mts_ws_reader rd;
+    /* raw bytes sent between data frames: the HTTP answer, pongs, the close */
+    mts_buf raw;
+    size_t raw_off;
+    int close_queued;
+    /* the binary frame being sent: its header, and its payload still to go */
+    uint8_t hdr[MTS_WS_MAX_HEADER];
+    size_t hdr_len, hdr_off;
+    uint64_t left;
+} ws_state;
+
+/* A server message carries at most this much of the stream: a browser sees
+ * a message only once all of it is in, so a large one would hold the
+ * picture back (at 10 bytes of header a message, 0.03 % more bytes). */
+#define WS_MESSAGE_MAX (32u << 10)
+
 typedef struct conn {
     int fd;
     phase phase;
+    ws_state *ws;               /* NULL: a TCP client */
     uint8_t in[IN_MAX];
     size_t in_len;
     const mts_stream *stream;
@@ -70,7 +94,11 @@ struct mts_server {
     uint32_t model_count;
     mts_server_model *own_models; /* mts_server_create's table, freed with the server */
     uint32_t waiting;             /* connections WAITING */
-    int listen_fd, epoll_fd, port;
+    /* the TCP listener, and the WebSocket one when asked for */
+    struct listener {
+        int fd, port, ws;
+    } lis[2];
+    int epoll_fd;
     conn *conns;
     conn *dead; /* closed during this round of events; freed after it */
     conn *paced; /* connections over their rate, waiting to resume */
@@ -95,7 +123,8 @@ static void logf_(mts_server *s, mts_server_log_kind kind, const char *fmt, ...)
     s->opts.log(s->opts.log_user, kind, line);
 }
 
-static mts_result open_listener(mts_server *s, const char *spec, mts_error *err)
+static mts_result open_listener(mts_server *s, struct listener *l, const char *spec,
+                                mts_error *err)
 {
     /* a deep accept queue: thousands of clients may connect in one burst, and
      * a full queue costs each of them a SYN retry (a second or more) */
@@ -106,9 +135,9 @@ static mts_result open_listener(mts_server *s, const char *spec, mts_error *err)
     struct sockaddr_storage ss;
     socklen_t sl = sizeof ss;
     getsockname(fd, (struct sockaddr *)&ss, &sl);
-    s->port = ss.ss_family == AF_INET6 ? ntohs(((struct sockaddr_in6 *)&ss)->sin6_port)
+    l->port = ss.ss_family == AF_INET6 ? ntohs(((struct sockaddr_in6 *)&ss)->sin6_port)
                                        : ntohs(((struct sockaddr_in *)&ss)->sin_port);
-    s->listen_fd = fd;
+    l->fd = fd;
     return MTS_OK;
 }
 
@@ -136,18 +165,24 @@ mts_result mts_server_create_models(const mts_server_options *opts, mts_server_m
     s->models = models;
     s->model_count = model_count;
     s->next_stats = mts_clock_seconds() + s->opts.stats_interval;
-    s->listen_fd = s->epoll_fd = -1;
-    mts_result rc = open_listener(s, s->opts.listen, err);
+    s->lis[0].fd = s->lis[1].fd = s->epoll_fd = -1;
+    s->lis[1].ws = 1;
+    mts_result rc = open_listener(s, &s->lis[0], s->opts.listen, err);
+    if (rc == MTS_OK && s->opts.ws_listen)
+        rc = open_listener(s, &s->lis[1], s->opts.ws_listen, err);
     if (rc != MTS_OK) {
-        free(s);
+        mts_server_free(s);
         return rc;
     }
     s->epoll_fd = epoll_create1(EPOLL_CLOEXEC);
-    struct epoll_event ev = {.events = EPOLLIN, .data.ptr = NULL};
-    if (s->epoll_fd < 0 || epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, s->listen_fd, &ev) != 0) {
-        rc = mts_error_set(err, MTS_ERR_IO, "epoll: %s", strerror(errno));
-        mts_server_free(s);
-        return rc;
+    for (int k = 0; k < 2; k++) {
+        struct epoll_event ev = {.events = EPOLLIN, .data.ptr = &s->lis[k]};
+        if (s->epoll_fd < 0 ||
+            (s->lis[k].fd >= 0 && epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, s->lis[k].fd, &ev) != 0)) {
+            rc = mts_error_set(err, MTS_ERR_IO, "epoll: %s", strerror(errno));
+            mts_server_free(s);
+            return rc;
+        }
     }
     *out = s;
     return MTS_OK;
@@ -208,7 +243,12 @@ mts_result mts_server_create(const mts_server_options *opts, const mts_stream *c
 
 int mts_server_port(const mts_server *s)
 {
-    return s->port;
+    return s->lis[0].port;
+}
+
+int mts_server_ws_port(const mts_server *s)
+{
+    return s->lis[1].fd >= 0 ? s->lis[1].port : 0;
 }
 
 void mts_server_get_stats(const mts_server *s, mts_server_stats *stats)
@@ -268,6 +308,11 @@ static void conn_close(mts_server *s, conn *c, const char *failure)
     c->fd = -1;
     mts_buf_free(&c->head);
     mts_buf_free(&c->tail);
+    if (c->ws) {
+        mts_buf_free(&c->ws->raw);
+        free(c->ws);
+        c->ws = NULL;
+    }
     if (c->prev)
         c->prev->next = c->next;
     else
@@ -297,8 +342,10 @@ void mts_server_free(mts_server *s)
     while (s->conns)
         conn_close(s, s->conns, "shutdown");
     free_dead(s);
-    if (s->listen_fd >= 0)
-        close(s->listen_fd);
+    for (int k = 0; k < 2; k++) {
+        if (s->lis[k].fd >= 0)
+            close(s->lis[k].fd);
+    }
     if (s->epoll_fd >= 0)
         close(s->epoll_fd);
     free(s->own_models);
@@ -319,9 +366,29 @@ static const mts_stream *model_stream(mts_server_model *m)
     return atomic_load_explicit(&m->stream, memory_order_acquire);
 }
 
+/* Ends a WebSocket client's connection before its upgrade with an HTTP
+ * answer (status, text) once it is flushed. */
+static void conn_refuse_http(conn *c, int status, const char *text, const char *outcome)
+{
+    c->ws->raw.size = c->ws->raw_off = 0;
+    mts_ws_put_http_error(&c->ws->raw, status, text);
+    c->ws->close_queued = 1; /* not upgraded: no Close frame */
+    c->head.size = 0;
+    c->body_off = c->body_end = 0;
+    c->info_size = 0;
+    c->tail.size = 0;
+    c->phase = WRITING;
+    c->end = CONN_REFUSED;
+    c->outcome = outcome;
+}
+
 /* Ends the conversation with an ERROR frame once it is flushed. */
 static void conn_refuse(conn *c, uint16_t code, const char *text, const char *outcome)
 {
+    if (c->ws && !c->ws->open) {
+        conn_refuse_http(c, code == MTS_WERR_TIMEOUT ? 408 : 400, text, outcome);
+        return;
+    }
     c->head.size = 0;
     mts_wire_put_error(&c->head, code, text);
     c->body_off = c->body_end = 0;
@@ -464,9 +531,169 @@ static void watch_out(mts_server *s, conn *c, int on)
     update_events(s, c);
 }
 
+static void conn_write(mts_server *s, conn *c);
+
+/* The first frame is in c->in[0..in_len) when complete: answers it, or
+ * refuses a frame that cannot be a HELLO or LIST. 1: answered or refused. */
+static int conn_first_frame(mts_server *s, conn *c)
+{
+    if (c->in_len < MTS_WIRE_HEADER)
+        return 0;
+    uint32_t len = (uint32_t)c->in[0] | (uint32_t)c->in[1] << 8 | (uint32_t)c->in[2] << 16 |
+                   (uint32_t)c->in[3] << 24;
+    if (len == 0 || len > IN_MAX - 4) {
+        conn_refuse(c, MTS_WERR_PROTOCOL, "first frame is not a HELLO or LIST", "error: garbage");
+        return 1;
+    }
+    if (c->in_len < 4 + (size_t)len)
+        return 0;
+    conn_answer(s, c, c->in[4], c->in + 5, len - 1);
+    return 1;
+}
+
+/* Ends a WebSocket conversation with a Close frame (then the usual close):
+ * for a broken frame, or a Close from the client. */
+static void ws_end(mts_server *s, conn *c, uint16_t code, const char *reason,
+                   const char *outcome)
+{
+    ws_state *w = c->ws;
+    if (c->phase == WAITING)
+        s->waiting--;
+    if (!w->close_queued)
+        mts_ws_put_close(&w->raw, code, reason, NULL);
+    w->close_queued = 1;
+    c->head.size = c->head_off = 0;
+    c->body_off = c->body_end = 0;
+    c->info_size = c->info_off = 0;
+    c->tail.size = c->tail_off = 0;
+    c->phase = WRITING;
+    c->end = CONN_REFUSED;
+    c->outcome = outcome;
+}
+
+/* Frames from a WebSocket client, buf[0..n): their payload is the
+ * conversation (only its first frame matters, as over TCP); a Ping is
+ * answered, a Close ends it. 0: the connection is ending. */
+static int ws_frames(mts_server *s, conn *c, uint8_t *buf, size_t n)
+{
+    ws_state *w = c->ws;
+    mts_ws_control ctl = {0};
+    mts_error err = {0};
+    size_t p = 0;
+    mts_result rc = mts_ws_reader_feed(&w->rd, buf, n, &p, &ctl, &err);
+    if (c->phase == READING && p > 0) {
+        size_t room = IN_MAX - c->in_len, k = p < room ? p : room;
+        memcpy(c->in + c->in_len, buf, k);
+        c->in_len += k;
+        conn_first_frame(s, c);
+    }
+    if (rc != MTS_OK) {
+        ws_end(s, c, ctl.fail_code, err.msg + strlen("websocket: "), "error: bad websocket frame");
+        return 0;
+    }
+    if (ctl.ping && !w->close_queued) {
+        if (w->raw.size - w->raw_off > 4096) {
+            ws_end(s, c, MTS_WS_CLOSE_PROTOCOL, "too many pings", "error: ping flood");
+            return 0;
+        }
+        mts_ws_put_frame(&w->raw, MTS_WS_PONG, ctl.pong, ctl.pong_len, NULL);
+    }
+    if (ctl.close) {
+        int done = c->phase == WRITING && c->end == CONN_SERVED && c->body_off == c->body_end &&
+                   c->tail_off == c->tail.size;
+        if (!done && c->end != CONN_REFUSED)
+            ws_end(s, c, MTS_WS_CLOSE_NORMAL, NULL,
+                   c->phase == WRITING ? "error: closed by client" : "error: closed before hello");
+        else if (!w->close_queued) { /* all sent already: answer the Close, end as served */
+            mts_ws_put_close(&w->raw, MTS_WS_CLOSE_NORMAL, NULL, NULL);
+            w->close_queued = 1;
+        }
+        return 0;
+    }
+    return 1;
+}
+
+/* The opening request of a WebSocket client is in: upgrade, or answer a
+ * plain GET. 1: upgraded (frames may follow in w->req past req->size). */
+static int ws_open(mts_server *s, conn *c, const mts_ws_request *req)
+{
+    (void)s;
+    if (!req->upgrade) {
+        conn_refuse_http(c, 426,
+                         "this port streams models over WebSocket (a browser page connects to "
+                         "it); no page is served here",
+                         "error: not a websocket request");
+        return 0;
+    }
+    mts_ws_put_accept(&c->ws->raw, req);
+    c->ws->open = 1;
+    return 1;
+}
+
+/* Reads what a WebSocket client sent: its opening request, then frames. */
+static void ws_read(mts_server *s, conn *c)
+{
+    ws_state *w = c->ws;
+    uint8_t buf[4096];
+    for (int rounds = 0; rounds < 16; rounds++) {
+        int opening = !w->open;
+        uint8_t *dst = opening ? w->req + w->req_len : buf;
+        size_t cap = opening ? sizeof w->req - w->req_len : sizeof buf;
+        ssize_t r = mts_net_read(c->fd, dst, cap);
+        if (r == 0) {
+            if (c->linger_until > 0)
+                conn_close(s, c, NULL); /* the client has read and closed */
+            else if (c->phase == READING || c->phase == WAITING)
+                conn_close(s, c, "error: closed before hello");
+            else {
+                c->rd_closed = 1; /* half-closed: writing goes on */
+                update_events(s, c);
+            }
+            return;
+        }
+        if (r == MTS_NET_FAILED) {
+            conn_close(s, c, "error: reset by peer");
+            return;
+        }
+        if (r < 0)
+            break; /* all read: what it asked for goes out below */
+        if (c->linger_until > 0 || (w->close_queued && c->end == CONN_REFUSED))
+            continue; /* ending: what it sends is read and dropped */
+        c->last_progress = mts_clock_seconds();
+        if (opening) {
+            w->req_len += (size_t)r;
+            mts_ws_request req;
+            mts_error err = {0};
+            if (mts_ws_parse_request(w->req, w->req_len, &req, &err) != MTS_OK) {
+                conn_refuse_http(c, req.status, err.msg + strlen("websocket: "),
+                                 "error: bad websocket request");
+                break;
+            }
+            if (req.size == 0)
+                continue; /* more to come */
+            if (!ws_open(s, c, &req))
+                break;
+            size_t extra = w->req_len - req.size;
+            memcpy(buf, w->req + req.size, extra);
+            w->req_len = 0;
+            if (extra > 0 && !ws_frames(s, c, buf, extra))
+                break;
+            continue;
+        }
+        if (!ws_frames(s, c, buf, (size_t)r))
+            break;
+    }
+    if (c->fd >= 0 && (c->ws->raw.size > c->ws->raw_off || c->phase == WRITING))
+        conn_write(s, c);
+}
+
 /* Reads what the client sent; answers once a whole first frame is in. */
 static void conn_read(mts_server *s, conn *c)
 {
+    if (c->ws) {
+        ws_read(s, c);
+        return;
+    }
     for (int rounds = 0;; rounds++) {
         if (c->phase != READING) { /* nothing more is expected: drain and ignore */
             /* a bounded drain per wake-up: a client that keeps sending cannot
@@ -499,19 +726,8 @@ static void conn_read(mts_server *s, conn *c)
         }
         c->in_len += (size_t)r;
         c->last_progress = mts_clock_seconds();
-        if (c->in_len < MTS_WIRE_HEADER)
-            continue;
-        uint32_t len = (uint32_t)c->in[0] | (uint32_t)c->in[1] << 8 | (uint32_t)c->in[2] << 16 |
-                       (uint32_t)c->in[3] << 24;
-        if (len == 0 || len > IN_MAX - 4) {
-            conn_refuse(c, MTS_WERR_PROTOCOL, "first frame is not a HELLO or LIST",
-                        "error: garbage");
+        if (conn_first_frame(s, c))
             return;
-        }
-        if (c->in_len < 4 + (size_t)len)
-            continue;
-        conn_answer(s, c, c->in[4], c->in + 5, len - 1);
-        return;
     }
 }
 
@@ -525,14 +741,55 @@ static size_t pace_allowance(const mts_server *s, const conn *c, double now)
     return allowed > 0 ? (size_t)allowed : 0;
 }
 
+/* A WebSocket client's raw bytes (the HTTP answer, pongs, the Close), sent
+ * only between data frames. 1: none left; 0: the socket is full (output is
+ * watched) or the connection closed. */
+static int ws_flush_raw(mts_server *s, conn *c)
+{
+    ws_state *w = c->ws;
+    if (w->hdr_off < w->hdr_len || w->left > 0)
+        return 1; /* inside a data frame: after it */
+    while (w->raw_off < w->raw.size) {
+        if (w->raw.failed) {
+            conn_close(s, c, "error: out of memory");
+            return 0;
+        }
+        ssize_t k = send(c->fd, w->raw.data + w->raw_off, w->raw.size - w->raw_off,
+                         MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (k < 0 && errno == EINTR)
+            continue;
+        if (k < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            watch_out(s, c, 1);
+            return 0;
+        }
+        if (k < 0) {
+            conn_close(s, c, errno == EPIPE ? "error: peer went away" : "error: reset by peer");
+            return 0;
+        }
+        w->raw_off += (size_t)k;
+        c->last_progress = mts_clock_seconds();
+    }
+    w->raw.size = w->raw_off = 0;
+    return 1;
+}
+
 /* Writes as much as the socket (and the rate limit) takes: the head frame,
  * MODEL_INFO's shared tail, the shared stream range, the END frame -- one
- * sendmsg, no copies. */
+ * sendmsg, no copies; for a WebSocket client inside binary messages of at
+ * most WS_MESSAGE_MAX, whose header goes first in the same sendmsg. */
 static void conn_write(mts_server *s, conn *c)
 {
-    while (c->phase == WRITING) {
-        struct iovec iov[4];
-        int n = 0;
+    ws_state *w = c->ws;
+    for (;;) {
+        if (w && !ws_flush_raw(s, c))
+            return;
+        if (c->phase != WRITING) {
+            if (c->watching_out) /* the raw bytes are out; the rest waits for input */
+                watch_out(s, c, 0);
+            return;
+        }
+        struct iovec iov[5];
+        int n = 1; /* iov[0]: a WebSocket frame header */
         if (c->head_off < c->head.size)
             iov[n++] = (struct iovec){c->head.data + c->head_off, c->head.size - c->head_off};
         if (c->info_off < c->info_size)
@@ -543,10 +800,17 @@ static void conn_write(mts_server *s, conn *c)
                                       c->body_end - c->body_off};
         if (c->tail_off < c->tail.size)
             iov[n++] = (struct iovec){c->tail.data + c->tail_off, c->tail.size - c->tail_off};
-        if (n == 0) {
-            if (c->end == CONN_REFUSED && !c->rd_closed) {
-                /* Closing now, with client bytes still unread, would send a
-                 * reset that can destroy the ERROR in flight: shut our side
+        if (n == 1) {
+            if (w && !w->close_queued) {
+                /* the conversation is out: the Close that ends it */
+                mts_ws_put_close(&w->raw, MTS_WS_CLOSE_NORMAL, NULL, NULL);
+                w->close_queued = 1;
+                continue;
+            }
+            if ((c->end == CONN_REFUSED || w) && !c->rd_closed) {
+                /* Closing now, with client bytes still unread (or a
+                 * WebSocket client's answering Close to come), would send a
+                 * reset that can destroy what is in flight: shut our side
                  * and let the client close first (briefly). */
                 shutdown(c->fd, SHUT_WR);
                 c->linger_until = mts_clock_seconds() + 1.0;
@@ -569,7 +833,7 @@ static void conn_write(mts_server *s, conn *c)
                 watch_out(s, c, 0);
                 return;
             }
-            for (int k = 0; k < n; k++) {
+            for (int k = 1; k < n; k++) {
                 if (iov[k].iov_len >= allow) {
                     iov[k].iov_len = allow;
                     n = k + 1;
@@ -578,11 +842,35 @@ static void conn_write(mts_server *s, conn *c)
                 allow -= iov[k].iov_len;
             }
         }
+        int first = 1;
+        if (w) {
+            if (w->hdr_off == w->hdr_len && w->left == 0) { /* a new message */
+                uint64_t total = 0;
+                for (int k = 1; k < n; k++)
+                    total += iov[k].iov_len;
+                w->left = total < WS_MESSAGE_MAX ? total : WS_MESSAGE_MAX;
+                w->hdr_len = mts_ws_header(w->hdr, MTS_WS_BINARY, w->left, NULL);
+                w->hdr_off = 0;
+            }
+            uint64_t room = w->left;
+            for (int k = 1; k < n; k++) {
+                if (iov[k].iov_len >= room) {
+                    iov[k].iov_len = (size_t)room;
+                    n = k + 1;
+                    break;
+                }
+                room -= iov[k].iov_len;
+            }
+            if (w->hdr_off < w->hdr_len) {
+                iov[0] = (struct iovec){w->hdr + w->hdr_off, w->hdr_len - w->hdr_off};
+                first = 0;
+            }
+        }
         struct msghdr msg = {0};
-        msg.msg_iov = iov;
-        msg.msg_iovlen = (size_t)n;
-        ssize_t w = sendmsg(c->fd, &msg, MSG_NOSIGNAL | MSG_DONTWAIT);
-        if (w < 0) {
+        msg.msg_iov = iov + first;
+        msg.msg_iovlen = (size_t)(n - first);
+        ssize_t wr = sendmsg(c->fd, &msg, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (wr < 0) {
             if (errno == EINTR)
                 continue;
             if (errno == EAGAIN || errno == EWOULDBLOCK) {
@@ -592,10 +880,17 @@ static void conn_write(mts_server *s, conn *c)
             conn_close(s, c, errno == EPIPE ? "error: peer went away" : "error: reset by peer");
             return;
         }
-        size_t left = (size_t)w;
+        size_t left = (size_t)wr;
+        c->last_progress = mts_clock_seconds();
+        if (w) {
+            size_t k = w->hdr_len - w->hdr_off < left ? w->hdr_len - w->hdr_off : left;
+            w->hdr_off += k;
+            left -= k;
+            w->left -= left;
+        }
+        /* the conversation's own bytes, as over TCP */
         c->sent += left;
         s->bytes_out += left;
-        c->last_progress = mts_clock_seconds();
         size_t k = c->head.size - c->head_off < left ? c->head.size - c->head_off : left;
         c->head_off += k;
         left -= k;
@@ -614,17 +909,20 @@ static void conn_write(mts_server *s, conn *c)
     }
 }
 
-static void accept_all(mts_server *s)
+static void accept_all(mts_server *s, struct listener *l)
 {
     for (;;) {
         struct sockaddr_storage ss;
         socklen_t sl = sizeof ss;
-        int fd = accept4(s->listen_fd, (struct sockaddr *)&ss, &sl, SOCK_NONBLOCK | SOCK_CLOEXEC);
+        int fd = accept4(l->fd, (struct sockaddr *)&ss, &sl, SOCK_NONBLOCK | SOCK_CLOEXEC);
         if (fd < 0) {
             if (errno == EMFILE || errno == ENFILE || errno == ENOBUFS || errno == ENOMEM) {
-                /* the pending connection stays queued and the listener stays
-                 * readable: stop watching it for a moment instead of spinning */
-                epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, s->listen_fd, NULL);
+                /* the pending connection stays queued and the listeners stay
+                 * readable: stop watching them for a moment instead of spinning */
+                for (int k = 0; k < 2; k++) {
+                    if (s->lis[k].fd >= 0)
+                        epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, s->lis[k].fd, NULL);
+                }
                 s->listen_paused_until = mts_clock_seconds() + 0.1;
                 logf_(s, MTS_SERVER_LOG_NOTICE, "accept: %s; not accepting for 100 ms",
                       strerror(errno));
@@ -641,11 +939,15 @@ static void accept_all(mts_server *s)
             inet_ntop(AF_INET6, &((struct sockaddr_in6 *)&ss)->sin6_addr, host, sizeof host);
             port = ntohs(((struct sockaddr_in6 *)&ss)->sin6_port);
         }
-        snprintf(peer, sizeof peer, "%s:%d", host, port);
+        /* a WebSocket client's peer says so, for the log */
+        snprintf(peer, sizeof peer, "%s%s:%d", l->ws ? "ws/" : "", host, port);
         s->stats.accepted++;
         if (s->conn_count >= s->opts.max_clients) {
             mts_buf b = {0};
-            mts_wire_put_error(&b, MTS_WERR_BUSY, "server busy: try again later");
+            if (l->ws) /* before its upgrade: HTTP */
+                mts_ws_put_http_error(&b, 503, "server busy: try again later");
+            else
+                mts_wire_put_error(&b, MTS_WERR_BUSY, "server busy: try again later");
             if (!b.failed)
                 (void)!send(fd, b.data, b.size, MSG_NOSIGNAL | MSG_DONTWAIT);
             mts_buf_free(&b);
@@ -663,6 +965,10 @@ static void accept_all(mts_server *s)
             continue;
         }
         conn *c = calloc(1, sizeof *c);
+        if (c && l->ws && !(c->ws = calloc(1, sizeof *c->ws))) {
+            free(c);
+            c = NULL;
+        }
         if (!c) {
             close(fd);
             continue;
@@ -677,6 +983,7 @@ static void accept_all(mts_server *s)
         struct epoll_event ev = {.events = EPOLLIN | EPOLLRDHUP, .data.ptr = c};
         if (epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, fd, &ev) != 0) {
             close(fd);
+            free(c->ws);
             free(c);
             continue;
         }
@@ -771,21 +1078,29 @@ mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error 
     double stop_at = 0;
     for (;;) {
         double now = mts_clock_seconds();
-        if (s->listen_paused_until > 0 && now >= s->listen_paused_until && s->listen_fd >= 0) {
-            struct epoll_event ev = {.events = EPOLLIN, .data.ptr = NULL};
-            if (epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, s->listen_fd, &ev) == 0)
-                s->listen_paused_until = 0;
+        if (s->listen_paused_until > 0 && now >= s->listen_paused_until && s->lis[0].fd >= 0) {
+            s->listen_paused_until = 0;
+            for (int k = 0; k < 2; k++) {
+                struct epoll_event ev = {.events = EPOLLIN, .data.ptr = &s->lis[k]};
+                if (s->lis[k].fd >= 0 &&
+                    epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, s->lis[k].fd, &ev) != 0)
+                    s->listen_paused_until = now + 0.1; /* try again */
+            }
         }
-        if (*stop && s->listen_fd >= 0) {
-            epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, s->listen_fd, NULL);
-            close(s->listen_fd);
-            s->listen_fd = -1;
+        if (*stop && s->lis[0].fd >= 0) {
+            for (int k = 0; k < 2; k++) {
+                if (s->lis[k].fd < 0)
+                    continue;
+                epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, s->lis[k].fd, NULL);
+                close(s->lis[k].fd);
+                s->lis[k].fd = -1;
+            }
             stop_at = now;
             logf_(s, MTS_SERVER_LOG_NOTICE, "stopping: %u streams to finish within %.1f s",
                   s->conn_count,
                   s->opts.grace);
         }
-        if (s->listen_fd < 0 && (s->conn_count == 0 || now - stop_at > s->opts.grace)) {
+        if (s->lis[0].fd < 0 && (s->conn_count == 0 || now - stop_at > s->opts.grace)) {
             while (s->conns)
                 conn_close(s, s->conns, "error: server stopped");
             free_dead(s);
@@ -801,12 +1116,13 @@ mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error 
             return mts_error_set(err, MTS_ERR_IO, "epoll_wait: %s", strerror(errno));
         }
         for (int i = 0; i < n; i++) {
-            conn *c = events[i].data.ptr;
-            if (!c) {
-                if (s->listen_fd >= 0)
-                    accept_all(s);
+            void *ptr = events[i].data.ptr;
+            if (ptr == &s->lis[0] || ptr == &s->lis[1]) {
+                if (((struct listener *)ptr)->fd >= 0)
+                    accept_all(s, ptr);
                 continue;
             }
+            conn *c = ptr;
             if (c->fd < 0) /* closed earlier in this round */
                 continue;
             if (events[i].events & (EPOLLERR | EPOLLHUP)) {

@@ -29,6 +29,7 @@ typedef enum mts_server_log_kind {
 
 typedef struct mts_server_options {
     const char *listen;       /* "ADDR:PORT"; NULL: 127.0.0.1:7447; port 0 picks one */
+    const char *ws_listen;    /* "ADDR:PORT" for WebSocket clients (browsers); NULL: none */
     uint32_t max_clients;     /* 0: 1024 */
     double handshake_timeout; /* seconds for the first frame; 0: 10 */
     double idle_timeout;      /* seconds a connection may make no progress; 0: 30 */
@@ -91,8 +92,10 @@ mts_result mts_server_create(const mts_server_options *opts, const mts_stream *c
                              uint32_t stream_count, mts_server **out, mts_error *err);
 void mts_server_free(mts_server *s);
 
-/* The port actually bound (useful with port 0). */
+/* The port actually bound (useful with port 0), and the WebSocket one (0:
+ * none). */
 int mts_server_port(const mts_server *s);
+int mts_server_ws_port(const mts_server *s);
 
 /* Serves until *stop becomes non-zero (a signal handler sets it), then stops
  * accepting, lets streams finish within the grace period and returns. */
