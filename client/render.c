@@ -1180,21 +1180,10 @@ static void strip_color(uint32_t s, float rgb[3])
 }
 
 /* Rebuilds the packed buffer for COMPACT or JOINED from the host copy of
- * the strips (strips shorter than 3 draw nothing and are left out). JOINED
- * joins strip b to the strip before it (ending in q) by q b0, plus another
- * b0 when that leaves b0 at an odd position: every strip still starts at an
- * even position, so keeps its winding, and each window across a joint has a
- * repeated index, so draws nothing. */
+ * the strips (mts_strips_pack). */
 static mts_result build_packed(mts_renderer *r, int kind, mts_error *err)
 {
-    uint64_t need = 0;
-    uint32_t live = 0;
-    for (uint32_t s = 0; s < r->strip_count; s++)
-        if (r->length[s] >= 3) {
-            need += r->length[s];
-            live++;
-        }
-    need += (uint64_t)live * (kind == PACK_JOINED ? 3u : 1u);
+    uint64_t need = mts_strips_pack_bound(r->length, r->strip_count, kind == PACK_JOINED);
     if (need > (uint64_t)INT32_MAX)
         return mts_error_set(err, MTS_ERR_LIMIT, "render: %llu packed indices",
                              (unsigned long long)need);
@@ -1207,36 +1196,11 @@ static mts_result build_packed(mts_renderer *r, int kind, mts_error *err)
         r->packed = p;
         r->packed_cap = need;
     }
-    uint32_t *o32 = r->packed;
-    uint16_t *o16 = r->packed;
-    uint64_t n = 0;
-#define PUT(v) (r->packed_u16 ? (void)(o16[n++] = (uint16_t)(v)) : (void)(o32[n++] = (v)))
-#define AT(i) (r->packed_u16 ? (uint32_t)o16[i] : o32[i])
-    for (uint32_t s = 0; s < r->strip_count; s++) {
-        uint32_t len = r->length[s];
-        if (len < 3)
-            continue;
-        const uint32_t *src = r->host + r->offset[s];
-        if (n > 0) {
-            if (kind == PACK_JOINED) {
-                uint32_t q = AT(n - 1);
-                PUT(q);
-                PUT(src[0]);
-                if (n & 1u)
-                    PUT(src[0]);
-            } else {
-                PUT(r->packed_u16 ? 0xFFFFu : MTS_RENDER_RESTART_INDEX);
-            }
-        }
-        if (r->packed_u16)
-            for (uint32_t i = 0; i < len; i++)
-                o16[n + i] = (uint16_t)src[i];
-        else
-            memcpy(o32 + n, src, (size_t)len * sizeof *src);
-        n += len;
-    }
-#undef PUT
-#undef AT
+    uint32_t restart = kind == PACK_JOINED ? 0
+                       : r->packed_u16     ? 0xFFFFu
+                                           : MTS_RENDER_RESTART_INDEX;
+    uint64_t n = mts_strips_pack(r->host, r->offset, r->length, r->strip_count, restart,
+                                 r->packed_u16, r->packed);
     if (!r->packed_ibo)
         glGenBuffers(1, &r->packed_ibo);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->packed_ibo);

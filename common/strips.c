@@ -1,6 +1,7 @@
 #include "strips.h"
 
 #include <stdlib.h>
+#include <string.h>
 
 void mts_strips_free(mts_strips *strips)
 {
@@ -66,4 +67,47 @@ void mts_strips_stats(const mts_strips *strips, mts_strip_stats *stats)
 uint64_t mts_strip_stats_draw_indices(const mts_strip_stats *stats)
 {
     return stats->indices + (stats->strips > 0 ? stats->strips - 1 : 0);
+}
+
+uint64_t mts_strips_pack_bound(const uint32_t *length, uint32_t count, int joined)
+{
+    uint64_t need = 0;
+    for (uint32_t s = 0; s < count; s++)
+        if (length[s] >= 3)
+            need += length[s] + (joined ? 3u : 1u);
+    return need;
+}
+
+uint64_t mts_strips_pack(const uint32_t *data, const uint32_t *offset, const uint32_t *length,
+                         uint32_t count, uint32_t restart, int u16, void *out)
+{
+    uint32_t *o32 = out;
+    uint16_t *o16 = out;
+    uint64_t n = 0;
+#define PUT(v) (u16 ? (void)(o16[n++] = (uint16_t)(v)) : (void)(o32[n++] = (v)))
+    for (uint32_t s = 0; s < count; s++) {
+        uint32_t len = length[s];
+        if (len < 3)
+            continue;
+        const uint32_t *src = data + offset[s];
+        if (n > 0) {
+            if (!restart) {
+                uint32_t q = u16 ? (uint32_t)o16[n - 1] : o32[n - 1];
+                PUT(q);
+                PUT(src[0]);
+                if (n & 1u)
+                    PUT(src[0]);
+            } else {
+                PUT(restart);
+            }
+        }
+        if (u16)
+            for (uint32_t i = 0; i < len; i++)
+                o16[n + i] = (uint16_t)src[i];
+        else
+            memcpy(o32 + n, src, (size_t)len * sizeof *src);
+        n += len;
+    }
+#undef PUT
+    return n;
 }

@@ -72,4 +72,16 @@ void mts_strips_stats(const mts_strips *strips, mts_strip_stats *stats);
  * every index plus one restart marker between consecutive non-empty strips. */
 uint64_t mts_strip_stats_draw_indices(const mts_strip_stats *stats);
 
+/* One draw for a set of strips (strip s at data + offset[s], length[s]
+ * long; strips shorter than 3 draw nothing and are left out), packed one
+ * after another: joined (restart 0), strip b follows the strip before it
+ * (ending in q) after q b0, and once more b0 when that leaves b0 at an odd
+ * position, so every strip starts at an even position (keeps its winding)
+ * and each window across a joint repeats an index (draws nothing); or with
+ * the index `restart` between strips. 16-bit output (u16) when every index
+ * fits. out holds mts_strips_pack_bound() entries; returns the count. */
+uint64_t mts_strips_pack_bound(const uint32_t *length, uint32_t count, int joined);
+uint64_t mts_strips_pack(const uint32_t *data, const uint32_t *offset, const uint32_t *length,
+                         uint32_t count, uint32_t restart, int u16, void *out);
+
 #endif

@@ -31,91 +31,14 @@ uint32_t max_quantized(int bits) { return (1u << bits) - 1u; }
 
 bool finite3(const float *v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
 
-bool grid_valid(const mts_draco_grid &g)
-{
-    return g.bits >= 1 && g.bits <= MTS_DRACO_MAX_BITS && finite3(g.origin) && std::isfinite(g.range) &&
-           g.range > 0.f;
-}
-
-// Draco: Quantizer::Init(range, maxq): inverse_delta = (float)maxq / range;
-// QuantizeFloat(v) = (int32) floor(v * inverse_delta + 0.5f), v = p - origin.
-// The volatile keeps the product rounded to float (no fused multiply-add,
-// whatever -ffp-contract the build uses), as Draco's amd64 build computes it.
-int quantize_one(const mts_draco_grid &g, const float p[3], uint32_t q[3])
-{
-    const uint32_t maxq = max_quantized(g.bits);
-    const float inv = static_cast<float>(maxq) / g.range;
-    int inside = 1;
-    for (int c = 0; c < 3; ++c) {
-        const float v = p[c] - g.origin[c];
-        volatile float scaled = v * inv;
-        const float f = std::floor(scaled + 0.5f);
-        if (!(f >= 0.f)) { // negative or NaN
-            q[c] = 0;
-            inside = 0;
-        } else if (f > static_cast<float>(maxq)) {
-            q[c] = maxq;
-            inside = 0;
-        } else {
-            q[c] = static_cast<uint32_t>(f);
-            if (q[c] > maxq) { // f rounded up to 2^bits for bits > 24
-                q[c] = maxq;
-                inside = 0;
-            }
-        }
-    }
-    return inside;
-}
-
-// Draco: Dequantizer::Init(range, maxq): delta = range / (float)maxq;
-// AttributeQuantizationTransform::InverseTransformAttribute:
-// p = (float)q * delta, then p = p + origin.
-void dequantize_one(const mts_draco_grid &g, const uint32_t q[3], float p[3])
-{
-    const float delta = g.range / static_cast<float>(max_quantized(g.bits));
-    for (int c = 0; c < 3; ++c) {
-        volatile float scaled = static_cast<float>(static_cast<int32_t>(q[c])) * delta;
-        p[c] = scaled + g.origin[c];
-    }
-}
-
-mts_result grid_from_positions(const float *pos, uint32_t n, int bits, mts_draco_grid *g, mts_error *err)
-{
-    if (!g || (n && !pos))
-        return mts_error_set(err, MTS_ERR_ARG, "draco grid: NULL argument");
-    if (n == 0)
-        return mts_error_set(err, MTS_ERR_ARG, "draco grid: no positions");
-    if (bits == 0)
-        bits = MTS_DRACO_DEFAULT_POSITION_BITS;
-    if (bits < 1 || bits > MTS_DRACO_MAX_BITS)
-        return mts_error_set(err, MTS_ERR_ARG, "draco grid: %d quantization bits (1..%d)", bits,
-                             MTS_DRACO_MAX_BITS);
-    float lo[3], hi[3];
-    for (uint32_t i = 0; i < n; ++i) {
-        const float *p = pos + 3 * (size_t)i;
-        if (!finite3(p))
-            return mts_error_set(err, MTS_ERR_RANGE, "draco grid: vertex %u is not finite", i);
-        for (int c = 0; c < 3; ++c) {
-            if (i == 0 || p[c] < lo[c])
-                lo[c] = p[c];
-            if (i == 0 || p[c] > hi[c])
-                hi[c] = p[c];
-        }
-    }
-    // As AttributeQuantizationTransform::ComputeParameters: the largest side,
-    // 1 when every position is the same.
-    float range = 0.f;
-    for (int c = 0; c < 3; ++c)
-        range = std::max(range, hi[c] - lo[c]);
-    if (!std::isfinite(range))
-        return mts_error_set(err, MTS_ERR_RANGE, "draco grid: box too large for float");
-    if (range == 0.f)
-        range = 1.f;
-    g->bits = bits;
-    std::memcpy(g->origin, lo, sizeof lo);
-    g->range = range;
-    return MTS_OK;
-}
+// draco_common.c checks the head with these; they must be this Draco's.
+static_assert(draco::kDracoMeshBitstreamVersionMajor == MTS_DRACO_BITSTREAM_MAJOR &&
+                  draco::kDracoMeshBitstreamVersionMinor == MTS_DRACO_BITSTREAM_MINOR,
+              "Draco's bitstream version");
+static_assert(draco::TRIANGULAR_MESH == MTS_DRACO_TRIANGULAR_MESH &&
+                  draco::MESH_SEQUENTIAL_ENCODING == MTS_DRACO_SEQUENTIAL_BITSTREAM &&
+                  draco::MESH_EDGEBREAKER_ENCODING == MTS_DRACO_EDGEBREAKER_BITSTREAM,
+              "Draco's head constants");
 
 template <typename T> T *alloc_array(size_t count)
 {
@@ -151,11 +74,11 @@ mts_result encode_impl(const mts_draco_mesh *in, const mts_draco_options *opts, 
     if (grid.bits == 0)
         grid.bits = MTS_DRACO_DEFAULT_POSITION_BITS;
     if (grid.range == 0.f) {
-        mts_result r = grid_from_positions(in->positions, nv, grid.bits, &grid, err);
+        mts_result r = mts_draco_grid_from_positions(in->positions, nv, grid.bits, &grid, err);
         if (r != MTS_OK)
             return mts_error_prefix(err, "draco encode");
     }
-    if (!grid_valid(grid))
+    if (!mts_draco_grid_valid(&grid))
         return mts_error_set(err, MTS_ERR_ARG,
                              "draco encode: bad grid (%d bits, origin %g %g %g, range %g; bits 1..%d, range > 0)",
                              grid.bits, grid.origin[0], grid.origin[1], grid.origin[2], grid.range,
@@ -190,12 +113,12 @@ mts_result encode_impl(const mts_draco_mesh *in, const mts_draco_options *opts, 
         const float *p = in->positions + 3 * (size_t)i;
         uint32_t q[3], q2[3];
         float snapped[3];
-        if (!finite3(p) || !quantize_one(grid, p, q))
+        if (!finite3(p) || !mts_draco_quantize(&grid, p, q))
             return mts_error_set(err, MTS_ERR_RANGE,
                                  "draco encode: vertex %u (%g %g %g) outside the grid (origin %g %g %g, range %g)",
                                  i, p[0], p[1], p[2], grid.origin[0], grid.origin[1], grid.origin[2], grid.range);
-        dequantize_one(grid, q, snapped);
-        if (!quantize_one(grid, snapped, q2) || q2[0] != q[0] || q2[1] != q[1] || q2[2] != q[2])
+        mts_draco_dequantize(&grid, q, snapped);
+        if (!mts_draco_quantize(&grid, snapped, q2) || q2[0] != q[0] || q2[1] != q[1] || q2[2] != q[2])
             return mts_error_set(err, MTS_ERR_RANGE,
                                  "draco encode: vertex %u: a %d-bit grid of range %g at origin %g %g %g is finer "
                                  "than float precision",
@@ -259,83 +182,6 @@ void out_free(mts_draco_mesh_out *m)
     std::memset(m, 0, sizeof *m);
 }
 
-// Draco trusts the counts at the head of a buffer: its Edgebreaker decoder
-// reserves and fills arrays for the declared faces and vertices before it
-// reads a single symbol, and the sequential one sizes its attributes by the
-// declared points. A 100-byte buffer declaring a billion faces made it ask for
-// 5 GB (found by tests/fuzz/fuzz_draco.c; the input is kept in
-// tests/fuzz/regressions/draco/). So the head is read here first and the
-// counts bounded before Draco sees them (DESIGN.md invariant 4).
-//
-// What is accepted is what mts_draco_encode writes: the bitstream version this
-// Draco writes (2.2 for 1.5.5; the head's layout below is 2.2's), a triangle
-// mesh, sequential or Edgebreaker, no metadata.
-// The bound: at most kDeclaredPerByte faces (and as many vertices) per byte of
-// the buffer, and never less than kDeclaredFloor. Real encodings hold far
-// fewer: a 300 x 300 perfectly regular grid, the most compressible mesh
-// there is, is 12 faces a byte (sequential; Edgebreaker under 1).
-constexpr uint64_t kDeclaredPerByte = 256;
-constexpr uint64_t kDeclaredFloor = 1u << 16;
-
-// Draco's DecodeVarint<uint32_t>: at most 5 bytes, low bits first, wrapping
-// to 32 bits as Draco's does, so that this reads the value Draco will read.
-bool head_varint(const uint8_t *&p, const uint8_t *end, uint64_t *v)
-{
-    uint32_t x = 0;
-    for (int i = 0; i < 5 && p < end; ++i) {
-        const uint8_t b = *p++;
-        x |= static_cast<uint32_t>(b & 0x7f) << (7 * i);
-        if (!(b & 0x80)) {
-            *v = x;
-            return true;
-        }
-    }
-    return false;
-}
-
-mts_result check_head(const uint8_t *data, size_t size, mts_error *err)
-{
-    const uint8_t *p = data, *end = data + size;
-    // "DRACO", major, minor, geometry type, method, u16 flags
-    if (size < 11 || std::memcmp(p, "DRACO", 5) != 0)
-        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: not a Draco buffer");
-    if (p[5] != draco::kDracoMeshBitstreamVersionMajor || p[6] != draco::kDracoMeshBitstreamVersionMinor)
-        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: bitstream version %u.%u (this reads %u.%u)",
-                             p[5], p[6], draco::kDracoMeshBitstreamVersionMajor,
-                             draco::kDracoMeshBitstreamVersionMinor);
-    if (p[7] != draco::TRIANGULAR_MESH)
-        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: not a triangle mesh (geometry type %u)", p[7]);
-    const uint16_t flags = static_cast<uint16_t>(p[9] | p[10] << 8);
-    if (flags != 0)
-        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: header flags %#x (metadata is not read)",
-                             static_cast<unsigned>(flags));
-    const uint8_t method = p[8];
-    p += 11;
-    uint64_t faces = 0, vertices = 0, split = 0, unused;
-    bool ok;
-    if (method == draco::MESH_SEQUENTIAL_ENCODING) {
-        ok = head_varint(p, end, &faces) && head_varint(p, end, &vertices);
-    } else if (method == draco::MESH_EDGEBREAKER_ENCODING) {
-        // traversal decoder type, encoded vertices, faces, attribute data
-        // count, symbols, split symbols (each split symbol may add a vertex)
-        ok = p++ < end && head_varint(p, end, &vertices) && head_varint(p, end, &faces) && p++ < end &&
-             head_varint(p, end, &unused) && head_varint(p, end, &split);
-    } else {
-        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: unknown mesh method %u", method);
-    }
-    if (!ok)
-        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: buffer ends inside its header");
-    const uint64_t limit = std::max<uint64_t>(kDeclaredFloor, kDeclaredPerByte * size);
-    if (faces > std::min<uint64_t>(limit, kMaxTriangles) ||
-        vertices + split > std::min<uint64_t>(limit, kMaxVertices))
-        return mts_error_set(err, MTS_ERR_LIMIT,
-                             "draco decode: %llu faces and %llu vertices declared in %zu bytes "
-                             "(at most %llu of each)",
-                             (unsigned long long)faces, (unsigned long long)(vertices + split), size,
-                             (unsigned long long)std::min<uint64_t>(limit, kMaxVertices));
-    return MTS_OK;
-}
-
 mts_result decode_impl(const uint8_t *data, size_t size, mts_draco_mesh_out *out, mts_error *err)
 {
     if (!out)
@@ -343,7 +189,7 @@ mts_result decode_impl(const uint8_t *data, size_t size, mts_draco_mesh_out *out
     std::memset(out, 0, sizeof *out);
     if (!data || size == 0)
         return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: empty buffer");
-    if (const mts_result rc = check_head(data, size, err))
+    if (const mts_result rc = mts_draco_check_head(data, size, err))
         return rc;
 
     draco::DecoderBuffer db;
@@ -391,7 +237,7 @@ mts_result decode_impl(const uint8_t *data, size_t size, mts_draco_mesh_out *out
     for (int c = 0; c < 3; ++c)
         grid.origin[c] = qt.min_value(c);
     grid.range = qt.range();
-    if (!grid_valid(grid))
+    if (!mts_draco_grid_valid(&grid))
         return mts_error_set(err, MTS_ERR_RANGE, "draco decode: bad grid (%d bits, origin %g %g %g, range %g)",
                              grid.bits, grid.origin[0], grid.origin[1], grid.origin[2], grid.range);
 
@@ -435,7 +281,7 @@ mts_result decode_impl(const uint8_t *data, size_t size, mts_draco_mesh_out *out
                                      grid.bits);
             }
         std::memcpy(m.quantized + 3 * (size_t)i, q.data(), sizeof(uint32_t) * 3);
-        dequantize_one(grid, m.quantized + 3 * (size_t)i, m.positions + 3 * (size_t)i);
+        mts_draco_dequantize(&grid, m.quantized + 3 * (size_t)i, m.positions + 3 * (size_t)i);
         if (nrm) {
             const draco::AttributeValueIndex nvi = nrm->mapped_index(draco::PointIndex(i));
             std::array<float, 3> n;
@@ -505,7 +351,7 @@ mts_result renumber_impl(const mts_draco_mesh *orig, const mts_draco_mesh_out *d
         return mts_error_set(err, MTS_ERR_INVARIANT,
                              "draco renumber: the decoded mesh has %u vertices, %u triangles; the original %u, %u",
                              dec->vertex_count, dec->triangle_count, nv, nt);
-    if (!grid_valid(dec->grid))
+    if (!mts_draco_grid_valid(&dec->grid))
         return mts_error_set(err, MTS_ERR_ARG, "draco renumber: bad grid in the decoded mesh");
     for (size_t i = 0; i < 3 * (size_t)nt; ++i)
         if (orig->triangles[i] >= nv || dec->triangles[i] >= nv)
@@ -516,7 +362,7 @@ mts_result renumber_impl(const mts_draco_mesh *orig, const mts_draco_mesh_out *d
         bool same = std::memcmp(orig->triangles, dec->triangles, sizeof(uint32_t) * 3 * (size_t)nt) == 0;
         for (uint32_t i = 0; same && i < nv; ++i) {
             uint32_t q[3];
-            same = quantize_one(dec->grid, orig->positions + 3 * (size_t)i, q) &&
+            same = mts_draco_quantize(&dec->grid, orig->positions + 3 * (size_t)i, q) &&
                    std::memcmp(q, dec->quantized + 3 * (size_t)i, sizeof q) == 0;
         }
         if (same) {
@@ -533,7 +379,7 @@ mts_result renumber_impl(const mts_draco_mesh *orig, const mts_draco_mesh_out *d
     std::vector<std::pair<Key3, uint32_t>> os(nv), ds(nv);
     for (uint32_t i = 0; i < nv; ++i) {
         Key3 k;
-        if (!quantize_one(dec->grid, orig->positions + 3 * (size_t)i, k.v))
+        if (!mts_draco_quantize(&dec->grid, orig->positions + 3 * (size_t)i, k.v))
             return mts_error_set(err, MTS_ERR_INVARIANT, "draco renumber: vertex %u lies outside the decoded grid", i);
         os[i] = {k, i};
         Key3 d;
@@ -723,38 +569,6 @@ mts_result mts_draco_renumber(const mts_draco_mesh *original, const mts_draco_me
     } catch (...) {
         return mts_error_set(err, MTS_ERR_INTERNAL, "draco renumber: unknown exception");
     }
-}
-
-mts_result mts_draco_grid_from_positions(const float *positions, uint32_t count, int bits, mts_draco_grid *grid,
-                                         mts_error *err)
-{
-    try {
-        return grid_from_positions(positions, count, bits, grid, err);
-    } catch (...) {
-        return mts_error_set(err, MTS_ERR_INTERNAL, "draco grid: unknown exception");
-    }
-}
-
-int mts_draco_quantize(const mts_draco_grid *grid, const float p[3], uint32_t q[3])
-{
-    if (!grid || !p || !q)
-        return 0;
-    if (!grid_valid(*grid)) {
-        q[0] = q[1] = q[2] = 0;
-        return 0;
-    }
-    return quantize_one(*grid, p, q);
-}
-
-void mts_draco_dequantize(const mts_draco_grid *grid, const uint32_t q[3], float p[3])
-{
-    if (!grid || !q || !p)
-        return;
-    if (!grid_valid(*grid)) {
-        p[0] = p[1] = p[2] = 0.f;
-        return;
-    }
-    dequantize_one(*grid, q, p);
 }
 
 } // extern "C"

@@ -155,6 +155,20 @@ int mts_draco_quantize(const mts_draco_grid *grid, const float p[3], uint32_t q[
 /* The inverse: p = q * (range / maxq) + origin, in float, not fused. */
 void mts_draco_dequantize(const mts_draco_grid *grid, const uint32_t q[3], float p[3]);
 
+/* 1 when the grid can be used: 1..30 bits, a finite origin, range > 0. */
+int mts_draco_grid_valid(const mts_draco_grid *grid);
+
+/* What the head of a Draco buffer must say before Draco reads it (see
+ * mts_draco_decode): this bitstream version, a triangle mesh, no metadata,
+ * and counts a buffer of that size can hold. */
+#define MTS_DRACO_BITSTREAM_MAJOR 2
+#define MTS_DRACO_BITSTREAM_MINOR 2
+#define MTS_DRACO_TRIANGULAR_MESH 1
+/* the head's method byte */
+#define MTS_DRACO_SEQUENTIAL_BITSTREAM 0
+#define MTS_DRACO_EDGEBREAKER_BITSTREAM 1
+mts_result mts_draco_check_head(const uint8_t *data, size_t size, mts_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -21,6 +21,7 @@
 #include "fuzz/fuzz_request.c"
 #include "fuzz/fuzz_seeds.h"
 #include "fuzz/fuzz_stream_client.c"
+#include "fuzz/fuzz_ws.c"
 
 /* Some kept inputs once made the library ask for many GB (one made Draco
  * fill 24 GB until the kernel killed it). Should one regress, the allocation
@@ -54,6 +55,7 @@ static const target targets[] = {
     {"request", mts_fuzz_request},
     {"modelfile", mts_fuzz_modelfile},
     {"draco", mts_fuzz_draco},
+    {"ws", mts_fuzz_ws},
 };
 
 static const target *find_target(const char *name)

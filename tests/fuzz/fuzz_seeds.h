@@ -12,8 +12,9 @@
  * full one, so the fuzzer starts from erase runs and capacities that the
  * full strips do not give.
  *
- * Targets: "stream_client", "request", "modelfile", "draco" (the fuzz_*.c
- * files say what their input is; two of them start with a mode byte). */
+ * Targets: "stream_client", "request", "modelfile", "draco", "ws" (the
+ * fuzz_*.c files say what their input is; three of them start with a mode
+ * byte). */
 #ifndef MTS_FUZZ_SEEDS_H
 #define MTS_FUZZ_SEEDS_H
 
@@ -28,6 +29,7 @@
 #include "modelfile.h"
 #include "stream.h"
 #include "wire.h"
+#include "ws.h"
 
 typedef void (*mts_fuzz_emit_fn)(void *user, const char *target, const char *name,
                                  const uint8_t *data, size_t size);
@@ -215,6 +217,84 @@ static inline void mts_fuzz_request_seeds(mts_fuzz_seeder *sd, const mts_stream 
     mts_buf_free(&b);
 }
 
+/* ws: a browser's side (mode bit 0 clear) and a server's answers (set),
+ * each read in pieces of (mode >> 1) + 1 bytes. */
+static inline void mts_fuzz_ws_seeds(mts_fuzz_seeder *sd, const mts_stream *s)
+{
+    static const uint8_t mask[4] = {0x11, 0x5a, 0xc3, 0x7e};
+    static const char key[] = "bXRzdHJlYW0gdGVzdCBrZQ==";
+    mts_buf req = {0}, b = {0};
+    mts_ws_put_request(&req, "127.0.0.1:7447", "/?model=fuzz", key);
+    /* the opening, a Ping, a HELLO in two frames of one message, a Close */
+    mts_wire_hello h = {0};
+    h.major = MTS_WIRE_MAJOR;
+    h.minor = MTS_WIRE_MINOR;
+    snprintf(h.model, sizeof h.model, "fuzz");
+    mts_buf hello = {0};
+    mts_wire_put_hello(&hello, &h);
+    mts_buf_put(&b, req.data, req.size);
+    mts_ws_put_frame(&b, MTS_WS_PING, "p1", 2, mask);
+    if (!hello.failed && hello.size > 3) {
+        uint8_t hdr[MTS_WS_MAX_HEADER];
+        size_t hn = mts_ws_header(hdr, MTS_WS_BINARY, 3, mask);
+        hdr[0] &= 0x7f; /* not FIN */
+        mts_buf_put(&b, hdr, hn);
+        size_t at = b.size;
+        mts_buf_put(&b, hello.data, 3);
+        if (!b.failed)
+            mts_ws_mask(b.data + at, 3, mask, 0);
+        hn = mts_ws_header(hdr, MTS_WS_CONTINUATION, hello.size - 3, mask);
+        mts_buf_put(&b, hdr, hn);
+        at = b.size;
+        mts_buf_put(&b, hello.data + 3, hello.size - 3);
+        if (!b.failed)
+            mts_ws_mask(b.data + at, hello.size - 3, mask, 0);
+    }
+    mts_ws_put_close(&b, MTS_WS_CLOSE_GOING_AWAY, "tab closed", mask);
+    sd->failed |= b.failed || hello.failed;
+    mts_fuzz_emit_mode(sd, "ws", "browser-hello", 0, b.data, b.size);
+    mts_fuzz_emit_mode(sd, "ws", "browser-hello-pieces", 7 << 1, b.data, b.size);
+    /* an upgrade, then a text message (refused: the protocol is binary) */
+    b.size = 0;
+    mts_buf_put(&b, req.data, req.size);
+    mts_ws_put_frame(&b, MTS_WS_TEXT, "hello", 5, mask);
+    mts_fuzz_emit_mode(sd, "ws", "browser-text", 0, b.data, b.size);
+    static const char *plain[] = {
+        "GET /index.html HTTP/1.1\r\nHost: x\r\n\r\n",
+        ("GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: keep-alive, Upgrade\r\n"
+         "Sec-WebSocket-Key: bXRzdHJlYW0gdGVzdCBrZQ==\r\nSec-WebSocket-Version: 8\r\n\r\n"),
+        "POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n",
+    };
+    static const char *plain_names[] = {"plain-get", "version-8", "post"};
+    for (int i = 0; i < 3; i++)
+        mts_fuzz_emit_mode(sd, "ws", plain_names[i], 0, (const uint8_t *)plain[i],
+                           strlen(plain[i]));
+    /* a server's 101, the start of a stream in two messages (the second
+     * with a 16-bit length), and its Close */
+    mts_ws_request r;
+    mts_error err = {0};
+    b.size = 0;
+    if (mts_ws_parse_request(req.data, req.size, &r, &err) == MTS_OK && r.size > 0) {
+        mts_ws_put_accept(&b, &r);
+        size_t first = s->size < 100 ? s->size : 100;
+        size_t second = s->size - first < 900 ? s->size - first : 900;
+        mts_ws_put_frame(&b, MTS_WS_BINARY, s->bytes, first, NULL);
+        mts_ws_put_frame(&b, MTS_WS_BINARY, s->bytes + first, second, NULL);
+        mts_ws_put_close(&b, MTS_WS_CLOSE_NORMAL, NULL, NULL);
+        mts_fuzz_emit_mode(sd, "ws", "server-stream", 1, b.data, b.size);
+        mts_fuzz_emit_mode(sd, "ws", "server-stream-pieces", 1 | 63 << 1, b.data, b.size);
+    } else {
+        sd->failed = 1;
+    }
+    b.size = 0;
+    mts_ws_put_http_error(&b, 503, "server busy: try again later");
+    mts_fuzz_emit_mode(sd, "ws", "server-busy", 1, b.data, b.size);
+    sd->failed |= b.failed || req.failed;
+    mts_buf_free(&hello);
+    mts_buf_free(&req);
+    mts_buf_free(&b);
+}
+
 static inline void mts_fuzz_modelfile_seed(mts_fuzz_seeder *sd, const char *name, uint8_t mode,
                                            const mts_model *m)
 {
@@ -364,6 +444,9 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
 
     /* request */
     mts_fuzz_request_seeds(&sd, &torus);
+
+    /* ws */
+    mts_fuzz_ws_seeds(&sd, &torus);
 
     /* modelfile: the models as mts-build would write them (the streams'
      * models are snapped to the grid, which a model file does not mind) */
