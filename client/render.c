@@ -14,6 +14,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "camera.h"
 #include "clock.h"
 #include "glprog.h"
 #include "pngwrite.h"
@@ -25,7 +26,6 @@
 #define EGL_PLATFORM_X11_EXT 0x31D5
 #endif
 
-#define PI_F 3.14159265358979f
 
 /* ---- context ---------------------------------------------------------- */
 
@@ -429,20 +429,6 @@ static float clampf(float x, float lo, float hi)
     return x < lo ? lo : x > hi ? hi : x;
 }
 
-/* Column-major 4x4: m[col * 4 + row]. */
-static void mat4_mul(float out[16], const float a[16], const float b[16])
-{
-    float t[16];
-    for (int c = 0; c < 4; c++)
-        for (int r = 0; r < 4; r++) {
-            float s = 0;
-            for (int k = 0; k < 4; k++)
-                s += a[k * 4 + r] * b[c * 4 + k];
-            t[c * 4 + r] = s;
-        }
-    memcpy(out, t, sizeof t);
-}
-
 static void normalize3(float v[3])
 {
     float n = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
@@ -453,83 +439,15 @@ static void normalize3(float v[3])
     }
 }
 
-static void cross3(float o[3], const float a[3], const float b[3])
-{
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
-
 static void update_camera(mts_renderer *r)
 {
-    const mts_render_camera *cam = &r->opts.camera;
-    float center[3], radius = 0;
-    for (int i = 0; i < 3; i++) {
-        center[i] = 0.5f * (r->bbox_min[i] + r->bbox_max[i]);
-        float h = 0.5f * (r->bbox_max[i] - r->bbox_min[i]);
-        radius += h * h;
-    }
-    radius = sqrtf(radius);
-    if (!(radius > 0) || !isfinite(radius))
-        radius = 1.0f;
-    for (int i = 0; i < 3; i++)
-        if (!isfinite(center[i]))
-            center[i] = 0;
-
-    float yaw = cam->yaw_deg * PI_F / 180.0f;
-    float pitch = clampf(cam->pitch_deg, -89.0f, 89.0f) * PI_F / 180.0f;
-    float zoom = cam->zoom > 1e-3f && isfinite(cam->zoom) ? cam->zoom : 1.0f;
-    float fovy = clampf(isfinite(cam->fov_y_deg) && cam->fov_y_deg > 0 ? cam->fov_y_deg : 35.0f,
-                        1.0f, 170.0f) *
-                 PI_F / 180.0f;
-    float aspect = (float)r->opts.width / (float)r->opts.height;
-
-    /* the narrower half-angle decides the fit */
-    float half = 0.5f * fovy;
-    float half_x = atanf(tanf(half) * aspect);
-    if (half_x < half)
-        half = half_x;
-    float dist = 1.1f * radius / sinf(half) / zoom;
-
-    float back[3] = {cosf(pitch) * sinf(yaw), sinf(pitch), cosf(pitch) * cosf(yaw)};
-    for (int i = 0; i < 3; i++) {
-        r->eye[i] = center[i] + dist * back[i];
-        r->dir[i] = -back[i];
-    }
-
-    /* view: rows are the camera's right, up and back axes */
-    float up0[3] = {0, 1, 0}, right[3], up[3];
-    cross3(right, up0, back);
-    normalize3(right);
-    cross3(up, back, right);
-    float view[16] = {0};
-    for (int i = 0; i < 3; i++) {
-        view[i * 4 + 0] = right[i];
-        view[i * 4 + 1] = up[i];
-        view[i * 4 + 2] = back[i];
-    }
-    view[12] = -(right[0] * r->eye[0] + right[1] * r->eye[1] + right[2] * r->eye[2]);
-    view[13] = -(up[0] * r->eye[0] + up[1] * r->eye[1] + up[2] * r->eye[2]);
-    view[14] = -(back[0] * r->eye[0] + back[1] * r->eye[1] + back[2] * r->eye[2]);
-    view[15] = 1;
-
-    float znear = dist - 1.05f * radius;
-    if (znear < dist * 1e-3f)
-        znear = dist * 1e-3f;
-    float zfar = dist + 1.05f * radius;
-    float f = 1.0f / tanf(0.5f * fovy);
-    float proj[16] = {0};
-    proj[0] = f / aspect;
-    proj[5] = f;
-    proj[10] = (zfar + znear) / (znear - zfar);
-    proj[11] = -1;
-    proj[14] = 2 * zfar * znear / (znear - zfar);
-    mat4_mul(r->mvp, proj, view);
-
-    /* normals: the view's rotation (the model matrix is the identity) */
-    for (int c = 0; c < 3; c++)
-        for (int rr = 0; rr < 3; rr++)
-            r->normal[c * 3 + rr] = view[c * 4 + rr];
+    mts_camera_view cv;
+    mts_camera_compute(r->bbox_min, r->bbox_max, &r->opts.camera,
+                       (float)r->opts.width / (float)r->opts.height, &cv);
+    memcpy(r->mvp, cv.mvp, sizeof r->mvp);
+    memcpy(r->normal, cv.normal, sizeof r->normal);
+    memcpy(r->eye, cv.eye, sizeof r->eye);
+    memcpy(r->dir, cv.dir, sizeof r->dir);
 }
 
 void mts_render_set_camera(mts_renderer *r, const mts_render_camera *camera)
@@ -1161,24 +1079,6 @@ mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_err
 
 /* ---- drawing ---------------------------------------------------------- */
 
-/* A distinct colour per strip: hue by the golden ratio. */
-static void strip_color(uint32_t s, float rgb[3])
-{
-    float h = fmodf((float)s * 0.61803398875f, 1.0f) * 6.0f;
-    float sat = 0.6f, val = 0.95f;
-    int i = (int)h;
-    float f = h - (float)i;
-    float p = val * (1 - sat), q = val * (1 - sat * f), t = val * (1 - sat * (1 - f));
-    switch (i % 6) {
-    case 0: rgb[0] = val; rgb[1] = t; rgb[2] = p; break;
-    case 1: rgb[0] = q; rgb[1] = val; rgb[2] = p; break;
-    case 2: rgb[0] = p; rgb[1] = val; rgb[2] = t; break;
-    case 3: rgb[0] = p; rgb[1] = q; rgb[2] = val; break;
-    case 4: rgb[0] = t; rgb[1] = p; rgb[2] = val; break;
-    default: rgb[0] = val; rgb[1] = p; rgb[2] = q; break;
-    }
-}
-
 /* Rebuilds the packed buffer for COMPACT or JOINED from the host copy of
  * the strips (mts_strips_pack). */
 static mts_result build_packed(mts_renderer *r, int kind, mts_error *err)
@@ -1200,7 +1100,7 @@ static mts_result build_packed(mts_renderer *r, int kind, mts_error *err)
                        : r->packed_u16     ? 0xFFFFu
                                            : MTS_RENDER_RESTART_INDEX;
     uint64_t n = mts_strips_pack(r->host, r->offset, r->length, r->strip_count, restart,
-                                 r->packed_u16, r->packed);
+                                 r->packed_u16, r->packed, NULL);
     if (!r->packed_ibo)
         glGenBuffers(1, &r->packed_ibo);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->packed_ibo);
@@ -1374,7 +1274,7 @@ mts_result mts_render_draw(mts_renderer *r, mts_error *err)
             if (r->length[s] < 3)
                 continue;
             float c[3];
-            strip_color(s, c);
+            mts_camera_strip_color(s, c);
             glUniform3fv(f.u_color, 1, c);
             glDrawElements(GL_TRIANGLE_STRIP, (GLsizei)r->length[s], GL_UNSIGNED_INT,
                            (const void *)(uintptr_t)((uint64_t)r->offset[s] * 4u));

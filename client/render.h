@@ -90,6 +90,7 @@
 
 #include <stdint.h>
 
+#include "camera.h"
 #include "error.h"
 #include "lod.h"
 
@@ -154,11 +155,6 @@ typedef struct mts_render_layout {
 void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *layout);
 
 
-typedef struct mts_render_camera {
-    float yaw_deg, pitch_deg; /* pitch is clamped to [-89, 89] */
-    float zoom;               /* > 0; 1 frames the bounding sphere */
-    float fov_y_deg;          /* vertical field of view, in (1, 170) */
-} mts_render_camera;
 
 typedef struct mts_render_style {
     float background[4]; /* RGBA in [0,1] */

@@ -79,8 +79,9 @@ uint64_t mts_strips_pack_bound(const uint32_t *length, uint32_t count, int joine
 }
 
 uint64_t mts_strips_pack(const uint32_t *data, const uint32_t *offset, const uint32_t *length,
-                         uint32_t count, uint32_t restart, int u16, void *out)
+                         uint32_t count, uint32_t restart, int u16, void *out, uint32_t *first)
 {
+    uint32_t drawn = 0;
     uint32_t *o32 = out;
     uint16_t *o16 = out;
     uint64_t n = 0;
@@ -101,6 +102,8 @@ uint64_t mts_strips_pack(const uint32_t *data, const uint32_t *offset, const uin
                 PUT(restart);
             }
         }
+        if (first)
+            first[drawn++] = (uint32_t)n;
         if (u16)
             for (uint32_t i = 0; i < len; i++)
                 o16[n + i] = (uint16_t)src[i];

@@ -79,9 +79,11 @@ uint64_t mts_strip_stats_draw_indices(const mts_strip_stats *stats);
  * position, so every strip starts at an even position (keeps its winding)
  * and each window across a joint repeats an index (draws nothing); or with
  * the index `restart` between strips. 16-bit output (u16) when every index
- * fits. out holds mts_strips_pack_bound() entries; returns the count. */
+ * fits. out holds mts_strips_pack_bound() entries; returns the count.
+ * first, when not NULL, gets where each strip drawn begins in out (one
+ * entry a strip of 3 or more, in order). */
 uint64_t mts_strips_pack_bound(const uint32_t *length, uint32_t count, int joined);
 uint64_t mts_strips_pack(const uint32_t *data, const uint32_t *offset, const uint32_t *length,
-                         uint32_t count, uint32_t restart, int u16, void *out);
+                         uint32_t count, uint32_t restart, int u16, void *out, uint32_t *first);
 
 #endif

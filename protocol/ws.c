@@ -276,6 +276,67 @@ void mts_ws_put_http_error(mts_buf *b, int status, const char *text)
     mts_buf_put(b, "\n", 1);
 }
 
+int mts_ws_file_path(const char *target, char *out, size_t size)
+{
+    if (!target || target[0] != '/' || size < 11)
+        return 404;
+    size_t n = 0, seg = 0;
+    const char *p = target + 1;
+    for (; *p && *p != '?' && *p != '#'; p++) {
+        unsigned char ch = (unsigned char)*p;
+        if (ch < 0x20 || ch == 0x7f || ch == '\\' || ch == '%')
+            return 404;
+        if (ch == '/') {
+            if (seg == 0)
+                return 404; /* "//": an empty segment */
+            seg = 0;
+        } else {
+            if (seg == 0 && ch == '.')
+                return 404; /* "..", ".git", ".hidden" */
+            seg++;
+        }
+        if (n + 1 >= size)
+            return 404;
+        out[n++] = (char)ch;
+    }
+    if (n == 0 || out[n - 1] == '/') {
+        const char index[] = "index.html";
+        if (n + sizeof index > size)
+            return 404;
+        memcpy(out + n, index, sizeof index);
+        return 0;
+    }
+    out[n] = 0;
+    return 0;
+}
+
+const char *mts_ws_content_type(const char *name)
+{
+    static const char *const types[][2] = {
+        {".html", "text/html; charset=utf-8"}, {".js", "text/javascript; charset=utf-8"},
+        {".css", "text/css; charset=utf-8"},   {".wasm", "application/wasm"},
+        {".json", "application/json"},         {".png", "image/png"},
+        {".svg", "image/svg+xml"},             {".txt", "text/plain; charset=utf-8"},
+    };
+    size_t n = strlen(name);
+    for (size_t i = 0; i < sizeof types / sizeof types[0]; i++) {
+        size_t e = strlen(types[i][0]);
+        if (n > e && strcmp(name + n - e, types[i][0]) == 0)
+            return types[i][1];
+    }
+    return "application/octet-stream";
+}
+
+void mts_ws_put_http_ok(mts_buf *b, const char *content_type, uint64_t length)
+{
+    char head[300];
+    int n = snprintf(head, sizeof head,
+                     "HTTP/1.1 200 OK\r\nContent-Type: %s\r\nContent-Length: %llu\r\n"
+                     "Cache-Control: no-cache\r\nConnection: close\r\n\r\n",
+                     content_type, (unsigned long long)length);
+    mts_buf_put(b, head, (size_t)n);
+}
+
 void mts_ws_put_request(mts_buf *b, const char *host, const char *path, const char *key)
 {
     char text[700];
@@ -472,7 +533,7 @@ static mts_result begin_frame(mts_ws_reader *r, mts_ws_control *ctl, mts_error *
         uint64_t max = r->max_message ? r->max_message : MTS_WS_MAX_MESSAGE;
         if (op > MTS_WS_BINARY)
             return fail(r, ctl, MTS_WS_CLOSE_PROTOCOL, err, "unknown opcode %u", op);
-        if (op == MTS_WS_TEXT)
+        if (op == MTS_WS_TEXT && !r->text)
             return fail(r, ctl, MTS_WS_CLOSE_UNSUPPORTED, err,
                         "a text message: this protocol's messages are binary");
         if (op == MTS_WS_CONTINUATION && !r->in_message)

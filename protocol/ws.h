@@ -76,6 +76,20 @@ void mts_ws_put_accept(mts_buf *b, const mts_ws_request *req);
  * with text as its plain-text body; Connection: close. */
 void mts_ws_put_http_error(mts_buf *b, int status, const char *text);
 
+/* A static page (mts-server --web-root): the file a GET's target names,
+ * relative to the root, into out: "/" and a trailing "/" mean index.html,
+ * the query is dropped. 0 (the status to answer: 404) for a target that
+ * could leave the root or name something hidden: a segment starting with
+ * '.', a backslash or '%', a control byte, an empty segment, or one longer than
+ * the buffer. */
+int mts_ws_file_path(const char *target, char *out, size_t size);
+
+/* The Content-Type for a file name, by its extension. */
+const char *mts_ws_content_type(const char *name);
+
+/* A 200 answer's head for length bytes of that type; Connection: close. */
+void mts_ws_put_http_ok(mts_buf *b, const char *content_type, uint64_t length);
+
 /* The client's side, for tools and tests: an opening request for path on
  * host with key (24 base64 characters), and the check of the answer in
  * buf[0..len): MTS_OK with *size > 0 when a valid 101 for that key is in
@@ -119,6 +133,8 @@ typedef struct mts_ws_control {
  * be masked) with the default message limit. */
 typedef struct mts_ws_reader {
     int client;             /* 1: the client's side (frames must not be masked) */
+    int text;               /* 1: text messages are data too (tools talking to a browser's
+                               DevTools); 0: refused, this protocol is binary */
     uint64_t max_message;   /* 0: MTS_WS_MAX_MESSAGE */
     uint64_t payload_in;    /* data bytes read so far */
     /* the frame in progress */

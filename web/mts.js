@@ -1,0 +1,343 @@
+// The page's glue around the C decoder (web/mts_web.h, compiled to
+// WebAssembly): WebSocket bytes in, WebGL2 draws out, the controls. The
+// decoding, the levels, the strip packing, the camera and the strip colours
+// are the C's; this file moves bytes and calls GL.
+'use strict';
+
+(function () {
+  const params = new URLSearchParams(location.search);
+  const $ = (id) => document.getElementById(id);
+  const canvas = $('view');
+  if (params.get('bare') === '1') document.body.classList.add('bare');
+
+  // What the page shows, published into #state (JSON) for tests.
+  const state = {
+    phase: 'loading', model: '', error: '', level: 0, received: 0, stop_level: 0, levels: 0,
+    triangles: 0, strips: 0, vertices: 0, batches: 0, bytes: 0, checksum: '',
+    server_checksum: '', ms_connect: 0, ms_first_frame: 0, ms_final: 0, decode_ms: 0,
+    frames: 0, fps: 0, models: [],
+  };
+  window.mtsState = state;
+  const publish = () => { $('state').textContent = JSON.stringify(state); };
+
+  const serverUrl = params.get('server') ||
+      ((location.protocol === 'https:' ? 'wss://' : 'ws://') + (location.host || '127.0.0.1:7448') + '/');
+
+  let M = null;        // the WebAssembly module
+  let w = 0;           // its mts_web*
+  let ws = null;
+  let gl = null, prog = null, vbo = null, nbo = null, ibo = null;
+  let uploadedVertices = 0, vertexCapacity = 0, indexCount = 0, packedLevel = -1;
+  const cam = {yaw: Number(params.get('yaw') || 30), pitch: Number(params.get('pitch') || 20),
+               zoom: Number(params.get('zoom') || 1)};
+  let dirty = true, t0 = 0;
+
+  function fail(text) {
+    state.error = text;
+    state.phase = 'error';
+    $('error').textContent = text;
+    $('error').hidden = false;
+    $('status').textContent = 'failed';
+    publish();
+    dirty = true;
+  }
+
+  // ---- GL: the native renderer's shaders, its light and colours ----------
+  const VS = `#version 300 es
+layout(location = 0) in vec3 a_position;
+layout(location = 1) in vec3 a_normal;
+uniform mat4 u_mvp;
+uniform mat3 u_normal;
+out vec3 v_normal;
+void main() {
+    v_normal = u_normal * a_normal;
+    gl_Position = u_mvp * vec4(a_position, 1.0);
+}`;
+  const FS = `#version 300 es
+precision highp float;
+in vec3 v_normal;
+uniform vec3 u_color;
+uniform vec3 u_light;
+uniform float u_ambient;
+out vec4 o_color;
+void main() {
+    float len = length(v_normal);
+    float d = len > 1e-12 ? max(dot(v_normal / len, u_light), 0.0) : 0.5;
+    o_color = vec4(u_color * (u_ambient + (1.0 - u_ambient) * d), 1.0);
+}`;
+
+  function initGL() {
+    gl = canvas.getContext('webgl2', {antialias: false, preserveDrawingBuffer: true});
+    if (!gl) throw new Error('this browser has no WebGL2');
+    const sh = (type, src) => {
+      const s = gl.createShader(type);
+      gl.shaderSource(s, src);
+      gl.compileShader(s);
+      if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(s));
+      return s;
+    };
+    prog = gl.createProgram();
+    gl.attachShader(prog, sh(gl.VERTEX_SHADER, VS));
+    gl.attachShader(prog, sh(gl.FRAGMENT_SHADER, FS));
+    gl.linkProgram(prog);
+    if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
+    prog.u = {};
+    for (const u of ['u_mvp', 'u_normal', 'u_color', 'u_light', 'u_ambient'])
+      prog.u[u] = gl.getUniformLocation(prog, u);
+    vbo = gl.createBuffer();
+    nbo = gl.createBuffer();
+    ibo = gl.createBuffer();
+  }
+
+  // New vertices appended (the stream only appends); the buffers grow by doubling.
+  function uploadVertices() {
+    const nv = M._mts_web_vertices(w);
+    if (nv <= uploadedVertices) return;
+    const pos = M._mts_web_positions(w) >> 2, nrm = M._mts_web_normals(w) >> 2;
+    const from = nv > vertexCapacity ? 0 : uploadedVertices;
+    if (nv > vertexCapacity) {
+      vertexCapacity = Math.max(nv, 2 * vertexCapacity);
+      for (const b of [vbo, nbo]) {
+        gl.bindBuffer(gl.ARRAY_BUFFER, b);
+        gl.bufferData(gl.ARRAY_BUFFER, vertexCapacity * 12, gl.DYNAMIC_DRAW);
+      }
+    }
+    gl.bindBuffer(gl.ARRAY_BUFFER, vbo);
+    gl.bufferSubData(gl.ARRAY_BUFFER, from * 12, M.HEAPF32.subarray(pos + 3 * from, pos + 3 * nv));
+    gl.bindBuffer(gl.ARRAY_BUFFER, nbo);
+    gl.bufferSubData(gl.ARRAY_BUFFER, from * 12, M.HEAPF32.subarray(nrm + 3 * from, nrm + 3 * nv));
+    uploadedVertices = nv;
+  }
+
+  // The level to show: the slider's, or all that came while following.
+  function wantedLevel() {
+    return $('follow').checked ? M._mts_web_received_level(w) : Number($('level').value);
+  }
+
+  function pack() {
+    if (M._mts_web_show(w, wantedLevel()) !== 0) return fail(M.UTF8ToString(M._mts_web_error(w)));
+    const level = M._mts_web_shown_level(w);
+    if (level === packedLevel && indexCount) return;
+    const p = M._mts_web_indices(w) >> 2;
+    indexCount = M._mts_web_index_count(w);
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ibo);
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, M.HEAPU32.subarray(p, p + indexCount), gl.DYNAMIC_DRAW);
+    packedLevel = level;
+    state.level = level;
+    state.triangles = M._mts_web_shown_triangles(w);
+    state.strips = M._mts_web_shown_strips(w);
+  }
+
+  let lastFrame = 0, frameTimes = [];
+  function draw(now) {
+    requestAnimationFrame(draw);
+    if (!dirty || !w || M._mts_web_state(w) < 2) return;
+    dirty = false;
+    uploadVertices();
+    pack();
+    const cw = canvas.clientWidth | 0, ch = canvas.clientHeight | 0;
+    if (canvas.width !== cw || canvas.height !== ch) { canvas.width = cw; canvas.height = ch; }
+    gl.viewport(0, 0, canvas.width, canvas.height);
+    gl.clearColor(0.12, 0.14, 0.18, 1.0);
+    gl.clearDepth(1.0);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    gl.enable(gl.DEPTH_TEST);
+    gl.depthFunc(gl.LESS);
+    gl.frontFace(gl.CCW);
+    gl.cullFace(gl.BACK);
+    gl.enable(gl.CULL_FACE);
+    gl.useProgram(prog);
+    const m = M._mts_web_camera(w, cam.yaw, cam.pitch, cam.zoom, canvas.width / canvas.height) >> 2;
+    gl.uniformMatrix4fv(prog.u.u_mvp, false, M.HEAPF32.subarray(m, m + 16));
+    gl.uniformMatrix3fv(prog.u.u_normal, false, M.HEAPF32.subarray(m + 16, m + 25));
+    const l = [-0.45, 0.6, 0.66], n = Math.hypot(l[0], l[1], l[2]);
+    gl.uniform3f(prog.u.u_light, l[0] / n, l[1] / n, l[2] / n);
+    gl.uniform1f(prog.u.u_ambient, 0.25);
+    gl.bindBuffer(gl.ARRAY_BUFFER, vbo);
+    gl.enableVertexAttribArray(0);
+    gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 0, 0);
+    gl.bindBuffer(gl.ARRAY_BUFFER, nbo);
+    gl.enableVertexAttribArray(1);
+    gl.vertexAttribPointer(1, 3, gl.FLOAT, false, 0, 0);
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ibo);
+    if ($('strips').checked) {
+      const k = M._mts_web_strip_count(w);
+      const first = M._mts_web_strip_first(w) >> 2, len = M._mts_web_strip_length(w) >> 2;
+      const rgb = M._mts_web_strip_colors(w) >> 2;
+      for (let s = 0; s < k; s++) {
+        gl.uniform3f(prog.u.u_color, M.HEAPF32[rgb + 3 * s], M.HEAPF32[rgb + 3 * s + 1], M.HEAPF32[rgb + 3 * s + 2]);
+        gl.drawElements(gl.TRIANGLE_STRIP, M.HEAPU32[len + s], gl.UNSIGNED_INT, 4 * M.HEAPU32[first + s]);
+      }
+    } else {
+      gl.uniform3f(prog.u.u_color, 0.85, 0.82, 0.76);
+      gl.drawElements(gl.TRIANGLE_STRIP, indexCount, gl.UNSIGNED_INT, 0);
+    }
+    state.frames++;
+    if (!state.ms_first_frame) state.ms_first_frame = performance.now() - t0;
+    frameTimes.push(now);
+    while (frameTimes.length > 1 && now - frameTimes[0] > 1000) frameTimes.shift();
+    state.fps = frameTimes.length > 1 ? Math.round(1000 * (frameTimes.length - 1) / (now - frameTimes[0])) : 0;
+    lastFrame = now;
+    hud();
+  }
+
+  function hud() {
+    const lv = $('level');
+    lv.max = String(state.received);
+    if ($('follow').checked) lv.value = String(state.received);
+    $('hud').textContent =
+      `level     ${state.level} / ${state.levels} (received ${state.received})\n` +
+      `triangles ${state.triangles}   strips ${state.strips}\n` +
+      `vertices  ${state.vertices}   batches ${state.batches}\n` +
+      `bytes     ${state.bytes}\n` +
+      `first frame ${state.ms_first_frame.toFixed(1)} ms   final ${state.ms_final ? state.ms_final.toFixed(1) + ' ms' : '-'}\n` +
+      `decode    ${state.decode_ms.toFixed(1)} ms   ${state.fps} fps`;
+    $('status').textContent = state.phase;
+    publish();
+  }
+
+  // ---- the conversation ----------------------------------------------------
+  function connect(onOpen, onBytes, onClose) {
+    const sock = new WebSocket(serverUrl);
+    sock.binaryType = 'arraybuffer';
+    let buf = 0, cap = 0;
+    sock.onopen = () => onOpen(sock);
+    sock.onmessage = (ev) => {
+      const data = new Uint8Array(ev.data);
+      if (data.length > cap) {
+        if (buf) M._free(buf);
+        cap = Math.max(data.length, 65536);
+        buf = M._malloc(cap);
+      }
+      M.HEAPU8.set(data, buf);
+      onBytes(buf, data.length);
+    };
+    sock.onclose = (ev) => { if (buf) M._free(buf); buf = 0; onClose(ev); };
+    sock.onerror = () => {};
+    return sock;
+  }
+
+  function list(then) {
+    const lw = M._mts_web_create();
+    connect((sock) => {
+      const p = M._mts_web_list(lw);
+      sock.send(M.HEAPU8.slice(p, p + M._mts_web_out_size(lw)));
+    }, (p, n) => { M._mts_web_feed(lw, p, n); }, () => {
+      const text = M.UTF8ToString(M._mts_web_models(lw));
+      M._mts_web_destroy(lw);
+      state.models = text.split('\n').filter((l) => l).map((l) => {
+        const [name, vertices, triangles, levels] = l.split(' ');
+        return {name, vertices: +vertices, triangles: +triangles, levels: +levels};
+      });
+      const sel = $('model');
+      sel.innerHTML = '';
+      for (const m of state.models) {
+        const o = document.createElement('option');
+        o.value = m.name;
+        o.textContent = `${m.name} (${m.triangles} triangles)`;
+        sel.appendChild(o);
+      }
+      then();
+    });
+  }
+
+  function stream(name) {
+    if (ws) { ws.onclose = null; ws.close(); }
+    if (w) M._mts_web_destroy(w);
+    w = M._mts_web_create();
+    Object.assign(state, {phase: 'connecting', model: name, error: '', level: 0, received: 0,
+                          stop_level: 0, levels: 0, triangles: 0, strips: 0, vertices: 0,
+                          batches: 0, bytes: 0, checksum: '', server_checksum: '', ms_connect: 0,
+                          ms_first_frame: 0, ms_final: 0, decode_ms: 0, frames: 0});
+    $('error').hidden = true;
+    uploadedVertices = vertexCapacity = indexCount = 0;
+    packedLevel = -1;
+    const stopLevel = params.get('level');
+    t0 = performance.now();
+    const mine = w;
+    const nameBuf = M._malloc(80);
+    M.stringToUTF8(name, nameBuf, 80);
+    const hello = M._mts_web_hello(w, nameBuf, stopLevel !== null ? 1 : 0, Number(stopLevel || 0),
+                                   0);
+    M._free(nameBuf);
+    const helloBytes = M.HEAPU8.slice(hello, hello + M._mts_web_out_size(w));
+    ws = connect((sock) => {
+      state.ms_connect = performance.now() - t0;
+      state.phase = 'streaming';
+      sock.send(helloBytes);
+      publish();
+    }, (p, n) => {
+      if (w !== mine || state.phase === 'error') return;
+      const d0 = performance.now();
+      const rc = M._mts_web_feed(w, p, n);
+      state.decode_ms += performance.now() - d0;
+      state.bytes += n;
+      if (rc !== 0) return fail(M.UTF8ToString(M._mts_web_error(w)));
+      state.received = M._mts_web_received_level(w);
+      state.stop_level = M._mts_web_stop_level(w);
+      state.levels = M._mts_web_level_count(w);
+      state.vertices = M._mts_web_vertices(w);
+      state.batches = M._mts_web_batches(w);
+      if (M._mts_web_state(w) === 3) {
+        state.phase = 'complete';
+        state.ms_final = performance.now() - t0;
+        state.checksum = M.UTF8ToString(M._mts_web_checksum(w));
+        state.server_checksum = M.UTF8ToString(M._mts_web_server_checksum(w));
+      }
+      dirty = true;
+      publish();
+    }, (ev) => {
+      if (w !== mine) return;
+      if (state.phase !== 'complete' && state.phase !== 'error')
+        fail(`the connection closed at level ${state.received} of ${state.stop_level || '?'}` +
+             (ev.reason ? ` (${ev.reason})` : '') + '; the picture stops there');
+    });
+  }
+
+  // ---- controls --------------------------------------------------------------
+  function controls() {
+    let drag = null;
+    canvas.addEventListener('pointerdown', (e) => { drag = {x: e.clientX, y: e.clientY}; canvas.setPointerCapture(e.pointerId); });
+    canvas.addEventListener('pointerup', () => { drag = null; });
+    canvas.addEventListener('pointermove', (e) => {
+      if (!drag) return;
+      cam.yaw -= (e.clientX - drag.x) * 0.4;
+      cam.pitch = Math.max(-89, Math.min(89, cam.pitch + (e.clientY - drag.y) * 0.4));
+      drag = {x: e.clientX, y: e.clientY};
+      dirty = true;
+    });
+    canvas.addEventListener('wheel', (e) => {
+      e.preventDefault();
+      cam.zoom = Math.max(0.1, Math.min(50, cam.zoom * Math.exp(-e.deltaY * 0.001)));
+      dirty = true;
+    }, {passive: false});
+    $('level').addEventListener('input', () => { $('follow').checked = false; dirty = true; });
+    $('follow').addEventListener('change', () => { dirty = true; });
+    $('strips').addEventListener('change', () => { dirty = true; });
+    $('model').addEventListener('change', () => stream($('model').value));
+    $('reload').addEventListener('click', () => stream($('model').value));
+    if (params.get('strips') === '1') $('strips').checked = true;
+    if (params.get('level') !== null) $('follow').checked = true;
+    window.addEventListener('resize', () => { dirty = true; });
+  }
+
+  async function main() {
+    try {
+      initGL();
+      const draco = await DracoDecoderModule();
+      M = await createMtsWeb();
+      M.draco = draco;
+    } catch (e) {
+      return fail('cannot start: ' + (e && e.message || e));
+    }
+    controls();
+    requestAnimationFrame(draw);
+    list(() => {
+      const want = params.get('model') || (state.models[0] && state.models[0].name);
+      if (!want) return fail(`no models listed by ${serverUrl}`);
+      $('model').value = want;
+      stream(want);
+    });
+  }
+  main();
+})();

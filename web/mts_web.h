@@ -1,0 +1,79 @@
+/* The browser's decoder: the native client's stream decoder (protocol/,
+ * common/: wire reader, stream client, growth, LOD runtime) behind a few
+ * calls a page makes from JavaScript. The page moves bytes (WebSocket
+ * messages in, HELLO and LIST out) and draws what mts_web_pack gives it;
+ * everything else is the C the native client runs.
+ *
+ * A view runtime of its own (as client/view.c's own_runtime) lets the page
+ * show any level received while the stream goes on; mts_web_pack lays the
+ * shown level's strips out as one joined strip (mts_strips_pack, the native
+ * renderer's default draw) and says where each strip starts in it, for
+ * colour by strip.
+ *
+ * Errors: the calls return an mts_result; mts_web_error says what went
+ * wrong. Nothing is printed. One thread. */
+#ifndef MTS_WEB_H
+#define MTS_WEB_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "error.h"
+
+typedef struct mts_web mts_web;
+
+mts_web *mts_web_create(void);
+void mts_web_destroy(mts_web *w);
+
+/* The first frame to send: a HELLO for model (stop_kind/stop_value as
+ * PROTOCOL.md's HELLO, flags its flags), or a LIST. The bytes stay valid
+ * until the next call; mts_web_out_size says how many. */
+const uint8_t *mts_web_hello(mts_web *w, const char *model, uint32_t stop_kind,
+                             uint32_t stop_value, uint32_t flags);
+const uint8_t *mts_web_list(mts_web *w);
+size_t mts_web_out_size(const mts_web *w);
+
+/* Bytes from the server, in order, in any pieces. MTS_OK, or the error
+ * that ended the stream (a server's ERROR frame too): nothing more is
+ * taken after one. */
+mts_result mts_web_feed(mts_web *w, const uint8_t *data, size_t size);
+
+/* ---- what came ----------------------------------------------------------- */
+const char *mts_web_error(const mts_web *w);   /* "" while all is well */
+int mts_web_state(const mts_web *w);           /* 0 waiting, 1 info, 2 base in, 3 ended, 4 models */
+uint32_t mts_web_received_level(const mts_web *w); /* levels decoded, up to the stop */
+uint32_t mts_web_stop_level(const mts_web *w);
+uint32_t mts_web_level_count(const mts_web *w);
+uint32_t mts_web_vertices(const mts_web *w);   /* vertices present */
+uint32_t mts_web_batches(const mts_web *w);
+const char *mts_web_checksum(const mts_web *w);  /* ours, 16 hex digits ("" before END) */
+const char *mts_web_server_checksum(const mts_web *w);
+const float *mts_web_positions(const mts_web *w); /* 3 floats a vertex; moves as vertices come */
+const float *mts_web_normals(const mts_web *w);
+const float *mts_web_bbox(const mts_web *w);      /* min xyz, max xyz of the full model */
+const char *mts_web_models(const mts_web *w);     /* after a LIST: "name vertices triangles levels\n"... */
+
+/* ---- what to draw ---------------------------------------------------------- */
+
+/* Moves the view to level (at most what came) and packs it. MTS_OK. */
+mts_result mts_web_show(mts_web *w, uint32_t level);
+uint32_t mts_web_shown_level(const mts_web *w);
+uint32_t mts_web_shown_triangles(const mts_web *w);
+uint32_t mts_web_shown_strips(const mts_web *w);
+/* The packed strip: mts_web_index_count() 32-bit indices; strip k of the
+ * mts_web_strip_count() drawn starts at strip_first[k], strip_length[k] long. */
+const uint32_t *mts_web_indices(const mts_web *w);
+uint32_t mts_web_index_count(const mts_web *w);
+uint32_t mts_web_strip_count(const mts_web *w);
+const uint32_t *mts_web_strip_first(const mts_web *w);
+const uint32_t *mts_web_strip_length(const mts_web *w);
+/* 3 floats a strip drawn: its colour when drawn by strip (as the native
+ * renderer's). */
+const float *mts_web_strip_colors(const mts_web *w);
+
+/* The native renderer's camera (client/camera.h) for the model's box: 25
+ * floats, the 4x4 mvp then the 3x3 normal matrix, column-major; the field
+ * of view is the native default's (35 degrees). */
+const float *mts_web_camera(mts_web *w, float yaw_deg, float pitch_deg, float zoom, float aspect);
+
+#endif
