@@ -134,3 +134,11 @@ void mts_camera_strip_color(uint32_t s, float rgb[3])
     default: rgb[0] = val; rgb[1] = p; rgb[2] = q; break;
     }
 }
+
+void mts_camera_light(float l[3])
+{
+    l[0] = -0.45f;
+    l[1] = 0.6f;
+    l[2] = 0.66f;
+    normalize3(l);
+}

@@ -29,6 +29,10 @@ typedef struct mts_camera_view {
 void mts_camera_compute(const float bbox_min[3], const float bbox_max[3],
                         const mts_render_camera *cam, float aspect, mts_camera_view *out);
 
+/* The direction towards the light, in view space, unit length: above-left
+ * of the camera, in front. */
+void mts_camera_light(float l[3]);
+
 /* Strip s's colour when drawn by strip: hue by the golden ratio. */
 void mts_camera_strip_color(uint32_t s, float rgb[3]);
 

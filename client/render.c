@@ -429,16 +429,6 @@ static float clampf(float x, float lo, float hi)
     return x < lo ? lo : x > hi ? hi : x;
 }
 
-static void normalize3(float v[3])
-{
-    float n = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (n > 0) {
-        v[0] /= n;
-        v[1] /= n;
-        v[2] /= n;
-    }
-}
-
 static void update_camera(mts_renderer *r)
 {
     mts_camera_view cv;
@@ -1163,8 +1153,8 @@ mts_result mts__render_frame_begin(mts_renderer *r, int wireframe, int slots,
     glUniformMatrix4fv(pg->u_mvp, 1, GL_FALSE, r->mvp);
     glUniformMatrix3fv(pg->u_normal, 1, GL_FALSE, r->normal);
     /* towards the light, view space: above-left of the camera, in front */
-    float light[3] = {-0.45f, 0.6f, 0.66f};
-    normalize3(light);
+    float light[3];
+    mts_camera_light(light);
     glUniform3fv(pg->u_light, 1, light);
     glUniform1f(pg->u_ambient, clampf(st->ambient, 0.0f, 1.0f));
     glUniform3fv(pg->u_color, 1, st->color);
