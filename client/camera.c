@@ -1,5 +1,5 @@
-/* The camera and strip colours (camera.h): the native renderer's and the
- * browser page's. */
+/* The camera, light, colours and shaders (camera.h): the native
+ * renderer's and the browser page's. */
 #include "camera.h"
 
 #include <math.h>
@@ -142,3 +142,72 @@ void mts_camera_light(float l[3])
     l[2] = 0.66f;
     normalize3(l);
 }
+
+void mts_camera_default_style(mts_render_style *s)
+{
+    memset(s, 0, sizeof *s);
+    s->background[0] = 0.12f;
+    s->background[1] = 0.14f;
+    s->background[2] = 0.18f;
+    s->background[3] = 1.0f;
+    s->color[0] = 0.85f;
+    s->color[1] = 0.82f;
+    s->color[2] = 0.76f;
+    s->ambient = 0.25f;
+    s->color_by_strip = 0;
+    s->show_back_faces = 0;
+    s->wireframe = 0;
+    s->flat_shading = 0;
+    s->wire_color[0] = 0.08f;
+    s->wire_color[1] = 0.09f;
+    s->wire_color[2] = 0.12f;
+}
+
+/* ---- shaders (compiled twice by render.c, MORPH 0 and 1) -------------- */
+
+const char mts_camera_vertex_glsl[] =
+    "layout(location = 0) in vec3 a_position;\n"
+    "layout(location = 1) in vec3 a_normal;\n"
+    "uniform mat4 u_mvp;\n"
+    "uniform mat3 u_normal;\n"
+    "out vec3 v_normal;\n"
+    "out vec3 v_view;\n" /* rotated into view space: slopes for flat shading */
+    "#if MORPH\n"
+    "layout(location = 2) in vec3 a_from_position;\n"
+    "layout(location = 3) in vec3 a_from_normal;\n"
+    "uniform uvec2 u_morph;\n" /* the vertex ids morphing: [x, y) */
+    "uniform float u_morph_t;\n"
+    "#endif\n"
+    "void main() {\n"
+    "    vec3 p = a_position, n = a_normal;\n"
+    "#if MORPH\n"
+    "    uint id = uint(gl_VertexID);\n" /* the index fetched */
+    "    if (id >= u_morph.x && id < u_morph.y) {\n"
+    "        p = mix(a_from_position, a_position, u_morph_t);\n"
+    "        n = mix(a_from_normal, a_normal, u_morph_t);\n"
+    "    }\n"
+    "#endif\n"
+    "    v_normal = u_normal * n;\n"
+    "    v_view = u_normal * p;\n"
+    "    gl_Position = u_mvp * vec4(p, 1.0);\n"
+    "}\n";
+
+const char mts_camera_fragment_glsl[] =
+    "precision highp float;\n"
+    "in vec3 v_normal;\n"
+    "in vec3 v_view;\n"
+    "uniform bool u_flat;\n"
+    "uniform vec3 u_color;\n"
+    "uniform vec3 u_light;\n" /* unit, towards the light, view space */
+    "uniform float u_ambient;\n"
+    "out vec4 o_color;\n"
+    "void main() {\n"
+    /* screen x and y slopes of a face span its plane; their cross product
+     * faces the viewer (derivatives taken in uniform control flow) */
+    "    vec3 face = cross(dFdx(v_view), dFdy(v_view));\n"
+    "    vec3 n = u_flat ? face : v_normal;\n"
+    "    float len = length(n);\n"
+    /* a zero normal (a vertex of zero-area faces only) gets half light */
+    "    float d = len > 1e-12 ? max(dot(n / len, u_light), 0.0) : 0.5;\n"
+    "    o_color = vec4(u_color * (u_ambient + (1.0 - u_ambient) * d), 1.0);\n"
+    "}\n";

@@ -1,6 +1,7 @@
-/* The camera every client draws with, and its colours by strip, GL-free so
- * that the native renderer (render.c) and the browser page (web/) frame
- * and colour a model alike. The camera: perspective,
+/* The look every client draws with -- the camera, the light, the colours
+ * (by strip too) and the shaders' GLSL -- GL-free, so that the native
+ * renderer (render.c) and the browser page (web/) frame, light and colour
+ * a model alike. The camera: perspective,
  * looking at the bounding box's centre from the direction given by yaw
  * (about +Y, 0 = from +Z, positive turns towards +X) and pitch (positive
  * looks from above), at the distance where the box's bounding sphere fits
@@ -22,6 +23,39 @@ typedef struct mts_camera_view {
     float normal[9]; /* the view's rotation, for normals */
     float eye[3], dir[3];
 } mts_camera_view;
+
+typedef struct mts_render_style {
+    float background[4]; /* RGBA in [0,1] */
+    float color[3];      /* the surface colour */
+    float ambient;       /* [0,1]: ambient share of the lighting */
+    int color_by_strip;  /* each strip its own colour (draws strip by strip) */
+    int show_back_faces; /* 0: clockwise triangles are culled */
+    /* Draw the triangles' edges over the surface (hidden-line wireframe):
+     * the edges given by mts_render_update_wireframe as GL_LINES, the
+     * surface pushed back with polygon offset so that visible edges win the
+     * depth test. GLES has no polygon mode, and a barycentric shader needs
+     * per-corner attributes that shared strip vertices cannot carry. */
+    int wireframe;
+    float wire_color[3];
+    /* Shade each triangle by its own plane, from the screen-space slopes of
+     * its positions, ignoring the vertex normals: for a model whose stream
+     * carries none (its source had none; PROTOCOL.md, MODEL_INFO flags), so
+     * every level is lit as the faces it has. */
+    int flat_shading;
+} mts_render_style;
+
+/* The defaults: dark blue-grey background, light grey surface, ambient
+ * 0.25, culling on, no wireframe (dark edges when turned on), smooth. */
+void mts_camera_default_style(mts_render_style *s);
+
+/* The shaders' GLSL ES 3.00 bodies, to follow "#version 300 es" and a
+ * "#define MORPH 0" or 1 line. Attributes: 0 position, 1 normal (2, 3 the
+ * morph's from-position and from-normal). Uniforms: u_mvp, u_normal (the
+ * camera's matrices), u_color, u_light (mts_camera_light), u_ambient,
+ * u_flat (shade by face slopes, for streams without normals), and with
+ * MORPH u_morph (the vertex ids morphing, [x, y)) and u_morph_t. */
+extern const char mts_camera_vertex_glsl[];
+extern const char mts_camera_fragment_glsl[];
 
 /* The view of the box bbox_min..bbox_max for a viewport of aspect
  * width / height (non-positive: 1). Out-of-range camera values take the

@@ -368,21 +368,7 @@ void mts_render_options_default(mts_render_options *o)
     o->camera.pitch_deg = 20.0f;
     o->camera.zoom = 1.0f;
     o->camera.fov_y_deg = 35.0f;
-    o->style.background[0] = 0.12f;
-    o->style.background[1] = 0.14f;
-    o->style.background[2] = 0.18f;
-    o->style.background[3] = 1.0f;
-    o->style.color[0] = 0.85f;
-    o->style.color[1] = 0.82f;
-    o->style.color[2] = 0.76f;
-    o->style.ambient = 0.25f;
-    o->style.color_by_strip = 0;
-    o->style.show_back_faces = 0;
-    o->style.wireframe = 0;
-    o->style.flat_shading = 0;
-    o->style.wire_color[0] = 0.08f;
-    o->style.wire_color[1] = 0.09f;
-    o->style.wire_color[2] = 0.12f;
+    mts_camera_default_style(&o->style);
 }
 
 static int all_zero(const float *v, int n)
@@ -460,59 +446,11 @@ void mts_render_eye(const mts_renderer *r, float eye[3], float dir[3])
 
 /* ---- shader ----------------------------------------------------------- */
 
-/* compiled twice, MORPH 0 and 1 (after the #version line) */
-static const char *vertex_src =
-    "layout(location = 0) in vec3 a_position;\n"
-    "layout(location = 1) in vec3 a_normal;\n"
-    "uniform mat4 u_mvp;\n"
-    "uniform mat3 u_normal;\n"
-    "out vec3 v_normal;\n"
-    "out vec3 v_view;\n" /* rotated into view space: slopes for flat shading */
-    "#if MORPH\n"
-    "layout(location = 2) in vec3 a_from_position;\n"
-    "layout(location = 3) in vec3 a_from_normal;\n"
-    "uniform uvec2 u_morph;\n" /* the vertex ids morphing: [x, y) */
-    "uniform float u_morph_t;\n"
-    "#endif\n"
-    "void main() {\n"
-    "    vec3 p = a_position, n = a_normal;\n"
-    "#if MORPH\n"
-    "    uint id = uint(gl_VertexID);\n" /* the index fetched */
-    "    if (id >= u_morph.x && id < u_morph.y) {\n"
-    "        p = mix(a_from_position, a_position, u_morph_t);\n"
-    "        n = mix(a_from_normal, a_normal, u_morph_t);\n"
-    "    }\n"
-    "#endif\n"
-    "    v_normal = u_normal * n;\n"
-    "    v_view = u_normal * p;\n"
-    "    gl_Position = u_mvp * vec4(p, 1.0);\n"
-    "}\n";
-
-static const char *fragment_src =
-    "precision highp float;\n"
-    "in vec3 v_normal;\n"
-    "in vec3 v_view;\n"
-    "uniform bool u_flat;\n"
-    "uniform vec3 u_color;\n"
-    "uniform vec3 u_light;\n" /* unit, towards the light, view space */
-    "uniform float u_ambient;\n"
-    "out vec4 o_color;\n"
-    "void main() {\n"
-    /* screen x and y slopes of a face span its plane; their cross product
-     * faces the viewer (derivatives taken in uniform control flow) */
-    "    vec3 face = cross(dFdx(v_view), dFdy(v_view));\n"
-    "    vec3 n = u_flat ? face : v_normal;\n"
-    "    float len = length(n);\n"
-    /* a zero normal (a vertex of zero-area faces only) gets half light */
-    "    float d = len > 1e-12 ? max(dot(n / len, u_light), 0.0) : 0.5;\n"
-    "    o_color = vec4(u_color * (u_ambient + (1.0 - u_ambient) * d), 1.0);\n"
-    "}\n";
-
 static mts_result build_program(mts_renderer *r, int morph, mts_error *err)
 {
     struct render_program *pg = &r->prog[morph];
     const char *head[2] = {"#version 300 es\n", morph ? "#define MORPH 1\n" : "#define MORPH 0\n"};
-    const char *vs[3] = {head[0], head[1], vertex_src}, *fs[3] = {head[0], head[1], fragment_src};
+    const char *vs[3] = {head[0], head[1], mts_camera_vertex_glsl}, *fs[3] = {head[0], head[1], mts_camera_fragment_glsl};
     mts_result rc = mts_glprog_build("render", vs, 3, fs, 3, &pg->id, err);
     if (rc != MTS_OK)
         return rc;

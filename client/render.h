@@ -155,27 +155,6 @@ typedef struct mts_render_layout {
 void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *layout);
 
 
-
-typedef struct mts_render_style {
-    float background[4]; /* RGBA in [0,1] */
-    float color[3];      /* the surface colour */
-    float ambient;       /* [0,1]: ambient share of the lighting */
-    int color_by_strip;  /* each strip its own colour (draws strip by strip) */
-    int show_back_faces; /* 0: clockwise triangles are culled */
-    /* Draw the triangles' edges over the surface (hidden-line wireframe):
-     * the edges given by mts_render_update_wireframe as GL_LINES, the
-     * surface pushed back with polygon offset so that visible edges win the
-     * depth test. GLES has no polygon mode, and a barycentric shader needs
-     * per-corner attributes that shared strip vertices cannot carry. */
-    int wireframe;
-    float wire_color[3];
-    /* Shade each triangle by its own plane, from the screen-space slopes of
-     * its positions, ignoring the vertex normals: for a model whose stream
-     * carries none (its source had none; PROTOCOL.md, MODEL_INFO flags), so
-     * every level is lit as the faces it has. */
-    int flat_shading;
-} mts_render_style;
-
 typedef struct mts_render_options {
     uint32_t width, height; /* framebuffer size, 1..GL_MAX_RENDERBUFFER_SIZE */
     mts_render_camera camera;

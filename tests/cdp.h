@@ -44,8 +44,24 @@ static inline void mts_cdp_sleep_ms(int ms)
     nanosleep(&ts, NULL);
 }
 
+/* Where a header line starts with name (lower case) in an HTTP head, or NULL. */
+static inline const char *mts_cdp_find_header(const char *text, const char *name)
+{
+    size_t n = strlen(name);
+    for (const char *p = strstr(text, "\r\n"); p; p = strstr(p + 2, "\r\n")) {
+        size_t i = 0;
+        while (i < n && p[2 + i] && (p[2 + i] | 0x20) == name[i])
+            i++;
+        if (i == n)
+            return p;
+    }
+    return NULL;
+}
+
 /* A plain HTTP GET on 127.0.0.1:port (the DevTools' /json/list): the body
- * into out, 1 when the answer was 200. */
+ * into out, 1 when the answer was 200. Chromium keeps the connection open
+ * whatever "Connection: close" says, so the body ends at its
+ * Content-Length, and a silent second ends the wait. */
 static inline int mts_cdp_http_get(int port, const char *path, mts_buf *out)
 {
     int fd = mts_test_connect(port);
@@ -55,37 +71,57 @@ static inline int mts_cdp_http_get(int port, const char *path, mts_buf *out)
     int n = snprintf(req, sizeof req, "GET %s HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nConnection: close\r\n\r\n",
                      path, port);
     mts_buf all = {0};
+    int ok = 0;
     if (send(fd, req, (size_t)n, MSG_NOSIGNAL) == n) {
         uint8_t buf[4096];
-        ssize_t r;
-        while ((r = recv(fd, buf, sizeof buf, 0)) > 0)
+        for (;;) {
+            struct pollfd p = {fd, POLLIN, 0};
+            if (poll(&p, 1, 1000) <= 0)
+                break;
+            ssize_t r = recv(fd, buf, sizeof buf, 0);
+            if (r <= 0)
+                break;
             mts_buf_put(&all, buf, (size_t)r);
+            mts_buf_u8(&all, 0); /* a terminator for the search, not counted */
+            all.size--;
+            const char *text = (const char *)all.data;
+            const char *body = strstr(text, "\r\n\r\n");
+            const char *len = body ? mts_cdp_find_header(text, "content-length:") : NULL;
+            if (len && len < body &&
+                (size_t)(body + 4 - text) + strtoul(len + 17, NULL, 10) <= all.size)
+                break;
+        }
     }
     close(fd);
     mts_buf_u8(&all, 0);
     const char *text = (const char *)all.data;
     const char *body = text ? strstr(text, "\r\n\r\n") : NULL;
-    int ok = body && strncmp(text, "HTTP/1.1 200", 12) == 0;
+    ok = body && strncmp(text, "HTTP/1.1 200", 12) == 0;
     if (ok)
         mts_buf_put(out, body + 4, strlen(body + 4) + 1);
     mts_buf_free(&all);
     return ok;
 }
 
-/* Headless Chromium on a free DevTools port, one blank page, its DevTools
- * WebSocket open. 1 when it is up within `seconds`; the browser's log goes
- * to log. */
-static inline int mts_cdp_start(mts_cdp *c, const char *tmp_dir, const char *log, double seconds)
+static inline int mts_cdp_call(mts_cdp *c, const char *method, const char *params,
+                               mts_buf *reply, double seconds);
+
+/* Headless Chromium on a free DevTools port, one blank page of width x
+ * height CSS pixels, its DevTools WebSocket open. 1 when it is up within
+ * `seconds`; the browser's log goes to log. */
+static inline int mts_cdp_start(mts_cdp *c, const char *tmp_dir, const char *log, int width,
+                                int height, double seconds)
 {
     memset(c, 0, sizeof *c);
     c->fd = -1;
     c->port = mts_test_free_port();
     snprintf(c->profile, sizeof c->profile, "%.500s/cdp-profile-%d", tmp_dir, (int)getpid());
-    char port_arg[64], profile_arg[700];
+    char port_arg[64], profile_arg[700], size_arg[64];
     snprintf(port_arg, sizeof port_arg, "--remote-debugging-port=%d", c->port);
+    snprintf(size_arg, sizeof size_arg, "--window-size=%d,%d", width, height);
     snprintf(profile_arg, sizeof profile_arg, "--user-data-dir=%s", c->profile);
     char *argv[] = {"chromium", "--headless", "--no-sandbox", "--use-angle=swiftshader",
-                    "--enable-unsafe-swiftshader", "--window-size=512,512", "--hide-scrollbars",
+                    "--enable-unsafe-swiftshader", size_arg, "--hide-scrollbars",
                     "--no-first-run", "--disable-gpu-vsync", "--mute-audio", port_arg,
                     profile_arg, "about:blank", NULL};
     c->pid = mts_test_spawn(argv, log);
@@ -133,7 +169,19 @@ static inline int mts_cdp_start(mts_cdp *c, const char *tmp_dir, const char *log
     c->rd.client = 1;
     c->rd.text = 1;
     c->rd.max_message = 64u << 20; /* screenshots */
-    return ok && size > 0;
+    if (!ok || size == 0)
+        return 0;
+    /* --window-size is the window's, not the page's: the page gets
+     * width x height exactly, for pictures the size of mts-client's */
+    char metrics[160];
+    snprintf(metrics, sizeof metrics,
+             "{\"width\":%d,\"height\":%d,\"deviceScaleFactor\":1,\"mobile\":false}", width,
+             height);
+    mts_buf reply = {0};
+    ok = mts_cdp_call(c, "Emulation.setDeviceMetricsOverride", metrics, &reply, 10) &&
+         !strstr((const char *)reply.data, "\"error\"");
+    mts_buf_free(&reply);
+    return ok;
 }
 
 static inline void mts_cdp_stop(mts_cdp *c)

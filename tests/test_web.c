@@ -140,7 +140,7 @@ static void test_page(mts_test *t)
     mts_cdp c;
     char log[700];
     snprintf(log, sizeof log, "%s/web_chromium.log", tmp_dir);
-    int up = mts_cdp_start(&c, tmp_dir, log, 30);
+    int up = mts_cdp_start(&c, tmp_dir, log, 512, 512, 30);
     CHECKF(t, up, "chromium did not start (see %s)", log);
     struct {
         const char *model, *query, *native_stop;
@@ -163,6 +163,15 @@ static void test_page(mts_test *t)
         int done = wait_phase(&c, "complete error", 120, &state);
         const char *st = state.data ? (const char *)state.data : "";
         CHECKF(t, done && strstr(st, "\"phase\":\"complete\""), "%s: %s", url, st);
+        /* the stream's end is drawn at the next animation frame */
+        double until = mts_cdp_now() + 20;
+        while (done && mts_cdp_now() < until &&
+               mts_test_json_long((const char *)state.data, "level") !=
+                   mts_test_json_long((const char *)state.data, "stop_level")) {
+            mts_cdp_sleep_ms(50);
+            mts_cdp_eval(&c, "JSON.stringify(window.mtsState)", &state);
+        }
+        st = (const char *)state.data;
         native_checksum(&sv, runs[i].model, runs[i].native_stop, native, sizeof native);
         char want[80];
         snprintf(want, sizeof want, "\"checksum\":\"%s\"", native);
@@ -201,7 +210,7 @@ static void test_page_broken_connection(mts_test *t)
     mts_cdp c;
     char log[700];
     snprintf(log, sizeof log, "%s/web_chromium_broken.log", tmp_dir);
-    int up = mts_cdp_start(&c, tmp_dir, log, 30);
+    int up = mts_cdp_start(&c, tmp_dir, log, 512, 512, 30);
     CHECKF(t, up, "chromium did not start (see %s)", log);
     char url[600];
     snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=bunny00&bare=1", sv.ws_port);

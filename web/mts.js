@@ -42,29 +42,8 @@
     dirty = true;
   }
 
-  // ---- GL: the native renderer's shaders, its light and colours ----------
-  const VS = `#version 300 es
-layout(location = 0) in vec3 a_position;
-layout(location = 1) in vec3 a_normal;
-uniform mat4 u_mvp;
-uniform mat3 u_normal;
-out vec3 v_normal;
-void main() {
-    v_normal = u_normal * a_normal;
-    gl_Position = u_mvp * vec4(a_position, 1.0);
-}`;
-  const FS = `#version 300 es
-precision highp float;
-in vec3 v_normal;
-uniform vec3 u_color;
-uniform vec3 u_light;
-uniform float u_ambient;
-out vec4 o_color;
-void main() {
-    float len = length(v_normal);
-    float d = len > 1e-12 ? max(dot(v_normal / len, u_light), 0.0) : 0.5;
-    o_color = vec4(u_color * (u_ambient + (1.0 - u_ambient) * d), 1.0);
-}`;
+  // ---- GL: the native renderer's shaders, light and colours (camera.c) -----
+  let style = null; // background rgba, surface rgb, ambient, light xyz
 
   function initGL() {
     gl = canvas.getContext('webgl2', {antialias: false, preserveDrawingBuffer: true});
@@ -77,12 +56,13 @@ void main() {
       return s;
     };
     prog = gl.createProgram();
-    gl.attachShader(prog, sh(gl.VERTEX_SHADER, VS));
-    gl.attachShader(prog, sh(gl.FRAGMENT_SHADER, FS));
+    const head = '#version 300 es\n#define MORPH 0\n';
+    gl.attachShader(prog, sh(gl.VERTEX_SHADER, head + M.UTF8ToString(M._mts_web_shader(0))));
+    gl.attachShader(prog, sh(gl.FRAGMENT_SHADER, head + M.UTF8ToString(M._mts_web_shader(1))));
     gl.linkProgram(prog);
     if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
     prog.u = {};
-    for (const u of ['u_mvp', 'u_normal', 'u_color', 'u_light', 'u_ambient'])
+    for (const u of ['u_mvp', 'u_normal', 'u_color', 'u_light', 'u_ambient', 'u_flat'])
       prog.u[u] = gl.getUniformLocation(prog, u);
     vbo = gl.createBuffer();
     nbo = gl.createBuffer();
@@ -138,7 +118,7 @@ void main() {
     const cw = canvas.clientWidth | 0, ch = canvas.clientHeight | 0;
     if (canvas.width !== cw || canvas.height !== ch) { canvas.width = cw; canvas.height = ch; }
     gl.viewport(0, 0, canvas.width, canvas.height);
-    gl.clearColor(0.12, 0.14, 0.18, 1.0);
+    gl.clearColor(style[0], style[1], style[2], style[3]);
     gl.clearDepth(1.0);
     gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
     gl.enable(gl.DEPTH_TEST);
@@ -150,9 +130,9 @@ void main() {
     const m = M._mts_web_camera(w, cam.yaw, cam.pitch, cam.zoom, canvas.width / canvas.height) >> 2;
     gl.uniformMatrix4fv(prog.u.u_mvp, false, M.HEAPF32.subarray(m, m + 16));
     gl.uniformMatrix3fv(prog.u.u_normal, false, M.HEAPF32.subarray(m + 16, m + 25));
-    const l = [-0.45, 0.6, 0.66], n = Math.hypot(l[0], l[1], l[2]);
-    gl.uniform3f(prog.u.u_light, l[0] / n, l[1] / n, l[2] / n);
-    gl.uniform1f(prog.u.u_ambient, 0.25);
+    gl.uniform3f(prog.u.u_light, style[8], style[9], style[10]);
+    gl.uniform1f(prog.u.u_ambient, style[7]);
+    gl.uniform1i(prog.u.u_flat, M._mts_web_flat(w));
     gl.bindBuffer(gl.ARRAY_BUFFER, vbo);
     gl.enableVertexAttribArray(0);
     gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 0, 0);
@@ -169,7 +149,7 @@ void main() {
         gl.drawElements(gl.TRIANGLE_STRIP, M.HEAPU32[len + s], gl.UNSIGNED_INT, 4 * M.HEAPU32[first + s]);
       }
     } else {
-      gl.uniform3f(prog.u.u_color, 0.85, 0.82, 0.76);
+      gl.uniform3f(prog.u.u_color, style[4], style[5], style[6]);
       gl.drawElements(gl.TRIANGLE_STRIP, indexCount, gl.UNSIGNED_INT, 0);
     }
     state.frames++;
@@ -323,10 +303,13 @@ void main() {
 
   async function main() {
     try {
-      initGL();
       const draco = await DracoDecoderModule();
       M = await createMtsWeb();
       M.draco = draco;
+      const sw = M._mts_web_create(), sp = M._mts_web_style(sw) >> 2;
+      style = Array.from(M.HEAPF32.subarray(sp, sp + 11));
+      M._mts_web_destroy(sw);
+      initGL();
     } catch (e) {
       return fail('cannot start: ' + (e && e.message || e));
     }

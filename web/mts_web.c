@@ -35,6 +35,7 @@ struct mts_web {
     uint32_t *packed, *strip_first, *strip_length;
     float *strip_rgb; /* 3 floats a strip drawn */
     mts_camera_view camera;
+    float style[11];
     uint64_t packed_cap;
     uint32_t packed_count, strip_cap, strip_drawn;
     uint32_t triangles, strips;
@@ -344,4 +345,25 @@ MTS_WEB_API const float *mts_web_camera(mts_web *w, float yaw_deg, float pitch_d
     mts_camera_compute(w->client.model.bbox_min, w->client.model.bbox_max, &cam, aspect,
                        &w->camera);
     return w->camera.mvp;
+}
+
+MTS_WEB_API const float *mts_web_style(mts_web *w)
+{
+    mts_render_style st;
+    mts_camera_default_style(&st);
+    memcpy(w->style, st.background, 16);
+    memcpy(w->style + 4, st.color, 12);
+    w->style[7] = st.ambient;
+    mts_camera_light(w->style + 8);
+    return w->style;
+}
+
+MTS_WEB_API int mts_web_flat(const mts_web *w)
+{
+    return w->state >= 1 && !(w->client.info.flags & MTS_INFO_NORMALS);
+}
+
+MTS_WEB_API const char *mts_web_shader(int fragment)
+{
+    return fragment ? mts_camera_fragment_glsl : mts_camera_vertex_glsl;
 }

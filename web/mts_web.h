@@ -76,4 +76,12 @@ const float *mts_web_strip_colors(const mts_web *w);
  * of view is the native default's (35 degrees). */
 const float *mts_web_camera(mts_web *w, float yaw_deg, float pitch_deg, float zoom, float aspect);
 
+/* The native renderer's look (client/camera.h): 11 floats, background
+ * RGBA, surface RGB, ambient, the light's direction in view space. */
+const float *mts_web_style(mts_web *w);
+/* 1 when the stream carries no normals: shade by the faces (u_flat). */
+int mts_web_flat(const mts_web *w);
+/* The shaders' GLSL bodies (fragment 0: vertex), as the native renderer's. */
+const char *mts_web_shader(int fragment);
+
 #endif
