@@ -122,6 +122,11 @@ $(BUILD)/bin/mts-bench-apply: $(BUILD)/obj/bench/mts_bench_apply.o $(CLI_OBJ) $(
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
+# the browser client's figures (bench/web.sh): drives Chromium with tests/cdp.h
+$(BUILD)/bin/mts-bench-web: $(BUILD)/obj/bench/mts_bench_web.o $(CLI_OBJ) $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
 $(BUILD)/bin/mts-bench-walk: $(BUILD)/obj/bench/mts_bench_walk.o $(DRAWMODES_OBJ) $(CLI_OBJ) $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
@@ -134,7 +139,14 @@ deps:
 test: deps
 	@$(MAKE) --no-print-directory all
 	@$(MAKE) --no-print-directory SAN=1 all
+	@$(MAKE) --no-print-directory web-if-emcc
 	@tests/run.sh build build/asan
+
+# the browser client for tests/test_web.c, where emscripten is (it skips,
+# saying so, where build/web is missing)
+web-if-emcc:
+	@if command -v $(EMCC) >/dev/null; then $(MAKE) --no-print-directory web; \
+	else echo "make test: no $(EMCC) (scripts/deps.sh installs emscripten): the browser client is not built"; fi
 
 test-release: all
 	@tests/run.sh build
@@ -152,7 +164,8 @@ soak: all
 
 bench: deps
 	@$(MAKE) --no-print-directory programs $(BENCH) $(BUILD)/bin/mts-bench-stream $(BUILD)/bin/mts-bench-walk \
-		$(BUILD)/bin/mts-bench-apply
+		$(BUILD)/bin/mts-bench-apply $(BUILD)/bin/mts-bench-web
+	@$(MAKE) --no-print-directory web-if-emcc
 	@bench/run.sh
 
 demo: deps
@@ -190,7 +203,7 @@ WEB_LINK := -sMODULARIZE=1 -sEXPORT_NAME=createMtsWeb -sALLOW_MEMORY_GROWTH=1 \
             -sEXPORTED_RUNTIME_METHODS=UTF8ToString,stringToUTF8,lengthBytesUTF8
 WEB_PAGE := $(patsubst web/%,$(WEB_DIR)/%,$(wildcard web/*.html web/*.js web/*.css))
 
-.PHONY: web
+.PHONY: web web-if-emcc
 web: $(WEB_DIR)/mts_web.js $(WEB_PAGE) $(WEB_DIR)/draco_decoder_nodejs.js
 
 $(WEB_DIR)/obj/%.o: %.c Makefile

@@ -6,8 +6,9 @@
 #
 # Environment: MTS_SHARED (default ../shared) holds models/; MTS_BENCH_BIG=0
 # skips the big mesh (a minute of the run), MTS_BENCH_STRESS=0 the many-client
-# runs, MTS_BENCH_CLIENT=0 the client's cost; MTS_BENCH_APPLYING_CLIENTS
-# (default 1000) sets the applying mts-stress clients. Exit status 1 when a requested
+# runs, MTS_BENCH_CLIENT=0 the client's cost, MTS_BENCH_WEB=0 the browser
+# client; MTS_BENCH_APPLYING_CLIENTS (default 1000) sets the applying
+# mts-stress clients. Exit status 1 when a requested
 # figure could not be measured; absent tools and models are skipped, with a
 # reason, and do not fail the run.
 set -uo pipefail
@@ -164,6 +165,26 @@ else
     note pm_error "OpenMesh-mkbalancedpm failed: $(tail -n 1 "$out/mkbalancedpm.log")"
     status=1
   fi
+fi
+
+# --- the browser client (issue 20) ------------------------------------------------
+# the WebAssembly decoder beside the native one, the page in headless Chromium
+rm -f "$out/web.json"
+if [ "${MTS_BENCH_WEB:-1}" = 0 ]; then
+  printf '{"skipped": "MTS_BENCH_WEB=0"}\n' >"$out/web.json"
+else
+  mkdir -p "$out/web_mtsm"
+  for m in cow bunny00 fandisk_large; do
+    [ -f "$shared/models/$m.off" ] || continue
+    if [ -f "$out/mtsm/$m.mtsm" ]; then
+      cp "$out/mtsm/$m.mtsm" "$out/web_mtsm/"
+    else
+      build/bin/mts-build "$shared/models/$m.off" -o "$out/web_mtsm/$m.mtsm" --quiet || status=1
+    fi
+  done
+  [ -f "$out/web_mtsm/cow.mtsm" ] || build/bin/mts-build tests/data/cow.off -o "$out/web_mtsm/cow.mtsm" --quiet
+  echo "bench: the browser client ..." >&2
+  bench/web.sh "$out" "$out/web_mtsm" || status=1
 fi
 
 # --- walkthrough, rate-distortion and plots (issue 5) ---------------------------
@@ -469,6 +490,39 @@ if "stress_applying" in cc:
     print(f"  {a['clients']} applying mts-stress clients of bunny00: {a['failed']} failed, "
           f"{a['seconds']:.1f} s wall, {a['cpu_s']:.1f} CPU s")
 res["client_cost"] = cc
+
+# --- the browser client (issue 20) ---
+try:
+    with open(os.path.join(out, "web.json")) as f:
+        web = json.load(f)
+except (OSError, ValueError):
+    web = {"skipped": "bench/web.sh wrote no figures"}
+if "skipped" in web:
+    print(f"\nBrowser client: skipped: {web['skipped']}")
+else:
+    print("\nBrowser client (issue 20): the WebAssembly decoder (node, median of 7 warm; first run) "
+          "against the native one (mts-bench-apply, median of 7), splits form")
+    print(f"{'model':<14} {'splits':>8} {'wasm ms':>9} {'first ms':>9} {'native ms':>10} "
+          f"{'wasm M/s':>9} {'native M/s':>11} {'ratio':>7} {'first':>7}")
+    print("-" * 92)
+    for name, d in web.get("decoder", {}).items():
+        print(f"{name:<14} {d['splits']:>8} {d['wasm_ms']:>9.1f} {d['wasm_ms_first']:>9.1f} "
+              f"{d['native_ms']:>10.1f} {d['wasm_splits_per_s'] / 1e6:>9.3f} "
+              f"{d['native_splits_per_s'] / 1e6:>11.3f} {d['ratio']:>7.2f} {d['ratio_first']:>7.2f}"
+              + ("" if d["checksum_match"] else "  CHECKSUM DIFFERS"))
+    pg = web.get("page", {})
+    if "skipped" in pg:
+        print(f"  page: skipped: {pg['skipped']}")
+    else:
+        s = pg["streaming"]
+        print(f"  page ({pg['model']}, headless Chromium + SwiftShader, {pg['width']}x{pg['height']}, "
+              f"median of {pg['runs']}): connect {pg['ms_connect']:.1f} ms, first frame "
+              f"{pg['ms_first_frame']:.1f} ms (worst {pg['ms_first_frame_max']:.1f}), full level "
+              f"{pg['ms_final']:.1f} ms")
+        print(f"  while streaming at {s['rate_limit']} B/s: {s['fps']:.1f} fps drawing every frame; "
+              f"script {s['script_ms_mean']:.2f} ms a frame (max {s['script_ms_max']:.2f})")
+        print("  pictures: " + ", ".join(p["path"] for p in pg.get("pictures", [])))
+res["web"] = web
 
 def load_out(name):
     try:

@@ -19,6 +19,8 @@ packages=(
   nginx libnginx-mod-stream  # the TCP balancer of tests/test_scaleout.c (docker/nginx-stream.conf)
   yamllint                   # lints docker/compose.yaml and docker/k8s.yaml (tests/test_scaleout.c)
   python3-matplotlib     # `make bench`'s plots (bench/plot.py; it skips without)
+  emscripten             # `make web`: the decoder in WebAssembly for the browser client
+  chromium               # tests/test_web.c: the page in headless Chromium
 )
 
 missing=()
@@ -27,6 +29,12 @@ for p in "${packages[@]}"; do
     missing+=("$p")
   fi
 done
+# npm fetches Draco's WebAssembly decoder once (scripts/web-deps.sh). A
+# Node.js from elsewhere (nodesource's package) brings its own npm, which
+# Debian's npm package would conflict with: only where there is none.
+if ! command -v npm >/dev/null; then
+  missing+=(nodejs npm)
+fi
 
 if [ ${#missing[@]} -eq 0 ]; then
   exit 0

@@ -9,13 +9,17 @@
   const $ = (id) => document.getElementById(id);
   const canvas = $('view');
   if (params.get('bare') === '1') document.body.classList.add('bare');
+  // every animation frame drawn, not only those after a change: to measure
+  // what the page can draw (make bench)
+  const redraw = params.get('redraw') === '1';
 
   // What the page shows, published into #state (JSON) for tests.
   const state = {
     phase: 'loading', model: '', error: '', level: 0, received: 0, stop_level: 0, levels: 0,
     triangles: 0, strips: 0, vertices: 0, batches: 0, bytes: 0, checksum: '',
-    server_checksum: '', ms_connect: 0, ms_first_frame: 0, ms_final: 0, decode_ms: 0,
-    frames: 0, fps: 0, models: [],
+    server_checksum: '', ms_connect: 0, ms_base: 0, ms_first_frame: 0, ms_final: 0, decode_ms: 0,
+    frames: 0, fps: 0, draw_ms_total: 0, draw_ms_max: 0, frames_streaming: 0,
+    models: [],
   };
   window.mtsState = state;
   const publish = () => { $('state').textContent = JSON.stringify(state); };
@@ -111,8 +115,9 @@
   let lastFrame = 0, frameTimes = [];
   function draw(now) {
     requestAnimationFrame(draw);
-    if (!dirty || !w || M._mts_web_state(w) < 2) return;
+    if ((!dirty && !redraw) || !w || M._mts_web_state(w) < 2) return;
     dirty = false;
+    const d0 = performance.now();
     uploadVertices();
     pack();
     const cw = canvas.clientWidth | 0, ch = canvas.clientHeight | 0;
@@ -152,6 +157,11 @@
       gl.uniform3f(prog.u.u_color, style[4], style[5], style[6]);
       gl.drawElements(gl.TRIANGLE_STRIP, indexCount, gl.UNSIGNED_INT, 0);
     }
+    // the script's share of a frame (uploads, packing, GL calls; not the
+    // GPU's), for `make bench`
+    const spent = performance.now() - d0;
+    state.draw_ms_total += spent;
+    state.draw_ms_max = Math.max(state.draw_ms_max, spent);
     state.frames++;
     if (!state.ms_first_frame) state.ms_first_frame = performance.now() - t0;
     frameTimes.push(now);
@@ -227,8 +237,9 @@
     w = M._mts_web_create();
     Object.assign(state, {phase: 'connecting', model: name, error: '', level: 0, received: 0,
                           stop_level: 0, levels: 0, triangles: 0, strips: 0, vertices: 0,
-                          batches: 0, bytes: 0, checksum: '', server_checksum: '', ms_connect: 0,
-                          ms_first_frame: 0, ms_final: 0, decode_ms: 0, frames: 0});
+                          batches: 0, bytes: 0, checksum: '', server_checksum: '', ms_connect: 0, ms_base: 0,
+                          ms_first_frame: 0, ms_final: 0, decode_ms: 0, frames: 0,
+                          draw_ms_total: 0, draw_ms_max: 0, frames_streaming: 0});
     $('error').hidden = true;
     uploadedVertices = vertexCapacity = indexCount = 0;
     packedLevel = -1;
@@ -258,9 +269,11 @@
       state.levels = M._mts_web_level_count(w);
       state.vertices = M._mts_web_vertices(w);
       state.batches = M._mts_web_batches(w);
+      if (!state.ms_base && M._mts_web_state(w) >= 2) state.ms_base = performance.now() - t0;
       if (M._mts_web_state(w) === 3) {
         state.phase = 'complete';
         state.ms_final = performance.now() - t0;
+        state.frames_streaming = state.frames; // drawn while it came
         state.checksum = M.UTF8ToString(M._mts_web_checksum(w));
         state.server_checksum = M.UTF8ToString(M._mts_web_server_checksum(w));
       }

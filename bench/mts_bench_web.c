@@ -1,0 +1,290 @@
+/* The browser client's figures for `make bench` (issue 20): the page
+ * (build/web) in headless Chromium, driven over the DevTools protocol
+ * (tests/cdp.h), against mts-servers of this build on loopback:
+ *   - time to connect, to the first frame and to the full level, the
+ *     decoder's time in the page, and the checksum (median of --runs);
+ *   - frames drawn while the model streams slowly enough to watch
+ *     (mts-server --rate-limit), every animation frame drawn (&redraw=1),
+ *     and the script's time in a frame;
+ *   - pictures of the page at three levels (and one coloured by strip)
+ *     into --png-dir.
+ * The WebAssembly decoder's splits/s beside the native one's are
+ * bench/web.sh's (node, mts-bench-apply). */
+#include <math.h>
+#include <signal.h>
+#include <sys/stat.h>
+
+#include "../tests/cdp.h"
+#include "cli.h"
+
+#define MAX_RUNS 15
+
+typedef struct server {
+    pid_t pid;
+    int port, ws_port;
+} server;
+
+static int server_start(const char *bin_dir, const char *models, const char *web_dir,
+                        const char *rate, const char *log, server *sv)
+{
+    sv->port = mts_test_free_port();
+    sv->ws_port = mts_test_free_port();
+    char bin[600], listen[64], ws_listen[64];
+    snprintf(bin, sizeof bin, "%s/mts-server", bin_dir);
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", sv->port);
+    snprintf(ws_listen, sizeof ws_listen, "127.0.0.1:%d", sv->ws_port);
+    char *argv[16] = {bin, "--models", (char *)models, "--listen", listen, "--ws-listen",
+                      ws_listen, "--web-root", (char *)web_dir, "--quiet"};
+    int n = 10;
+    if (rate) {
+        argv[n++] = "--rate-limit";
+        argv[n++] = (char *)rate;
+    }
+    argv[n] = NULL;
+    sv->pid = mts_test_spawn(argv, log);
+    char out[4096];
+    return sv->pid > 0 && mts_test_wait_port(sv->ws_port, 60) &&
+           mts_test_wait_models(bin_dir, listen, "cow", 600, out, sizeof out);
+}
+
+static double json_double(const char *json, const char *key)
+{
+    char v[64];
+    mts_test_json(json, key, v, sizeof v);
+    return v[0] ? strtod(v, NULL) : NAN;
+}
+
+/* Loads url and waits for the stream's end to be drawn (or an error):
+ * the page's state into state. */
+static int page_run(mts_cdp *c, const char *url, double seconds, mts_buf *state)
+{
+    if (!mts_cdp_navigate(c, url))
+        return 0;
+    double until = mts_cdp_now() + seconds;
+    while (mts_cdp_now() < until) {
+        if (mts_cdp_eval(c, "JSON.stringify(window.mtsState || {})", state)) {
+            const char *st = (const char *)state->data;
+            if (strstr(st, "\"phase\":\"error\""))
+                return 0;
+            if (strstr(st, "\"phase\":\"complete\"") &&
+                mts_test_json_long(st, "level") == mts_test_json_long(st, "stop_level"))
+                return 1;
+        }
+        mts_cdp_sleep_ms(20);
+    }
+    return 0;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n ? (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2])) : NAN;
+}
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: mts-bench-web MODELS_DIR [--model NAME] [--runs N] [--rate-limit B/s]\n"
+            "                     [--levels A,B] [--png-dir DIR] [--web-dir DIR] [--json FILE]\n"
+            "The browser client in headless Chromium against mts-servers of this build\n"
+            "serving MODELS_DIR (with cow in it) on loopback: connect, first frame and\n"
+            "full level (median of --runs, default 5), frames while the model streams at\n"
+            "--rate-limit (default 40000 B/s), pictures at levels A, B and the full\n"
+            "level (default 1000,8000) into --png-dir (default bench/plots).\n"
+            "Exit status 1 when a figure could not be measured.\n");
+}
+
+int main(int argc, char **argv)
+{
+    signal(SIGPIPE, SIG_IGN);
+    const char *models = NULL, *model = "bunny00", *json = NULL, *png_dir = "bench/plots";
+    const char *web_dir = "build/web", *rate = "40000";
+    uint32_t runs = 5, levels[2] = {1000, 8000};
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            usage(stdout);
+            return 0;
+        } else if (!strcmp(a, "--runs")) {
+            if (!cli_option_u32(argc, argv, &i, "mts-bench-web", 1, MAX_RUNS, &runs))
+                return 2;
+        } else if (!strcmp(a, "--levels") && i + 1 < argc) {
+            if (sscanf(argv[++i], "%u,%u", &levels[0], &levels[1]) != 2) {
+                fprintf(stderr, "mts-bench-web: --levels wants A,B, not %s\n", argv[i]);
+                return 2;
+            }
+        } else if (!strcmp(a, "--model") && i + 1 < argc) {
+            model = argv[++i];
+        } else if (!strcmp(a, "--rate-limit") && i + 1 < argc) {
+            rate = argv[++i];
+        } else if (!strcmp(a, "--png-dir") && i + 1 < argc) {
+            png_dir = argv[++i];
+        } else if (!strcmp(a, "--web-dir") && i + 1 < argc) {
+            web_dir = argv[++i];
+        } else if (!strcmp(a, "--json") && i + 1 < argc) {
+            json = argv[++i];
+        } else if (a[0] == '-' || models) {
+            fprintf(stderr, "mts-bench-web: unexpected %s\n", a);
+            usage(stderr);
+            return 2;
+        } else {
+            models = a;
+        }
+    }
+    if (!models) {
+        usage(stderr);
+        return 2;
+    }
+    char bin_dir[512], path[700];
+    mts_test_bin_dir(argv[0], bin_dir, sizeof bin_dir);
+    snprintf(path, sizeof path, "%s/mts_web.js", web_dir);
+    struct stat sb;
+    if (stat(path, &sb) != 0) {
+        fprintf(stderr, "mts-bench-web: no %s (make web)\n", path);
+        return 1;
+    }
+    const char *tmp = mts_test_tmpdir();
+    char log_fast[700], log_slow[700], log_browser[700];
+    snprintf(log_fast, sizeof log_fast, "%s/bench_web_server.log", tmp);
+    snprintf(log_slow, sizeof log_slow, "%s/bench_web_server_slow.log", tmp);
+    snprintf(log_browser, sizeof log_browser, "%s/bench_web_chromium.log", tmp);
+    server fast = {0}, slow = {0};
+    mts_cdp c;
+    int ok = server_start(bin_dir, models, web_dir, NULL, log_fast, &fast) &&
+             server_start(bin_dir, models, web_dir, rate, log_slow, &slow);
+    if (!ok) {
+        fprintf(stderr, "mts-bench-web: the servers did not start (%s, %s)\n", log_fast, log_slow);
+        goto done_servers;
+    }
+    /* the window client's bench size */
+    if (!mts_cdp_start(&c, tmp, log_browser, 800, 600, 30)) {
+        fprintf(stderr, "mts-bench-web: chromium did not start (%s)\n", log_browser);
+        ok = 0;
+        goto done;
+    }
+    mts_buf state = {0};
+    char url[800], checksum[64] = "";
+    double connect[MAX_RUNS], base[MAX_RUNS], first[MAX_RUNS], final[MAX_RUNS], decode[MAX_RUNS];
+    long level = 0, bytes = 0;
+    /* one load first: the page, its scripts and WebAssembly into the cache,
+     * as for a user who has opened it before */
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1", fast.ws_port, model);
+    ok = page_run(&c, url, 60, &state);
+    for (uint32_t r = 0; ok && r < runs; r++) {
+        ok = page_run(&c, url, 60, &state);
+        const char *st = (const char *)state.data;
+        connect[r] = json_double(st, "ms_connect");
+        base[r] = json_double(st, "ms_base");
+        first[r] = json_double(st, "ms_first_frame");
+        final[r] = json_double(st, "ms_final");
+        decode[r] = json_double(st, "decode_ms");
+        level = mts_test_json_long(st, "level");
+        bytes = mts_test_json_long(st, "bytes");
+        mts_test_json(st, "checksum", checksum, sizeof checksum);
+    }
+    if (!ok) {
+        fprintf(stderr, "mts-bench-web: %s did not stream: %s\n", url,
+                state.data ? (const char *)state.data : "");
+        goto done_state;
+    }
+    /* while it streams slowly: frames drawn as batches come */
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1&redraw=1", slow.ws_port,
+             model);
+    double t0 = mts_cdp_now();
+    ok = page_run(&c, url, 120, &state);
+    const char *st = (const char *)state.data;
+    double wall = mts_cdp_now() - t0;
+    double frames = json_double(st, "frames_streaming");
+    double span = (json_double(st, "ms_final") - json_double(st, "ms_first_frame")) / 1000;
+    double fps = span > 0 ? (frames - 1) / span : NAN;
+    double all_frames = json_double(st, "frames");
+    double draw_mean = all_frames > 0 ? json_double(st, "draw_ms_total") / all_frames : NAN;
+    double draw_max = json_double(st, "draw_ms_max");
+    if (!ok) {
+        fprintf(stderr, "mts-bench-web: %s did not stream: %s\n", url, st ? st : "");
+        goto done_state;
+    }
+    /* pictures */
+    mkdir(png_dir, 0755);
+    struct {
+        long level;
+        int strips;
+        char path[700];
+        long triangles;
+    } pics[4] = {{levels[0], 0, "", 0}, {levels[1], 0, "", 0}, {0, 0, "", 0}, {levels[1], 1, "", 0}};
+    for (int k = 0; ok && k < 4; k++) {
+        char lv[40] = "";
+        if (pics[k].level)
+            snprintf(lv, sizeof lv, "&level=%ld", pics[k].level);
+        snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1%s%s", fast.ws_port, model,
+                 lv, pics[k].strips ? "&strips=1" : "");
+        ok = page_run(&c, url, 60, &state);
+        pics[k].level = mts_test_json_long((const char *)state.data, "level");
+        pics[k].triangles = mts_test_json_long((const char *)state.data, "triangles");
+        snprintf(pics[k].path, sizeof pics[k].path, "%s/web_%s_%s%ld.png", png_dir, model,
+                 pics[k].strips ? "strips_" : "", pics[k].level);
+        ok = ok && mts_cdp_screenshot(&c, pics[k].path);
+    }
+    if (!ok) {
+        fprintf(stderr, "mts-bench-web: a picture failed: %s\n",
+                state.data ? (const char *)state.data : "");
+        goto done_state;
+    }
+    double first_max = 0;
+    for (uint32_t r = 0; r < runs; r++)
+        first_max = first[r] > first_max ? first[r] : first_max;
+    double m_connect = median(connect, (int)runs), m_first = median(first, (int)runs);
+    double m_base = median(base, (int)runs);
+    double m_final = median(final, (int)runs), m_decode = median(decode, (int)runs);
+    printf("Browser client (issue 20; %s, headless Chromium, SwiftShader, 800x600, loopback, "
+           "median of %u):\n",
+           model, runs);
+    printf("  connect %.1f ms, base mesh in %.1f ms, first frame %.1f ms (at most %.1f), full "
+           "level %ld at %.1f ms (decode %.1f ms in the page), %ld B, checksum %s\n",
+           m_connect, m_base, m_first, first_max, level, m_final, m_decode, bytes, checksum);
+    printf("  streaming at %s B/s: %.0f frames in %.2f s while it came (%.1f fps); the "
+           "script's share of a frame %.2f ms mean, %.2f ms at most\n",
+           rate, frames, span, fps, draw_mean, draw_max);
+    for (int k = 0; k < 4; k++)
+        printf("  picture: level %ld (%ld triangles)%s: %s\n", pics[k].level, pics[k].triangles,
+               pics[k].strips ? ", by strip" : "", pics[k].path);
+    if (json) {
+        FILE *f = fopen(json, "w");
+        if (!f) {
+            fprintf(stderr, "mts-bench-web: cannot write %s\n", json);
+            ok = 0;
+            goto done_state;
+        }
+        fprintf(f,
+                "{\"model\":\"%s\",\"runs\":%u,\"width\":800,\"height\":600,\"ms_connect\":%.2f,"
+                "\"ms_base\":%.2f,\"ms_first_frame\":%.2f,\"ms_first_frame_max\":%.2f,\"ms_final\":%.2f,\"decode_ms\":%.2f,\"level\":%ld,"
+                "\"bytes\":%ld,\"checksum\":%s,\"streaming\":{\"rate_limit\":%s,\"seconds\":%.3f,"
+                "\"wall_s\":%.3f,\"frames\":%.0f,\"fps\":%.2f,\"script_ms_mean\":%.3f,"
+                "\"script_ms_max\":%.3f},\"pictures\":[",
+                model, runs, m_connect, m_base, m_first, first_max, m_final, m_decode, level, bytes,
+                checksum[0] ? checksum : "\"\"", rate, span, wall, frames, fps, draw_mean,
+                draw_max);
+        for (int k = 0; k < 4; k++)
+            fprintf(f, "%s{\"level\":%ld,\"triangles\":%ld,\"strips\":%d,\"path\":\"%s\"}",
+                    k ? "," : "", pics[k].level, pics[k].triangles, pics[k].strips,
+                    pics[k].path);
+        fprintf(f, "]}\n");
+        ok = fclose(f) == 0 && ok;
+    }
+done_state:
+    mts_buf_free(&state);
+done:
+    mts_cdp_stop(&c);
+done_servers:
+    if (fast.pid > 0)
+        mts_test_stop(fast.pid);
+    if (slow.pid > 0)
+        mts_test_stop(slow.pid);
+    return ok ? 0 : 1;
+}
