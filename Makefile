@@ -196,7 +196,8 @@ EMAR     ?= emar
 WEB_ENV  := NODE_PATH=/usr/share/nodejs
 WEB_DIR  := build/web
 WEB_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE -O2 $(FP) $(WARN) -Icommon -Iprotocol -Iclient -Iweb
-WEB_LIB_OBJ := $(patsubst %.c,$(WEB_DIR)/obj/%.o,$(wildcard common/*.c protocol/*.c) client/camera.c)
+WEB_LIB_OBJ := $(patsubst %.c,$(WEB_DIR)/obj/%.o,$(wildcard common/*.c protocol/*.c) client/camera.c \
+               client/morph.c)
 WEB_OBJ  := $(WEB_DIR)/obj/web/mts_web.o $(WEB_DIR)/obj/web/draco_web.o
 WEB_LINK := -sMODULARIZE=1 -sEXPORT_NAME=createMtsWeb -sALLOW_MEMORY_GROWTH=1 \
             -sENVIRONMENT=web,node -sEXPORTED_FUNCTIONS=_malloc,_free \

@@ -308,8 +308,9 @@ static void win_hud_text(win *wn, double now)
     }
     char morph[64] = "morph off";
     if (v->opts.morph_ms > 0)
-        snprintf(morph, sizeof morph, v->morphing ? "morphing %.0f ms (%.0f%%)" : "morph %.0f ms",
-                 v->opts.morph_ms, 100.0 * v->morph_t);
+        snprintf(morph, sizeof morph,
+                 v->morph.active ? "morphing %.0f ms (%.0f%%)" : "morph %.0f ms", v->opts.morph_ms,
+                 100.0 * v->morph.t);
     snprintf(wn->hud_text, sizeof wn->hud_text,
              "%s  level %u of %u (received %u, %s)\n"
              "triangles %u  strips %u  indices/triangle %.2f  %s\n"
@@ -355,9 +356,9 @@ static int win_frame(win *wn, double now)
         const mts_view *v = &rn->view;
         wn->want_shot = 0;
         char path[300];
-        if (v->morphing) /* a frame between two levels: say so in its name */
+        if (v->morph.active) /* a frame between two levels: say so in its name */
             snprintf(path, sizeof path, "%s_L%u_morph%02.0f.png", rn->model, v->shown.level,
-                     100.0 * v->morph_t);
+                     100.0 * v->morph.t);
         else
             snprintf(path, sizeof path, "%s_L%u.png", rn->model, v->shown.level);
         if (mts_render_write_png(r, path, &rn->err) != MTS_OK)

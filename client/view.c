@@ -54,6 +54,8 @@ mts_result mts_view_create(mts_view *v, mts_render_context *ctx, const mts_rende
         v->lod = &v->own;
         v->announced = src->announced;
     }
+    v->morph.ms = v->opts.morph_ms;
+    v->morph.t = 1;
     return MTS_OK;
 }
 
@@ -64,8 +66,7 @@ void mts_view_free(mts_view *v)
     mts_renderer_destroy(v->renderer);
     if (v->have_own)
         mts_lod_free(&v->own);
-    free(v->morph_from);
-    free(v->morph_ids);
+    mts_morph_free(&v->morph);
     memset(v, 0, sizeof *v);
 }
 
@@ -75,87 +76,16 @@ void mts_view_set_wireframe(mts_view *v, int on)
     v->wire_stale = 1;
 }
 
-/* The morph of vertex ids first .. first+count-1 towards (or from) the level
- * whose vertices end at first: each starts from its nearest ancestor below
- * first (a parent precedes its child in stream order, so walking up is one
- * look-up into the ids already resolved). */
-static mts_result morph_begin(mts_view *v, const mts_model *m, uint32_t first, uint32_t count,
-                              mts_error *err)
-{
-    if (count > v->morph_cap) {
-        float *f = realloc(v->morph_from, (size_t)count * 6 * sizeof *f);
-        if (f)
-            v->morph_from = f;
-        uint32_t *ids = realloc(v->morph_ids, (size_t)count * sizeof *ids);
-        if (ids)
-            v->morph_ids = ids;
-        if (!f || !ids)
-            return mts_error_set(err, MTS_ERR_NOMEM, "view: a morph of %u vertices", count);
-        v->morph_cap = count;
-    }
-    const uint32_t nb = m->base_vertex_count;
-    for (uint32_t i = 0; i < count; i++) {
-        uint32_t p = m->parents[first + i - nb];
-        uint32_t a = p < first ? p : v->morph_ids[p - first];
-        v->morph_ids[i] = a;
-        memcpy(v->morph_from + 3 * (size_t)i, m->positions + 3 * (size_t)a, 12);
-        memcpy(v->morph_from + 3 * ((size_t)count + i), m->normals + 3 * (size_t)a, 12);
-    }
-    mts_result rc = mts_render_set_morph(v->renderer, first, count, v->morph_from,
-                                         v->morph_from + 3 * (size_t)count, err);
-    if (rc != MTS_OK)
-        return rc;
-    v->morph_first = first;
-    v->morph_count = count;
-    v->morphing = 1;
-    return MTS_OK;
-}
-
-static mts_result morph_end(mts_view *v, mts_error *err)
-{
-    v->morphing = 0;
-    v->morph_t = 1;
-    mts_result rc = mts_render_set_morph(v->renderer, 0, 0, NULL, NULL, err);
-    if (rc == MTS_OK && v->morph_down)
-        rc = mts_lod_set_level(v->lod, v->morph_target, err);
-    v->morph_down = 0;
-    return rc;
-}
-
 /* Moves the drawn runtime to target, through a geomorph where asked. */
 static mts_result move_to(mts_view *v, const mts_view_source *src, uint32_t target, double now,
                           mts_error *err)
 {
-    mts_result rc;
-    if (v->morphing) {
-        double t = (now - v->morph_t0) / v->opts.morph_ms;
-        if (t < 1) {
-            v->morph_t = (float)(v->morph_down ? 1 - t : t);
-            mts_render_set_morph_t(v->renderer, v->morph_t);
-            return MTS_OK;
-        }
-        if ((rc = morph_end(v, err)) != MTS_OK)
-            return rc;
-    }
-    uint32_t from = v->lod->level;
-    if (target == from)
-        return MTS_OK;
-    if (!(v->opts.morph_ms > 0))
-        return mts_lod_set_level(v->lod, target, err);
-    const uint32_t nb = src->model->base_vertex_count;
-    v->morph_t0 = now;
-    if (target > from) {
-        if ((rc = mts_lod_set_level(v->lod, target, err)) != MTS_OK)
-            return rc;
-        v->morph_t = 0;
-        rc = morph_begin(v, src->model, nb + from, target - from, err);
-    } else {
-        v->morph_down = 1;
-        v->morph_target = target;
-        v->morph_t = 1;
-        rc = morph_begin(v, src->model, nb + target, from - target, err);
-    }
-    mts_render_set_morph_t(v->renderer, v->morph_t);
+    int range_changed = 0;
+    mts_result rc = mts_morph_move(&v->morph, v->lod, src->model, target, now, &range_changed, err);
+    if (rc == MTS_OK && range_changed)
+        rc = mts_render_set_morph(v->renderer, v->morph.first, v->morph.count, v->morph.from,
+                                  v->morph.from + 3 * (size_t)v->morph.count, err);
+    mts_render_set_morph_t(v->renderer, v->morph.t);
     return rc;
 }
 

@@ -17,17 +17,12 @@
  *     window's level keys need; only the strips that change between two
  *     levels are touched.
  *
- * Geomorphs (own runtime, morph_ms > 0): a level change does not pop. Going
- * up, the level is set at once and the vertices it adds are drawn first at
- * their ancestors' places (the nearest ancestor present at the old level:
- * the position and normal that vertex had there, so the first frame is the
- * old level's surface) and slide to their own over morph_ms; going down,
- * they slide back and the level drops when they arrive. Vertices of one
- * level range are contiguous ids (stream order), so the renderer morphs them
- * by one id range and a factor (mts_render_set_morph). While a morph runs
- * the view holds its level; a request that comes meanwhile is taken when it
- * ends, so a fast stream shows a step every morph_ms instead of one a frame
- * (which also bounds the packed buffer's rebuilds).
+ * Geomorphs (own runtime, morph_ms > 0): a level change does not pop; the
+ * vertices a level adds slide from their ancestors' places (morph.h), which
+ * the renderer draws by one id range and a factor (mts_render_set_morph).
+ * While a morph runs the view holds its level, so a fast stream shows a
+ * step every morph_ms instead of one a frame (which also bounds the packed
+ * buffer's rebuilds).
  *
  * Errors: mts_result and mts_error, nothing printed. One thread. */
 #ifndef MTS_VIEW_H
@@ -38,6 +33,7 @@
 #include "error.h"
 #include "lod.h"
 #include "model.h"
+#include "morph.h"
 #include "render.h"
 
 struct mts_stream_client;
@@ -75,20 +71,13 @@ typedef struct mts_view {
     mts_lod *lod;             /* the runtime drawn: the view's own or the source's */
     mts_view_figures shown;   /* of the level drawn */
     int have_figures;         /* shown is filled (after the first sync) */
-    int morphing;             /* a geomorph runs: sync again next frame */
-    float morph_t;            /* how far it is, 0..1 (towards the higher level) */
+    mts_morph morph;          /* .active: a geomorph runs, sync again next frame;
+                                 .t: how far it is, 0..1 (towards the higher level) */
     /* the view's own */
     mts_view_options opts;
     mts_lod own;
     int have_own, wireframe, wire_stale;
     uint32_t uploaded, announced;
-    int morph_down;
-    uint32_t morph_target; /* going down: the level set when the morph ends */
-    uint32_t morph_first, morph_count;
-    double morph_t0;
-    float *morph_from; /* 6 floats a vertex: positions, then normals */
-    uint32_t *morph_ids;
-    uint32_t morph_cap;
 } mts_view;
 
 /* Creates the renderer for the source's model (mts_render_layout_from_lod

@@ -204,8 +204,8 @@ static void test_view_morph(mts_test *t)
     mts_view_options vo = {1, 100};
     CHECKF(t, mts_view_create(&v, g_ctx, &o, &src, &vo, &err) == MTS_OK, "%s", err.msg);
     /* base -> a, to its end */
-    CHECK(t, mts_view_sync(&v, &src, a, 0, &err) == MTS_OK && v.morphing && v.lod->level == a);
-    CHECK(t, mts_view_sync(&v, &src, a, 1000, &err) == MTS_OK && !v.morphing);
+    CHECK(t, mts_view_sync(&v, &src, a, 0, &err) == MTS_OK && v.morph.active && v.lod->level == a);
+    CHECK(t, mts_view_sync(&v, &src, a, 1000, &err) == MTS_OK && !v.morph.active);
     frame f;
     if (view_frame(t, &v, &f))
         CHECKF(t, pixels_differing(&f, &ref_a, 0) == 0, "after the morph to %u: %u pixels",
@@ -214,8 +214,8 @@ static void test_view_morph(mts_test *t)
     /* up: the level is set at once, its new vertices start at their
      * ancestors' places; the first frame is level a's surface */
     CHECK(t, mts_view_sync(&v, &src, b, 2000, &err) == MTS_OK);
-    CHECKF(t, v.morphing && v.lod->level == b && v.shown.level == b && v.morph_t == 0,
-           "morphing %d at %u, t %.2f", v.morphing, v.lod->level, v.morph_t);
+    CHECKF(t, v.morph.active && v.lod->level == b && v.shown.level == b && v.morph.t == 0,
+           "morphing %d at %u, t %.2f", v.morph.active, v.lod->level, v.morph.t);
     frame m0, m50, m_down;
     if (view_frame(t, &v, &m0)) {
         uint32_t d = pixels_differing(&m0, &ref_a, 8);
@@ -226,8 +226,8 @@ static void test_view_morph(mts_test *t)
     }
     /* a request meanwhile waits for the morph to end */
     CHECK(t, mts_view_sync(&v, &src, g_cow.level_count, 2050, &err) == MTS_OK);
-    CHECKF(t, v.morphing && v.lod->level == b && v.morph_t > 0.45f && v.morph_t < 0.55f,
-           "half-way: morphing %d at %u, t %.2f", v.morphing, v.lod->level, v.morph_t);
+    CHECKF(t, v.morph.active && v.lod->level == b && v.morph.t > 0.45f && v.morph.t < 0.55f,
+           "half-way: morphing %d at %u, t %.2f", v.morph.active, v.lod->level, v.morph.t);
     if (view_frame(t, &v, &m50)) {
         double da = frame_diff(&m50, &ref_a), db = frame_diff(&m50, &ref_b);
         fprintf(stderr, "  half-way: %.3f from level %u, %.3f from level %u (they are %.3f "
@@ -236,27 +236,27 @@ static void test_view_morph(mts_test *t)
                "half-way frame not between: %.3f from a, %.3f from b, a to b %.3f", da, db,
                d_ab);
     }
-    CHECK(t, mts_view_sync(&v, &src, b, 3000, &err) == MTS_OK && !v.morphing);
+    CHECK(t, mts_view_sync(&v, &src, b, 3000, &err) == MTS_OK && !v.morph.active);
     if (view_frame(t, &v, &f))
         CHECKF(t, pixels_differing(&f, &ref_b, 0) == 0, "after the morph to %u: %u pixels",
                b, pixels_differing(&f, &ref_b, 0));
 
     /* down: the vertices slide back first, the level drops at the end */
     CHECK(t, mts_view_sync(&v, &src, a, 4000, &err) == MTS_OK);
-    CHECKF(t, v.morphing && v.lod->level == b && v.morph_t == 1, "down: at %u, t %.2f",
-           v.lod->level, v.morph_t);
+    CHECKF(t, v.morph.active && v.lod->level == b && v.morph.t == 1, "down: at %u, t %.2f",
+           v.lod->level, v.morph.t);
     if (view_frame(t, &v, &f))
         CHECKF(t, pixels_differing(&f, &ref_b, 0) == 0,
                "the first frame down differs from level %u's in %u pixels", b,
                pixels_differing(&f, &ref_b, 0));
-    CHECK(t, mts_view_sync(&v, &src, a, 4050, &err) == MTS_OK && v.morphing);
+    CHECK(t, mts_view_sync(&v, &src, a, 4050, &err) == MTS_OK && v.morph.active);
     if (view_frame(t, &v, &m_down)) {
         double da = frame_diff(&m_down, &ref_a), db = frame_diff(&m_down, &ref_b);
         CHECKF(t, da < d_ab && db < d_ab && pixels_differing(&m_down, &m50, 8) < SIDE * SIDE / 500,
                "half-way down: %.3f from a, %.3f from b; half-way up and down differ in %u "
                "pixels", da, db, pixels_differing(&m_down, &m50, 8));
     }
-    CHECK(t, mts_view_sync(&v, &src, a, 5000, &err) == MTS_OK && !v.morphing &&
+    CHECK(t, mts_view_sync(&v, &src, a, 5000, &err) == MTS_OK && !v.morph.active &&
                  v.lod->level == a && v.shown.level == a);
     if (view_frame(t, &v, &f))
         CHECKF(t, pixels_differing(&f, &ref_a, 0) == 0, "back at %u: %u pixels", a,
