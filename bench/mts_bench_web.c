@@ -66,7 +66,7 @@ static int page_run(mts_cdp *c, const char *url, double seconds, mts_buf *state)
             const char *st = (const char *)state->data;
             if (strstr(st, "\"phase\":\"error\""))
                 return 0;
-            if (strstr(st, "\"phase\":\"complete\"") &&
+            if (strstr(st, "\"phase\":\"complete\"") && strstr(st, "\"morphing\":false") &&
                 mts_test_json_long(st, "level") == mts_test_json_long(st, "stop_level"))
                 return 1;
         }

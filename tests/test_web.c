@@ -9,6 +9,8 @@
  *     is within a stated tolerance of mts-client --png of the same view;
  *   - a stop level from the page's query ends there with mts-client's
  *     checksum for that stop;
+ *   - the level slider goes down and up through geomorphs, and the lower
+ *     level's picture is mts-client's;
  *   - a server killed mid-stream shows an error on the page, not a frozen
  *     picture.
  * Skips, saying why, without build/web (make web: emscripten), node or
@@ -164,11 +166,13 @@ static void test_page(mts_test *t)
         int done = wait_phase(&c, "complete error", 120, &state);
         const char *st = state.data ? (const char *)state.data : "";
         CHECKF(t, done && strstr(st, "\"phase\":\"complete\""), "%s: %s", url, st);
-        /* the stream's end is drawn at the next animation frame */
+        /* the stream's end is drawn at the next animation frame, after the
+         * geomorph to it */
         double until = mts_cdp_now() + 20;
         while (done && mts_cdp_now() < until &&
-               mts_test_json_long((const char *)state.data, "level") !=
-                   mts_test_json_long((const char *)state.data, "stop_level")) {
+               (mts_test_json_long((const char *)state.data, "level") !=
+                    mts_test_json_long((const char *)state.data, "stop_level") ||
+                !strstr((const char *)state.data, "\"morphing\":false"))) {
             mts_cdp_sleep_ms(50);
             mts_cdp_eval(&c, "JSON.stringify(window.mtsState)", &state);
         }
@@ -196,6 +200,82 @@ static void test_page(mts_test *t)
                share);
         mts_buf_free(&state);
     }
+    mts_cdp_stop(&c);
+    CHECK(t, mts_test_stop(sv.pid) == 0);
+}
+
+/* The page's state, polled until it contains every one of `want` (NULL
+ * ended), or `seconds` pass. */
+static int wait_state(mts_cdp *c, const char *const *want, double seconds, mts_buf *state)
+{
+    double until = mts_cdp_now() + seconds;
+    while (mts_cdp_now() < until) {
+        if (mts_cdp_eval(c, "JSON.stringify(window.mtsState || {})", state)) {
+            int all = 1;
+            for (int k = 0; want[k] && all; k++)
+                all = strstr((const char *)state->data, want[k]) != NULL;
+            if (all)
+                return 1;
+        }
+        mts_cdp_sleep_ms(20);
+    }
+    return 0;
+}
+
+/* The level slider down and up again, through geomorphs: going down the
+ * level holds while the vertices slide back, then drops; going up it is
+ * set at once and they slide out; the picture at the lower level is
+ * mts-client's of that level. */
+static void test_page_slider_morph(mts_test *t)
+{
+    if (!have_chromium)
+        SKIP(t, "no chromium (scripts/deps.sh installs it): the page is not tested");
+    server sv;
+    CHECK(t, server_start(&sv, "slider", NULL));
+    mts_cdp c;
+    char log[700];
+    snprintf(log, sizeof log, "%s/web_chromium_slider.log", tmp_dir);
+    int up = mts_cdp_start(&c, tmp_dir, log, 512, 512, 30);
+    CHECKF(t, up, "chromium did not start (see %s)", log);
+    char url[600];
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=cow&bare=1&morph=1500", sv.ws_port);
+    mts_buf state = {0};
+    const char *full[] = {"\"phase\":\"complete\"", "\"level\":2875,", "\"morphing\":false", NULL};
+    CHECKF(t, up && mts_cdp_navigate(&c, url) && wait_state(&c, full, 60, &state), "%s",
+           state.data ? (const char *)state.data : "");
+    const char *slide_down = "(() => { document.getElementById('follow').checked = false; "
+                             "const l = document.getElementById('level'); l.value = '100'; "
+                             "l.dispatchEvent(new Event('input')); return 'ok'; })()";
+    mts_buf ok = {0};
+    CHECK(t, up && mts_cdp_eval(&c, slide_down, &ok));
+    const char *sliding_down[] = {"\"morphing\":true", NULL};
+    CHECK(t, up && wait_state(&c, sliding_down, 5, &state));
+    CHECKF(t, up && mts_test_json_long((const char *)state.data, "level") == 2875,
+           "going down, the level holds while the vertices slide back: %s",
+           (const char *)state.data);
+    const char *low[] = {"\"level\":100,", "\"morphing\":false", NULL};
+    CHECKF(t, up && wait_state(&c, low, 10, &state), "%s", (const char *)state.data);
+    char png_web[700], png_native[700], cmd[2000], out[4096];
+    snprintf(png_web, sizeof png_web, "%s/web_cow_slider_100.png", tmp_dir);
+    snprintf(png_native, sizeof png_native, "%s/native_cow_100.png", tmp_dir);
+    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow --level 100 --png %s --quiet",
+             bin_dir, sv.port, png_native);
+    CHECK(t, up && mts_cdp_screenshot(&c, png_web) && mts_test_run(cmd, out, sizeof out) == 0);
+    double share = mts_cdp_png_diff(png_web, png_native, PIXEL_TOLERANCE);
+    fprintf(stderr, "  cow slid to 100: %.2f%% of pixels differ by more than %d from mts-client's\n",
+            100 * share, PIXEL_TOLERANCE);
+    CHECKF(t, share >= 0 && share <= PIXEL_SHARE, "%s vs %s: %.4f", png_web, png_native, share);
+    const char *slide_up = "(() => { const l = document.getElementById('level'); "
+                           "l.value = '2875'; l.dispatchEvent(new Event('input')); "
+                           "return 'ok'; })()";
+    CHECK(t, up && mts_cdp_eval(&c, slide_up, &ok));
+    const char *sliding_up[] = {"\"morphing\":true", "\"level\":2875,", NULL};
+    CHECKF(t, up && wait_state(&c, sliding_up, 5, &state),
+           "going up, the level is set at once and the vertices slide: %s",
+           (const char *)state.data);
+    CHECK(t, up && wait_state(&c, full, 10, &state));
+    mts_buf_free(&ok);
+    mts_buf_free(&state);
     mts_cdp_stop(&c);
     CHECK(t, mts_test_stop(sv.pid) == 0);
 }
@@ -278,7 +358,7 @@ int main(int argc, char **argv)
         if (required)
             t.failed = 1;
         else
-            t.skipped = 3;
+            t.skipped = 4;
         return mts_test_end(&t);
     }
     have_node = have("node --version");
@@ -316,6 +396,7 @@ int main(int argc, char **argv)
     }
     RUN(&t, test_node_decoder);
     RUN(&t, test_page);
+    RUN(&t, test_page_slider_morph);
     RUN(&t, test_page_broken_connection);
     return mts_test_end(&t);
 }

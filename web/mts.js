@@ -12,6 +12,8 @@
   // every animation frame drawn, not only those after a change: to measure
   // what the page can draw (make bench)
   const redraw = params.get('redraw') === '1';
+  // a level change slides over this long (the window client's default)
+  const morphMs = params.get('morph') !== null ? Number(params.get('morph')) : 250;
 
   // What the page shows, published into #state (JSON) for tests.
   const state = {
@@ -19,7 +21,7 @@
     triangles: 0, strips: 0, vertices: 0, batches: 0, bytes: 0, checksum: '',
     server_checksum: '', ms_connect: 0, ms_base: 0, ms_first_frame: 0, ms_final: 0, decode_ms: 0,
     frames: 0, fps: 0, draw_ms_total: 0, draw_ms_max: 0, frames_streaming: 0,
-    models: [],
+    morphing: false, morph_ms: 0, models: [],
   };
   window.mtsState = state;
   const publish = () => { $('state').textContent = JSON.stringify(state); };
@@ -30,7 +32,8 @@
   let M = null;        // the WebAssembly module
   let w = 0;           // its mts_web*
   let ws = null;
-  let gl = null, prog = null, vbo = null, nbo = null, ibo = null;
+  let gl = null, prog = null, vbo = null, nbo = null, mbo = null, ibo = null;
+  let morphSerial = -1; // the morph range whose from-places mbo holds
   let uploadedVertices = 0, vertexCapacity = 0, indexCount = 0, packedLevel = -1;
   const cam = {yaw: Number(params.get('yaw') || 30), pitch: Number(params.get('pitch') || 20),
                zoom: Number(params.get('zoom') || 1)};
@@ -59,17 +62,23 @@
       if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(s));
       return s;
     };
-    prog = gl.createProgram();
-    const head = '#version 300 es\n#define MORPH 0\n';
-    gl.attachShader(prog, sh(gl.VERTEX_SHADER, head + M.UTF8ToString(M._mts_web_shader(0))));
-    gl.attachShader(prog, sh(gl.FRAGMENT_SHADER, head + M.UTF8ToString(M._mts_web_shader(1))));
-    gl.linkProgram(prog);
-    if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
-    prog.u = {};
-    for (const u of ['u_mvp', 'u_normal', 'u_color', 'u_light', 'u_ambient', 'u_flat'])
-      prog.u[u] = gl.getUniformLocation(prog, u);
+    // as the native renderer: a plain program, and one that morphs a range
+    prog = [0, 1].map((morph) => {
+      const p = gl.createProgram();
+      const head = `#version 300 es\n#define MORPH ${morph}\n`;
+      gl.attachShader(p, sh(gl.VERTEX_SHADER, head + M.UTF8ToString(M._mts_web_shader(0))));
+      gl.attachShader(p, sh(gl.FRAGMENT_SHADER, head + M.UTF8ToString(M._mts_web_shader(1))));
+      gl.linkProgram(p);
+      if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(p));
+      p.u = {};
+      for (const u of ['u_mvp', 'u_normal', 'u_color', 'u_light', 'u_ambient', 'u_flat',
+                       'u_morph', 'u_morph_t'])
+        p.u[u] = gl.getUniformLocation(p, u);
+      return p;
+    });
     vbo = gl.createBuffer();
     nbo = gl.createBuffer();
+    mbo = gl.createBuffer();
     ibo = gl.createBuffer();
   }
 
@@ -85,6 +94,10 @@
         gl.bindBuffer(gl.ARRAY_BUFFER, b);
         gl.bufferData(gl.ARRAY_BUFFER, vertexCapacity * 12, gl.DYNAMIC_DRAW);
       }
+      // the morph's from-places: positions, then normals, by vertex id
+      gl.bindBuffer(gl.ARRAY_BUFFER, mbo);
+      gl.bufferData(gl.ARRAY_BUFFER, vertexCapacity * 24, gl.DYNAMIC_DRAW);
+      morphSerial = -1;
     }
     gl.bindBuffer(gl.ARRAY_BUFFER, vbo);
     gl.bufferSubData(gl.ARRAY_BUFFER, from * 12, M.HEAPF32.subarray(pos + 3 * from, pos + 3 * nv));
@@ -98,8 +111,23 @@
     return $('follow').checked ? M._mts_web_received_level(w) : Number($('level').value);
   }
 
+  // A morph's range, where it changed: its from-places into mbo.
+  function uploadMorph() {
+    const serial = M._mts_web_morph_serial(w), count = M._mts_web_morph_count(w);
+    if (serial === morphSerial || !count) return;
+    const first = M._mts_web_morph_first(w), from = M._mts_web_morph_from(w) >> 2;
+    gl.bindBuffer(gl.ARRAY_BUFFER, mbo);
+    gl.bufferSubData(gl.ARRAY_BUFFER, first * 12, M.HEAPF32.subarray(from, from + 3 * count));
+    gl.bufferSubData(gl.ARRAY_BUFFER, vertexCapacity * 12 + first * 12,
+                     M.HEAPF32.subarray(from + 3 * count, from + 6 * count));
+    morphSerial = serial;
+  }
+
   function pack() {
-    if (M._mts_web_show(w, wantedLevel()) !== 0) return fail(M.UTF8ToString(M._mts_web_error(w)));
+    if (M._mts_web_show(w, wantedLevel(), performance.now()) !== 0)
+      return fail(M.UTF8ToString(M._mts_web_error(w)));
+    state.morphing = M._mts_web_morph_active(w) !== 0;
+    if (state.morphing) dirty = true; // the next frame goes on with it
     const level = M._mts_web_shown_level(w);
     if (level === packedLevel && indexCount) return;
     const p = M._mts_web_indices(w) >> 2;
@@ -120,6 +148,7 @@
     const d0 = performance.now();
     uploadVertices();
     pack();
+    uploadMorph();
     const cw = canvas.clientWidth | 0, ch = canvas.clientHeight | 0;
     if (canvas.width !== cw || canvas.height !== ch) { canvas.width = cw; canvas.height = ch; }
     gl.viewport(0, 0, canvas.width, canvas.height);
@@ -131,30 +160,48 @@
     gl.frontFace(gl.CCW);
     gl.cullFace(gl.BACK);
     gl.enable(gl.CULL_FACE);
-    gl.useProgram(prog);
+    // at t = 1 every vertex is at its own place: the plain program draws that exactly
+    const t = M._mts_web_morph_t(w);
+    const morph = state.morphing && M._mts_web_morph_count(w) > 0 && t < 1 ? 1 : 0;
+    const pg = prog[morph];
+    gl.useProgram(pg);
     const m = M._mts_web_camera(w, cam.yaw, cam.pitch, cam.zoom, canvas.width / canvas.height) >> 2;
-    gl.uniformMatrix4fv(prog.u.u_mvp, false, M.HEAPF32.subarray(m, m + 16));
-    gl.uniformMatrix3fv(prog.u.u_normal, false, M.HEAPF32.subarray(m + 16, m + 25));
-    gl.uniform3f(prog.u.u_light, style[8], style[9], style[10]);
-    gl.uniform1f(prog.u.u_ambient, style[7]);
-    gl.uniform1i(prog.u.u_flat, M._mts_web_flat(w));
+    gl.uniformMatrix4fv(pg.u.u_mvp, false, M.HEAPF32.subarray(m, m + 16));
+    gl.uniformMatrix3fv(pg.u.u_normal, false, M.HEAPF32.subarray(m + 16, m + 25));
+    gl.uniform3f(pg.u.u_light, style[8], style[9], style[10]);
+    gl.uniform1f(pg.u.u_ambient, style[7]);
+    gl.uniform1i(pg.u.u_flat, M._mts_web_flat(w));
     gl.bindBuffer(gl.ARRAY_BUFFER, vbo);
     gl.enableVertexAttribArray(0);
     gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 0, 0);
     gl.bindBuffer(gl.ARRAY_BUFFER, nbo);
     gl.enableVertexAttribArray(1);
     gl.vertexAttribPointer(1, 3, gl.FLOAT, false, 0, 0);
+    for (const a of [2, 3]) {
+      if (morph) {
+        gl.bindBuffer(gl.ARRAY_BUFFER, mbo);
+        gl.enableVertexAttribArray(a);
+        gl.vertexAttribPointer(a, 3, gl.FLOAT, false, 0, a === 2 ? 0 : vertexCapacity * 12);
+      } else {
+        gl.disableVertexAttribArray(a);
+      }
+    }
+    if (morph) {
+      const first = M._mts_web_morph_first(w);
+      gl.uniform2ui(pg.u.u_morph, first, first + M._mts_web_morph_count(w));
+      gl.uniform1f(pg.u.u_morph_t, t);
+    }
     gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ibo);
     if ($('strips').checked) {
       const k = M._mts_web_strip_count(w);
       const first = M._mts_web_strip_first(w) >> 2, len = M._mts_web_strip_length(w) >> 2;
       const rgb = M._mts_web_strip_colors(w) >> 2;
       for (let s = 0; s < k; s++) {
-        gl.uniform3f(prog.u.u_color, M.HEAPF32[rgb + 3 * s], M.HEAPF32[rgb + 3 * s + 1], M.HEAPF32[rgb + 3 * s + 2]);
+        gl.uniform3f(pg.u.u_color, M.HEAPF32[rgb + 3 * s], M.HEAPF32[rgb + 3 * s + 1], M.HEAPF32[rgb + 3 * s + 2]);
         gl.drawElements(gl.TRIANGLE_STRIP, M.HEAPU32[len + s], gl.UNSIGNED_INT, 4 * M.HEAPU32[first + s]);
       }
     } else {
-      gl.uniform3f(prog.u.u_color, style[4], style[5], style[6]);
+      gl.uniform3f(pg.u.u_color, style[4], style[5], style[6]);
       gl.drawElements(gl.TRIANGLE_STRIP, indexCount, gl.UNSIGNED_INT, 0);
     }
     // the script's share of a frame (uploads, packing, GL calls; not the
@@ -181,7 +228,8 @@
       `vertices  ${state.vertices}   batches ${state.batches}\n` +
       `bytes     ${state.bytes}\n` +
       `first frame ${state.ms_first_frame.toFixed(1)} ms   final ${state.ms_final ? state.ms_final.toFixed(1) + ' ms' : '-'}\n` +
-      `decode    ${state.decode_ms.toFixed(1)} ms   ${state.fps} fps`;
+      `decode    ${state.decode_ms.toFixed(1)} ms   ${state.fps} fps\n` +
+      (morphMs > 0 ? `morph     ${morphMs} ms${state.morphing ? ' (morphing)' : ''}` : 'morph     off');
     $('status').textContent = state.phase;
     publish();
   }
@@ -235,11 +283,14 @@
     if (ws) { ws.onclose = null; ws.close(); }
     if (w) M._mts_web_destroy(w);
     w = M._mts_web_create();
+    M._mts_web_set_morph_ms(w, morphMs);
+    morphSerial = -1;
     Object.assign(state, {phase: 'connecting', model: name, error: '', level: 0, received: 0,
                           stop_level: 0, levels: 0, triangles: 0, strips: 0, vertices: 0,
                           batches: 0, bytes: 0, checksum: '', server_checksum: '', ms_connect: 0, ms_base: 0,
                           ms_first_frame: 0, ms_final: 0, decode_ms: 0, frames: 0,
-                          draw_ms_total: 0, draw_ms_max: 0, frames_streaming: 0});
+                          draw_ms_total: 0, draw_ms_max: 0, frames_streaming: 0,
+                          morphing: false, morph_ms: morphMs});
     $('error').hidden = true;
     uploadedVertices = vertexCapacity = indexCount = 0;
     packedLevel = -1;

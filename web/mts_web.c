@@ -15,6 +15,7 @@
 
 #include "bytes.h"
 #include "camera.h"
+#include "morph.h"
 #include "lod.h"
 #include "stream.h"
 #include "strips.h"
@@ -35,6 +36,8 @@ struct mts_web {
     uint32_t *packed, *strip_first, *strip_length;
     float *strip_rgb; /* 3 floats a strip drawn */
     mts_camera_view camera;
+    mts_morph morph;
+    uint32_t morph_serial; /* counts the morph's range changes */
     float style[11];
     uint64_t packed_cap;
     uint32_t packed_count, strip_cap, strip_drawn;
@@ -45,8 +48,10 @@ struct mts_web {
 MTS_WEB_API mts_web *mts_web_create(void)
 {
     mts_web *w = calloc(1, sizeof *w);
-    if (w)
+    if (w) {
         mts_stream_client_init(&w->client);
+        w->morph.t = 1;
+    }
     return w;
 }
 
@@ -56,6 +61,7 @@ MTS_WEB_API void mts_web_destroy(mts_web *w)
         return;
     if (w->have_view)
         mts_lod_free(&w->view);
+    mts_morph_free(&w->morph);
     mts_stream_client_free(&w->client);
     mts_wire_reader_free(&w->reader);
     mts_buf_free(&w->out);
@@ -267,7 +273,7 @@ static mts_result pack(mts_web *w)
     return MTS_OK;
 }
 
-MTS_WEB_API mts_result mts_web_show(mts_web *w, uint32_t level)
+MTS_WEB_API mts_result mts_web_show(mts_web *w, uint32_t level, double now_ms)
 {
     mts_stream_client *c = &w->client;
     mts_result rc;
@@ -287,10 +293,47 @@ MTS_WEB_API mts_result mts_web_show(mts_web *w, uint32_t level)
     }
     uint32_t available = mts_web_received_level(w);
     mts_lod_set_available(&w->view, available);
-    if ((rc = mts_lod_set_level(&w->view, level < available ? level : available, &w->err)) !=
-        MTS_OK)
+    int range_changed = 0;
+    if ((rc = mts_morph_move(&w->morph, &w->view, &c->model, level < available ? level : available,
+                             now_ms, &range_changed, &w->err)) != MTS_OK)
         return rc;
+    w->morph_serial += range_changed;
     return pack(w);
+}
+
+MTS_WEB_API void mts_web_set_morph_ms(mts_web *w, double ms)
+{
+    w->morph.ms = ms > 0 && ms <= 1e6 ? ms : 0;
+}
+
+MTS_WEB_API int mts_web_morph_active(const mts_web *w)
+{
+    return w->morph.active;
+}
+
+MTS_WEB_API float mts_web_morph_t(const mts_web *w)
+{
+    return w->morph.t;
+}
+
+MTS_WEB_API uint32_t mts_web_morph_first(const mts_web *w)
+{
+    return w->morph.first;
+}
+
+MTS_WEB_API uint32_t mts_web_morph_count(const mts_web *w)
+{
+    return w->morph.count;
+}
+
+MTS_WEB_API const float *mts_web_morph_from(const mts_web *w)
+{
+    return w->morph.from;
+}
+
+MTS_WEB_API uint32_t mts_web_morph_serial(const mts_web *w)
+{
+    return w->morph_serial;
 }
 
 MTS_WEB_API uint32_t mts_web_shown_level(const mts_web *w)

@@ -55,8 +55,24 @@ const char *mts_web_models(const mts_web *w);     /* after a LIST: "name vertice
 
 /* ---- what to draw ---------------------------------------------------------- */
 
-/* Moves the view to level (at most what came) and packs it. MTS_OK. */
-mts_result mts_web_show(mts_web *w, uint32_t level);
+/* Moves the view towards level (at most what came; through a geomorph
+ * where mts_web_set_morph_ms asked for one, now_ms on a monotonic clock)
+ * and packs it. */
+mts_result mts_web_show(mts_web *w, uint32_t level, double now_ms);
+
+/* Geomorphs (client/morph.h): ms a level change slides over (0, the
+ * default: at once). While one runs (mts_web_morph_active), vertex ids
+ * [first, first + count) are drawn between mts_web_morph_from's places
+ * (count positions, then count normals, 3 floats each) and their own by
+ * mts_web_morph_t; mts_web_morph_serial changes when the range does (its
+ * from-places to upload again). */
+void mts_web_set_morph_ms(mts_web *w, double ms);
+int mts_web_morph_active(const mts_web *w);
+float mts_web_morph_t(const mts_web *w);
+uint32_t mts_web_morph_first(const mts_web *w);
+uint32_t mts_web_morph_count(const mts_web *w);
+const float *mts_web_morph_from(const mts_web *w);
+uint32_t mts_web_morph_serial(const mts_web *w);
 uint32_t mts_web_shown_level(const mts_web *w);
 uint32_t mts_web_shown_triangles(const mts_web *w);
 uint32_t mts_web_shown_strips(const mts_web *w);

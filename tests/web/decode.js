@@ -62,7 +62,7 @@ async function main() {
     }
     times.push(Number(process.hrtime.bigint() - t0) / 1e6);
     if (r + 1 === repeat) {
-      M._mts_web_show(w, M._mts_web_received_level(w));
+      M._mts_web_show(w, M._mts_web_received_level(w), 0);
       const s = (f) => M.UTF8ToString(M['_mts_web_' + f](w));
       out = {
         rc: rc,
