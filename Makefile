@@ -59,7 +59,7 @@ PROGRAMS := $(BUILD)/bin/mts-build $(BUILD)/bin/mts-inspect $(BUILD)/bin/mts-ser
 TESTS    := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 BENCH    := $(BUILD)/bin/mts-bench
 
-.PHONY: all programs tests test test-release test-asan bench soak demo demo-serve deps install clean
+.PHONY: all programs tests test test-release test-asan bench soak demo demo-serve demo-web deps install clean
 # keep object files of programs and tests between builds
 .SECONDARY:
 all: programs tests
@@ -176,6 +176,11 @@ demo: deps
 demo-serve: deps
 	@$(MAKE) --no-print-directory programs
 	@MTS_DEMO_SERVE=1 scripts/demo.sh
+
+# the browser client: the page and the models served on 127.0.0.1:7448 (Ctrl-C ends it)
+demo-web: deps
+	@$(MAKE) --no-print-directory programs web
+	@scripts/demo-web.sh
 
 install: programs
 	install -d $(DESTDIR)$(PREFIX)/bin

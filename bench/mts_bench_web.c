@@ -6,8 +6,8 @@
  *   - frames drawn while the model streams slowly enough to watch
  *     (mts-server --rate-limit), every animation frame drawn (&redraw=1),
  *     and the script's time in a frame;
- *   - pictures of the page at three levels (and one coloured by strip)
- *     into --png-dir.
+ *   - pictures of the page at three levels, one coloured by strip and the
+ *     whole page with its panel, into --png-dir.
  * The WebAssembly decoder's splits/s beside the native one's are
  * bench/web.sh's (node, mts-bench-apply). */
 #include <math.h>
@@ -18,6 +18,7 @@
 #include "cli.h"
 
 #define MAX_RUNS 15
+#define NPICS 5 /* three levels, one by strip, the page with its panel */
 
 typedef struct server {
     pid_t pid;
@@ -217,18 +218,23 @@ int main(int argc, char **argv)
         int strips;
         char path[700];
         long triangles;
-    } pics[4] = {{levels[0], 0, "", 0}, {levels[1], 0, "", 0}, {0, 0, "", 0}, {levels[1], 1, "", 0}};
-    for (int k = 0; ok && k < 4; k++) {
+    } pics[NPICS] = {{levels[0], 0, "", 0}, {levels[1], 0, "", 0}, {0, 0, "", 0},
+                     {levels[1], 1, "", 0}, {0, 2, "", 0}};
+    for (int k = 0; ok && k < NPICS; k++) {
         char lv[40] = "";
         if (pics[k].level)
             snprintf(lv, sizeof lv, "&level=%ld", pics[k].level);
-        snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1%s%s", fast.ws_port, model,
-                 lv, pics[k].strips ? "&strips=1" : "");
+        /* strips 2: the whole page, its panel and HUD (the README's picture) */
+        snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s%s%s%s", fast.ws_port, model,
+                 pics[k].strips == 2 ? "" : "&bare=1", lv, pics[k].strips == 1 ? "&strips=1" : "");
         ok = page_run(&c, url, 60, &state);
         pics[k].level = mts_test_json_long((const char *)state.data, "level");
         pics[k].triangles = mts_test_json_long((const char *)state.data, "triangles");
-        snprintf(pics[k].path, sizeof pics[k].path, "%s/web_%s_%s%ld.png", png_dir, model,
-                 pics[k].strips ? "strips_" : "", pics[k].level);
+        if (pics[k].strips == 2)
+            snprintf(pics[k].path, sizeof pics[k].path, "%s/web_page_%s.png", png_dir, model);
+        else
+            snprintf(pics[k].path, sizeof pics[k].path, "%s/web_%s_%s%ld.png", png_dir, model,
+                     pics[k].strips ? "strips_" : "", pics[k].level);
         ok = ok && mts_cdp_screenshot(&c, pics[k].path);
     }
     if (!ok) {
@@ -251,9 +257,10 @@ int main(int argc, char **argv)
     printf("  streaming at %s B/s: %.0f frames in %.2f s while it came (%.1f fps); the "
            "script's share of a frame %.2f ms mean, %.2f ms at most\n",
            rate, frames, span, fps, draw_mean, draw_max);
-    for (int k = 0; k < 4; k++)
+    for (int k = 0; k < NPICS; k++)
         printf("  picture: level %ld (%ld triangles)%s: %s\n", pics[k].level, pics[k].triangles,
-               pics[k].strips ? ", by strip" : "", pics[k].path);
+               pics[k].strips == 1 ? ", by strip" : pics[k].strips == 2 ? ", the page" : "",
+               pics[k].path);
     if (json) {
         FILE *f = fopen(json, "w");
         if (!f) {
@@ -270,7 +277,7 @@ int main(int argc, char **argv)
                 model, runs, m_connect, m_base, m_first, first_max, m_final, m_decode, level, bytes,
                 checksum[0] ? checksum : "\"\"", rate, span, wall, frames, fps, draw_mean,
                 draw_max);
-        for (int k = 0; k < 4; k++)
+        for (int k = 0; k < NPICS; k++)
             fprintf(f, "%s{\"level\":%ld,\"triangles\":%ld,\"strips\":%d,\"path\":\"%s\"}",
                     k ? "," : "", pics[k].level, pics[k].triangles, pics[k].strips,
                     pics[k].path);

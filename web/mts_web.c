@@ -37,6 +37,7 @@ struct mts_web {
     float *strip_rgb; /* 3 floats a strip drawn */
     mts_camera_view camera;
     mts_morph morph;
+    int shown; /* a level was shown: later changes morph */
     uint32_t morph_serial; /* counts the morph's range changes */
     float style[11];
     uint64_t packed_cap;
@@ -293,10 +294,18 @@ MTS_WEB_API mts_result mts_web_show(mts_web *w, uint32_t level, double now_ms)
     }
     uint32_t available = mts_web_received_level(w);
     mts_lod_set_available(&w->view, available);
+    uint32_t target = level < available ? level : available;
     int range_changed = 0;
-    if ((rc = mts_morph_move(&w->morph, &w->view, &c->model, level < available ? level : available,
-                             now_ms, &range_changed, &w->err)) != MTS_OK)
+    if (!w->shown) {
+        /* the first picture has nothing to slide from: what came, at once
+         * (and no morph program to compile before it) */
+        if ((rc = mts_lod_set_level(&w->view, target, &w->err)) != MTS_OK)
+            return rc;
+        w->shown = 1;
+    } else if ((rc = mts_morph_move(&w->morph, &w->view, &c->model, target, now_ms,
+                                    &range_changed, &w->err)) != MTS_OK) {
         return rc;
+    }
     w->morph_serial += range_changed;
     return pack(w);
 }
