@@ -134,6 +134,32 @@ static int wait_phase(mts_cdp *c, const char *phases, double seconds, mts_buf *s
     return 0;
 }
 
+/* Headless Chromium for one test, its log named after it; 1 when up. */
+static int browser_start(mts_cdp *c, const char *name, char *log, size_t log_size)
+{
+    snprintf(log, log_size, "%s/web_chromium_%s.log", tmp_dir, name);
+    return mts_cdp_start(c, tmp_dir, log, 512, 512, 30);
+}
+
+/* The page's picture against mts-client --png of the same stop (the same
+ * camera, 512 x 512): the share of pixels apart by more than
+ * PIXEL_TOLERANCE, -1 when a picture failed. */
+static double picture_share(const server *sv, mts_cdp *c, const char *model, const char *stop,
+                            const char *name)
+{
+    char png_web[700], png_native[700], cmd[2000], out[4096];
+    snprintf(png_web, sizeof png_web, "%s/web_%s.png", tmp_dir, name);
+    snprintf(png_native, sizeof png_native, "%s/native_%s.png", tmp_dir, name);
+    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d %s %s --png %s --quiet", bin_dir,
+             sv->port, model, stop, png_native);
+    if (!mts_cdp_screenshot(c, png_web) || mts_test_run(cmd, out, sizeof out) != 0)
+        return -1;
+    double share = mts_cdp_png_diff(png_web, png_native, PIXEL_TOLERANCE);
+    fprintf(stderr, "  %s: %.2f%% of pixels differ by more than %d from mts-client's (%s)\n",
+            name, 100 * share, PIXEL_TOLERANCE, png_web);
+    return share;
+}
+
 static void test_page(mts_test *t)
 {
     if (!have_chromium)
@@ -142,8 +168,7 @@ static void test_page(mts_test *t)
     CHECK(t, server_start(&sv, "page", NULL));
     mts_cdp c;
     char log[700];
-    snprintf(log, sizeof log, "%s/web_chromium.log", tmp_dir);
-    int up = mts_cdp_start(&c, tmp_dir, log, 512, 512, 30);
+    int up = browser_start(&c, "page", log, sizeof log);
     CHECKF(t, up, "chromium did not start (see %s)", log);
     struct {
         const char *model, *query, *native_stop;
@@ -158,7 +183,7 @@ static void test_page(mts_test *t)
             fprintf(stderr, "  (%s: no ../shared/models)\n", runs[i].model);
             continue;
         }
-        char url[600], native[64], png_web[700], png_native[700], cmd[2000], out[4096];
+        char url[600], native[64];
         snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1%s", sv.ws_port,
                  runs[i].model, runs[i].query);
         CHECK(t, mts_cdp_navigate(&c, url));
@@ -186,17 +211,10 @@ static void test_page(mts_test *t)
         CHECKF(t, level > 0 && level == stop &&
                       (!runs[i].native_stop[0] || level == 2000),
                "%s: level %ld, stop %ld", url, level, stop);
-        /* the picture against mts-client's (the same camera, 512 x 512) */
-        snprintf(png_web, sizeof png_web, "%s/web_%s_%d.png", tmp_dir, runs[i].model, i);
-        snprintf(png_native, sizeof png_native, "%s/native_%s_%d.png", tmp_dir, runs[i].model, i);
-        CHECK(t, mts_cdp_screenshot(&c, png_web));
-        snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d %s %s --png %s --quiet", bin_dir,
-                 sv.port, runs[i].model, runs[i].native_stop, png_native);
-        CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
-        double share = mts_cdp_png_diff(png_web, png_native, PIXEL_TOLERANCE);
-        fprintf(stderr, "  %s%s: %.2f%% of pixels differ by more than %d from mts-client's\n",
-                runs[i].model, runs[i].query, 100 * share, PIXEL_TOLERANCE);
-        CHECKF(t, share >= 0 && share <= PIXEL_SHARE, "%s vs %s: %.4f", png_web, png_native,
+        char name[64];
+        snprintf(name, sizeof name, "%s_%d", runs[i].model, i);
+        double share = picture_share(&sv, &c, runs[i].model, runs[i].native_stop, name);
+        CHECKF(t, share >= 0 && share <= PIXEL_SHARE, "%s%s: %.4f", runs[i].model, runs[i].query,
                share);
         mts_buf_free(&state);
     }
@@ -234,8 +252,7 @@ static void test_page_slider_morph(mts_test *t)
     CHECK(t, server_start(&sv, "slider", NULL));
     mts_cdp c;
     char log[700];
-    snprintf(log, sizeof log, "%s/web_chromium_slider.log", tmp_dir);
-    int up = mts_cdp_start(&c, tmp_dir, log, 512, 512, 30);
+    int up = browser_start(&c, "slider", log, sizeof log);
     CHECKF(t, up, "chromium did not start (see %s)", log);
     char url[600];
     snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=cow&bare=1&morph=1500", sv.ws_port);
@@ -255,16 +272,8 @@ static void test_page_slider_morph(mts_test *t)
            (const char *)state.data);
     const char *low[] = {"\"level\":100,", "\"morphing\":false", NULL};
     CHECKF(t, up && wait_state(&c, low, 10, &state), "%s", (const char *)state.data);
-    char png_web[700], png_native[700], cmd[2000], out[4096];
-    snprintf(png_web, sizeof png_web, "%s/web_cow_slider_100.png", tmp_dir);
-    snprintf(png_native, sizeof png_native, "%s/native_cow_100.png", tmp_dir);
-    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow --level 100 --png %s --quiet",
-             bin_dir, sv.port, png_native);
-    CHECK(t, up && mts_cdp_screenshot(&c, png_web) && mts_test_run(cmd, out, sizeof out) == 0);
-    double share = mts_cdp_png_diff(png_web, png_native, PIXEL_TOLERANCE);
-    fprintf(stderr, "  cow slid to 100: %.2f%% of pixels differ by more than %d from mts-client's\n",
-            100 * share, PIXEL_TOLERANCE);
-    CHECKF(t, share >= 0 && share <= PIXEL_SHARE, "%s vs %s: %.4f", png_web, png_native, share);
+    double share = up ? picture_share(&sv, &c, "cow", "--level 100", "cow_slid_to_100") : -1;
+    CHECKF(t, share >= 0 && share <= PIXEL_SHARE, "cow slid to 100: %.4f", share);
     const char *slide_up = "(() => { const l = document.getElementById('level'); "
                            "l.value = '2875'; l.dispatchEvent(new Event('input')); "
                            "return 'ok'; })()";
@@ -290,8 +299,7 @@ static void test_page_broken_connection(mts_test *t)
     CHECK(t, server_start(&sv, "broken", "30000"));
     mts_cdp c;
     char log[700];
-    snprintf(log, sizeof log, "%s/web_chromium_broken.log", tmp_dir);
-    int up = mts_cdp_start(&c, tmp_dir, log, 512, 512, 30);
+    int up = browser_start(&c, "broken", log, sizeof log);
     CHECKF(t, up, "chromium did not start (see %s)", log);
     char url[600];
     snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=bunny00&bare=1", sv.ws_port);
