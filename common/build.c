@@ -1,9 +1,11 @@
 #include "build.h"
 
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "clock.h"
 #include "simplify.h"
@@ -58,6 +60,124 @@ static uint32_t *base_ids_by_position(const mts_mesh *mesh, const mts_simplify_r
     return ids;
 }
 
+/* The two sides of the build that need nothing of each other -- the
+ * full-level strips (stripify, tunnel) and the collapse sequence
+ * (simplify, reorder) -- run side by side where threads allow; records
+ * need both. Their progress is merged into one bar: both stages' names,
+ * the lesser fraction, one report at a time. */
+typedef struct build_progress {
+    pthread_mutex_t mu;
+    int threaded;
+    mts_progress user;
+    const char *stage[2]; /* 0: the strips' side, 1: the simplifier's */
+    double done[2];
+    int finished[2];
+} build_progress;
+
+static void progress_side(build_progress *bp, int side, const char *stage, double done)
+{
+    if (!bp->threaded) {
+        mts_progress_report(&bp->user, stage, done);
+        return;
+    }
+    pthread_mutex_lock(&bp->mu);
+    bp->stage[side] = stage;
+    bp->done[side] = done;
+    int other = !side;
+    char label[48];
+    double shown = done;
+    if (bp->stage[other] && !bp->finished[other]) {
+        snprintf(label, sizeof label, "%s+%s", bp->stage[0], bp->stage[1]);
+        shown = bp->done[other] < done ? bp->done[other] : done;
+    } else {
+        snprintf(label, sizeof label, "%s", stage);
+    }
+    mts_progress_report(&bp->user, label, shown);
+    pthread_mutex_unlock(&bp->mu);
+}
+
+static void progress_strips(void *user, const char *stage, double done)
+{
+    progress_side(user, 0, stage, done);
+}
+
+static void progress_simplify(void *user, const char *stage, double done)
+{
+    progress_side(user, 1, stage, done);
+}
+
+typedef struct strips_job {
+    const mts_mesh *mesh;
+    const mts_build_options *opts;
+    build_progress *bp;
+    mts_build_report *report; /* its stripify and tunnel fields only */
+    mts_strips strips;
+    mts_result rc;
+    mts_error err;
+} strips_job;
+
+/* The full-level strips: greedy, then tunnelling (and their order for the
+ * vertex cache); the rest of the pipeline takes whatever strips come out. */
+static void *strips_job_run(void *arg)
+{
+    strips_job *j = arg;
+    const mts_mesh *mesh = j->mesh;
+    const mts_build_options *opts = j->opts;
+    mts_build_report *report = j->report;
+    mts_progress progress = {progress_strips, j->bp};
+    double t0 = mts_clock_seconds();
+    mts_progress_report(&progress, "stripify", 0);
+    j->rc = mts_stripify(mesh->triangles, mesh->triangle_count, mesh->vertex_count, &j->strips,
+                         &report->stripify, &j->err);
+    if (j->rc != MTS_OK)
+        goto done;
+    mts_progress_report(&progress, "stripify", 1);
+    double t05 = mts_clock_seconds();
+    if (opts->tunnel_length >= 0) {
+        mts_tunnel_options to = {0};
+        to.length = opts->tunnel_length ? opts->tunnel_length : MTS_TUNNEL_DEFAULT_LENGTH;
+        to.anneal = opts->strip_effort;
+        to.max_strip = opts->max_strip;
+        to.progress = progress;
+        mts_strips tunnelled = {0};
+        mts_progress_report(&progress, "tunnel", 0);
+        j->rc = mts_tunnel(&j->strips, mesh->vertex_count, &to, &tunnelled, &report->tunnel,
+                           &j->err);
+        if (j->rc != MTS_OK)
+            goto done;
+        mts_strips_free(&j->strips);
+        j->strips = tunnelled;
+        report->tunnel_length = to.length;
+        mts_progress_report(&progress, "tunnel", 1);
+    } else {
+        mts_strip_stats st;
+        mts_strips_stats(&j->strips, &st);
+        report->tunnel.strips_before = report->tunnel.strips_after = st.strips;
+        report->tunnel.swaps_before = report->tunnel.swaps_after = st.degenerate;
+        report->tunnel.draw_indices_before = report->tunnel.draw_indices_after =
+            mts_strip_stats_draw_indices(&st);
+        report->tunnel.triangles = (uint32_t)st.triangles;
+    }
+    double t1 = mts_clock_seconds();
+    report->seconds_stripify = t05 - t0;
+    report->seconds_tunnel = t1 - t05;
+done:
+    if (j->bp->threaded) {
+        pthread_mutex_lock(&j->bp->mu);
+        j->bp->finished[0] = 1;
+        pthread_mutex_unlock(&j->bp->mu);
+    }
+    return NULL;
+}
+
+static uint32_t build_threads(const mts_build_options *opts)
+{
+    if (opts->threads > 0)
+        return opts->threads;
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 1 ? (uint32_t)n : 1;
+}
+
 mts_result mts_build_model(const mts_mesh *mesh, const char *source,
                            const mts_build_options *opts, mts_model *model,
                            mts_build_report *report, mts_error *err)
@@ -71,51 +191,45 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
     memset(report, 0, sizeof *report);
     memset(model, 0, sizeof *model);
 
-    mts_strips strips = {0};
     mts_simplify_result simp = {0};
     uint32_t *base_ids = NULL;
     mts_result rc;
 
-    double t0 = mts_clock_seconds();
-    mts_progress_report(&opts->progress, "stripify", 0);
-    rc = mts_stripify(mesh->triangles, mesh->triangle_count, mesh->vertex_count, &strips,
-                      &report->stripify, err);
-    if (rc != MTS_OK)
-        goto done;
-    mts_progress_report(&opts->progress, "stripify", 1);
-    double t05 = mts_clock_seconds();
-
-    /* Tunnelling on the greedy strips (and their order for the vertex
-     * cache); the rest of the pipeline takes whatever strips come out. */
-    if (opts->tunnel_length >= 0) {
-        mts_tunnel_options to = {0};
-        to.length = opts->tunnel_length ? opts->tunnel_length : MTS_TUNNEL_DEFAULT_LENGTH;
-        to.anneal = opts->strip_effort;
-        to.max_strip = opts->max_strip;
-        to.progress = opts->progress;
-        mts_strips tunnelled = {0};
-        mts_progress_report(&opts->progress, "tunnel", 0);
-        rc = mts_tunnel(&strips, mesh->vertex_count, &to, &tunnelled, &report->tunnel, err);
-        if (rc != MTS_OK)
-            goto done;
-        mts_strips_free(&strips);
-        strips = tunnelled;
-        report->tunnel_length = to.length;
-        mts_progress_report(&opts->progress, "tunnel", 1);
-    } else {
-        mts_strip_stats st;
-        mts_strips_stats(&strips, &st);
-        report->tunnel.strips_before = report->tunnel.strips_after = st.strips;
-        report->tunnel.swaps_before = report->tunnel.swaps_after = st.degenerate;
-        report->tunnel.draw_indices_before = report->tunnel.draw_indices_after =
-            mts_strip_stats_draw_indices(&st);
-        report->tunnel.triangles = (uint32_t)st.triangles;
+    build_progress bp = {0};
+    bp.user = opts->progress;
+    strips_job job = {0};
+    job.mesh = mesh;
+    job.opts = opts;
+    job.bp = &bp;
+    job.report = report;
+    pthread_t thread;
+    int threaded = 0;
+    report->threads = 1;
+    if (build_threads(opts) > 1 && pthread_mutex_init(&bp.mu, NULL) == 0) {
+        bp.threaded = 1;
+        /* without threads (a WebAssembly build, a refused thread) the
+         * strips are made first, as with --threads 1 */
+        threaded = pthread_create(&thread, NULL, strips_job_run, &job) == 0;
+        if (!threaded) {
+            pthread_mutex_destroy(&bp.mu);
+            bp.threaded = 0;
+        }
     }
-    double t1 = mts_clock_seconds();
+    if (!threaded) {
+        strips_job_run(&job);
+        if ((rc = job.rc) != MTS_OK) {
+            if (err)
+                *err = job.err;
+            goto done;
+        }
+    } else {
+        report->threads = 2;
+    }
 
+    double t1 = mts_clock_seconds();
     mts_simplify_options so = {0};
     so.base_vertices = opts->base_vertices;
-    so.progress = opts->progress;
+    so.progress = (mts_progress){progress_simplify, &bp};
     rc = mts_simplify(mesh->positions, mesh->vertex_count, mesh->triangles, mesh->triangle_count,
                       &so, &simp, err);
     if (rc != MTS_OK)
@@ -134,11 +248,24 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
         goto done;
     double t2 = mts_clock_seconds();
     report->seconds_reorder = t2 - t15;
+    report->seconds_simplify = t2 - t1;
+    if (threaded) {
+        pthread_join(thread, NULL);
+        threaded = 0;
+        pthread_mutex_destroy(&bp.mu);
+        bp.threaded = 0;
+    }
+    if ((rc = job.rc) != MTS_OK) {
+        if (err)
+            *err = job.err;
+        goto done;
+    }
+    double t25 = mts_clock_seconds();
 
     mts_lodbuild_options lo = {0};
     lo.key_ratio = opts->key_ratio;
     lo.base_ids = base_ids;
-    rc = mts_lodbuild(mesh, &strips, &simp, &lo, &opts->progress, model, &report->records, err);
+    rc = mts_lodbuild(mesh, &job.strips, &simp, &lo, &opts->progress, model, &report->records, err);
     if (rc != MTS_OK)
         goto done;
     /* The same checks a loaded model passes (under 1% of the build): a
@@ -157,12 +284,13 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
     if (source)
         snprintf(model->source, sizeof model->source, "%s", source);
 
-    report->seconds_stripify = t05 - t0;
-    report->seconds_tunnel = t1 - t05;
-    report->seconds_simplify = t2 - t1;
-    report->seconds_records = t3 - t2;
+    report->seconds_records = t3 - t25;
 done:
-    mts_strips_free(&strips);
+    if (threaded) { /* the simplifier failed: the strips' side ends first */
+        pthread_join(thread, NULL);
+        pthread_mutex_destroy(&bp.mu);
+    }
+    mts_strips_free(&job.strips);
     mts_simplify_result_free(&simp);
     free(base_ids);
     return rc;

@@ -31,11 +31,20 @@ typedef struct mts_build_options {
                              * MTS_STRIPIFY_MAX_STRIP */
     uint32_t reorder_window; /* splits sorted by parent within windows of this
                               * many (reorder.h): 0: the default; 1: none */
+    /* The full-level strips and the simplification need nothing of each
+     * other: with more than one thread they run side by side (the model is
+     * the same byte for byte). 0: the processors online; 1: one after the
+     * other. */
+    uint32_t threads;
+    /* Called from both sides when threaded, one call at a time. */
     mts_progress progress;
 } mts_build_options;
 
 typedef struct mts_build_report {
+    /* each stage's own time; with threads, stripify + tunnel ran beside
+     * simplify, so they add up to more than the wall time */
     double seconds_stripify, seconds_tunnel, seconds_simplify, seconds_records;
+    uint32_t threads;            /* 2 when the two sides ran side by side */
     double seconds_reorder;      /* of seconds_simplify */
     mts_reorder_stats reorder;
     mts_stripify_stats stripify; /* the greedy stripifier's own figures */

@@ -2,7 +2,7 @@
  * gets its own clear error and never a crash (truncation at every byte
  * offset, random byte flips, wrong magic and version, version-1 files, bad
  * checksums, out-of-range indices, capacities that do not hold the strips or
- * add up). */
+ * add up); a build on two threads writes the bytes one thread does. */
 #include <math.h>
 #include <stdint.h>
 
@@ -431,6 +431,58 @@ static void test_specific_errors(mts_test *t)
     mts_model_free(&m);
 }
 
+/* The build's two sides on two threads give the model one thread gives,
+ * byte for byte, and the progress callback is never entered twice at once. */
+typedef struct progress_probe {
+    volatile int inside, overlapped, calls;
+} progress_probe;
+
+static void probe_progress(void *user, const char *stage, double done)
+{
+    progress_probe *p = user;
+    (void)stage;
+    (void)done;
+    if (__atomic_fetch_add(&p->inside, 1, __ATOMIC_SEQ_CST) != 0)
+        p->overlapped = 1;
+    p->calls++;
+    for (volatile int i = 0; i < 2000; i++) {
+    } /* a window for an overlap to show */
+    __atomic_fetch_sub(&p->inside, 1, __ATOMIC_SEQ_CST);
+}
+
+static void test_threads_same_model(mts_test *t)
+{
+    mts_mesh mesh = {0};
+    mts_error err = {0};
+    CHECKF(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK, "%s",
+           err.msg);
+    uint8_t *file[2] = {NULL, NULL};
+    size_t size[2] = {0, 0};
+    uint32_t used[2] = {0, 0};
+    progress_probe probe = {0};
+    for (int k = 0; k < 2; k++) {
+        mts_build_options bo = {0};
+        bo.threads = k ? 2 : 1;
+        bo.progress.fn = probe_progress;
+        bo.progress.user = &probe;
+        mts_build_report rep;
+        mts_model model;
+        CHECKF(t, mts_build_model(&mesh, "cow", &bo, &model, &rep, &err) == MTS_OK, "%s",
+               err.msg);
+        used[k] = rep.threads;
+        CHECK(t, mts_modelfile_encode(&model, &file[k], &size[k], &err) == MTS_OK);
+        mts_model_free(&model);
+    }
+    CHECKF(t, used[0] == 1 && used[1] == 2, "threads used: %u and %u", used[0], used[1]);
+    CHECKF(t, size[0] == size[1] && memcmp(file[0], file[1], size[0]) == 0,
+           "one thread: %zu bytes; two: %zu bytes, or other bytes", size[0], size[1]);
+    CHECKF(t, probe.calls > 0 && !probe.overlapped, "%d progress calls, overlapped %d",
+           probe.calls, probe.overlapped);
+    free(file[0]);
+    free(file[1]);
+    mts_mesh_free(&mesh);
+}
+
 int main(void)
 {
     mts_test t = {0};
@@ -440,5 +492,6 @@ int main(void)
     RUN(&t, test_truncated_everywhere);
     RUN(&t, test_random_flips);
     RUN(&t, test_specific_errors);
+    RUN(&t, test_threads_same_model);
     return mts_test_end(&t);
 }
