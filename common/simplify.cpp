@@ -1,6 +1,8 @@
 // Thin shim over OpenMesh's decimater; see simplify.h.
 #include "simplify.h"
 
+#include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 #include <new>
 #include <vector>
@@ -14,7 +16,58 @@
 
 namespace {
 
-typedef OpenMesh::TriMesh_ArrayKernelT<> Mesh;
+// OpenMesh's triangle mesh with its own collapse test: the decimater asks
+// is_collapse_ok of every outgoing halfedge of every vertex it (re)scores,
+// and the library's compiled one checks each property access by type name
+// (Debian builds it with assertions), most of the simplifier's time. This
+// one answers the same question through the header-inline accessors, which
+// build without them; the decimater takes it by name lookup on Mesh.
+class Mesh : public OpenMesh::TriMesh_ArrayKernelT<> {
+public:
+    // Whether collapsing v0v1 (v0 into v1) keeps the mesh a manifold:
+    // Dey et al.'s link condition -- the vertices adjacent to both v0 and v1
+    // are exactly the edge's opposite vertices -- and no triangle left with
+    // two boundary sides, no interior edge between two boundary vertices.
+    bool is_collapse_ok(HalfedgeHandle v0v1)
+    {
+        if (status(edge_handle(v0v1)).deleted())
+            return false;
+        HalfedgeHandle v1v0 = opposite_halfedge_handle(v0v1);
+        VertexHandle v0 = to_vertex_handle(v1v0), v1 = to_vertex_handle(v0v1);
+        VertexHandle vl, vr;
+        for (int side = 0; side < 2; side++) {
+            HalfedgeHandle h = side ? v1v0 : v0v1;
+            if (is_boundary(h))
+                continue;
+            HalfedgeHandle a = next_halfedge_handle(h), b = next_halfedge_handle(a);
+            // a triangle hanging by this edge alone would become a lone edge
+            if (is_boundary(opposite_halfedge_handle(a)) && is_boundary(opposite_halfedge_handle(b)))
+                return false;
+            (side ? vr : vl) = to_vertex_handle(a);
+        }
+        if (vl.is_valid() && vl == vr)
+            return false;
+        if (is_boundary(v0) && is_boundary(v1) && !is_boundary(v0v1) && !is_boundary(v1v0))
+            return false;
+        // v0's neighbours marked with a fresh stamp: no pass to clear them
+        if (++stamp_ == 0) {
+            std::fill(mark_.begin(), mark_.end(), 0u);
+            stamp_ = 1;
+        }
+        if (mark_.size() < n_vertices())
+            mark_.resize(n_vertices(), 0u);
+        for (VertexHandle w : vv_range(v0))
+            mark_[(size_t)w.idx()] = stamp_;
+        for (VertexHandle w : vv_range(v1))
+            if (mark_[(size_t)w.idx()] == stamp_ && w != vl && w != vr)
+                return false;
+        return true;
+    }
+
+private:
+    std::vector<uint32_t> mark_;
+    uint32_t stamp_ = 0;
+};
 
 // A binary module that vetoes nothing: it is here to see every collapse the
 // decimater performs, in order, right before it happens.

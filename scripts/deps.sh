@@ -19,6 +19,7 @@ packages=(
   nginx libnginx-mod-stream  # the TCP balancer of tests/test_scaleout.c (docker/nginx-stream.conf)
   yamllint                   # lints docker/compose.yaml and docker/k8s.yaml (tests/test_scaleout.c)
   python3-matplotlib     # `make bench`'s plots (bench/plot.py; it skips without)
+  time                   # `make bench`: peak memory of mts-build and mkbalancedpm (bench/builder.sh)
   emscripten             # `make web`: the decoder in WebAssembly for the browser client
   chromium               # tests/test_web.c: the page in headless Chromium
 )

@@ -293,3 +293,22 @@ int cli_parse_stop(const char *opt, const char *value, uint8_t *kind, uint32_t *
     }
     return 0;
 }
+
+uint64_t cli_peak_rss_reset(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    if (!f)
+        return 0;
+    char line[256];
+    unsigned long long kb = 0;
+    while (fgets(line, sizeof line, f))
+        if (sscanf(line, "VmHWM: %llu kB", &kb) == 1)
+            break;
+    fclose(f);
+    f = fopen("/proc/self/clear_refs", "w");
+    if (f) {
+        fputs("5", f); /* resets the peak to the present size */
+        fclose(f);
+    }
+    return (uint64_t)kb * 1024u;
+}

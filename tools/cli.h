@@ -31,6 +31,11 @@ static inline mts_progress cli_bar_progress(cli_bar *bar)
     return p;
 }
 
+/* The process's peak resident memory since the last call (VmHWM, Linux),
+ * in bytes, and the peak reset (clear_refs 5) so the next call sees the
+ * next stretch's; 0 where /proc says nothing. */
+uint64_t cli_peak_rss_reset(void);
+
 /* Strict parsers: the whole string must be a number in range. */
 int cli_parse_u32(const char *s, uint32_t *out);
 int cli_parse_double(const char *s, double *out);

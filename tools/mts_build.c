@@ -57,6 +57,42 @@ static void usage(FILE *f)
           f);
 }
 
+/* Peak memory by stage: the bar's progress passes through here, and a
+ * new stage name closes the last one's peak. With threads the two sides'
+ * stages run at once and are named together ("tunnel+simplify"). */
+#define MAX_STAGES 16
+typedef struct stage_memory {
+    cli_bar *bar;
+    char current[48];
+    int count;
+    char name[MAX_STAGES][48];
+    uint64_t peak[MAX_STAGES];
+} stage_memory;
+
+static void stage_memory_close(stage_memory *sm)
+{
+    if (!sm->current[0])
+        return;
+    uint64_t peak = cli_peak_rss_reset();
+    int k = 0;
+    while (k < sm->count && strcmp(sm->name[k], sm->current) != 0)
+        k++;
+    if (k == sm->count && sm->count < MAX_STAGES)
+        snprintf(sm->name[sm->count++], sizeof sm->name[0], "%s", sm->current);
+    if (k < sm->count && peak > sm->peak[k])
+        sm->peak[k] = peak;
+}
+
+static void stage_memory_update(void *user, const char *stage, double done)
+{
+    stage_memory *sm = user;
+    if (strncmp(sm->current, stage, sizeof sm->current - 1) != 0) {
+        stage_memory_close(sm);
+        snprintf(sm->current, sizeof sm->current, "%s", stage);
+    }
+    cli_bar_update(sm->bar, stage, done);
+}
+
 int main(int argc, char **argv)
 {
     const char *input = NULL, *output = NULL;
@@ -143,8 +179,11 @@ int main(int argc, char **argv)
     uint64_t file_bytes = 0;
     int status = CLI_EXIT_FAIL;
 
+    stage_memory sm = {0};
+    sm.bar = &bar;
+    uint64_t rss_start = cli_peak_rss_reset(); /* the program itself, before the mesh */
     double t0 = cli_now();
-    cli_bar_update(&bar, "load", 0);
+    stage_memory_update(&sm, "load", 0);
     if (mts_mesh_load(input, NULL, &mesh, &ms, &err) != MTS_OK)
         goto fail;
     double t1 = cli_now();
@@ -156,14 +195,15 @@ int main(int argc, char **argv)
     bo.reorder_window = reorder_window;
     bo.threads = threads;
     bo.key_ratio = key_ratio == 0 ? -1 : key_ratio;
-    bo.progress = cli_bar_progress(&bar);
+    bo.progress = (mts_progress){stage_memory_update, &sm};
     if (mts_build_model(&mesh, input, &bo, &model, &rep, &err) != MTS_OK)
         goto fail;
     double t2 = cli_now();
-    cli_bar_update(&bar, "write", 0);
+    stage_memory_update(&sm, "write", 0);
     if (mts_modelfile_save(&model, output, &file_bytes, &err) != MTS_OK)
         goto fail;
     double t3 = cli_now();
+    stage_memory_close(&sm);
     cli_bar_done(&bar);
 
     uint32_t n = model.level_count;
@@ -232,6 +272,19 @@ int main(int argc, char **argv)
         cli_json_num(&j, "write", t3 - t2, 4);
         cli_json_num(&j, "total", t3 - t0, 4);
         cli_json_object_end(&j);
+        uint64_t peak = 0;
+        cli_json_object_begin(&j, "peak_mb"); /* resident, by stage */
+        for (int k = 0; k < sm.count; k++) {
+            cli_json_num(&j, sm.name[k], sm.peak[k] / 1048576.0, 1);
+            peak = sm.peak[k] > peak ? sm.peak[k] : peak;
+        }
+        cli_json_object_end(&j);
+        /* the mesh's share: the peak less what the program held before it */
+        cli_json_num(&j, "peak_bytes_per_triangle",
+                     model.level_triangles[n] && peak > rss_start
+                         ? (double)(peak - rss_start) / model.level_triangles[n]
+                         : 0,
+                     1);
         cli_json_end(&j);
     } else if (!quiet) {
         printf("%s: %u vertices, %u triangles (%s)\n", input, model.vertex_count,
