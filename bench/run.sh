@@ -7,7 +7,8 @@
 # Environment: MTS_SHARED (default ../shared) holds models/; MTS_BENCH_BIG=0
 # skips the big mesh (a minute of the run), MTS_BENCH_STRESS=0 the many-client
 # runs, MTS_BENCH_CLIENT=0 the client's cost, MTS_BENCH_WEB=0 the browser
-# client; MTS_BENCH_APPLYING_CLIENTS (default 1000) sets the applying
+# client, MTS_BENCH_BUILDER=0 the builder at scale (MTS_BENCH_HUGE=0 its 6M
+# mesh); MTS_BENCH_APPLYING_CLIENTS (default 1000) sets the applying
 # mts-stress clients. Exit status 1 when a requested
 # figure could not be measured; absent tools and models are skipped, with a
 # reason, and do not fail the run.
@@ -165,6 +166,17 @@ else
     note pm_error "OpenMesh-mkbalancedpm failed: $(tail -n 1 "$out/mkbalancedpm.log")"
     status=1
   fi
+fi
+
+# --- the builder at scale (issue 21) ----------------------------------------------
+# time and peak memory per stage on bunny00, 1.2M and 6.1M triangles, threads 2
+# and 1, beside OpenMesh-mkbalancedpm on the same meshes
+rm -f "$out/builder.json"
+if [ "${MTS_BENCH_BUILDER:-1}" = 0 ]; then
+  printf '{"skipped": "MTS_BENCH_BUILDER=0"}\n' >"$out/builder.json"
+else
+  echo "bench: the builder at scale (several minutes) ..." >&2
+  bench/builder.sh "$out" "$shared/models" || status=1
 fi
 
 # --- the browser client (issue 20) ------------------------------------------------
@@ -490,6 +502,33 @@ if "stress_applying" in cc:
     print(f"  {a['clients']} applying mts-stress clients of bunny00: {a['failed']} failed, "
           f"{a['seconds']:.1f} s wall, {a['cpu_s']:.1f} CPU s")
 res["client_cost"] = cc
+
+# --- the builder at scale (issue 21) ---
+try:
+    with open(os.path.join(out, "builder.json")) as f:
+        builder = json.load(f)
+except (OSError, ValueError):
+    builder = {"skipped": "bench/builder.sh wrote no figures"}
+if "skipped" in builder:
+    print(f"\nBuilder at scale: skipped: {builder['skipped']}")
+else:
+    print("\nBuilder at scale (issue 21): mts-build (2 threads, 1 thread) beside OpenMesh-mkbalancedpm, same run")
+    print(f"{'mesh':<12} {'triangles':>10} {'build s':>8} {'1 thr s':>8} {'mkbpm s':>8} {'ratio':>6} "
+          f"{'us/tri':>7} {'vs bunny':>8} {'peak MB':>8} {'B/tri':>6} {'idx/tri':>7} {'worst':>6}")
+    print("-" * 104)
+    for name, m in builder.items():
+        b, b1, pm = m.get("mts-build_t2", {}), m.get("mts-build_t1", {}), m.get("mkbalancedpm", {})
+        f = lambda v, fmt: format(v, fmt) if isinstance(v, (int, float)) else "-"
+        print(f"{name:<12} {f(m.get('triangles'), '>10')} {f(b.get('wall_s'), '>8.2f')} "
+              f"{f(b1.get('wall_s'), '>8.2f')} {f(pm.get('wall_s'), '>8.2f')} "
+              f"{f(m.get('ratio_to_mkbalancedpm'), '>6.2f')} {f(m.get('us_per_triangle'), '>7.2f')} "
+              f"{f(m.get('per_triangle_vs_bunny00'), '>8.2f')} {f(b.get('peak_mb'), '>8.1f')} "
+              f"{f(b.get('peak_bytes_per_triangle'), '>6.0f')} "
+              f"{f(b.get('indices_per_triangle_full'), '>7.4f')} {f(b.get('indices_per_triangle_worst'), '>6.3f')}")
+        if b.get("seconds"):
+            print("   stages: " + ", ".join(f"{k} {v:.2f}" for k, v in b["seconds"].items()) +
+                  "; peak MB: " + ", ".join(f"{k} {v:.0f}" for k, v in b.get("stage_peak_mb", {}).items()))
+res["builder"] = builder
 
 # --- the browser client (issue 20) ---
 try:

@@ -56,12 +56,48 @@ public:
         }
         if (mark_.size() < n_vertices())
             mark_.resize(n_vertices(), 0u);
-        for (VertexHandle w : vv_range(v0))
-            mark_[(size_t)w.idx()] = stamp_;
-        for (VertexHandle w : vv_range(v1))
-            if (mark_[(size_t)w.idx()] == stamp_ && w != vl && w != vr)
-                return false;
+        HalfedgeHandle start = halfedge_handle(v0), h = start;
+        if (h.is_valid())
+            do {
+                mark_[(size_t)to_vertex_handle(h).idx()] = stamp_;
+                h = next_halfedge_handle(opposite_halfedge_handle(h));
+            } while (h != start);
+        start = h = halfedge_handle(v1);
+        if (h.is_valid())
+            do {
+                VertexHandle w = to_vertex_handle(h);
+                if (mark_[(size_t)w.idx()] == stamp_ && w != vl && w != vr)
+                    return false;
+                h = next_halfedge_handle(opposite_halfedge_handle(h));
+            } while (h != start);
         return true;
+    }
+
+    // A face's normal, as the library's own (the same three points in the
+    // same order, the same arithmetic) without a circulator: the decimater
+    // and the normal-flipping guard take it by name lookup on Mesh, for
+    // every face around each collapse they weigh.
+    Normal calc_face_normal(FaceHandle f) const
+    {
+        HalfedgeHandle h0 = halfedge_handle(f), h1 = next_halfedge_handle(h0),
+                       h2 = next_halfedge_handle(h1);
+        return PolyMesh::calc_face_normal(point(to_vertex_handle(h0)), point(to_vertex_handle(h1)),
+                                          point(to_vertex_handle(h2)));
+    }
+
+    // The halfedge from a to b, or an invalid one: the decimater asks it of
+    // the two opposite vertices of every collapse it weighs (a tetrahedron
+    // test), and the library's compiled one checks every handle it touches.
+    HalfedgeHandle find_halfedge(VertexHandle a, VertexHandle b) const
+    {
+        HalfedgeHandle start = halfedge_handle(a), h = start;
+        if (h.is_valid())
+            do {
+                if (to_vertex_handle(h) == b)
+                    return h;
+                h = next_halfedge_handle(opposite_halfedge_handle(h));
+            } while (h != start);
+        return HalfedgeHandle();
     }
 
 private:
