@@ -503,12 +503,15 @@ if "stress_applying" in cc:
           f"{a['seconds']:.1f} s wall, {a['cpu_s']:.1f} CPU s")
 res["client_cost"] = cc
 
+def load_out(name):
+    try:
+        with open(os.path.join(out, name)) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return None
+
 # --- the builder at scale (issue 21) ---
-try:
-    with open(os.path.join(out, "builder.json")) as f:
-        builder = json.load(f)
-except (OSError, ValueError):
-    builder = {"skipped": "bench/builder.sh wrote no figures"}
+builder = load_out("builder.json") or {"skipped": "bench/builder.sh wrote no figures"}
 if "skipped" in builder:
     print(f"\nBuilder at scale: skipped: {builder['skipped']}")
 else:
@@ -518,7 +521,8 @@ else:
     print("-" * 104)
     for name, m in builder.items():
         b, b1, pm = m.get("mts-build_t2", {}), m.get("mts-build_t1", {}), m.get("mkbalancedpm", {})
-        f = lambda v, fmt: format(v, fmt) if isinstance(v, (int, float)) else "-"
+        f = lambda v, fmt: (format(v, fmt) if isinstance(v, (int, float))
+                            else "-".rjust(int(fmt[1:].split(".")[0])))
         print(f"{name:<12} {f(m.get('triangles'), '>10')} {f(b.get('wall_s'), '>8.2f')} "
               f"{f(b1.get('wall_s'), '>8.2f')} {f(pm.get('wall_s'), '>8.2f')} "
               f"{f(m.get('ratio_to_mkbalancedpm'), '>6.2f')} {f(m.get('us_per_triangle'), '>7.2f')} "
@@ -531,11 +535,7 @@ else:
 res["builder"] = builder
 
 # --- the browser client (issue 20) ---
-try:
-    with open(os.path.join(out, "web.json")) as f:
-        web = json.load(f)
-except (OSError, ValueError):
-    web = {"skipped": "bench/web.sh wrote no figures"}
+web = load_out("web.json") or {"skipped": "bench/web.sh wrote no figures"}
 if "skipped" in web:
     print(f"\nBrowser client: skipped: {web['skipped']}")
 else:
@@ -562,13 +562,6 @@ else:
               f"script {s['script_ms_mean']:.2f} ms a frame (max {s['script_ms_max']:.2f})")
         print("  pictures: " + ", ".join(p["path"] for p in pg.get("pictures", [])))
 res["web"] = web
-
-def load_out(name):
-    try:
-        with open(os.path.join(out, name)) as f:
-            return json.load(f)
-    except (OSError, ValueError):
-        return None
 
 walk = load_out("walk.json")
 if walk and walk.get("models"):

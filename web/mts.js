@@ -143,6 +143,7 @@
   let lastFrame = 0, frameTimes = [];
   function draw(now) {
     requestAnimationFrame(draw);
+    pump(performance.now() + 12); // most of a 60 Hz frame, the rest to draw
     if ((!dirty && !redraw) || !w || M._mts_web_state(w) < 2) return;
     dirty = false;
     const d0 = performance.now();
@@ -235,24 +236,54 @@
   }
 
   // ---- the conversation ----------------------------------------------------
-  function connect(onOpen, onBytes, onClose) {
+  // paced: the messages wait in a queue that draw() decodes a slice of each
+  // animation frame (pump), so the page draws while a fast stream is still
+  // coming; decoded as they come, a burst of batches holds the first picture
+  // back until the browser forces a frame (~100 ms of bunny00 here). The
+  // close is taken once the queue is empty: nothing received is dropped.
+  function connect(onOpen, onBytes, onClose, paced) {
     const sock = new WebSocket(serverUrl);
     sock.binaryType = 'arraybuffer';
-    let buf = 0, cap = 0;
+    const c = {buf: 0, cap: 0, queue: [], closed: null, onBytes, onClose};
+    c.feed = (data) => {
+      if (data.length > c.cap) {
+        if (c.buf) M._free(c.buf);
+        c.cap = Math.max(data.length, 65536);
+        c.buf = M._malloc(c.cap);
+      }
+      M.HEAPU8.set(data, c.buf);
+      c.onBytes(c.buf, data.length);
+    };
+    c.end = (ev) => { if (c.buf) M._free(c.buf); c.buf = 0; c.onClose(ev); };
     sock.onopen = () => onOpen(sock);
     sock.onmessage = (ev) => {
-      const data = new Uint8Array(ev.data);
-      if (data.length > cap) {
-        if (buf) M._free(buf);
-        cap = Math.max(data.length, 65536);
-        buf = M._malloc(cap);
-      }
-      M.HEAPU8.set(data, buf);
-      onBytes(buf, data.length);
+      if (paced) c.queue.push(new Uint8Array(ev.data));
+      else c.feed(new Uint8Array(ev.data));
     };
-    sock.onclose = (ev) => { if (buf) M._free(buf); buf = 0; onClose(ev); };
+    sock.onclose = (ev) => {
+      if (paced && c.queue.length) c.closed = ev;
+      else c.end(ev);
+    };
     sock.onerror = () => {};
+    if (paced) inbox = c;
     return sock;
+  }
+
+  let inbox = null;  // the paced stream's connection
+  let lastPump = 0;
+  // Decodes queued messages until `until` (performance.now() ms), and all
+  // of them while the base mesh is not in yet: nothing to draw before it.
+  function pump(until) {
+    const c = inbox;
+    lastPump = performance.now();
+    if (!c) return;
+    while (c.queue.length && (performance.now() < until || !w || M._mts_web_state(w) < 2))
+      c.feed(c.queue.shift());
+    if (!c.queue.length && c.closed) {
+      const ev = c.closed;
+      c.closed = null;
+      c.end(ev);
+    }
   }
 
   function list(then) {
@@ -303,6 +334,13 @@
                                    0);
     M._free(nameBuf);
     const helloBytes = M.HEAPU8.slice(hello, hello + M._mts_web_out_size(w));
+    if (inbox) { // the last stream's queue goes with it
+      inbox.queue.length = 0;
+      inbox.closed = null;
+      if (inbox.buf) M._free(inbox.buf);
+      inbox.buf = inbox.cap = 0;
+      inbox = null;
+    }
     ws = connect((sock) => {
       state.ms_connect = performance.now() - t0;
       state.phase = 'streaming';
@@ -335,7 +373,7 @@
       if (state.phase !== 'complete' && state.phase !== 'error')
         fail(`the connection closed at level ${state.received} of ${state.stop_level || '?'}` +
              (ev.reason ? ` (${ev.reason})` : '') + '; the picture stops there');
-    });
+    }, true);
   }
 
   // ---- controls --------------------------------------------------------------
@@ -379,6 +417,8 @@
     }
     controls();
     requestAnimationFrame(draw);
+    // a hidden page gets no animation frames: the stream is decoded anyway
+    setInterval(() => { if (performance.now() - lastPump > 200) pump(performance.now() + 50); }, 100);
     list(() => {
       const want = params.get('model') || (state.models[0] && state.models[0].name);
       if (!want) return fail(`no models listed by ${serverUrl}`);
