@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cfloat>
 #include <cstdlib>
 #include <new>
 #include <vector>
@@ -100,6 +101,10 @@ public:
         return HalfedgeHandle();
     }
 
+    // The decimater's priority module (ModQuadricT<Mesh>), for heap_vertex
+    // below; set once the module is added.
+    void *quadric = nullptr;
+
 private:
     std::vector<uint32_t> mark_;
     uint32_t stamp_ = 0;
@@ -130,6 +135,68 @@ public:
 };
 
 } // namespace
+
+// A vertex's best collapse, as the library's heap_vertex chooses it -- the
+// lowest priority among the outgoing halfedges whose collapse is legal and
+// passes the binary modules, the first of equals in circulation order --
+// but the cheap, pure quadric priority first for all of them and the
+// costly, pure tests (link condition, normal flips) then in ascending order
+// only until one passes, instead of the tests for every one.
+template <>
+void OpenMesh::Decimater::DecimaterT<Mesh>::heap_vertex(VertexHandle vh)
+{
+    typedef OpenMesh::Decimater::ModQuadricT<Mesh> Quadric;
+    Quadric *quadric = static_cast<Quadric *>(mesh_.quadric);
+    struct candidate {
+        float prio;
+        int order;
+        Mesh::HalfedgeHandle h;
+    };
+    candidate local[32];
+    std::vector<candidate> more;
+    candidate *c = local;
+    int n = 0;
+    for (Mesh::VertexOHalfedgeIter it(mesh_, vh); it.is_valid(); ++it) {
+        CollapseInfo ci(mesh_, *it);
+        float prio = quadric->collapse_priority(ci);
+        if (!(prio >= 0.0f && prio < FLT_MAX))
+            continue;
+        if (n == 32 && c == local) {
+            more.assign(local, local + 32);
+            c = nullptr;
+        }
+        if (c)
+            c[n] = candidate{prio, n, *it};
+        else
+            more.push_back(candidate{prio, n, *it});
+        n++;
+    }
+    if (!c)
+        c = more.data();
+    std::sort(c, c + n, [](const candidate &a, const candidate &b) {
+        return a.prio < b.prio || (a.prio == b.prio && a.order < b.order);
+    });
+    Mesh::HalfedgeHandle target;
+    float best = -1;
+    for (int k = 0; k < n; k++) {
+        CollapseInfo ci(mesh_, c[k].h);
+        if (this->is_collapse_legal(ci) && this->collapse_priority(ci) >= 0.0f) {
+            target = c[k].h;
+            best = c[k].prio;
+            break;
+        }
+    }
+    mesh_.property(collapse_target_, vh) = target;
+    mesh_.property(priority_, vh) = target.is_valid() ? best : -1;
+    if (target.is_valid()) {
+        if (heap_->is_stored(vh))
+            heap_->update(vh);
+        else
+            heap_->insert(vh);
+    } else if (heap_->is_stored(vh)) {
+        heap_->remove(vh);
+    }
+}
 
 extern "C" mts_result mts_simplify(const float *positions, uint32_t vertex_count,
                                    const uint32_t *triangles, uint32_t triangle_count,
@@ -184,6 +251,7 @@ extern "C" mts_result mts_simplify(const float *positions, uint32_t vertex_count
         decimater.add(flip);
         decimater.add(record);
         decimater.module(quadric).unset_max_err(); // priority only, no error cap
+        mesh.quadric = &decimater.module(quadric);
         decimater.module(flip).set_max_normal_deviation(
             opts->max_normal_deviation_deg > 0 ? opts->max_normal_deviation_deg : 90.0);
         ModRecordT<Mesh> &rec = decimater.module(record);
