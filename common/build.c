@@ -136,7 +136,8 @@ static void *strips_job_run(void *arg)
     if (opts->tunnel_length >= 0) {
         mts_tunnel_options to = {0};
         to.length = opts->tunnel_length ? opts->tunnel_length : MTS_TUNNEL_DEFAULT_LENGTH;
-        to.anneal = opts->strip_effort;
+        to.anneal = opts->strip_effort ? opts->strip_effort
+                                       : mts_build_default_effort(mesh->triangle_count);
         to.max_strip = opts->max_strip;
         to.progress = progress;
         mts_strips tunnelled = {0};
@@ -168,6 +169,14 @@ done:
         pthread_mutex_unlock(&j->bp->mu);
     }
     return NULL;
+}
+
+int mts_build_default_effort(uint32_t triangles)
+{
+    if (triangles <= MTS_BUILD_FULL_EFFORT_TRIANGLES)
+        return MTS_TUNNEL_DEFAULT_ANNEAL;
+    uint64_t e = (uint64_t)MTS_TUNNEL_DEFAULT_ANNEAL * MTS_BUILD_FULL_EFFORT_TRIANGLES / triangles;
+    return e < MTS_BUILD_MIN_EFFORT ? MTS_BUILD_MIN_EFFORT : (int)e;
 }
 
 static uint32_t build_threads(const mts_build_options *opts)
