@@ -136,8 +136,7 @@ static void *strips_job_run(void *arg)
     if (opts->tunnel_length >= 0) {
         mts_tunnel_options to = {0};
         to.length = opts->tunnel_length ? opts->tunnel_length : MTS_TUNNEL_DEFAULT_LENGTH;
-        to.anneal = opts->strip_effort ? opts->strip_effort
-                                       : mts_build_default_effort(mesh->triangle_count);
+        to.anneal = opts->strip_effort;
         to.max_strip = opts->max_strip;
         to.progress = progress;
         mts_strips tunnelled = {0};
@@ -171,12 +170,33 @@ done:
     return NULL;
 }
 
-int mts_build_default_effort(uint32_t triangles)
+typedef struct strips_wait {
+    strips_job *job;
+    pthread_t *thread;
+    int *threaded;
+    build_progress *bp;
+    double waited; /* seconds the records waited for the strips */
+} strips_wait;
+
+/* The strips' side joined (once), its strips handed to the records. */
+static mts_result join_strips(void *user, const mts_strips **strips, mts_error *err)
 {
-    if (triangles <= MTS_BUILD_FULL_EFFORT_TRIANGLES)
-        return MTS_TUNNEL_DEFAULT_ANNEAL;
-    uint64_t e = (uint64_t)MTS_TUNNEL_DEFAULT_ANNEAL * MTS_BUILD_FULL_EFFORT_TRIANGLES / triangles;
-    return e < MTS_BUILD_MIN_EFFORT ? MTS_BUILD_MIN_EFFORT : (int)e;
+    strips_wait *w = user;
+    if (*w->threaded) {
+        double t0 = mts_clock_seconds();
+        pthread_join(*w->thread, NULL);
+        w->waited = mts_clock_seconds() - t0;
+        *w->threaded = 0;
+        pthread_mutex_destroy(&w->bp->mu);
+        w->bp->threaded = 0;
+    }
+    if (w->job->rc != MTS_OK) {
+        if (err)
+            *err = w->job->err;
+        return w->job->rc;
+    }
+    *strips = &w->job->strips;
+    return MTS_OK;
 }
 
 static uint32_t build_threads(const mts_build_options *opts)
@@ -258,23 +278,22 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
     double t2 = mts_clock_seconds();
     report->seconds_reorder = t2 - t15;
     report->seconds_simplify = t2 - t1;
-    if (threaded) {
-        pthread_join(thread, NULL);
-        threaded = 0;
-        pthread_mutex_destroy(&bp.mu);
-        bp.threaded = 0;
-    }
-    if ((rc = job.rc) != MTS_OK) {
-        if (err)
-            *err = job.err;
-        goto done;
-    }
     double t25 = mts_clock_seconds();
 
+    /* The records need the full strips only at the last split: with threads
+     * they start now and wait for the strips' side there (join_strips). */
+    strips_wait sw = {&job, &thread, &threaded, &bp, 0};
     mts_lodbuild_options lo = {0};
     lo.key_ratio = opts->key_ratio;
     lo.base_ids = base_ids;
-    rc = mts_lodbuild(mesh, &job.strips, &simp, &lo, &opts->progress, model, &report->records, err);
+    lo.full_strips = join_strips;
+    lo.full_strips_user = &sw;
+    mts_progress rp = {threaded ? progress_simplify : opts->progress.fn,
+                       threaded ? (void *)&bp : opts->progress.user};
+    rc = mts_lodbuild(mesh, threaded ? NULL : &job.strips, &simp, &lo, &rp, model,
+                      &report->records, err);
+    if (rc == MTS_OK && threaded) /* no last split (nothing to simplify) */
+        rc = join_strips(&sw, &(const mts_strips *){NULL}, err);
     if (rc != MTS_OK)
         goto done;
     /* The same checks a loaded model passes (under 1% of the build): a
@@ -293,7 +312,7 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
     if (source)
         snprintf(model->source, sizeof model->source, "%s", source);
 
-    report->seconds_records = t3 - t25;
+    report->seconds_records = t3 - t25 - sw.waited;
 done:
     if (threaded) { /* the simplifier failed: the strips' side ends first */
         pthread_join(thread, NULL);

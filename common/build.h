@@ -24,8 +24,8 @@ typedef struct mts_build_options {
     double key_ratio;       /* key levels (lodbuild.h): 0: the default; < 0: only
                              * the base and the full level */
     int strip_effort;       /* annealing moves per triangle in the tunnelling
-                             * pass (tunnel.h's anneal): 0: the default,
-                             * mts_build_default_effort; < 0: none */
+                             * pass (tunnel.h's anneal): 0: the default; < 0:
+                             * none */
     uint32_t max_strip;     /* most triangles in one full-level strip, set by
                              * the tunnelling pass (none without it): 0:
                              * MTS_STRIPIFY_MAX_STRIP */
@@ -53,16 +53,6 @@ typedef struct mts_build_report {
                                   * (after == before when the pass is off) */
     mts_lodbuild_stats records;
 } mts_build_report;
-
-/* The tunnelling's default effort: MTS_TUNNEL_DEFAULT_ANNEAL moves a
- * triangle up to MTS_BUILD_FULL_EFFORT_TRIANGLES, then that many moves in
- * all spread over the triangles, but never under MTS_BUILD_MIN_EFFORT a
- * triangle: on large meshes the strips' side then takes about as long as the
- * simplification beside it, for under 1% more indices (docs/builder.md).
- * It depends on the mesh alone, never on the threads. */
-#define MTS_BUILD_FULL_EFFORT_TRIANGLES 500000u
-#define MTS_BUILD_MIN_EFFORT 24
-int mts_build_default_effort(uint32_t triangles);
 
 mts_result mts_build_model(const mts_mesh *mesh, const char *source,
                            const mts_build_options *opts, mts_model *model,

@@ -221,6 +221,26 @@ static mts_result base_strips(const truth *tr, mts_strips *out, mts_error *err)
     return rc;
 }
 
+/* The caller's full strips in stream ids (new_id): the last key level. */
+static mts_result take_full(const mts_strips *strips, const uint32_t *new_id, uint32_t nv,
+                            mts_strips *given, mts_error *err)
+{
+    if (!strips)
+        return mts_error_set(err, MTS_ERR_ARG, "lodbuild: no full strips came");
+    for (uint32_t i = 0; i < strips->index_count; i++) {
+        if (strips->indices[i] >= nv)
+            return mts_error_set(err, MTS_ERR_RANGE, "lodbuild: strip index %u out of range",
+                                 strips->indices[i]);
+    }
+    mts_result rc = mts_strips_alloc(given, strips->strip_count, strips->index_count, err);
+    if (rc != MTS_OK)
+        return rc;
+    memcpy(given->offsets, strips->offsets, ((size_t)strips->strip_count + 1) * 4);
+    for (uint32_t i = 0; i < strips->index_count; i++)
+        given->indices[i] = new_id[strips->indices[i]];
+    return MTS_OK;
+}
+
 mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
                         const mts_simplify_result *simp, const mts_lodbuild_options *opts,
                         const mts_progress *progress, mts_model *model,
@@ -243,11 +263,8 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
         return mts_error_set(err, MTS_ERR_ARG, "lodbuild: %u collapses for %u vertices", n, nv);
     if (F > (UINT32_MAX - 2) / 3 || F > INT32_MAX / 2)
         return mts_error_set(err, MTS_ERR_LIMIT, "lodbuild: %u triangles is too many", F);
-    for (uint32_t i = 0; i < strips->index_count; i++) {
-        if (strips->indices[i] >= nv)
-            return mts_error_set(err, MTS_ERR_RANGE, "lodbuild: strip index %u out of range",
-                                 strips->indices[i]);
-    }
+    if (!strips && !(opts && opts->full_strips))
+        return mts_error_set(err, MTS_ERR_ARG, "lodbuild: no full strips, nor a way to get them");
     for (size_t i = 0; i < 3 * (size_t)F; i++) {
         if (mesh->triangles[i] >= nv)
             return mts_error_set(err, MTS_ERR_RANGE, "lodbuild: triangle index %u out of range",
@@ -391,12 +408,8 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
         free(fill);
     }
 
-    /* The caller's full strips in stream ids: the last key level. */
-    if (mts_strips_alloc(&given, strips->strip_count, strips->index_count, err) != MTS_OK)
-        goto fail_keep;
-    memcpy(given.offsets, strips->offsets, ((size_t)strips->strip_count + 1) * 4);
-    for (uint32_t i = 0; i < strips->index_count; i++)
-        given.indices[i] = new_id[strips->indices[i]];
+    if (strips && (rc = take_full(strips, new_id, nv, &given, err)) != MTS_OK)
+        goto fail;
 
     /* Level 0: the base mesh, stripified and tunnelled, in the form growth
      * derives; growth then starts from it exactly as a client does. */
@@ -451,6 +464,13 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
         }
         const uint32_t *r;
         uint32_t words_in;
+        if (j + 1 == n && !strips) { /* the full strips, now that they are needed */
+            const mts_strips *late = NULL;
+            if ((rc = opts->full_strips(opts->full_strips_user, &late, err)) != MTS_OK)
+                goto fail;
+            if ((rc = take_full(late, new_id, nv, &given, err)) != MTS_OK)
+                goto fail;
+        }
         mts_grow_full gf = {.strips = &given, .slot_count = 0};
         if ((rc = mts_grow_next(g, &sp, &gf, &r, &words_in, err)) != MTS_OK)
             goto fail;
@@ -594,8 +614,6 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
 nomem:
     rc = mts_error_set(err, MTS_ERR_NOMEM, "lodbuild: out of memory");
     goto fail;
-fail_keep:
-    rc = err ? err->code : MTS_ERR_NOMEM;
 fail:
     mts_model_free(model);
 done:

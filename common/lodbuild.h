@@ -61,6 +61,12 @@ typedef struct mts_lodbuild_options {
     /* per vertex of the mesh, its id when it survives into the base (0..nb-1,
      * each once; MTS_ERR_ARG otherwise); NULL: survivors in vertex order */
     const uint32_t *base_ids;
+    /* The full strips may come late: they are needed only at the last split
+     * (the full level adopts them), so a builder that makes them beside the
+     * records passes strips NULL and this, called once before the last split
+     * (it may wait), to hand them over. */
+    mts_result (*full_strips)(void *user, const mts_strips **strips, mts_error *err);
+    void *full_strips_user;
 } mts_lodbuild_options;
 
 typedef struct mts_lodbuild_stats {

@@ -30,9 +30,7 @@ static void usage(FILE *f)
           "  --strip-effort E      simulated-annealing moves per triangle after the\n"
           "                        tunnels: more gives fewer indices, slowly (bunny00:\n"
           "                        96 -> 1.216 idx/tri in about 1.5 s, 16384 -> 1.198 in\n"
-          "                        minutes); 0: none (default: " MTS_TUNNEL_DEFAULT_ANNEAL_STR ", and\n"
-          "                        fewer a triangle above 500K triangles, at least 24:\n"
-          "                        the 1.2M mesh gets 39)\n"
+          "                        minutes); 0: none (default: " MTS_TUNNEL_DEFAULT_ANNEAL_STR ")\n"
           "  --max-strip M         at most M triangles in a full-level strip (1 to " MTS_STRIPIFY_MAX_STRIP_STR ",\n"
           "                        the default): shorter strips suit a vertex cache and\n"
           "                        cost restarts (bunny00: 48 -> ACMR-32 0.754 at 1.227\n"
@@ -99,8 +97,7 @@ int main(int argc, char **argv)
 {
     const char *input = NULL, *output = NULL;
     uint32_t base_vertices = 0, tunnel_length = MTS_TUNNEL_DEFAULT_LENGTH,
-             strip_effort = UINT32_MAX /* the builder's default */, max_strip = 0,
-             reorder_window = 0,
+             strip_effort = MTS_TUNNEL_DEFAULT_ANNEAL, max_strip = 0, reorder_window = 0,
              threads = 0;
     double key_ratio = MTS_LODBUILD_DEFAULT_KEY_RATIO;
     int json = 0, quiet = 0;
@@ -193,7 +190,7 @@ int main(int argc, char **argv)
     mts_build_options bo = {0};
     bo.base_vertices = base_vertices;
     bo.tunnel_length = tunnel_length == 0 ? -1 : (int)tunnel_length;
-    bo.strip_effort = strip_effort == UINT32_MAX ? 0 : strip_effort == 0 ? -1 : (int)strip_effort;
+    bo.strip_effort = strip_effort == 0 ? -1 : (int)strip_effort;
     bo.max_strip = max_strip;
     bo.reorder_window = reorder_window;
     bo.threads = threads;
