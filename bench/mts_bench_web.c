@@ -20,32 +20,17 @@
 #define MAX_RUNS 15
 #define NPICS 5 /* three levels, one by strip, the page with its panel */
 
-typedef struct server {
-    pid_t pid;
-    int port, ws_port;
-} server;
+typedef mts_test_server server;
 
 static int server_start(const char *bin_dir, const char *models, const char *web_dir,
                         const char *rate, const char *log, server *sv)
 {
-    sv->port = mts_test_free_port();
-    sv->ws_port = mts_test_free_port();
-    char bin[600], listen[64], ws_listen[64];
-    snprintf(bin, sizeof bin, "%s/mts-server", bin_dir);
+    const char *extra[] = {"--web-root", web_dir, "--quiet", rate ? "--rate-limit" : NULL, rate,
+                           NULL};
+    char listen[64], out[4096];
+    int up = mts_test_ws_server_start(sv, bin_dir, models, extra, log, 60);
     snprintf(listen, sizeof listen, "127.0.0.1:%d", sv->port);
-    snprintf(ws_listen, sizeof ws_listen, "127.0.0.1:%d", sv->ws_port);
-    char *argv[16] = {bin, "--models", (char *)models, "--listen", listen, "--ws-listen",
-                      ws_listen, "--web-root", (char *)web_dir, "--quiet"};
-    int n = 10;
-    if (rate) {
-        argv[n++] = "--rate-limit";
-        argv[n++] = (char *)rate;
-    }
-    argv[n] = NULL;
-    sv->pid = mts_test_spawn(argv, log);
-    char out[4096];
-    return sv->pid > 0 && mts_test_wait_port(sv->ws_port, 60) &&
-           mts_test_wait_models(bin_dir, listen, "cow", 600, out, sizeof out);
+    return up && mts_test_wait_models(bin_dir, listen, "cow", 600, out, sizeof out);
 }
 
 static double json_double(const char *json, const char *key)

@@ -160,6 +160,35 @@ static inline int mts_test_wait_models(const char *bin_dir, const char *listen, 
 }
 
 /* The first size-1 bytes of a file, NUL-terminated ("" when unreadable). */
+/* An mts-server of bin_dir serving models_dir on two free loopback ports,
+ * TCP (port) and WebSocket (ws_port), with the extra arguments (NULL-ended,
+ * or NULL), its output into log. 1 once the TCP port listens within
+ * `seconds`. Stop it with mts_test_stop(pid). */
+typedef struct mts_test_server {
+    pid_t pid;
+    int port, ws_port;
+} mts_test_server;
+
+static inline int mts_test_ws_server_start(mts_test_server *sv, const char *bin_dir,
+                                           const char *models_dir, const char *const *extra,
+                                           const char *log, double seconds)
+{
+    char bin[600], listen[64], ws_listen[64];
+    snprintf(bin, sizeof bin, "%s/mts-server", bin_dir);
+    sv->port = mts_test_free_port();
+    sv->ws_port = mts_test_free_port();
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", sv->port);
+    snprintf(ws_listen, sizeof ws_listen, "127.0.0.1:%d", sv->ws_port);
+    char *argv[32] = {bin, "--models", (char *)models_dir, "--listen", listen, "--ws-listen",
+                      ws_listen};
+    int n = 7;
+    for (; extra && *extra && n < 30; extra++)
+        argv[n++] = (char *)*extra;
+    argv[n] = NULL;
+    sv->pid = mts_test_spawn(argv, log);
+    return sv->pid > 0 && mts_test_wait_port(sv->port, seconds);
+}
+
 static inline void mts_test_read_file(const char *path, char *out, size_t size)
 {
     out[0] = 0;

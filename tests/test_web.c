@@ -38,29 +38,18 @@ typedef struct server {
     char log[700];
 } server;
 
-static int server_start(server *sv, const char *name, const char *extra)
+static int server_start(server *sv, const char *name, const char *rate)
 {
-    sv->port = mts_test_free_port();
-    sv->ws_port = mts_test_free_port();
     snprintf(sv->log, sizeof sv->log, "%s/web_%s.log", tmp_dir, name);
-    char bin[600], listen[64], ws_listen[64];
-    snprintf(bin, sizeof bin, "%s/mts-server", bin_dir);
+    const char *extra[] = {"--web-root", web_dir, rate ? "--rate-limit" : NULL, rate, NULL};
+    mts_test_server ts;
+    int up = mts_test_ws_server_start(&ts, bin_dir, models_dir, extra, sv->log, 60);
+    sv->pid = ts.pid;
+    sv->port = ts.port;
+    sv->ws_port = ts.ws_port;
+    char listen[64], out[4096];
     snprintf(listen, sizeof listen, "127.0.0.1:%d", sv->port);
-    snprintf(ws_listen, sizeof ws_listen, "127.0.0.1:%d", sv->ws_port);
-    char *argv[16] = {bin, "--models", models_dir, "--listen", listen, "--ws-listen", ws_listen,
-                      "--web-root", web_dir};
-    int n = 9;
-    char rate[32];
-    if (extra) {
-        snprintf(rate, sizeof rate, "%s", extra);
-        argv[n++] = "--rate-limit";
-        argv[n++] = rate;
-    }
-    argv[n] = NULL;
-    sv->pid = mts_test_spawn(argv, sv->log);
-    char out[4096];
-    return mts_test_wait_port(sv->port, 60) &&
-           mts_test_wait_models(bin_dir, listen, "cow", 600, out, sizeof out);
+    return up && mts_test_wait_models(bin_dir, listen, "cow", 600, out, sizeof out);
 }
 
 /* mts-client's checksum for a model at a stop ("" when it failed). */

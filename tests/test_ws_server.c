@@ -28,20 +28,13 @@ typedef struct server {
 
 static int server_start(server *sv, const char *name, const char *const *extra)
 {
-    char bin[600], listen[64], ws_listen[64];
-    snprintf(bin, sizeof bin, "%s/mts-server", bin_dir);
-    sv->port = mts_test_free_port();
-    sv->ws_port = mts_test_free_port();
-    snprintf(listen, sizeof listen, "127.0.0.1:%d", sv->port);
-    snprintf(ws_listen, sizeof ws_listen, "127.0.0.1:%d", sv->ws_port);
     snprintf(sv->log, sizeof sv->log, "%s/ws_%s.log", tmp_dir, name);
-    char *argv[32] = {bin, "--models", models_dir, "--listen", listen, "--ws-listen", ws_listen};
-    int n = 7;
-    for (; extra && *extra && n < 30; extra++)
-        argv[n++] = (char *)*extra;
-    argv[n] = NULL;
-    sv->pid = mts_test_spawn(argv, sv->log);
-    return mts_test_wait_port(sv->port, 30);
+    mts_test_server ts;
+    int up = mts_test_ws_server_start(&ts, bin_dir, models_dir, extra, sv->log, 30);
+    sv->pid = ts.pid;
+    sv->port = ts.port;
+    sv->ws_port = ts.ws_port;
+    return up;
 }
 
 static int count_lines(const char *text, const char *needle)
