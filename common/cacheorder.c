@@ -33,10 +33,13 @@ static inline int fifo_hit(const fifo *f, uint32_t v)
 
 static void fifo_feed(fifo *f, const uint32_t *idx, uint32_t n)
 {
+    /* the ring slot, misses % size, kept rather than divided per miss */
+    uint32_t slot = (uint32_t)(f->misses % f->size);
     for (uint32_t i = 0; i < n; i++) {
         uint32_t v = idx[i];
         if (!fifo_hit(f, v)) {
-            f->ring[f->misses % f->size] = v;
+            f->ring[slot] = v;
+            slot = slot + 1 == f->size ? 0 : slot + 1;
             f->stamp[v] = ++f->misses;
         }
     }
@@ -196,42 +199,50 @@ static int chain_links(const order_ctx *c, uint32_t *succ, uint32_t *pred, uint8
     size_t cap = 4 * (size_t)c->paths + 16, np = 0;
     pair_gain *pg = malloc(cap * sizeof *pg);
     uint32_t *parent = malloc(((size_t)c->paths + 1) * sizeof *parent);
-    int ok = pg && parent;
+    uint32_t *qs = malloc(((size_t)c->paths + 1) * sizeof *qs);
+    int ok = pg && parent && qs;
     for (uint32_t p = 0; ok && p < c->paths; p++)
         c->cand[p] = NONE;
     for (uint32_t p = 0; ok && p < c->paths; p++) {
+        /* the strips that share a vertex with p, each once */
         const uint32_t *s = c->buf + encs[p].at[0];
-        for (uint32_t k = 0; ok && k < encs[p].len[0]; k++) {
+        uint32_t nq = 0;
+        for (uint32_t k = 0; k < encs[p].len[0]; k++) {
             uint32_t v = s[k];
-            for (uint32_t j = c->vstart[v]; ok && j < c->vstart[v + 1]; j++) {
+            for (uint32_t j = c->vstart[v]; j < c->vstart[v + 1]; j++) {
                 uint32_t q = c->vpaths[j];
                 if (q == p || c->cand[q] == p)
                     continue;
                 c->cand[q] = p;
-                for (int dp = 0; dp < 2; dp++) {
-                    if (!(encs[p].dirs >> dp & 1))
+                qs[nq++] = q;
+            }
+        }
+        /* p fed once per direction: a trial leaves the cache as it was */
+        for (int dp = 0; ok && dp < 2; dp++) {
+            if (!(encs[p].dirs >> dp & 1))
+                continue;
+            fifo_clear(f);
+            fifo_feed(f, c->buf + encs[p].at[dp], encs[p].len[dp]);
+            for (uint32_t i = 0; ok && i < nq; i++) {
+                uint32_t q = qs[i];
+                for (int dq = 0; dq < 2; dq++) {
+                    if (!(encs[q].dirs >> dq & 1))
                         continue;
-                    fifo_clear(f);
-                    fifo_feed(f, c->buf + encs[p].at[dp], encs[p].len[dp]);
-                    for (int dq = 0; dq < 2; dq++) {
-                        if (!(encs[q].dirs >> dq & 1))
-                            continue;
-                        uint32_t miss = fifo_trial(f, c->buf + encs[q].at[dq], encs[q].len[dq],
-                                                   c->save, c->savev);
-                        int32_t gain = (int32_t)encs[q].cold[dq] - (int32_t)miss;
-                        if (gain <= 0)
-                            continue;
-                        if (np == cap) {
-                            pair_gain *grown = realloc(pg, 2 * cap * sizeof *pg);
-                            if (!grown) {
-                                ok = 0;
-                                break;
-                            }
-                            pg = grown;
-                            cap *= 2;
+                    uint32_t miss = fifo_trial(f, c->buf + encs[q].at[dq], encs[q].len[dq],
+                                               c->save, c->savev);
+                    int32_t gain = (int32_t)encs[q].cold[dq] - (int32_t)miss;
+                    if (gain <= 0)
+                        continue;
+                    if (np == cap) {
+                        pair_gain *grown = realloc(pg, 2 * cap * sizeof *pg);
+                        if (!grown) {
+                            ok = 0;
+                            break;
                         }
-                        pg[np++] = (pair_gain){p, q, (uint8_t)dp, (uint8_t)dq, gain};
+                        pg = grown;
+                        cap *= 2;
                     }
+                    pg[np++] = (pair_gain){p, q, (uint8_t)dp, (uint8_t)dq, gain};
                 }
             }
         }
@@ -260,6 +271,7 @@ static int chain_links(const order_ctx *c, uint32_t *succ, uint32_t *pred, uint8
     }
     free(pg);
     free(parent);
+    free(qs);
     return ok;
 }
 

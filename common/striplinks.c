@@ -5,11 +5,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-const uint8_t mts__link_count[8] = {0, 1, 1, 2, 1, 2, 2, 3};
-/* the vertex that the two edges of a 2-bit mask share: edges e and e+1
- * share vertex e+1 */
-const uint8_t mts__pivot_local[8] = {0, 0, 0, 1, 0, 0, 2, 0};
-
 /* ---- adjacency -------------------------------------------------------------- */
 
 typedef struct edge_key {

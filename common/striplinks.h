@@ -122,8 +122,14 @@ uint32_t mts__links_encode(const uint32_t *tri, const uint32_t *nb, const uint32
 
 /* ---- the links ------------------------------------------------------------ */
 
-extern const uint8_t mts__link_count[8];
-extern const uint8_t mts__pivot_local[8];
+/* By mask: the links, and for two links (an interior triangle) the vertex
+ * their edges share (edges e and e+1 share vertex e+1) and the two edges
+ * (0 where unused). Here rather than in striplinks.c so that they fold
+ * into the inlined moves. */
+static const uint8_t mts__link_count[8] = {0, 1, 1, 2, 1, 2, 2, 3};
+static const uint8_t mts__pivot_local[8] = {0, 0, 0, 1, 0, 0, 2, 0};
+static const uint8_t mts__mask_edge0[8] = {0, 0, 0, 0, 0, 0, 1, 0};
+static const uint8_t mts__mask_edge1[8] = {0, 0, 0, 1, 0, 2, 2, 0};
 
 static inline unsigned mts__links_count(const mts__links *L, uint32_t t)
 {
@@ -147,13 +153,23 @@ static inline int mts__links_linked(const mts__links *L, uint32_t t, uint32_t u)
 /* The neighbour along the path from cur that is not prev (MTS__NONE: an end). */
 static inline uint32_t mts__links_step(const mts__links *L, uint32_t prev, uint32_t cur)
 {
+    /* the labels walk whole paths after every kept change: the linked
+     * edges come from tables rather than a loop of unpredictable branches
+     * (the first linked edge that does not lead back to prev, as a loop
+     * over e would find it) */
+    static const uint8_t first[8] = {0, 0, 1, 0, 2, 0, 1, 0}, second[8] = {0, 0, 1, 1, 2, 2, 2, 0};
     const uint32_t *n3 = L->nb + 3 * (size_t)cur;
     uint8_t m = L->mask[cur];
-    for (int e = 0; e < 3; e++) {
-        if ((m >> e & 1) && n3[e] != prev)
-            return n3[e];
+    if (m == 0 || m == 7) {
+        for (int e = 0; e < 3; e++) { /* an isolated triangle, or (a bug) three links */
+            if ((m >> e & 1) && n3[e] != prev)
+                return n3[e];
+        }
+        return MTS__NONE;
     }
-    return MTS__NONE;
+    uint32_t a = n3[first[m]], b = n3[second[m]];
+    uint32_t r = a != prev ? a : b;
+    return r != prev ? r : MTS__NONE;
 }
 
 /* u = nb[3t + e] when t, of pivot pt, is linked to it across edge e and
@@ -226,25 +242,10 @@ static inline void mts__links_undo_to(mts__links *L, int mark)
         mts__links_apply(L, &L->undo[--L->nundo], 0);
 }
 
-/* Swaps on the links that touch the k distinct triangles T. */
-static inline int mts__links_swaps_near(const mts__links *L, const uint32_t *T, int k)
+/* Whether u turns around pt (not MTS__NONE). */
+static inline int mts__links_pivot_is(const mts__links *L, uint32_t u, uint32_t pt)
 {
-    int w = 0;
-    for (int i = 0; i < k; i++) {
-        uint32_t t = T[i], pt = mts__links_pivot(L, t);
-        if (pt == MTS__NONE)
-            continue;
-        for (unsigned e = 0; e < 3; e++) {
-            if (!(L->mask[t] >> e & 1))
-                continue;
-            uint32_t u = L->nb[3 * (size_t)t + e];
-            int seen = 0;
-            for (int j = 0; j < i; j++)
-                seen |= T[j] == u;
-            w += !seen && mts__links_pivot(L, u) == pt;
-        }
-    }
-    return w;
+    return mts__links_pivot(L, u) == pt;
 }
 
 /* The no-loop rules of paper 004, checked: do the links as the search has
@@ -331,37 +332,52 @@ static inline int mts__links_bad_end(const mts__links *L, uint32_t t)
 
 /* ---- the moves, logged, each returning its change of 3 S + W ------------- */
 
+/* Each move below knows which of its triangles are path ends before and
+ * after it, and a link at an end is never a swap (an end has no pivot): so
+ * each counts only the interior triangles' links, on one side of the move.
+ * Swaps on the links of t, less any to x (counted already). */
+static inline int mts__links_swaps_at(const mts__links *L, uint32_t t, uint32_t x)
+{
+    uint32_t pt = mts__links_pivot(L, t);
+    if (pt == MTS__NONE)
+        return 0;
+    uint8_t m = L->mask[t];
+    const uint32_t *n3 = L->nb + 3 * (size_t)t;
+    uint32_t ua = n3[mts__mask_edge0[m]], ub = n3[mts__mask_edge1[m]];
+    return ((ua != x) & mts__links_pivot_is(L, ua, pt)) + ((ub != x) & mts__links_pivot_is(L, ub, pt));
+}
+
 /* Links the path end z to the path end across its edge i: one strip fewer
- * (-3), and whatever the two ends' turns gain or lose. */
+ * (-3), and whatever the two ends' turns gain or lose (before, both are
+ * ends: no swaps). */
 static inline int mts__move_join(mts__links *L, uint32_t z, unsigned i)
 {
-    uint32_t T[2] = {z, L->nb[3 * (size_t)z + i]};
-    int before = mts__links_swaps_near(L, T, 2);
+    uint32_t y = L->nb[3 * (size_t)z + i];
     mts__links_link(L, z, i);
-    return mts__links_swaps_near(L, T, 2) - before - 3;
+    return mts__links_swaps_at(L, z, MTS__NONE) + mts__links_swaps_at(L, y, z) - 3;
 }
 
 /* Links the path end z to y across its edge i and cuts y from yi, y's
  * neighbour across its edge e: the end moves from z to yi, no strip is
- * saved (one alternating step of a tunnel). */
+ * saved (one alternating step of a tunnel). z is an end before, yi after. */
 static inline int mts__move_shift(mts__links *L, uint32_t z, unsigned i, unsigned e)
 {
     uint32_t y = L->nb[3 * (size_t)z + i];
-    uint32_t T[3] = {z, y, L->nb[3 * (size_t)y + e]};
-    int before = mts__links_swaps_near(L, T, 3);
+    uint32_t yi = L->nb[3 * (size_t)y + e];
+    int before = mts__links_swaps_at(L, y, MTS__NONE) + mts__links_swaps_at(L, yi, y);
     mts__links_unlink(L, y, e);
     mts__links_link(L, z, i);
-    return mts__links_swaps_near(L, T, 3) - before;
+    return mts__links_swaps_at(L, z, MTS__NONE) + mts__links_swaps_at(L, y, z) - before;
 }
 
 /* Cuts the link across edge e of t: a new strip (+3), and whatever the two
- * new ends' turns gain or lose. */
+ * new ends' turns gain or lose (after, both are ends: no swaps). */
 static inline int mts__move_cut(mts__links *L, uint32_t t, unsigned e)
 {
-    uint32_t T[2] = {t, L->nb[3 * (size_t)t + e]};
-    int before = mts__links_swaps_near(L, T, 2);
+    uint32_t u = L->nb[3 * (size_t)t + e];
+    int before = mts__links_swaps_at(L, t, MTS__NONE) + mts__links_swaps_at(L, u, t);
     mts__links_unlink(L, t, e);
-    return mts__links_swaps_near(L, T, 2) - before + 3;
+    return 3 - before;
 }
 
 /* ---- labels ---------------------------------------------------------------- */

@@ -395,38 +395,56 @@ static inline uint64_t rnd_next(uint64_t *state)
     return z ^ (z >> 31);
 }
 
+/* Whether t is among the first `width` triangles of the visit list, which
+ * holds MTS__NONE past nvisit: a fixed count of compares, no early exit (the
+ * walk's picks are random, so an exit branch would be mispredicted). */
+static inline int visited_fixed(const tun *o, uint32_t t, int width)
+{
+    int v = 0;
+    for (int i = 0; i < width; i++)
+        v |= o->visit[i] == t;
+    return v;
+}
+
 /* A random alternating walk from the end z of up to depth link/cut steps,
  * stopping at a join or, with probability 1/2 a step, as an end move; the
  * changes stay in the undo log; returns the change of 3 S + W, or INT32_MIN
- * when the walk found no step. */
-static int random_walk(tun *o, uint32_t z, int depth, int cum, uint64_t *rs)
+ * when the walk found no step. The visit list must hold MTS__NONE past
+ * nvisit up to `width` (at least nvisit + 2 depth). */
+static inline int random_walk_w(tun *o, uint32_t z, int depth, int cum, uint64_t *rs, int width)
 {
     mts__links *L = &o->L;
     for (;;) {
         unsigned cand[3], nc = 0;
+        const uint32_t *n3 = L->nb + 3 * (size_t)z;
+        uint8_t m = L->mask[z];
         for (unsigned i = 0; i < 3; i++) {
-            uint32_t y = L->nb[3 * (size_t)z + i];
-            if (y != NONE && !(L->mask[z] >> i & 1) && !visited(o, y))
-                cand[nc++] = i;
+            uint32_t y = n3[i];
+            cand[nc] = i;
+            nc += (y != NONE) & !(m >> i & 1) & !visited_fixed(o, y, width);
         }
         if (nc == 0)
             return INT32_MIN;
         uint64_t r = rnd_next(rs);
-        unsigned i = cand[r % nc];
-        uint32_t y = L->nb[3 * (size_t)z + i];
-        if (mts__links_count(L, y) < 2)
+        /* r % nc for nc of 1 to 3 without a 64-bit division (a tenth of
+         * the step's time), the same pick */
+        unsigned i = cand[nc == 3 ? (unsigned)(r % 3u) : (unsigned)r & (nc - 1)];
+        uint32_t y = n3[i];
+        uint8_t my = L->mask[y];
+        if (mts__link_count[my] < 2)
             return cum + mts__move_join(L, z, i);
         if (depth == 0)
             return INT32_MIN;
-        unsigned ce[2], ne = 0;
+        const uint32_t *y3 = L->nb + 3 * (size_t)y;
+        unsigned ce[3], ne = 0;
         for (unsigned e = 0; e < 3; e++) {
-            if ((L->mask[y] >> e & 1) && !visited(o, L->nb[3 * (size_t)y + e]))
-                ce[ne++] = e;
+            ce[ne] = e;
+            ne += (my >> e & 1) & !visited_fixed(o, y3[e], width);
         }
         if (ne == 0)
             return INT32_MIN;
-        unsigned e = ce[(r >> 8) % ne];
-        uint32_t yi = L->nb[3 * (size_t)y + e];
+        unsigned e = ce[(unsigned)(r >> 8) & (ne - 1)]; /* (r >> 8) % ne, ne 1 or 2 */
+        uint32_t yi = y3[e];
         cum += mts__move_shift(L, z, i, e);
         o->visit[o->nvisit++] = y;
         o->visit[o->nvisit++] = yi;
@@ -435,6 +453,15 @@ static int random_walk(tun *o, uint32_t z, int depth, int cum, uint64_t *rs)
         z = yi;
         depth--;
     }
+}
+
+/* The walk at the default depth (3: 8 visits at most) with its compares
+ * unrolled, any other through the whole list. */
+static int random_walk(tun *o, uint32_t z, int depth, int cum, uint64_t *rs)
+{
+    if (o->nvisit + 2 * depth <= 8)
+        return random_walk_w(o, z, depth, cum, rs, 8);
+    return random_walk_w(o, z, depth, cum, rs, VISIT_MAX);
 }
 
 /* Simulated annealing over the same moves as the search, picked at random
@@ -462,6 +489,8 @@ static void anneal(tun *o, uint64_t moves, double t0, double t1, int depth,
              * several times faster (the ids are roughly spatial) */
             t = t + 1 == n ? 0 : t + 1; /* k % n, without the division */
             L->nundo = 0;
+            for (int v = 0; v < VISIT_MAX; v++)
+                o->visit[v] = NONE;
             o->nvisit = 1;
             o->visit[0] = t;
             int d;
