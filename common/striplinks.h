@@ -96,7 +96,7 @@ mts_result mts__links_adjacency(const uint32_t *tri, uint32_t n, uint32_t vertex
 static inline unsigned mts__local_of(const uint32_t *tri, uint32_t t, uint32_t v)
 {
     const uint32_t *tv = tri + 3 * (size_t)t;
-    return tv[0] == v ? 0u : tv[1] == v ? 1u : 2u;
+    return tv[0] == v ? 0u : (unsigned)(tv[1] != v) + 1u; /* v is a corner of t */
 }
 
 /* Local edge index of the edge between local vertices i and j. */
@@ -225,14 +225,11 @@ static inline void mts__links_unlink(mts__links *L, uint32_t t, unsigned et)
 /* Makes op again (forward) or takes it back. */
 static inline void mts__links_apply(mts__links *L, const mts__link_op *op, int forward)
 {
-    int set = forward ? op->added : !op->added;
-    if (set) {
-        L->mask[op->t] |= (uint8_t)(1u << op->et);
-        L->mask[op->u] |= (uint8_t)(1u << op->eu);
-    } else {
-        L->mask[op->t] &= (uint8_t)~(1u << op->et);
-        L->mask[op->u] &= (uint8_t)~(1u << op->eu);
-    }
+    /* the ops are made and taken back in order, so the bit stands the other
+     * way each time: flipped, with no branch on which way */
+    (void)forward;
+    L->mask[op->t] ^= (uint8_t)(1u << op->et);
+    L->mask[op->u] ^= (uint8_t)(1u << op->eu);
 }
 
 /* Takes back the logged changes after the first `mark`. */

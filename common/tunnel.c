@@ -60,6 +60,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "cacheorder.h"
 #include "stripify.h"
@@ -400,6 +403,14 @@ static inline uint64_t rnd_next(uint64_t *state)
  * walk's picks are random, so an exit branch would be mispredicted). */
 static inline int visited_fixed(const tun *o, uint32_t t, int width)
 {
+#ifdef __SSE2__
+    if (width == 8) {
+        __m128i k = _mm_set1_epi32((int)t);
+        __m128i a = _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)o->visit), k);
+        __m128i b = _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)(o->visit + 4)), k);
+        return _mm_movemask_epi8(_mm_or_si128(a, b)) != 0;
+    }
+#endif
     int v = 0;
     for (int i = 0; i < width; i++)
         v |= o->visit[i] == t;
@@ -461,6 +472,8 @@ static int random_walk(tun *o, uint32_t z, int depth, int cum, uint64_t *rs)
 {
     if (o->nvisit + 2 * depth <= 8)
         return random_walk_w(o, z, depth, cum, rs, 8);
+    for (int v = o->nvisit; v < VISIT_MAX; v++)
+        o->visit[v] = NONE;
     return random_walk_w(o, z, depth, cum, rs, VISIT_MAX);
 }
 
@@ -489,7 +502,7 @@ static void anneal(tun *o, uint64_t moves, double t0, double t1, int depth,
              * several times faster (the ids are roughly spatial) */
             t = t + 1 == n ? 0 : t + 1; /* k % n, without the division */
             L->nundo = 0;
-            for (int v = 0; v < VISIT_MAX; v++)
+            for (int v = 0; v < 8; v++) /* the default walk's; a deeper one pads its own */
                 o->visit[v] = NONE;
             o->nvisit = 1;
             o->visit[0] = t;
@@ -525,10 +538,9 @@ static void anneal(tun *o, uint64_t moves, double t0, double t1, int depth,
                 mts__links_undo_to(L, 0);
                 continue;
             }
-            o->nbest = L->nundo;
-            memcpy(o->best, L->undo, (size_t)L->nundo * sizeof *L->undo);
-            mts__links_undo_to(L, 0);
-            accept_best(o);
+            /* kept as it stands: only the labels need the change */
+            mts__links_relabel(L, L->undo, L->nundo);
+            o->changes++;
         }
     }
 }
