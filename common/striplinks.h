@@ -160,9 +160,11 @@ static inline uint32_t mts__links_step(const mts__links *L, uint32_t prev, uint3
     static const uint8_t first[8] = {0, 0, 1, 0, 2, 0, 1, 0}, second[8] = {0, 0, 1, 1, 2, 2, 2, 0};
     const uint32_t *n3 = L->nb + 3 * (size_t)cur;
     uint8_t m = L->mask[cur];
-    if (m == 0 || m == 7) {
-        for (int e = 0; e < 3; e++) { /* an isolated triangle, or (a bug) three links */
-            if ((m >> e & 1) && n3[e] != prev)
+    if (m == 0)
+        return MTS__NONE; /* an isolated triangle */
+    if (m == 7) {         /* three links: a bug; the first that does not lead back */
+        for (int e = 0; e < 3; e++) {
+            if (n3[e] != prev)
                 return n3[e];
         }
         return MTS__NONE;
@@ -222,12 +224,11 @@ static inline void mts__links_unlink(mts__links *L, uint32_t t, unsigned et)
     L->undo[L->nundo++] = (mts__link_op){t, u, (uint8_t)et, (uint8_t)eu, 0};
 }
 
-/* Makes op again (forward) or takes it back. */
-static inline void mts__links_apply(mts__links *L, const mts__link_op *op, int forward)
+/* Makes op again or takes it back: the ops are made and taken back in
+ * order, so its link always stands the other way, and flipping both bits
+ * does either (no branch on which way). */
+static inline void mts__links_flip(mts__links *L, const mts__link_op *op)
 {
-    /* the ops are made and taken back in order, so the bit stands the other
-     * way each time: flipped, with no branch on which way */
-    (void)forward;
     L->mask[op->t] ^= (uint8_t)(1u << op->et);
     L->mask[op->u] ^= (uint8_t)(1u << op->eu);
 }
@@ -236,13 +237,7 @@ static inline void mts__links_apply(mts__links *L, const mts__link_op *op, int f
 static inline void mts__links_undo_to(mts__links *L, int mark)
 {
     while (L->nundo > mark)
-        mts__links_apply(L, &L->undo[--L->nundo], 0);
-}
-
-/* Whether u turns around pt (not MTS__NONE). */
-static inline int mts__links_pivot_is(const mts__links *L, uint32_t u, uint32_t pt)
-{
-    return mts__links_pivot(L, u) == pt;
+        mts__links_flip(L, &L->undo[--L->nundo]);
 }
 
 /* The no-loop rules of paper 004, checked: do the links as the search has
@@ -341,7 +336,7 @@ static inline int mts__links_swaps_at(const mts__links *L, uint32_t t, uint32_t 
     uint8_t m = L->mask[t];
     const uint32_t *n3 = L->nb + 3 * (size_t)t;
     uint32_t ua = n3[mts__mask_edge0[m]], ub = n3[mts__mask_edge1[m]];
-    return ((ua != x) & mts__links_pivot_is(L, ua, pt)) + ((ub != x) & mts__links_pivot_is(L, ub, pt));
+    return ((ua != x) & (mts__links_pivot(L, ua) == pt)) + ((ub != x) & (mts__links_pivot(L, ub) == pt));
 }
 
 /* Links the path end z to the path end across its edge i: one strip fewer

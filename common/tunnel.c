@@ -227,11 +227,11 @@ static int start_delta(mts__links *L)
     }
     int before = 0;
     for (int i = L->nundo; i > 0; i--)
-        mts__links_apply(L, &L->undo[i - 1], 0);
+        mts__links_flip(L, &L->undo[i - 1]);
     for (int j = 0; j < npath; j++)
         before += mts__links_bad_end(L, paths[j]) && mts__links_bad_end(L, L->pend[paths[j]]);
     for (int i = 0; i < L->nundo; i++)
-        mts__links_apply(L, &L->undo[i], 1);
+        mts__links_flip(L, &L->undo[i]);
     return after - before;
 }
 
@@ -303,7 +303,7 @@ static void search(tun *o, uint32_t z, int depth, int cum)
 static void accept_best(tun *o)
 {
     for (int i = 0; i < o->nbest; i++)
-        mts__links_apply(&o->L, &o->best[i], 1);
+        mts__links_flip(&o->L, &o->best[i]);
     mts__links_relabel(&o->L, o->best, o->nbest);
     o->changes++;
 }
