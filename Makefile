@@ -191,19 +191,22 @@ clean:
 
 -include $(shell find $(BUILD)/obj -name '*.d' 2>/dev/null)
 
-# ---- the browser client (issue 20) ----
+# ---- the browser client ----
 # `make web` builds the page into build/web/: the stream decoder (common/,
 # protocol/) and web/mts_web.c compiled with emscripten, Draco's own
 # WebAssembly decoder (npm draco3d, scripts/web-deps.sh), and web/'s page.
-# Serve it with `mts-server --web-root build/web` or any web server.
+# build/web/ holds the page's files and nothing else (objects and the
+# archive go to build/web-obj/), so a web server may hand out all of it:
+# web/nginx.conf serves it and proxies the stream (make demo-web).
 EMCC     ?= emcc
 EMAR     ?= emar
 WEB_ENV  := NODE_PATH=/usr/share/nodejs
 WEB_DIR  := build/web
+WEB_OBJ_DIR := build/web-obj
 WEB_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE -O2 $(FP) $(WARN) -Icommon -Iprotocol -Iclient -Iweb
-WEB_LIB_OBJ := $(patsubst %.c,$(WEB_DIR)/obj/%.o,$(wildcard common/*.c protocol/*.c) client/camera.c \
+WEB_LIB_OBJ := $(patsubst %.c,$(WEB_OBJ_DIR)/%.o,$(wildcard common/*.c protocol/*.c) client/camera.c \
                client/morph.c)
-WEB_OBJ  := $(WEB_DIR)/obj/web/mts_web.o $(WEB_DIR)/obj/web/draco_web.o
+WEB_OBJ  := $(WEB_OBJ_DIR)/web/mts_web.o $(WEB_OBJ_DIR)/web/draco_web.o
 WEB_LINK := -sMODULARIZE=1 -sEXPORT_NAME=createMtsWeb -sALLOW_MEMORY_GROWTH=1 \
             -sENVIRONMENT=web,node -sEXPORTED_FUNCTIONS=_malloc,_free \
             -sEXPORTED_RUNTIME_METHODS=UTF8ToString,stringToUTF8,lengthBytesUTF8
@@ -212,15 +215,16 @@ WEB_PAGE := $(patsubst web/%,$(WEB_DIR)/%,$(wildcard web/*.html web/*.js web/*.c
 .PHONY: web web-if-emcc
 web: $(WEB_DIR)/mts_web.js $(WEB_PAGE) $(WEB_DIR)/draco_decoder_nodejs.js
 
-$(WEB_DIR)/obj/%.o: %.c Makefile
+$(WEB_OBJ_DIR)/%.o: %.c Makefile
 	@mkdir -p $(dir $@)
 	$(WEB_ENV) $(EMCC) $(WEB_CFLAGS) -MMD -MP -c $< -o $@
 
-$(WEB_DIR)/libmts_web.a: $(WEB_LIB_OBJ)
+$(WEB_OBJ_DIR)/libmts_web.a: $(WEB_LIB_OBJ)
 	@rm -f $@
 	$(WEB_ENV) $(EMAR) rcs $@ $^
 
-$(WEB_DIR)/mts_web.js: $(WEB_OBJ) $(WEB_DIR)/libmts_web.a
+$(WEB_DIR)/mts_web.js: $(WEB_OBJ) $(WEB_OBJ_DIR)/libmts_web.a
+	@mkdir -p $(dir $@)
 	$(WEB_ENV) $(EMCC) -O2 $(WEB_LINK) $^ -o $@
 
 $(WEB_DIR)/%: web/%
@@ -230,7 +234,7 @@ $(WEB_DIR)/%: web/%
 $(WEB_DIR)/draco_decoder_nodejs.js:
 	@scripts/web-deps.sh $(WEB_DIR)
 
--include $(shell find $(WEB_DIR)/obj -name '*.d' 2>/dev/null)
+-include $(shell find $(WEB_OBJ_DIR) -name '*.d' 2>/dev/null)
 
 # ---- fuzzing (issue 4, "Hostile input") ----
 # `make fuzz` builds the libFuzzer targets of tests/fuzz/ with clang (ASan +

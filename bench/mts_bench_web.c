@@ -1,6 +1,7 @@
-/* The browser client's figures for `make bench` (issue 20): the page
- * (build/web) in headless Chromium, driven over the DevTools protocol
- * (tests/cdp.h), against mts-servers of this build on loopback:
+/* The browser client's figures for `make bench`: the page (build/web) in
+ * headless Chromium, driven over the DevTools protocol (tests/cdp.h),
+ * against mts-servers of this build on loopback, each behind nginx running
+ * web/nginx.conf as a user would serve the page:
  *   - time to connect, to the first frame and to the full level, the
  *     decoder's time in the page, and the checksum (median of --runs);
  *   - frames drawn while the model streams slowly enough to watch
@@ -10,6 +11,7 @@
  *     whole page with its panel, into --png-dir.
  * The WebAssembly decoder's splits/s beside the native one's are
  * bench/web.sh's (node, mts-bench-apply). */
+#include <limits.h>
 #include <math.h>
 #include <signal.h>
 #include <sys/stat.h>
@@ -20,17 +22,32 @@
 #define MAX_RUNS 15
 #define NPICS 5 /* three levels, one by strip, the page with its panel */
 
-typedef mts_test_server server;
+/* mts-server and the nginx in front of it (web/nginx.conf: the page and
+ * the stream at /stream on web_port), as a user runs the page. */
+typedef struct server {
+    mts_test_server s;
+    pid_t front;
+    int web_port;
+} server;
 
 static int server_start(const char *bin_dir, const char *models, const char *web_dir,
                         const char *rate, const char *log, server *sv)
 {
-    const char *extra[] = {"--web-root", web_dir, "--quiet", rate ? "--rate-limit" : NULL, rate,
-                           NULL};
-    char listen[64], out[4096];
-    int up = mts_test_ws_server_start(sv, bin_dir, models, extra, log, 60);
-    snprintf(listen, sizeof listen, "127.0.0.1:%d", sv->port);
-    return up && mts_test_wait_models(bin_dir, listen, "cow", 600, out, sizeof out);
+    const char *extra[] = {"--quiet", rate ? "--rate-limit" : NULL, rate, NULL};
+    char listen[64], out[4096], nginx[512], root[PATH_MAX], dir[800], nlog[800];
+    sv->front = -1;
+    int up = mts_test_ws_server_start(&sv->s, bin_dir, models, extra, log, 60);
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", sv->s.port);
+    if (!up || !mts_test_wait_models(bin_dir, listen, "cow", 600, out, sizeof out))
+        return 0;
+    if (!mts_test_find_nginx(nginx, sizeof nginx) || !realpath(web_dir, root)) {
+        fprintf(stderr, "mts-bench-web: no nginx (scripts/deps.sh), or no %s\n", web_dir);
+        return 0;
+    }
+    snprintf(dir, sizeof dir, "%s.front", log);
+    snprintf(nlog, sizeof nlog, "%s.nginx", log);
+    sv->front = mts_test_front_start(nginx, dir, root, sv->s.ws_port, &sv->web_port, nlog, 30);
+    return sv->front > 0;
 }
 
 static double json_double(const char *json, const char *key)
@@ -160,7 +177,7 @@ int main(int argc, char **argv)
     long level = 0, bytes = 0;
     /* one load first: the page, its scripts and WebAssembly into the cache,
      * as for a user who has opened it before */
-    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1", fast.ws_port, model);
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1", fast.web_port, model);
     ok = page_run(&c, url, 60, &state);
     for (uint32_t r = 0; ok && r < runs; r++) {
         ok = page_run(&c, url, 60, &state);
@@ -180,7 +197,7 @@ int main(int argc, char **argv)
         goto done_state;
     }
     /* while it streams slowly: frames drawn as batches come */
-    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1&redraw=1", slow.ws_port,
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1&redraw=1", slow.web_port,
              model);
     double t0 = mts_cdp_now();
     ok = page_run(&c, url, 120, &state);
@@ -210,7 +227,7 @@ int main(int argc, char **argv)
         if (pics[k].level)
             snprintf(lv, sizeof lv, "&level=%ld", pics[k].level);
         /* strips 2: the whole page, its panel and HUD (the README's picture) */
-        snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s%s%s%s", fast.ws_port, model,
+        snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s%s%s%s", fast.web_port, model,
                  pics[k].strips == 2 ? "" : "&bare=1", lv, pics[k].strips == 1 ? "&strips=1" : "");
         ok = page_run(&c, url, 60, &state);
         pics[k].level = mts_test_json_long((const char *)state.data, "level");
@@ -274,9 +291,11 @@ done_state:
 done:
     mts_cdp_stop(&c);
 done_servers:
-    if (fast.pid > 0)
-        mts_test_stop(fast.pid);
-    if (slow.pid > 0)
-        mts_test_stop(slow.pid);
+    for (server *sv = &fast; sv; sv = sv == &fast ? &slow : NULL) {
+        if (sv->front > 0)
+            mts_test_stop(sv->front);
+        if (sv->s.pid > 0)
+            mts_test_stop(sv->s.pid);
+    }
     return ok ? 0 : 1;
 }

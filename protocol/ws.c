@@ -135,10 +135,11 @@ mts_result mts_ws_parse_request(const uint8_t *buf, size_t len, mts_ws_request *
     size_t at = 0;
     const char *line;
     long n = next_line(head, size, &at, &line);
-    /* "GET " target " HTTP/1.1" */
+    /* "GET " target " HTTP/1.1": exactly two single spaces */
     const char *sp = n > 4 ? memchr(line + 4, ' ', (size_t)n - 4) : NULL;
-    if (n < 0 || !sp)
-        return refuse(req, 400, err, "a malformed request line");
+    if (n < 0 || !sp || sp == line + 4 || memchr(sp + 1, ' ', (size_t)(line + n - sp - 1)))
+        return refuse(req, 400, err, "a malformed request line (GET, a target, a version, "
+                                     "each after one space)");
     size_t tlen = (size_t)(sp - (line + 4));
     const char *version = sp + 1;
     size_t vlen = (size_t)(line + n - version);
@@ -274,67 +275,6 @@ void mts_ws_put_http_error(mts_buf *b, int status, const char *text)
     mts_buf_put(b, head, (size_t)n);
     mts_buf_put(b, text, tn);
     mts_buf_put(b, "\n", 1);
-}
-
-int mts_ws_file_path(const char *target, char *out, size_t size)
-{
-    if (!target || target[0] != '/' || size < 11)
-        return 404;
-    size_t n = 0, seg = 0;
-    const char *p = target + 1;
-    for (; *p && *p != '?' && *p != '#'; p++) {
-        unsigned char ch = (unsigned char)*p;
-        if (ch < 0x20 || ch == 0x7f || ch == '\\' || ch == '%')
-            return 404;
-        if (ch == '/') {
-            if (seg == 0)
-                return 404; /* "//": an empty segment */
-            seg = 0;
-        } else {
-            if (seg == 0 && ch == '.')
-                return 404; /* "..", ".git", ".hidden" */
-            seg++;
-        }
-        if (n + 1 >= size)
-            return 404;
-        out[n++] = (char)ch;
-    }
-    if (n == 0 || out[n - 1] == '/') {
-        const char index[] = "index.html";
-        if (n + sizeof index > size)
-            return 404;
-        memcpy(out + n, index, sizeof index);
-        return 0;
-    }
-    out[n] = 0;
-    return 0;
-}
-
-const char *mts_ws_content_type(const char *name)
-{
-    static const char *const types[][2] = {
-        {".html", "text/html; charset=utf-8"}, {".js", "text/javascript; charset=utf-8"},
-        {".css", "text/css; charset=utf-8"},   {".wasm", "application/wasm"},
-        {".json", "application/json"},         {".png", "image/png"},
-        {".svg", "image/svg+xml"},             {".txt", "text/plain; charset=utf-8"},
-    };
-    size_t n = strlen(name);
-    for (size_t i = 0; i < sizeof types / sizeof types[0]; i++) {
-        size_t e = strlen(types[i][0]);
-        if (n > e && strcmp(name + n - e, types[i][0]) == 0)
-            return types[i][1];
-    }
-    return "application/octet-stream";
-}
-
-void mts_ws_put_http_ok(mts_buf *b, const char *content_type, uint64_t length)
-{
-    char head[300];
-    int n = snprintf(head, sizeof head,
-                     "HTTP/1.1 200 OK\r\nContent-Type: %s\r\nContent-Length: %llu\r\n"
-                     "Cache-Control: no-cache\r\nConnection: close\r\n\r\n",
-                     content_type, (unsigned long long)length);
-    mts_buf_put(b, head, (size_t)n);
 }
 
 void mts_ws_put_request(mts_buf *b, const char *host, const char *path, const char *key)
@@ -490,6 +430,42 @@ static int valid_close_code(unsigned c)
     return (c >= 1000 && c <= 1003) || (c >= 1007 && c <= 1014) || (c >= 3000 && c <= 4999);
 }
 
+/* RFC 3629 UTF-8: no overlong forms, no surrogates, nothing past U+10FFFF
+ * (a Close reason must be valid text, RFC 6455 5.5.1). */
+static int valid_utf8(const uint8_t *p, size_t n)
+{
+    size_t i = 0;
+    while (i < n) {
+        uint8_t c = p[i];
+        size_t k;
+        uint32_t cp;
+        if (c < 0x80) {
+            i++;
+            continue;
+        } else if (c >= 0xc2 && c <= 0xdf) {
+            k = 1, cp = c & 0x1f;
+        } else if (c >= 0xe0 && c <= 0xef) {
+            k = 2, cp = c & 0x0f;
+        } else if (c >= 0xf0 && c <= 0xf4) {
+            k = 3, cp = c & 0x07;
+        } else {
+            return 0;
+        }
+        if (n - i <= k)
+            return 0;
+        for (size_t j = 1; j <= k; j++) {
+            if ((p[i + j] & 0xc0) != 0x80)
+                return 0;
+            cp = cp << 6 | (p[i + j] & 0x3f);
+        }
+        if ((k == 2 && (cp < 0x800 || (cp >= 0xd800 && cp <= 0xdfff))) ||
+            (k == 3 && (cp < 0x10000 || cp > 0x10ffff)))
+            return 0;
+        i += k + 1;
+    }
+    return 1;
+}
+
 /* A whole header is in r->hdr: check it and start the frame. */
 static mts_result begin_frame(mts_ws_reader *r, mts_ws_control *ctl, mts_error *err)
 {
@@ -575,6 +551,9 @@ static mts_result end_frame(mts_ws_reader *r, mts_ws_control *ctl, mts_error *er
             code = (unsigned)r->ctl[0] << 8 | r->ctl[1];
             if (!valid_close_code(code))
                 return fail(r, ctl, MTS_WS_CLOSE_PROTOCOL, err, "a Close with code %u", code);
+            if (!valid_utf8(r->ctl + 2, r->ctl_len - 2))
+                return fail(r, ctl, MTS_WS_CLOSE_INVALID_DATA, err,
+                            "a Close whose reason is not UTF-8");
         }
         ctl->close = 1;
         ctl->close_code = (uint16_t)code;

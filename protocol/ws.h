@@ -41,6 +41,7 @@ enum {
     MTS_WS_CLOSE_PROTOCOL = 1002,
     MTS_WS_CLOSE_UNSUPPORTED = 1003, /* a text message: this protocol is binary */
     MTS_WS_CLOSE_NONE = 1005,        /* a Close without a code (never sent) */
+    MTS_WS_CLOSE_INVALID_DATA = 1007, /* text that is not UTF-8 (a Close's reason) */
     MTS_WS_CLOSE_TOO_BIG = 1009,
     MTS_WS_CLOSE_INTERNAL = 1011
 };
@@ -49,7 +50,7 @@ enum {
 
 typedef struct mts_ws_request {
     size_t size;   /* bytes of the request up to its blank line; 0: not all in yet */
-    int upgrade;   /* 1: a WebSocket opening; 0: a plain GET (a page to serve) */
+    int upgrade;   /* 1: a WebSocket opening; 0: a plain GET (answered 426) */
     int status;    /* on an error: the HTTP status to answer (400, 405, 426, 431, 505) */
     char path[MTS_WS_MAX_PATH]; /* the request target, from '/', query included */
     char key[25];  /* Sec-WebSocket-Key: 24 base64 characters */
@@ -75,20 +76,6 @@ void mts_ws_put_accept(mts_buf *b, const mts_ws_request *req);
 /* An HTTP error answer (status 400, 403, 404, 405, 408, 426, 431, 503, 505)
  * with text as its plain-text body; Connection: close. */
 void mts_ws_put_http_error(mts_buf *b, int status, const char *text);
-
-/* A static page (mts-server --web-root): the file a GET's target names,
- * relative to the root, into out: "/" and a trailing "/" mean index.html,
- * the query is dropped. 0 (the status to answer: 404) for a target that
- * could leave the root or name something hidden: a segment starting with
- * '.', a backslash or '%', a control byte, an empty segment, or one longer than
- * the buffer. */
-int mts_ws_file_path(const char *target, char *out, size_t size);
-
-/* The Content-Type for a file name, by its extension. */
-const char *mts_ws_content_type(const char *name);
-
-/* A 200 answer's head for length bytes of that type; Connection: close. */
-void mts_ws_put_http_ok(mts_buf *b, const char *content_type, uint64_t length);
 
 /* The client's side, for tools and tests: an opening request for path on
  * host with key (24 base64 characters), and the check of the answer in

@@ -18,7 +18,7 @@
 static void usage(FILE *f)
 {
     fputs("usage: mts-server [--models DIR] [--model NAME=PATH|URL]... [--listen ADDR:PORT]\n"
-          "                  [--ws-listen ADDR:PORT [--web-root DIR]] [--max-clients N]\n"
+          "                  [--ws-listen ADDR:PORT] [--max-clients N]\n"
           "                  [--idle-timeout S]\n"
           "                  [--handshake-timeout S] [--grace S] [--max-download BYTES]\n"
           "                  [--fetch-timeout S] [--fetch-connect-timeout S] [--workers N]\n"
@@ -40,8 +40,8 @@ static void usage(FILE *f)
           "  --listen ADDR:PORT     default 127.0.0.1:7447\n"
           "  --ws-listen ADDR:PORT  also serve WebSocket clients (browsers) there: the same\n"
           "                         conversation in binary messages, the same limits\n"
-          "  --web-root DIR         hand out DIR's files on the --ws-listen port to a plain GET\n"
-          "                         (the browser page: make web builds build/web)\n"
+          "                         (the page itself comes from a web server in front,\n"
+          "                         which also proxies this port: web/nginx.conf)\n"
           "  --max-clients N        connections at once per worker (default 1024); more get\n"
           "                         ERROR busy\n"
           "  --idle-timeout S       drop a connection that takes no bytes for S s (default 30)\n"
@@ -254,7 +254,12 @@ int main(int argc, char **argv)
         } else if (!strcmp(a, "--ws-listen")) {
             so.ws_listen = v;
         } else if (!strcmp(a, "--web-root")) {
-            so.web_root = v;
+            /* files are a web server's job (confined paths, sendfile, ranges,
+             * caching): say where that went rather than "unknown option" */
+            fprintf(stderr, "mts-server: --web-root is gone: serve the page (%s) with a web "
+                            "server in front of --ws-listen, as web/nginx.conf does "
+                            "(make demo-web)\n", v);
+            return CLI_EXIT_USAGE;
         } else if (!strcmp(a, "--max-clients")) {
             if (!cli_parse_u32(v, &so.max_clients) || so.max_clients == 0) {
                 fprintf(stderr, "mts-server: --max-clients needs a positive number\n");
@@ -322,11 +327,6 @@ int main(int argc, char **argv)
     }
     if (ndirs == 0 && nmodels == 0) {
         fprintf(stderr, "mts-server: give --models DIR or --model NAME=SOURCE (see --help)\n");
-        return CLI_EXIT_USAGE;
-    }
-    if (so.web_root && !so.ws_listen) {
-        fprintf(stderr, "mts-server: --web-root hands out the page on the --ws-listen port: "
-                        "give that too\n");
         return CLI_EXIT_USAGE;
     }
 
@@ -447,12 +447,6 @@ int main(int argc, char **argv)
     if (ws_asked)
         fprintf(stderr, "mts-server: WebSocket clients on %s (port %d)\n", ws_asked,
                 mts_server_ws_port(workers[0].server));
-    if (ws_asked && so.web_root) {
-        const char *colon = strrchr(ws_asked, ':');
-        fprintf(stderr, "mts-server: the page: open http://%.*s:%d/ (files of %s)\n",
-                (int)(colon - ws_asked), ws_asked, mts_server_ws_port(workers[0].server),
-                so.web_root);
-    }
     /* worker 0 runs on this thread; signals may land on any thread, and
      * every loop polls the one flag */
     uint32_t started = 1;

@@ -615,68 +615,16 @@ static int ws_frames(mts_server *s, conn *c, uint8_t *buf, size_t n)
     return 1;
 }
 
-/* The largest file --web-root hands out (the page's WebAssembly is some
- * 400 KB); a file is read whole into the answer. */
-#define WEB_FILE_MAX (32u << 20)
-
-/* A plain GET with --web-root: the file, or 404. The read blocks the loop
- * for as long as a local file of at most WEB_FILE_MAX takes. */
-static void ws_serve_file(mts_server *s, conn *c, const char *target)
-{
-    char rel[MTS_WS_MAX_PATH + 16], path[PATH_MAX];
-    int fd = -1;
-    struct stat st;
-    if (mts_ws_file_path(target, rel, sizeof rel) != 0 ||
-        snprintf(path, sizeof path, "%s/%s", s->opts.web_root, rel) >= (int)sizeof path ||
-        (fd = open(path, O_RDONLY | O_CLOEXEC)) < 0 || fstat(fd, &st) != 0 ||
-        !S_ISREG(st.st_mode) || st.st_size > (off_t)WEB_FILE_MAX) {
-        if (fd >= 0)
-            close(fd);
-        conn_refuse_http(c, 404, "no such file here", "error: no such file");
-        return;
-    }
-    mts_buf *raw = &c->ws->raw;
-    raw->size = c->ws->raw_off = 0;
-    mts_ws_put_http_ok(raw, mts_ws_content_type(rel), (uint64_t)st.st_size);
-    size_t head = raw->size;
-    int ok = !raw->failed && mts_buf_reserve(raw, (size_t)st.st_size);
-    size_t got = 0;
-    while (ok && got < (size_t)st.st_size) {
-        ssize_t r = read(fd, raw->data + head + got, (size_t)st.st_size - got);
-        if (r < 0 && errno == EINTR)
-            continue;
-        if (r <= 0)
-            ok = 0;
-        else
-            got += (size_t)r;
-    }
-    close(fd);
-    if (!ok) {
-        conn_refuse_http(c, 404, "cannot read that file", "error: unreadable file");
-        return;
-    }
-    raw->size = head + got;
-    c->ws->close_queued = 1; /* not upgraded: no Close frame */
-    c->sent += got;
-    s->bytes_out += got;
-    c->phase = WRITING;
-    c->end = CONN_SERVED;
-    c->outcome = "ok";
-}
-
 /* The opening request of a WebSocket client is in: upgrade, or answer a
- * plain GET (a file of --web-root, else 426). 1: upgraded (frames may
- * follow in w->req past req->size). */
-static int ws_open(mts_server *s, conn *c, const mts_ws_request *req)
+ * plain GET with 426 (the page comes from a web server, never from here).
+ * 1: upgraded (frames may follow in w->req past req->size). */
+static int ws_open(conn *c, const mts_ws_request *req)
 {
     if (!req->upgrade) {
-        if (s->opts.web_root)
-            ws_serve_file(s, c, req->path);
-        else
-            conn_refuse_http(c, 426,
-                             "this port streams models over WebSocket (a browser page connects "
-                             "to it); no page is served here (mts-server --web-root DIR)",
-                             "error: not a websocket request");
+        conn_refuse_http(c, 426,
+                         "this port streams models over WebSocket to the page, which a web "
+                         "server hands out (docs: web/nginx.conf)",
+                         "error: not a websocket request");
         return 0;
     }
     mts_ws_put_accept(&c->ws->raw, req);
@@ -711,9 +659,12 @@ static void ws_read(mts_server *s, conn *c)
         }
         if (r < 0)
             break; /* all read: what it asked for goes out below */
-        if (c->linger_until > 0 || (w->close_queued && c->end == CONN_REFUSED))
-            continue; /* ending: what it sends is read and dropped */
-        c->last_progress = mts_clock_seconds();
+        /* ending (refused, or answered without an upgrade): what it sends
+         * is read and dropped, never parsed as a request again */
+        if (c->linger_until > 0 || (w->close_queued && (c->end == CONN_REFUSED || !w->open)))
+            continue;
+        /* what a client sends is never progress (only what it takes from
+         * us is): one that trickles bytes and reads nothing is idle */
         if (opening) {
             w->req_len += (size_t)r;
             mts_ws_request req;
@@ -725,7 +676,7 @@ static void ws_read(mts_server *s, conn *c)
             }
             if (req.size == 0)
                 continue; /* more to come */
-            if (!ws_open(s, c, &req))
+            if (!ws_open(c, &req))
                 break;
             size_t extra = w->req_len - req.size;
             memcpy(buf, w->req + req.size, extra);
@@ -1115,7 +1066,10 @@ static void check_timeouts(mts_server *s, double now)
             if (now > c->linger_until)
                 conn_close(s, c, NULL);
         } else if (c->phase == READING && now - c->started > s->opts.handshake_timeout) {
-            conn_refuse(c, MTS_WERR_TIMEOUT, "no HELLO in time", "error: handshake timeout");
+            conn_refuse(c, MTS_WERR_TIMEOUT,
+                        c->ws && !c->ws->open ? "no WebSocket opening request in time"
+                                              : "no HELLO or LIST in time",
+                        "error: handshake timeout");
             conn_write(s, c); /* best effort; closes once flushed or on error */
         } else if (c->paced_until > 0) {
             /* resumed by resume_paced */

@@ -30,8 +30,6 @@ typedef enum mts_server_log_kind {
 typedef struct mts_server_options {
     const char *listen;       /* "ADDR:PORT"; NULL: 127.0.0.1:7447; port 0 picks one */
     const char *ws_listen;    /* "ADDR:PORT" for WebSocket clients (browsers); NULL: none */
-    const char *web_root;     /* a plain GET on ws_listen gets a file from here (the page);
-                                 NULL: 426 */
     uint32_t max_clients;     /* 0: 1024 */
     double handshake_timeout; /* seconds for the first frame; 0: 10 */
     double idle_timeout;      /* seconds a connection may make no progress; 0: 30 */

@@ -16,8 +16,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -159,7 +161,6 @@ static inline int mts_test_wait_models(const char *bin_dir, const char *listen, 
     return 0;
 }
 
-/* The first size-1 bytes of a file, NUL-terminated ("" when unreadable). */
 /* An mts-server of bin_dir serving models_dir on two free loopback ports,
  * TCP (port) and WebSocket (ws_port), with the extra arguments (NULL-ended,
  * or NULL), its output into log. 1 once the TCP port listens within
@@ -189,6 +190,118 @@ static inline int mts_test_ws_server_start(mts_test_server *sv, const char *bin_
     return sv->pid > 0 && mts_test_wait_port(sv->port, seconds);
 }
 
+/* ---- nginx in front of mts-server (web/nginx.conf) ------------------------ */
+
+/* The nginx to run, or NULL: sbin is often not on a user's PATH. */
+static inline const char *mts_test_find_nginx(char *buf, size_t size)
+{
+    const char *fixed[] = {"/usr/sbin/nginx", "/usr/local/sbin/nginx",
+                           "/usr/local/nginx/sbin/nginx"};
+    for (size_t i = 0; i < sizeof fixed / sizeof fixed[0]; i++) {
+        if (access(fixed[i], X_OK) == 0) {
+            snprintf(buf, size, "%s", fixed[i]);
+            return buf;
+        }
+    }
+    char out[1024];
+    if (mts_test_run("command -v nginx", out, sizeof out) == 0 && out[0] == '/') {
+        out[strcspn(out, "\n")] = 0;
+        snprintf(buf, size, "%.400s", out);
+        return buf;
+    }
+    return NULL;
+}
+
+/* Copies the config src to dst with each line that holds marks[i]
+ * replaced by lines[i] (comment lines are kept as they are). 0 when a file
+ * could not be read or written, or a mark was not found. */
+static inline int mts_test_conf_from(const char *src, const char *dst, const char *const *marks,
+                                     const char *const *lines, int n)
+{
+    FILE *in = fopen(src, "r"), *out = in ? fopen(dst, "w") : NULL;
+    int found[8] = {0}, ok = in && out && n <= 8;
+    char line[1024];
+    while (ok && fgets(line, sizeof line, in)) {
+        const char *t = line + strspn(line, " \t");
+        int k = -1;
+        for (int i = 0; *t != '#' && i < n && k < 0; i++)
+            k = strstr(line, marks[i]) ? i : -1;
+        if (k >= 0) {
+            fprintf(out, "%s\n", lines[k]);
+            found[k] = 1;
+        } else {
+            fputs(line, out);
+        }
+    }
+    for (int i = 0; ok && i < n; i++)
+        ok = found[i];
+    if (in)
+        fclose(in);
+    if (out && fclose(out) != 0)
+        ok = 0;
+    return ok;
+}
+
+/* An nginx running web/nginx.conf in folder dir (its prefix: pid file,
+ * temporary folders, the config as written), serving the page folder root
+ * (an absolute path) on a free loopback port (*port) and proxying /stream
+ * to ws_port; its stderr into log. One process (master_process off), so
+ * stopping it is one signal, and it dies with the test. The pid, or -1
+ * when it did not listen within `seconds` (log says why). */
+static inline pid_t mts_test_front_start(const char *nginx, const char *dir, const char *root,
+                                         int ws_port, int *port, const char *log, double seconds)
+{
+    char conf[1200], prefix[1200], listen[80], upstream[80], rootline[4200];
+    snprintf(conf, sizeof conf, "%.1000s/nginx.conf", dir);
+    snprintf(prefix, sizeof prefix, "%.1000s/", dir);
+    snprintf(upstream, sizeof upstream, "        server 127.0.0.1:%d;", ws_port);
+    snprintf(rootline, sizeof rootline, "        root %.4096s;", root);
+    const char *marks[] = {"@LISTEN@", "@UPSTREAM@", "@ROOT@"};
+    mkdir(dir, 0755);
+    /* a free port can be taken before nginx binds it: another one then */
+    for (int attempt = 0; attempt < 3; attempt++) {
+        *port = mts_test_free_port();
+        snprintf(listen, sizeof listen, "        listen 127.0.0.1:%d;", *port);
+        const char *lines[] = {listen, upstream, rootline};
+        if (!mts_test_conf_from("web/nginx.conf", conf, marks, lines, 3))
+            return -1;
+        pid_t parent = getpid();
+        pid_t pid = fork();
+        if (pid == 0) {
+            prctl(PR_SET_PDEATHSIG, SIGKILL);
+            if (getppid() != parent || !freopen(log, "w", stderr) ||
+                !freopen("/dev/null", "w", stdout))
+                _exit(126);
+            execl(nginx, nginx, "-e", "stderr", "-p", prefix, "-c", conf, "-g",
+                  "master_process off;", (char *)NULL);
+            _exit(127);
+        }
+        if (pid < 0)
+            return -1;
+        for (int i = 0; i < (int)(seconds * 20); i++) {
+            int st;
+            if (waitpid(pid, &st, WNOHANG) == pid) {
+                pid = -1; /* exited: the port, or a config error (see log) */
+                break;
+            }
+            int fd = mts_test_connect(*port);
+            if (fd >= 0) {
+                close(fd);
+                return pid;
+            }
+            struct timespec ts = {0, 50 * 1000 * 1000};
+            nanosleep(&ts, NULL);
+        }
+        if (pid > 0) {
+            kill(pid, SIGKILL);
+            waitpid(pid, NULL, 0);
+            return -1;
+        }
+    }
+    return -1;
+}
+
+/* The first size-1 bytes of a file, NUL-terminated ("" when unreadable). */
 static inline void mts_test_read_file(const char *path, char *out, size_t size)
 {
     out[0] = 0;

@@ -170,26 +170,6 @@ static int count_ok(const char *log)
     return n;
 }
 
-/* The nginx to run, or NULL: sbin is often not on a user's PATH. */
-static const char *find_nginx(char *buf, size_t size)
-{
-    const char *fixed[] = {"/usr/sbin/nginx", "/usr/local/sbin/nginx",
-                           "/usr/local/nginx/sbin/nginx"};
-    for (size_t i = 0; i < sizeof fixed / sizeof fixed[0]; i++) {
-        if (access(fixed[i], X_OK) == 0) {
-            snprintf(buf, size, "%s", fixed[i]);
-            return buf;
-        }
-    }
-    char out[1024];
-    if (mts_test_run("command -v nginx", out, sizeof out) == 0 && out[0] == '/') {
-        out[strcspn(out, "\n")] = 0;
-        snprintf(buf, size, "%.400s", out);
-        return buf;
-    }
-    return NULL;
-}
-
 /* How this nginx has the stream module: the load_module line to use ("" when
  * it is built in), or NULL with why filled in when it has none. */
 static const char *stream_module(const char *nginx, char *line, size_t size, char *why,
@@ -272,7 +252,7 @@ static int write_nginx_conf(const char *path, const char *load_line, int lb_port
 static void test_two_servers_behind_nginx(mts_test *t)
 {
     char nginx_buf[512], load_line[700], why[700];
-    const char *nginx = find_nginx(nginx_buf, sizeof nginx_buf);
+    const char *nginx = mts_test_find_nginx(nginx_buf, sizeof nginx_buf);
     /* CI installs nginx (deps.sh) and sets MTS_TEST_REQUIRE_NGINX: a skip
      * there would hide a broken setup, so it fails instead */
     int required = getenv("MTS_TEST_REQUIRE_NGINX") != NULL;

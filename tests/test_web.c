@@ -1,5 +1,6 @@
-/* The browser client (issue 20) against a loopback mts-server --ws-listen
- * --web-root build/web:
+/* The browser client against a loopback mts-server --ws-listen behind
+ * nginx running web/nginx.conf (the page's files from build/web, the
+ * stream proxied at /stream), as a user would run it (make demo-web):
  *   - the WebAssembly decoder, run by node (tests/web/decode.js), ends cow,
  *     bunny00 and fandisk_large at the same checksum as mts-client, at the
  *     full level and at partial stops (a level, a fraction);
@@ -13,9 +14,13 @@
  *     level's picture is mts-client's;
  *   - a server killed mid-stream shows an error on the page, not a frozen
  *     picture.
- * Skips, saying why, without build/web (make web: emscripten), node or
- * chromium (fails instead with MTS_TEST_REQUIRE_WEB=1, as in CI); the
- * shared models' parts skip without ../shared/models. */
+ * build/web holds the page's files and nothing else (a web server hands
+ * out all of it). Skips, saying why, without build/web (make web:
+ * emscripten), node, chromium or nginx (fails instead with
+ * MTS_TEST_REQUIRE_WEB=1, as in CI); the shared models' parts skip without
+ * ../shared/models. */
+#include <dirent.h>
+#include <limits.h>
 #include <signal.h>
 #include <stdint.h>
 
@@ -23,7 +28,7 @@
 #include "test.h"
 #include "test_proc.h"
 
-static char bin_dir[512], tmp_dir[512], models_dir[600], web_dir[512];
+static char bin_dir[512], tmp_dir[512], models_dir[600], web_dir[600], nginx[512];
 static int have_node, have_chromium, have_shared;
 
 /* A picture may differ from mts-client's where SwiftShader and llvmpipe
@@ -32,24 +37,77 @@ static int have_node, have_chromium, have_shared;
 #define PIXEL_TOLERANCE 48
 #define PIXEL_SHARE 0.02
 
+/* mts-server (pid; TCP on port, WebSocket on ws_port) and the nginx in
+ * front of it (front; the page and /stream on web_port). */
 typedef struct server {
-    pid_t pid;
-    int port, ws_port;
+    pid_t pid, front;
+    int port, ws_port, web_port;
     char log[700];
 } server;
 
 static int server_start(server *sv, const char *name, const char *rate)
 {
     snprintf(sv->log, sizeof sv->log, "%s/web_%s.log", tmp_dir, name);
-    const char *extra[] = {"--web-root", web_dir, rate ? "--rate-limit" : NULL, rate, NULL};
+    const char *extra[] = {rate ? "--rate-limit" : NULL, rate, NULL};
     mts_test_server ts;
     int up = mts_test_ws_server_start(&ts, bin_dir, models_dir, extra, sv->log, 60);
     sv->pid = ts.pid;
     sv->port = ts.port;
     sv->ws_port = ts.ws_port;
-    char listen[64], out[4096];
+    sv->front = -1;
+    char listen[64], out[4096], dir[700], log[800];
     snprintf(listen, sizeof listen, "127.0.0.1:%d", sv->port);
-    return up && mts_test_wait_models(bin_dir, listen, "cow", 600, out, sizeof out);
+    up = up && mts_test_wait_models(bin_dir, listen, "cow", 600, out, sizeof out);
+    snprintf(dir, sizeof dir, "%s/web_front_%s", tmp_dir, name);
+    snprintf(log, sizeof log, "%s/web_nginx_%s.log", tmp_dir, name);
+    if (up)
+        sv->front = mts_test_front_start(nginx, dir, web_dir, sv->ws_port, &sv->web_port, log, 30);
+    if (up && sv->front < 0) {
+        mts_test_read_file(log, out, sizeof out);
+        fprintf(stderr, "  nginx did not start: %s\n", out);
+    }
+    return up && sv->front > 0;
+}
+
+/* Stops nginx, then the server: the server's exit status (0 after a clean
+ * stop; a sanitizer's report makes it non-zero). */
+static int server_stop(server *sv)
+{
+    if (sv->front > 0)
+        mts_test_stop(sv->front);
+    sv->front = -1;
+    int st = sv->pid > 0 ? mts_test_stop(sv->pid) : 0;
+    sv->pid = 0;
+    return st;
+}
+
+/* build/web holds only what a page loads: a web server hands out all of it. */
+static void test_page_folder(mts_test *t)
+{
+    DIR *d = opendir(web_dir);
+    CHECK(t, d != NULL);
+    const char *page[] = {".html", ".js", ".css", ".wasm"};
+    int files = 0;
+    for (struct dirent *e; d && (e = readdir(d));) {
+        if (e->d_name[0] == '.')
+            continue;
+        size_t n = strlen(e->d_name);
+        int ok = 0;
+        for (size_t k = 0; k < sizeof page / sizeof page[0]; k++) {
+            size_t m = strlen(page[k]);
+            ok |= n > m && strcmp(e->d_name + n - m, page[k]) == 0;
+        }
+        char path[900];
+        struct stat st;
+        snprintf(path, sizeof path, "%s/%s", web_dir, e->d_name);
+        ok &= stat(path, &st) == 0 && S_ISREG(st.st_mode);
+        CHECKF(t, ok, "%s is in the page's folder %s, which a web server hands out whole",
+               e->d_name, web_dir);
+        files++;
+    }
+    if (d)
+        closedir(d);
+    CHECKF(t, files >= 6, "%d files in %s", files, web_dir);
 }
 
 /* mts-client's checksum for a model at a stop ("" when it failed). */
@@ -97,7 +155,7 @@ static void test_node_decoder(mts_test *t)
                    "%s %s: native %s, WebAssembly %s", models[m], stops[k].hello, native, out);
         }
     }
-    CHECK(t, mts_test_stop(sv.pid) == 0);
+    CHECK(t, server_stop(&sv) == 0);
 }
 
 /* Waits for the page's phase to be one of `phases` (space-separated);
@@ -173,7 +231,7 @@ static void test_page(mts_test *t)
             continue;
         }
         char url[600], native[64];
-        snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1%s", sv.ws_port,
+        snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=%s&bare=1%s", sv.web_port,
                  runs[i].model, runs[i].query);
         CHECK(t, mts_cdp_navigate(&c, url));
         mts_buf state = {0};
@@ -208,7 +266,7 @@ static void test_page(mts_test *t)
         mts_buf_free(&state);
     }
     mts_cdp_stop(&c);
-    CHECK(t, mts_test_stop(sv.pid) == 0);
+    CHECK(t, server_stop(&sv) == 0);
 }
 
 /* The page's state, polled until it contains every one of `want` (NULL
@@ -244,7 +302,7 @@ static void test_page_slider_morph(mts_test *t)
     int up = browser_start(&c, "slider", log, sizeof log);
     CHECKF(t, up, "chromium did not start (see %s)", log);
     char url[600];
-    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=cow&bare=1&morph=1500", sv.ws_port);
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=cow&bare=1&morph=1500", sv.web_port);
     mts_buf state = {0};
     const char *full[] = {"\"phase\":\"complete\"", "\"level\":2875,", "\"morphing\":false", NULL};
     CHECKF(t, up && mts_cdp_navigate(&c, url) && wait_state(&c, full, 60, &state), "%s",
@@ -275,7 +333,7 @@ static void test_page_slider_morph(mts_test *t)
     mts_buf_free(&ok);
     mts_buf_free(&state);
     mts_cdp_stop(&c);
-    CHECK(t, mts_test_stop(sv.pid) == 0);
+    CHECK(t, server_stop(&sv) == 0);
 }
 
 static void test_page_broken_connection(mts_test *t)
@@ -291,7 +349,7 @@ static void test_page_broken_connection(mts_test *t)
     int up = browser_start(&c, "broken", log, sizeof log);
     CHECKF(t, up, "chromium did not start (see %s)", log);
     char url[600];
-    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=bunny00&bare=1", sv.ws_port);
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=bunny00&bare=1", sv.web_port);
     mts_buf state = {0};
     if (up && mts_cdp_navigate(&c, url) && wait_phase(&c, "streaming", 30, &state)) {
         /* some levels in, then the server dies */
@@ -321,8 +379,7 @@ static void test_page_broken_connection(mts_test *t)
     }
     mts_buf_free(&state);
     mts_cdp_stop(&c);
-    if (sv.pid > 0)
-        mts_test_stop(sv.pid);
+    server_stop(&sv);
 }
 
 static int have(const char *cmd)
@@ -340,7 +397,10 @@ int main(int argc, char **argv)
     snprintf(tmp_dir, sizeof tmp_dir, "%s", mts_test_tmpdir());
     snprintf(models_dir, sizeof models_dir, "%s/web_models", tmp_dir);
     const char *wd = getenv("MTS_WEB_DIR");
-    snprintf(web_dir, sizeof web_dir, "%s", wd && *wd ? wd : "build/web");
+    /* nginx's root: an absolute path (a relative one is nginx's prefix's) */
+    char real[PATH_MAX];
+    snprintf(web_dir, sizeof web_dir, "%.590s",
+             realpath(wd && *wd ? wd : "build/web", real) ? real : wd && *wd ? wd : "build/web");
     mts_test t = {0};
     char path[700];
     snprintf(path, sizeof path, "%s/mts_web.js", web_dir);
@@ -355,15 +415,21 @@ int main(int argc, char **argv)
         if (required)
             t.failed = 1;
         else
-            t.skipped = 4;
+            t.skipped = 5;
         return mts_test_end(&t);
     }
     have_node = have("node --version");
     have_chromium = have("chromium --version");
-    if (required && (!have_node || !have_chromium)) {
+    int have_nginx = mts_test_find_nginx(nginx, sizeof nginx) != NULL;
+    if (required && (!have_node || !have_chromium || !have_nginx)) {
         printf("  FAIL: MTS_TEST_REQUIRE_WEB is set, and there is no %s\n",
-               have_node ? "chromium" : "node");
+               !have_node ? "node" : !have_chromium ? "chromium" : "nginx");
         t.failed = 1;
+        return mts_test_end(&t);
+    }
+    if (!have_nginx) {
+        printf("  SKIP: no nginx (scripts/deps.sh installs it): it serves the page\n");
+        t.skipped = 5;
         return mts_test_end(&t);
     }
     char m[600];
@@ -391,6 +457,7 @@ int main(int argc, char **argv)
             return 1;
         }
     }
+    RUN(&t, test_page_folder);
     RUN(&t, test_node_decoder);
     RUN(&t, test_page);
     RUN(&t, test_page_slider_morph);

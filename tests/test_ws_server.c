@@ -12,7 +12,9 @@
 #include <errno.h>
 #include <poll.h>
 #include <stdint.h>
+#include <strings.h>
 
+#include "clock.h"
 #include "test.h"
 #include "test_proc.h"
 #include "wire.h"
@@ -90,17 +92,36 @@ static int contains(const uint8_t *data, size_t n, const char *s)
 static const uint8_t MASK[4] = {0x11, 0x5a, 0xc3, 0x7e};
 static const char KEY[] = "bXRzdHJlYW0gdGVzdCBrZQ=="; /* 16 bytes */
 
-/* A WebSocket connection to the server after its 101 (-1 on failure; the
- * answer, whatever it was, in *answer). */
-static int ws_connect(const server *sv, mts_buf *answer)
+/* A connected loopback socket to port with a receive buffer of rcvbuf
+ * bytes (0: the kernel's), set before connecting so the window is small
+ * from the start; -1 on failure. */
+static int connect_rcvbuf(int port, int rcvbuf)
 {
-    int fd = mts_test_connect(sv->ws_port);
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    if (fd >= 0 && rcvbuf > 0)
+        setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+    struct sockaddr_in a = {0};
+    a.sin_family = AF_INET;
+    a.sin_port = htons((uint16_t)port);
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (fd >= 0 && connect(fd, (struct sockaddr *)&a, sizeof a) == 0)
+        return fd;
+    if (fd >= 0)
+        close(fd);
+    return -1;
+}
+
+/* A WebSocket connection to port's path after its 101 (-1 on failure; the
+ * answer, whatever it was, in *answer). */
+static int ws_connect_to(int port, const char *path, int rcvbuf, mts_buf *answer)
+{
+    int fd = connect_rcvbuf(port, rcvbuf);
     if (fd < 0)
         return -1;
     mts_buf req = {0};
     char host[64];
-    snprintf(host, sizeof host, "127.0.0.1:%d", sv->ws_port);
-    mts_ws_put_request(&req, host, "/", KEY);
+    snprintf(host, sizeof host, "127.0.0.1:%d", port);
+    mts_ws_put_request(&req, host, path, KEY);
     int ok = send(fd, req.data, req.size, MSG_NOSIGNAL) == (ssize_t)req.size;
     mts_buf_free(&req);
     /* byte by byte up to the blank line: the frames after it are the caller's */
@@ -116,6 +137,11 @@ static int ws_connect(const server *sv, mts_buf *answer)
         return -1;
     }
     return fd;
+}
+
+static int ws_connect(const server *sv, mts_buf *answer)
+{
+    return ws_connect_to(sv->ws_port, "/", 0, answer);
 }
 
 static int ws_send(int fd, mts_ws_opcode op, const void *data, size_t len)
@@ -263,9 +289,9 @@ static void test_stream_matches_tcp(mts_test *t)
 
 /* What the server answers a raw connection to its WebSocket port that
  * sends `bytes` (n of them) and then waits: everything until it closes. */
-static void raw_exchange(const server *sv, const void *bytes, size_t n, mts_buf *out)
+static void port_exchange(int port, const void *bytes, size_t n, mts_buf *out)
 {
-    int fd = mts_test_connect(sv->ws_port);
+    int fd = mts_test_connect(port);
     if (fd < 0)
         return;
     if (n > 0 && send(fd, bytes, n, MSG_NOSIGNAL) != (ssize_t)n) {
@@ -274,6 +300,11 @@ static void raw_exchange(const server *sv, const void *bytes, size_t n, mts_buf 
     }
     read_all(fd, out, 5);
     close(fd);
+}
+
+static void raw_exchange(const server *sv, const void *bytes, size_t n, mts_buf *out)
+{
+    port_exchange(sv->ws_port, bytes, n, out);
 }
 
 /* An upgraded connection that sends frame[0..n), and the Close it gets. */
@@ -312,6 +343,8 @@ static void test_hostile_clients(mts_test *t)
         {"a TCP client's HELLO", NULL, "HTTP/1.1 400 Bad Request"},
         {"a plain GET", "GET / HTTP/1.1\r\nHost: x\r\n\r\n", "HTTP/1.1 426 Upgrade Required"},
         {"silence", "", "HTTP/1.1 408 Request Timeout"},
+        {"silence, said so", "", "no WebSocket opening request in time"},
+        {"two spaces", "GET  /x HTTP/1.1\r\nHost: x\r\n\r\n", "malformed request line"},
         {"half a request, then silence", "GET / HTTP/1.1\r\nHost", "HTTP/1.1 408"},
         {"version 8", "GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
                       "Sec-WebSocket-Key: bXRzdHJlYW0gdGVzdCBrZQ==\r\nSec-WebSocket-Version: 8\r\n\r\n",
@@ -344,11 +377,18 @@ static void test_hostile_clients(mts_test *t)
     mts_ws_put_frame(&text, MTS_WS_TEXT, "hello", 5, MASK);
     CHECK(t, frame_close_code(&sv, text.data, text.size, &inner) == MTS_WS_CLOSE_UNSUPPORTED);
     mts_buf_free(&text);
+    /* a Close whose reason is not UTF-8 (RFC 6455: 1007) */
+    mts_buf bad_close = {0};
+    const uint8_t bad_reason[] = {0x03, 0xe8, 'o', 'k', 0xc3, 0x28};
+    mts_ws_put_frame(&bad_close, MTS_WS_CLOSE, bad_reason, sizeof bad_reason, MASK);
+    CHECK(t, frame_close_code(&sv, bad_close.data, bad_close.size, &inner) ==
+                 MTS_WS_CLOSE_INVALID_DATA);
+    mts_buf_free(&bad_close);
     CHECK(t, inner.size == 0); /* no data for either */
     /* upgraded, then silent: the handshake timeout's ERROR, inside a frame */
     CHECK(t, frame_close_code(&sv, NULL, 0, &inner) == MTS_WS_CLOSE_NORMAL);
     CHECKF(t, inner.size > 5 && inner.data[4] == MTS_MSG_ERROR &&
-                  contains(inner.data, inner.size, "no HELLO in time"),
+                  contains(inner.data, inner.size, "no HELLO or LIST in time"),
            "%zu bytes", inner.size);
     mts_buf_free(&inner);
     /* a Close in the middle of a stream: answered, and the stream stops */
@@ -379,10 +419,10 @@ static void test_hostile_clients(mts_test *t)
     CHECK(t, mts_test_stop(sv.pid) == 0);
     char logtext[1 << 16];
     mts_test_read_file(sv.log, logtext, sizeof logtext);
-    CHECKF(t, count_lines(logtext, "outcome=error: bad websocket request") == 3, "%s", logtext);
+    CHECKF(t, count_lines(logtext, "outcome=error: bad websocket request") == 4, "%s", logtext);
     CHECKF(t, count_lines(logtext, "outcome=error: not a websocket request") == 1, "%s", logtext);
-    CHECKF(t, count_lines(logtext, "outcome=error: handshake timeout") == 3, "%s", logtext);
-    CHECKF(t, count_lines(logtext, "outcome=error: bad websocket frame") == 2, "%s", logtext);
+    CHECKF(t, count_lines(logtext, "outcome=error: handshake timeout") == 4, "%s", logtext);
+    CHECKF(t, count_lines(logtext, "outcome=error: bad websocket frame") == 3, "%s", logtext);
     CHECKF(t, count_lines(logtext, "outcome=error: closed by client") == 1, "%s", logtext);
     CHECKF(t, !strstr(logtext, "Sanitizer"), "%s", logtext);
 }
@@ -415,6 +455,265 @@ static void test_busy(mts_test *t)
     CHECK(t, mts_test_stop(sv.pid) == 0);
 }
 
+/* A plain GET is answered once, 426 and no file whatever it names (the
+ * page is a web server's to hand out): what the client sends after it is
+ * read and dropped, never parsed as another request. And --web-root says
+ * where files went instead of serving them. */
+static void test_answered_once(mts_test *t)
+{
+    server sv;
+    CHECK(t, server_start(&sv, "once", NULL));
+    int fd = mts_test_connect(sv.ws_port);
+    CHECK(t, fd >= 0);
+    const char *req = "GET /index.html HTTP/1.1\r\nHost: x\r\n\r\n";
+    CHECK(t, send(fd, req, strlen(req), MSG_NOSIGNAL) == (ssize_t)strlen(req));
+    mts_buf out = {0};
+    /* more requests and a trickle after the answer */
+    for (int i = 0; i < 5; i++) {
+        struct timespec ts = {0, 50 * 1000 * 1000};
+        nanosleep(&ts, NULL);
+        const char *again = i % 2 ? "x" : "GET /mts_web.wasm HTTP/1.1\r\nHost: x\r\n\r\n";
+        send(fd, again, strlen(again), MSG_NOSIGNAL);
+    }
+    read_all(fd, &out, 5);
+    close(fd);
+    mts_buf_put(&out, "", 1);
+    const char *text = (const char *)out.data;
+    CHECKF(t, count_lines(text, "HTTP/1.1 ") == 1 && strstr(text, "HTTP/1.1 426 "), "%s", text);
+    mts_buf_free(&out);
+    CHECK(t, mts_test_stop(sv.pid) == 0);
+    char logtext[1 << 16];
+    mts_test_read_file(sv.log, logtext, sizeof logtext);
+    CHECKF(t, count_lines(logtext, "outcome=error: not a websocket request") == 1, "%s", logtext);
+
+    char cmd[1200], msg[4096];
+    snprintf(cmd, sizeof cmd, "%s/mts-server --models %s --ws-listen 127.0.0.1:0 --web-root /tmp",
+             bin_dir, models_dir);
+    int rc = mts_test_run(cmd, msg, sizeof msg);
+    CHECKF(t, rc == 2 && strstr(msg, "web server") && strstr(msg, "web/nginx.conf"),
+           "exit %d: %s", rc, msg);
+}
+
+/* Idle means not reading: WebSocket clients that ask for a stream, never
+ * read it and keep sending (empty frames) are dropped at --idle-timeout as
+ * TCP ones are, and the places they held go to a TCP client. */
+static void test_idle_sender(mts_test *t)
+{
+    enum { HOLDERS = 3 };
+    /* a small fixed send buffer and the records form (230 KB): the stream
+     * cannot fit in the socket buffers, so a client that does not read
+     * stalls it */
+    const char *extra[] = {"--idle-timeout", "1", "--sndbuf", "16384", "--max-clients", "3", NULL};
+    server sv;
+    CHECK(t, server_start(&sv, "idle", extra));
+    mts_buf h = {0}, empty = {0};
+    put_hello(&h, "cow", MTS_STOP_FULL, 0, MTS_HELLO_RECORDS);
+    mts_ws_put_frame(&empty, MTS_WS_BINARY, NULL, 0, MASK);
+    int fds[HOLDERS];
+    for (int i = 0; i < HOLDERS; i++) {
+        mts_buf answer = {0};
+        fds[i] = -1;
+        /* the start probe's connection may still hold a place: again */
+        for (int k = 0; k < 40 && fds[i] < 0; k++) {
+            fds[i] = ws_connect_to(sv.ws_port, "/", 4096, &answer);
+            if (fds[i] < 0) {
+                struct timespec ts = {0, 50 * 1000 * 1000};
+                nanosleep(&ts, NULL);
+            }
+        }
+        CHECK(t, fds[i] >= 0 && ws_send(fds[i], MTS_WS_BINARY, h.data, h.size));
+        mts_buf_free(&answer);
+    }
+    /* an empty frame from each every 100 ms for 3 s: bytes in, none out */
+    int closed = 0;
+    for (int round = 0; round < 30; round++) {
+        struct timespec ts = {0, 100 * 1000 * 1000};
+        nanosleep(&ts, NULL);
+        closed = 0;
+        for (int i = 0; i < HOLDERS; i++) {
+            if (fds[i] >= 0 && send(fds[i], empty.data, empty.size, MSG_NOSIGNAL | MSG_DONTWAIT) < 0 &&
+                (errno == EPIPE || errno == ECONNRESET))
+                closed++;
+        }
+    }
+    CHECKF(t, closed == HOLDERS, "%d of %d non-reading senders were dropped", closed, HOLDERS);
+    /* their places are free: a TCP client gets its whole stream */
+    mts_buf tcp = {0};
+    CHECK(t, tcp_stream(&sv, MTS_STOP_FULL, 0, 0, &tcp));
+    uint64_t ours = 0, theirs = 0;
+    CHECKF(t, stream_checksums(&tcp, &ours, &theirs) && ours == theirs, "%zu bytes", tcp.size);
+    mts_buf_free(&tcp);
+    for (int i = 0; i < HOLDERS; i++) {
+        if (fds[i] >= 0)
+            close(fds[i]);
+    }
+    mts_buf_free(&h);
+    mts_buf_free(&empty);
+    CHECK(t, mts_test_stop(sv.pid) == 0);
+    char logtext[1 << 16];
+    mts_test_read_file(sv.log, logtext, sizeof logtext);
+    CHECKF(t, count_lines(logtext, "outcome=error: idle timeout") == HOLDERS, "%s", logtext);
+}
+
+/* An HTTP answer's status line, a header's value ("" when absent) and the
+ * body's size, from out. */
+static int http_status(const mts_buf *out)
+{
+    int code = 0;
+    if (out->size > 12 && memcmp(out->data, "HTTP/1.", 7) == 0)
+        code = atoi((const char *)out->data + 9);
+    return code;
+}
+
+static void http_header(const mts_buf *out, const char *name, char *value, size_t size)
+{
+    value[0] = 0;
+    char key[80];
+    snprintf(key, sizeof key, "\r\n%s: ", name);
+    const char *p = (const char *)out->data;
+    const char *end = p + out->size;
+    size_t k = strlen(key);
+    for (; p + k <= end; p++) {
+        if (strncasecmp(p, key, k) == 0) {
+            p += k;
+            size_t n = 0;
+            while (p + n < end && p[n] != '\r' && n + 1 < size)
+                n++;
+            memcpy(value, p, n);
+            value[n] = 0;
+            return;
+        }
+    }
+}
+
+static size_t http_body(const mts_buf *out)
+{
+    for (size_t i = 0; i + 4 <= out->size; i++) {
+        if (memcmp(out->data + i, "\r\n\r\n", 4) == 0)
+            return out->size - i - 4;
+    }
+    return 0;
+}
+
+/* The page's web server as users run it: nginx with web/nginx.conf in
+ * front of mts-server. Its files come out with the types, validators and
+ * methods a browser expects, nothing outside its folder (no symbolic link
+ * out, no "..") and no special file is handed out or holds it up, and the
+ * stream at /stream is mts-server's, byte for byte. */
+static void test_behind_nginx(mts_test *t)
+{
+    char nginx[512];
+    if (!mts_test_find_nginx(nginx, sizeof nginx)) {
+        int required = getenv("MTS_TEST_REQUIRE_NGINX") != NULL;
+        CHECKF(t, !required, "MTS_TEST_REQUIRE_NGINX is set and there is no nginx");
+        if (!required)
+            SKIP(t, "no nginx (scripts/deps.sh installs it): the page's web server is not run");
+        return;
+    }
+    char root[800], front[800], cmd[4096], out[4096], nlog[800];
+    snprintf(root, sizeof root, "%s/ws_front_root", tmp_dir);
+    snprintf(front, sizeof front, "%s/ws_front", tmp_dir);
+    snprintf(nlog, sizeof nlog, "%s/ws_front_nginx.log", tmp_dir);
+    /* a page folder with what a careless operator leaves in it */
+    snprintf(cmd, sizeof cmd,
+             "rm -rf '%s' '%s' && mkdir -p '%s/sub' && cd '%s' && "
+             "printf '<!doctype html><title>page</title>' > index.html && "
+             "printf '\\0asm\\1\\0\\0\\0' > mts_web.wasm && printf 'x' > sub/a.js && "
+             "printf 'secret-outside' > ../ws_front_secret.txt && "
+             "ln -s /etc etcdir && ln -s ../ws_front_secret.txt leak.txt && "
+             "ln -s nowhere dangling.js && mkfifo fifo.js",
+             root, front, root, root);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    server sv;
+    CHECK(t, server_start(&sv, "front", NULL));
+    int port = 0;
+    pid_t ng = mts_test_front_start(nginx, front, root, sv.ws_port, &port, nlog, 30);
+    if (ng < 0) {
+        mts_test_read_file(nlog, out, sizeof out);
+        CHECKF(t, 0, "nginx with web/nginx.conf did not start: %s", out);
+        mts_test_stop(sv.pid);
+        return;
+    }
+    struct {
+        const char *req;
+        int status;          /* 0: anything but 200 */
+        const char *type;    /* Content-Type, or NULL */
+        long body;           /* body bytes, -1: any */
+    } cases[] = {
+        {"GET / HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 200, "text/html", 34},
+        {"HEAD /mts_web.wasm HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 200,
+         "application/wasm", 0},
+        {"GET /mts_web.wasm HTTP/1.0\r\n\r\n", 200, "application/wasm", 8},
+        {"GET /sub/a.js HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 200, NULL, 1},
+        {"GET /etcdir/passwd HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 0, NULL, -1},
+        {"GET /leak.txt HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 0, NULL, -1},
+        {"GET /dangling.js HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 0, NULL, -1},
+        {"GET /fifo.js HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 0, NULL, -1},
+        {"GET /../ws_front_secret.txt HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 0, NULL,
+         -1},
+        {"GET /%2e%2e/ws_front_secret.txt HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 0,
+         NULL, -1},
+        /* and after all of it, still serving */
+        {"GET /index.html HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 200, "text/html", 34},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        mts_buf ans = {0};
+        double t0 = mts_clock_seconds();
+        port_exchange(port, cases[i].req, strlen(cases[i].req), &ans);
+        double secs = mts_clock_seconds() - t0;
+        int st = http_status(&ans);
+        char type[200], etag[200], modified[200];
+        http_header(&ans, "Content-Type", type, sizeof type);
+        http_header(&ans, "ETag", etag, sizeof etag);
+        http_header(&ans, "Last-Modified", modified, sizeof modified);
+        const char *what = cases[i].req;
+        CHECKF(t, cases[i].status ? st == cases[i].status : st >= 400,
+               "%.40s: status %d", what, st);
+        CHECKF(t, secs < 4, "%.40s: %.1f s", what, secs);
+        CHECKF(t, !contains(ans.data, ans.size, "secret-outside") &&
+                      !contains(ans.data, ans.size, "root:"),
+               "%.40s: a file from outside the page's folder", what);
+        if (cases[i].type)
+            CHECKF(t, strstr(type, cases[i].type) != NULL, "%.40s: type %s", what, type);
+        if (cases[i].body >= 0)
+            CHECKF(t, (long)http_body(&ans) == cases[i].body, "%.40s: %zu body bytes", what,
+                   http_body(&ans));
+        if (cases[i].status == 200)
+            CHECKF(t, etag[0] && modified[0], "%.40s: ETag '%s', Last-Modified '%s'", what, etag,
+                   modified);
+        mts_buf_free(&ans);
+    }
+    /* the stream through /stream is mts-server's, byte for byte */
+    mts_buf tcp = {0}, answer = {0}, raw = {0}, inner = {0};
+    CHECK(t, tcp_stream(&sv, MTS_STOP_FULL, 0, 0, &tcp));
+    int fd = ws_connect_to(port, "/stream", 0, &answer);
+    CHECKF(t, fd >= 0, "no 101 through nginx: %.*s", (int)answer.size, (const char *)answer.data);
+    mts_buf h = {0};
+    put_hello(&h, "cow", MTS_STOP_FULL, 0, 0);
+    if (fd >= 0) {
+        CHECK(t, ws_send(fd, MTS_WS_BINARY, h.data, h.size));
+        read_all(fd, &raw, 10);
+        close(fd);
+    }
+    mts_ws_control ctl = {0};
+    mts_error err = {0};
+    CHECKF(t, ws_unwrap(&raw, 32u << 10, &inner, &ctl, &err) == MTS_OK, "%s", err.msg);
+    CHECKF(t, inner.size == tcp.size && tcp.size > 0 && memcmp(inner.data, tcp.data, tcp.size) == 0,
+           "%zu bytes through nginx, %zu over TCP", inner.size, tcp.size);
+    mts_buf_free(&h);
+    mts_buf_free(&tcp);
+    mts_buf_free(&answer);
+    mts_buf_free(&raw);
+    mts_buf_free(&inner);
+    mts_test_stop(ng);
+    CHECK(t, mts_test_stop(sv.pid) == 0);
+    if (!t->case_failed) {
+        snprintf(cmd, sizeof cmd, "rm -rf '%s' '%s' '%s/ws_front_secret.txt'", root, front,
+                 tmp_dir);
+        mts_test_run(cmd, out, sizeof out);
+    }
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -434,5 +733,8 @@ int main(int argc, char **argv)
     RUN(&t, test_stream_matches_tcp);
     RUN(&t, test_hostile_clients);
     RUN(&t, test_busy);
+    RUN(&t, test_answered_once);
+    RUN(&t, test_idle_sender);
+    RUN(&t, test_behind_nginx);
     return mts_test_end(&t);
 }

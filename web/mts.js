@@ -26,8 +26,11 @@
   window.mtsState = state;
   const publish = () => { $('state').textContent = JSON.stringify(state); };
 
+  // The web server that hands out the page proxies the stream at /stream
+  // (web/nginx.conf); over https that is wss://, as a secure page requires.
   const serverUrl = params.get('server') ||
-      ((location.protocol === 'https:' ? 'wss://' : 'ws://') + (location.host || '127.0.0.1:7448') + '/');
+      ((location.protocol === 'https:' ? 'wss://' : 'ws://') + (location.host || '127.0.0.1:7448') +
+       '/stream');
 
   let M = null;        // the WebAssembly module
   let w = 0;           // its mts_web*
