@@ -124,6 +124,9 @@ static void test_request_refusals(mts_test *t)
         {"GET / HTTP/1.0\r\nHost: a\r\n\r\n", 505, "HTTP/1.1"},
         {"GET / FTP/1.1\r\nHost: a\r\n\r\n", 400, "HTTP/1.1"},
         {"GET nopath HTTP/1.1\r\nHost: a\r\n\r\n", 400, "target"},
+        {"GET  /x HTTP/1.1\r\nHost: a\r\n\r\n", 400, "malformed request line"},
+        {"GET /x  HTTP/1.1\r\nHost: a\r\n\r\n", 400, "malformed request line"},
+        {"GET /x HTTP/1.1 \r\nHost: a\r\n\r\n", 400, "malformed request line"},
         {"GET / HTTP/1.1\r\n\r\n", 400, "no Host"},
         {"GET / HTTP/1.1\r\nHost: a\r\nHost: b\r\n\r\n", 400, "more than one Host"},
         {"GET / HTTP/1.1\r\nHost: a\r\n folded\r\n\r\n", 400, "folded"},
@@ -325,6 +328,42 @@ static void test_reader_refusals(mts_test *t)
         CHECK(t, mts_ws_reader_feed(&r, ok, 7, &p, &ctl, &err) != MTS_OK && p == 0);
     }
     (void)m;
+    /* a Close's reason must be UTF-8 (1007 otherwise): overlong forms,
+     * surrogates, code points past U+10FFFF and cut sequences are not */
+    struct {
+        const char *what;
+        const char *reason;
+        int valid;
+    } reasons[] = {
+        {"ascii", "tab closed", 1},
+        {"two-byte", "caf\xc3\xa9", 1},
+        {"three-byte", "\xe2\x82\xac", 1},
+        {"four-byte", "\xf0\x9f\x98\x80", 1},
+        {"lone continuation", "\x80", 0},
+        {"overlong slash", "\xc0\xaf", 0},
+        {"overlong three", "\xe0\x80\xaf", 0},
+        {"surrogate", "\xed\xa0\x80", 0},
+        {"past U+10FFFF", "\xf4\x90\x80\x80", 0},
+        {"cut", "ok\xe2\x82", 0},
+        {"bad follower", "\xc3\x28", 0},
+    };
+    for (size_t i = 0; i < sizeof reasons / sizeof reasons[0]; i++) {
+        mts_buf b = {0};
+        mts_ws_put_close(&b, MTS_WS_CLOSE_GOING_AWAY, reasons[i].reason, m);
+        mts_ws_reader r = {0};
+        mts_ws_control ctl = {0};
+        mts_error err = {0};
+        size_t p = 0;
+        mts_result rc = mts_ws_reader_feed(&r, b.data, b.size, &p, &ctl, &err);
+        if (reasons[i].valid)
+            CHECKF(t, rc == MTS_OK && ctl.close && ctl.close_code == MTS_WS_CLOSE_GOING_AWAY,
+                   "%s: %s", reasons[i].what, err.msg);
+        else
+            CHECKF(t, rc != MTS_OK && ctl.fail_code == MTS_WS_CLOSE_INVALID_DATA &&
+                          strstr(err.msg, "UTF-8"),
+                   "%s: rc %d code %u", reasons[i].what, rc, ctl.fail_code);
+        mts_buf_free(&b);
+    }
     /* the limit holds across fragments */
     mts_ws_reader r = {0};
     r.max_message = 10;
