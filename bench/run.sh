@@ -198,6 +198,14 @@ else
   echo "bench: the browser client ..." >&2
   bench/web.sh "$out" "$out/web_mtsm" || status=1
 fi
+# the page's web server (nginx with web/nginx.conf) under hostile load
+rm -f "$out/web_front.json"
+if [ "${MTS_BENCH_WEB:-1}" = 0 ]; then
+  printf '{"skipped": "MTS_BENCH_WEB=0"}\n' >"$out/web_front.json"
+else
+  echo "bench: the page's web server ..." >&2
+  bench/web_front.py --json "$out/web_front.json" || status=1
+fi
 
 # --- walkthrough, rate-distortion and plots (issue 5) ---------------------------
 # mts-bench-walk: the walkthrough of papers 000/002 (model moving away, linear
@@ -562,6 +570,19 @@ else:
               f"script {s['script_ms_mean']:.2f} ms a frame (max {s['script_ms_max']:.2f})")
         print("  pictures: " + ", ".join(p["path"] for p in pg.get("pictures", [])))
 res["web"] = web
+
+front = load_out("web_front.json") or {"skipped": "bench/web_front.py wrote no figures"}
+if "skipped" in front:
+    print(f"\nThe page's web server: skipped: {front['skipped']}")
+else:
+    print(f"\nThe page's web server ({front['nginx']}, {front['config']}): RSS idle "
+          f"{front['idle_rss_mb']:.1f} MB; {front['non_readers']} clients not reading "
+          f"{front['largest_page_file']} {front['non_readers_rss_mb']:.1f} MB; "
+          f"{front['slow_readers']} slow readers of {front['big_file_mb']} MB "
+          f"{front['slow_readers_rss_mb']:.1f} MB; the page for a good client meanwhile "
+          f"{front['idle_page_ms']:.1f} / {front['non_readers_page_ms']:.1f} / "
+          f"{front['slow_readers_page_ms']:.1f} ms")
+res["web_front"] = front
 
 walk = load_out("walk.json")
 if walk and walk.get("models"):
