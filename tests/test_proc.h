@@ -114,10 +114,15 @@ static inline int mts_test_listen_any(int *port)
     return fd;
 }
 
-/* A connected loopback socket to port, or -1. */
-static inline int mts_test_connect(int port)
+/* A connected loopback socket to port, or -1; with rcvbuf > 0 its receive
+ * buffer is that small from the start (set before connecting, so the
+ * window it offers is small too): a client that reads slowly or not at
+ * all stalls its stream sooner. */
+static inline int mts_test_connect_rcvbuf(int port, int rcvbuf)
 {
     int fd = socket(AF_INET, SOCK_STREAM, 0);
+    if (fd >= 0 && rcvbuf > 0)
+        setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
     struct sockaddr_in a = {0};
     a.sin_family = AF_INET;
     a.sin_port = htons((uint16_t)port);
@@ -127,6 +132,11 @@ static inline int mts_test_connect(int port)
     if (fd >= 0)
         close(fd);
     return -1;
+}
+
+static inline int mts_test_connect(int port)
+{
+    return mts_test_connect_rcvbuf(port, 0);
 }
 
 /* Waits up to `seconds` until something accepts connections on port. */

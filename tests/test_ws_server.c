@@ -92,30 +92,11 @@ static int contains(const uint8_t *data, size_t n, const char *s)
 static const uint8_t MASK[4] = {0x11, 0x5a, 0xc3, 0x7e};
 static const char KEY[] = "bXRzdHJlYW0gdGVzdCBrZQ=="; /* 16 bytes */
 
-/* A connected loopback socket to port with a receive buffer of rcvbuf
- * bytes (0: the kernel's), set before connecting so the window is small
- * from the start; -1 on failure. */
-static int connect_rcvbuf(int port, int rcvbuf)
-{
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    if (fd >= 0 && rcvbuf > 0)
-        setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
-    struct sockaddr_in a = {0};
-    a.sin_family = AF_INET;
-    a.sin_port = htons((uint16_t)port);
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (fd >= 0 && connect(fd, (struct sockaddr *)&a, sizeof a) == 0)
-        return fd;
-    if (fd >= 0)
-        close(fd);
-    return -1;
-}
-
 /* A WebSocket connection to port's path after its 101 (-1 on failure; the
  * answer, whatever it was, in *answer). */
 static int ws_connect_to(int port, const char *path, int rcvbuf, mts_buf *answer)
 {
-    int fd = connect_rcvbuf(port, rcvbuf);
+    int fd = mts_test_connect_rcvbuf(port, rcvbuf);
     if (fd < 0)
         return -1;
     mts_buf req = {0};
