@@ -1,4 +1,5 @@
-/* Mesh loading: reads the file whole, picks the parser (mesh_read.c), then
+/* Mesh loading: reads the file (its head first, checked against the format,
+ * then the rest), picks the parser (mesh_read.c), then
  * runs the one cleaning pipeline every format shares, in the order the
  * builder relies on: triangulate (done while parsing) -> drop degenerate ->
  * drop duplicates -> drop what OpenMesh refuses -> drop unreferenced vertices
@@ -13,8 +14,13 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "fileio.h"
 #include "manifold.h"
 #include "mesh_read.h"
+
+/* What is read of a mesh file before the rest: the format's signature is
+ * there, and the sniffer looks no further. */
+#define MESH_HEAD_BYTES ((size_t)65536)
 
 const char *mts_mesh_format_name(mts_mesh_format format)
 {
@@ -325,6 +331,13 @@ static mts_mesh_format format_from_name(const char *name)
     return MTS_MESH_AUTO;
 }
 
+static mts_result unknown_format(const char *name, mts_error *err)
+{
+    return mts_error_set(err, MTS_ERR_FORMAT,
+                         "%s: unknown mesh format (not OFF, OBJ, PLY or STL by name or content)",
+                         name);
+}
+
 mts_result mts_mesh_load_memory(const char *name, const void *data, size_t size,
                                 const mts_mesh_options *opts, mts_mesh *mesh,
                                 mts_mesh_stats *stats, mts_error *err)
@@ -345,14 +358,17 @@ mts_result mts_mesh_load_memory(const char *name, const void *data, size_t size,
                              (int)format);
     if (size == 0)
         return mts_error_set(err, MTS_ERR_FORMAT, "%s: empty file", name);
+    uint64_t cap = opts && opts->max_bytes ? opts->max_bytes : MTS_MESH_DEFAULT_MAX_BYTES;
+    if (size > cap)
+        return mts_error_set(err, MTS_ERR_LIMIT,
+                             "%s: %zu bytes, over the size cap of %llu bytes (--max-mesh-bytes)",
+                             name, size, (unsigned long long)cap);
     if (format == MTS_MESH_AUTO)
         format = format_from_name(name);
     if (format == MTS_MESH_AUTO)
         format = mts__mesh_sniff(data, size);
     if (format == MTS_MESH_AUTO)
-        return mts_error_set(err, MTS_ERR_FORMAT,
-                             "%s: unknown mesh format (not OFF, OBJ, PLY or STL by name or content)",
-                             name);
+        return unknown_format(name, err);
 
     mts__mesh_raw raw = {0};
     raw.name = name;
@@ -373,70 +389,6 @@ mts_result mts_mesh_load_memory(const char *name, const void *data, size_t size,
     return r;
 }
 
-/* Reads the whole file: one read of the size fstat reports, growing only
- * for files that are not regular (pipes report no size). */
-static mts_result read_all(const char *path, char **out, size_t *out_size, mts_error *err)
-{
-    mts_result r = MTS_OK;
-    char *buf = NULL;
-    int fd = open(path, O_RDONLY);
-    if (fd < 0)
-        return mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
-    struct stat sb;
-    if (fstat(fd, &sb) != 0) {
-        r = mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
-        goto done;
-    }
-    if (S_ISDIR(sb.st_mode)) {
-        r = mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(EISDIR));
-        goto done;
-    }
-    size_t cap = S_ISREG(sb.st_mode) && sb.st_size > 0 ? (size_t)sb.st_size + 1 : 65536;
-    if (S_ISREG(sb.st_mode) && (uint64_t)sb.st_size >= SIZE_MAX / 2) {
-        r = mts_error_set(err, MTS_ERR_LIMIT, "%s: too large to read", path);
-        goto done;
-    }
-    size_t size = 0;
-    buf = malloc(cap);
-    if (!buf) {
-        r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for %zu bytes", path, cap);
-        goto done;
-    }
-    for (;;) {
-        if (size == cap) {
-            if (cap >= SIZE_MAX / 2) {
-                r = mts_error_set(err, MTS_ERR_LIMIT, "%s: too large to read", path);
-                goto done;
-            }
-            char *grown = realloc(buf, cap * 2);
-            if (!grown) {
-                r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for %zu bytes", path,
-                                  cap * 2);
-                goto done;
-            }
-            buf = grown;
-            cap *= 2;
-        }
-        ssize_t got = read(fd, buf + size, cap - size);
-        if (got < 0 && errno == EINTR)
-            continue;
-        if (got < 0) {
-            r = mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
-            goto done;
-        }
-        if (got == 0)
-            break;
-        size += (size_t)got;
-    }
-    *out = buf;
-    *out_size = size;
-    buf = NULL;
-done:
-    free(buf);
-    close(fd);
-    return r;
-}
-
 mts_result mts_mesh_load(const char *path, const mts_mesh_options *opts, mts_mesh *mesh,
                          mts_mesh_stats *stats, mts_error *err)
 {
@@ -446,11 +398,61 @@ mts_result mts_mesh_load(const char *path, const mts_mesh_options *opts, mts_mes
         *mesh = (mts_mesh){0};
     if (!path || !mesh)
         return mts_error_set(err, MTS_ERR_ARG, "mts_mesh_load: no %s", path ? "mesh" : "path");
+    mts_mesh_options o = opts ? *opts : (mts_mesh_options){0};
+    if ((unsigned)o.format > MTS_MESH_STL)
+        return mts_error_set(err, MTS_ERR_ARG, "%s: unknown mesh format option %d", path,
+                             (int)o.format);
+    uint64_t cap = o.max_bytes ? o.max_bytes : MTS_MESH_DEFAULT_MAX_BYTES;
+    if (cap > SIZE_MAX / 2)
+        cap = SIZE_MAX / 2;
+    int fd;
+    uint64_t file_size;
+    mts_result r = mts_file_open_regular(path, cap, "--max-mesh-bytes", &fd, &file_size, err);
+    if (r != MTS_OK)
+        return r;
     char *data = NULL;
-    size_t size = 0;
-    mts_result r = read_all(path, &data, &size, err);
-    if (r == MTS_OK)
-        r = mts_mesh_load_memory(path, data, size, opts, mesh, stats, err);
+    uint64_t size = file_size;
+    if (file_size > 0) {
+        /* The head first: enough to tell the format and whether the file
+         * can be one, before anything in proportion to its size is held. */
+        size_t head = file_size < MESH_HEAD_BYTES ? (size_t)file_size : MESH_HEAD_BYTES;
+        data = malloc(head);
+        if (!data) {
+            r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory", path);
+            goto done;
+        }
+        if ((r = mts_file_read_exact(fd, path, data, head, err)) != MTS_OK)
+            goto done;
+        if (o.format == MTS_MESH_AUTO)
+            o.format = format_from_name(path);
+        if (o.format == MTS_MESH_AUTO)
+            o.format = mts__mesh_sniff_head(data, head, file_size);
+        if (o.format == MTS_MESH_AUTO) {
+            r = unknown_format(path, err);
+            goto done;
+        }
+        if ((r = mts__mesh_check_head(o.format, path, data, head, file_size, &size, err)) !=
+            MTS_OK)
+            goto done;
+        if (size > head) {
+            char *whole = realloc(data, (size_t)size);
+            if (!whole) {
+                r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for %llu bytes", path,
+                                  (unsigned long long)size);
+                goto done;
+            }
+            data = whole;
+            if ((r = mts_file_read_exact(fd, path, data + head, (size_t)size - head, err)) !=
+                MTS_OK)
+                goto done;
+        }
+    }
+    close(fd);
+    fd = -1;
+    r = mts_mesh_load_memory(path, data, (size_t)size, &o, mesh, stats, err);
+done:
+    if (fd >= 0)
+        close(fd);
     free(data);
     return r;
 }

@@ -51,14 +51,27 @@ typedef struct mts_mesh_stats {
     int normals_from_file;           /* 1 when the file's normals were used */
 } mts_mesh_stats;
 
+/* The default size cap of a mesh file (mts_mesh_options.max_bytes). */
+#define MTS_MESH_DEFAULT_MAX_BYTES ((uint64_t)4 << 30) /* 4 GiB */
+
 /* Options; a zero-initialised struct means the defaults. */
 typedef struct mts_mesh_options {
     mts_mesh_format format; /* MTS_MESH_AUTO by default */
+    uint64_t max_bytes;     /* a larger file or buffer is refused; 0: 4 GiB */
 } mts_mesh_options;
 
 /* Reads and cleans a mesh file. On failure the message names the file and the
- * problem (missing, empty, truncated at line/byte N, bad index ...). stats may
- * be NULL; opts may be NULL for the defaults. */
+ * problem (missing, empty, truncated at line/byte N, bad index ...), never
+ * the file's own text: a file may be anything, and messages end up in logs.
+ * Only a regular file is read (a FIFO, a device or a directory is refused
+ * without blocking), and only up to opts->max_bytes, checked before reading.
+ * With MTS_MESH_AUTO and no known extension the format comes from the first
+ * 64 KiB. Those first bytes are checked against the format before the rest
+ * is read, where the format has a signature (OFF's keyword, PLY's magic, a
+ * binary STL's facet count against the file's size, OBJ's being text), so
+ * that a file that is not a mesh costs a small read, not the whole file;
+ * a binary STL is read only as far as its facets go. stats may be NULL;
+ * opts may be NULL for the defaults. */
 mts_result mts_mesh_load(const char *path, const mts_mesh_options *opts, mts_mesh *mesh,
                          mts_mesh_stats *stats, mts_error *err);
 

@@ -4,11 +4,15 @@
  * in place), and trusts no count it reads: allocations grow with what was
  * actually parsed or are capped by what the remaining bytes could hold, every
  * index is checked against the vertex count before it is stored, and every
- * binary read is bounds-checked. */
+ * binary read is bounds-checked. Messages name the file, the line or the
+ * item and what was expected, never the file's own text: a file may be
+ * anything (a secret a link points to, bytes a terminal acts on), and
+ * messages end up in logs. */
 #include "mesh_read.h"
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -356,10 +360,9 @@ static mts_result text_bad_number(const text *t, mts_error *err)
 {
     if (t->p + token_len(t) >= t->end) /* cut inside the number: the file ends early */
         return mts_error_set(err, MTS_ERR_FORMAT, "%s: truncated at line %llu: the file ends "
-                             "inside a number ('%.*s')", t->name, (unsigned long long)t->line,
-                             token_len(t), t->p);
-    return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: bad number '%.*s'", t->name,
-                         (unsigned long long)t->line, token_len(t), t->p);
+                             "inside a number", t->name, (unsigned long long)t->line);
+    return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: bad number", t->name,
+                         (unsigned long long)t->line);
 }
 
 /* A float token at t->p (the caller has skipped blanks and checked there is
@@ -369,8 +372,8 @@ static mts_result text_float(text *t, float *out, mts_error *err)
     const char *s = t->p;
     int r = mts__mesh_scan_float(&s, t->end, out);
     if (r == -2)
-        return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: number '%.*s' is out of range",
-                             t->name, (unsigned long long)t->line, token_len(t), t->p);
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: a number is out of range",
+                             t->name, (unsigned long long)t->line);
     if (r != 0 || !token_ends(t, s))
         return text_bad_number(t, err);
     t->p = s;
@@ -440,6 +443,20 @@ static size_t off_keyword(const char *w, size_t n, off_flags *fl)
     if (n - i < 3 || memcmp(w + i, "OFF", 3) != 0)
         return 0;
     return i + 3;
+}
+
+/* The first word of an OFF file: a keyword, or (in some collections, such
+ * as ModelNet) a keyword with the vertex count glued to it, "OFF1234 5678
+ * 0"; anything else after OFF is not OFF. *k is the keyword's length. */
+static mts_result off_check_keyword(const char *name, const char *w, size_t wn, off_flags *fl,
+                                    size_t *k, mts_error *err)
+{
+    *k = off_keyword(w, wn, fl);
+    if (*k == 0 || (*k < wn && (unsigned)(w[*k] - '0') >= 10))
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: not an OFF file (the first word is not OFF or a variant of it)",
+                             name);
+    return MTS_OK;
 }
 
 static mts_result off_truncated(const text *t, const char *what, uint32_t expected,
@@ -723,19 +740,13 @@ mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size,
     const char *w;
     size_t wn = text_word(&t, &w);
     off_flags fl;
-    size_t k = off_keyword(w, wn, &fl);
+    size_t k;
+    mts_result r0 = off_check_keyword(t.name, w, wn, &fl, &k, err);
+    if (r0 != MTS_OK)
+        return r0;
     const int normals = fl.normals;
-    if (k == 0)
-        return mts_error_set(err, MTS_ERR_FORMAT, "%s: not an OFF file (first word '%.*s')",
-                             t.name, (int)(wn < 40 ? wn : 40), w);
-    if (k < wn) {
-        /* "OFF1234 5678 0": some collections (ModelNet) glue the vertex
-         * count to the keyword; anything else after OFF is not OFF */
-        if ((unsigned)(w[k] - '0') >= 10)
-            return mts_error_set(err, MTS_ERR_FORMAT, "%s: not an OFF file (first word '%.*s')",
-                                 t.name, (int)(wn < 40 ? wn : 40), w);
+    if (k < wn)
         t.p = w + k;
-    }
     if (fl.four)
         return mts_error_set(err, MTS_ERR_VERSION, "%s: 4D OFF is not supported", t.name);
     text_blank(&t);
@@ -753,8 +764,8 @@ mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size,
                                  t.name);
         if (*t.p != '\n')
             return mts_error_set(err, MTS_ERR_FORMAT,
-                                 "%s: line %llu: unexpected '%.*s' after OFF BINARY", t.name,
-                                 (unsigned long long)t.line, token_len(&t), t.p);
+                                 "%s: line %llu: unexpected text after OFF BINARY", t.name,
+                                 (unsigned long long)t.line);
         return off_binary(raw, &fl, (const unsigned char *)t.p + 1,
                           (const unsigned char *)t.end, err);
     }
@@ -896,12 +907,27 @@ static mts_result obj_range(const text *t, const char *what, int64_t idx, uint32
                          t->name, (unsigned long long)t->line, what, (long long)idx, count);
 }
 
+/* OBJ has no magic, and its reader skips the lines it does not know, so
+ * without this a file of anything would be read to its end for nothing: an
+ * OBJ file is text, and a NUL byte says this one is not. */
+static mts_result obj_check_text(const char *name, const char *data, size_t size, mts_error *err)
+{
+    const char *nul = memchr(data, 0, size);
+    if (nul)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: not an OBJ file (byte %zu is a NUL byte: binary data, not text)",
+                             name, (size_t)(nul - data));
+    return MTS_OK;
+}
+
 mts_result mts__mesh_read_obj(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
 {
     text t = {data + bom_length(data, size), data + size, 1, 1, raw->name};
     mts_mesh_stats *st = raw->stats;
     st->format = MTS_MESH_OBJ;
-    mts_result r = MTS_OK;
+    mts_result r = obj_check_text(raw->name, data, size, err);
+    if (r != MTS_OK)
+        return r;
     float *vn = NULL; /* unit normals of the vn lines, 3 each */
     uint32_t vn_count = 0, vn_capacity = 0, vt_count = 0;
     int every_corner_has_vn = 1;
@@ -1064,9 +1090,20 @@ static int ply_type_of(const char *w, size_t n)
     return PLY_NONE;
 }
 
-static const char *ply_noun(const ply_elem *e)
+/* "vertices", "faces", or "items of element N" for the others. */
+static const char *ply_noun(const ply_elem *e, char *buf, size_t size)
 {
-    return e->kind == ELEM_VERTEX ? "vertices" : e->kind == ELEM_FACE ? "faces" : e->name;
+    if (e->kind != ELEM_OTHER)
+        return e->kind == ELEM_VERTEX ? "vertices" : "faces";
+    snprintf(buf, size, "items of %s", e->name);
+    return buf;
+}
+
+/* "vertex I", "face I", or "element N, item I". */
+static const char *ply_item(const ply_elem *e, uint32_t i, char *buf, size_t size)
+{
+    snprintf(buf, size, e->kind == ELEM_OTHER ? "%s, item %u" : "%s %u", e->name, i);
+    return buf;
 }
 
 /* Reads the header up to and including the end_header line. */
@@ -1101,11 +1138,13 @@ static mts_result ply_header(ply *P, mts__mesh_raw *raw, mts_error *err)
             else if (word_is(f, fn, "binary_big_endian"))
                 P->format = PLY_BE;
             else
-                return mts_error_set(err, MTS_ERR_VERSION, "%s: line %llu: unknown PLY format '%.*s'",
-                                     name, (unsigned long long)t->line, (int)(fn < 40 ? fn : 40), f);
+                return mts_error_set(err, MTS_ERR_VERSION,
+                                     "%s: line %llu: unknown PLY format (not ascii, "
+                                     "binary_little_endian or binary_big_endian)",
+                                     name, (unsigned long long)t->line);
             if (vn == 0 || v[0] != '1')
-                return mts_error_set(err, MTS_ERR_VERSION, "%s: line %llu: PLY version '%.*s' is not 1.x",
-                                     name, (unsigned long long)t->line, (int)(vn < 40 ? vn : 40), v);
+                return mts_error_set(err, MTS_ERR_VERSION, "%s: line %llu: the PLY version is not 1.x",
+                                     name, (unsigned long long)t->line);
             have_format = 1;
         } else if (word_is(w, wn, "element")) {
             if (P->elem_count == PLY_MAX_ELEMENTS)
@@ -1121,17 +1160,18 @@ static mts_result ply_header(ply *P, mts__mesh_raw *raw, mts_error *err)
                                      (unsigned long long)t->line);
             if (count > (int64_t)MTS__MESH_MAX_COUNT)
                 return mts_error_set(err, MTS_ERR_LIMIT,
-                                     "%s: line %llu: %lld '%.*s' elements is over the limit of %u",
+                                     "%s: line %llu: %lld elements is over the limit of %u",
                                      name, (unsigned long long)t->line, (long long)count,
-                                     (int)(enn < 40 ? enn : 40), en, MTS__MESH_MAX_COUNT);
+                                     MTS__MESH_MAX_COUNT);
             cur = &P->elems[P->elem_count++];
             memset(cur, 0, sizeof *cur);
-            size_t keep = enn < sizeof cur->name - 1 ? enn : sizeof cur->name - 1;
-            memcpy(cur->name, en, keep);
+            /* named in messages by what it means to us, not by the file's text */
+            snprintf(cur->name, sizeof cur->name, "element %u", P->elem_count);
             cur->count = (uint32_t)count;
             cur->first = P->prop_count;
             if (word_is(en, enn, "vertex") || word_is(en, enn, "face")) {
                 int kind = word_is(en, enn, "vertex") ? ELEM_VERTEX : ELEM_FACE;
+                snprintf(cur->name, sizeof cur->name, "%s", kind == ELEM_VERTEX ? "vertex" : "face");
                 for (uint32_t e = 0; e + 1 < P->elem_count; e++)
                     if (P->elems[e].kind == kind)
                         return mts_error_set(err, MTS_ERR_FORMAT, "%s: two '%s' elements", name,
@@ -1161,8 +1201,8 @@ static mts_result ply_header(ply *P, mts__mesh_raw *raw, mts_error *err)
             prop.type = (uint8_t)ply_type_of(tw, twn);
             size_t pnn = text_word(t, &pn);
             if (prop.type == PLY_NONE || pnn == 0)
-                return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: bad property type '%.*s'",
-                                     name, (unsigned long long)t->line, (int)(twn < 40 ? twn : 40), tw);
+                return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: bad property type",
+                                     name, (unsigned long long)t->line);
             int is_list = prop.count_type != PLY_NONE;
             if (cur->kind == ELEM_VERTEX && !is_list) {
                 static const char *const coords[] = {"x", "y", "z", "nx", "ny", "nz"};
@@ -1172,15 +1212,16 @@ static mts_result ply_header(ply *P, mts__mesh_raw *raw, mts_error *err)
             } else if (cur->kind == ELEM_FACE &&
                        (word_is(pn, pnn, "vertex_indices") || word_is(pn, pnn, "vertex_index"))) {
                 if (!is_list)
-                    return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: %.*s is not a list",
-                                         name, (unsigned long long)t->line, (int)pnn, pn);
+                    return mts_error_set(err, MTS_ERR_FORMAT,
+                                         "%s: line %llu: the face's vertex indices are not a list",
+                                         name, (unsigned long long)t->line);
                 prop.role = ROLE_INDICES;
             }
             P->props[P->prop_count++] = prop;
             cur->props++;
         } else {
-            return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: unknown PLY header line '%.*s'",
-                                 name, (unsigned long long)t->line, (int)(wn < 40 ? wn : 40), w);
+            return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: unknown PLY header line",
+                                 name, (unsigned long long)t->line);
         }
         text_next_line(t);
     }
@@ -1306,14 +1347,15 @@ static int ply_skip(ply *P, int type, uint64_t n)
 static mts_result ply_value_error(const ply *P, const ply_elem *e, uint32_t i, int status,
                                   const char *name, mts_error *err)
 {
+    char what[64];
     if (status == 1)
         return mts_error_set(err, MTS_ERR_FORMAT, "%s: truncated: expected %u %s, file ends after %u",
-                             name, e->count, ply_noun(e), i);
+                             name, e->count, ply_noun(e, what, sizeof what), i);
     if (P->format == PLY_ASCII)
-        return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: bad value '%.*s' in %s %u", name,
-                             (unsigned long long)P->t.line, token_len(&P->t), P->t.p, e->name, i);
-    return mts_error_set(err, MTS_ERR_FORMAT, "%s: %s %u: a value is not finite or not an integer",
-                         name, e->name, i);
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: bad value in %s", name,
+                             (unsigned long long)P->t.line, ply_item(e, i, what, sizeof what));
+    return mts_error_set(err, MTS_ERR_FORMAT, "%s: %s: a value is not finite or not an integer",
+                         name, ply_item(e, i, what, sizeof what));
 }
 
 mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
@@ -1406,8 +1448,9 @@ mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size,
                 if ((status = ply_get_int(P, pr->count_type, &n)) != 0)
                     break;
                 if (n < 0 || n > (int64_t)MTS__MESH_MAX_COUNT) {
-                    r = mts_error_set(err, MTS_ERR_FORMAT, "%s: %s %u: list of %lld items", name,
-                                      el->name, i, (long long)n);
+                    char what[64];
+                    r = mts_error_set(err, MTS_ERR_FORMAT, "%s: %s: list of %lld items", name,
+                                      ply_item(el, i, what, sizeof what), (long long)n);
                     goto done;
                 }
                 if (pr->role != ROLE_INDICES) {
@@ -1531,6 +1574,23 @@ static mts_result stl_weld(mts__mesh_raw *raw, mts_error *err)
     return MTS_OK;
 }
 
+/* A binary STL's facet count (at byte 80), checked against the limit and
+ * against the size of the file (which head, 84 bytes or more, starts). */
+static mts_result stl_binary_count(const char *name, const unsigned char *head, uint64_t size,
+                                   uint32_t *count, mts_error *err)
+{
+    *count = le32(head + 80);
+    if (*count > MTS__MESH_MAX_COUNT / 3)
+        return mts_error_set(err, MTS_ERR_LIMIT, "%s: %u facets is over the limit of %u", name,
+                             *count, MTS__MESH_MAX_COUNT / 3);
+    uint64_t need = 84 + (uint64_t)*count * 50;
+    if (need > size)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: truncated: expected %u facets (%llu bytes), the file has %llu bytes",
+                             name, *count, (unsigned long long)need, (unsigned long long)size);
+    return MTS_OK;
+}
+
 static mts_result stl_binary(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
 {
     if (size < 84)
@@ -1538,16 +1598,10 @@ static mts_result stl_binary(mts__mesh_raw *raw, const char *data, size_t size, 
                              "%s: truncated: a binary STL needs 84 header bytes, the file has %zu",
                              raw->name, size);
     const unsigned char *b = (const unsigned char *)data;
-    uint32_t count = le32(b + 80);
-    if (count > MTS__MESH_MAX_COUNT / 3)
-        return mts_error_set(err, MTS_ERR_LIMIT, "%s: %u facets is over the limit of %u", raw->name,
-                             count, MTS__MESH_MAX_COUNT / 3);
-    uint64_t need = 84 + (uint64_t)count * 50;
-    if (need > size)
-        return mts_error_set(err, MTS_ERR_FORMAT,
-                             "%s: truncated: expected %u facets (%llu bytes), the file has %zu bytes",
-                             raw->name, count, (unsigned long long)need, size);
-    mts_result r;
+    uint32_t count;
+    mts_result r = stl_binary_count(raw->name, b, size, &count, err);
+    if (r != MTS_OK)
+        return r;
     if ((r = raw_reserve_vertices(raw, (uint64_t)count * 3, 0, err)) != MTS_OK ||
         (r = raw_reserve_triangles(raw, count, err)) != MTS_OK)
         return r;
@@ -1581,8 +1635,8 @@ static mts_result stl_unexpected(const text *t, const char *kw, const char *w, s
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "%s: truncated: the file ends inside facet %u (expected '%s')", t->name,
                              facet, kw);
-    return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: expected '%s', found '%.*s'",
-                         t->name, (unsigned long long)t->line, kw, (int)(n < 40 ? n : 40), w);
+    return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: expected '%s', found another word",
+                         t->name, (unsigned long long)t->line, kw);
 }
 
 /* Expects keyword `kw` as the next word (across lines). */
@@ -1714,8 +1768,13 @@ static const char *find_bytes(const char *hay, size_t n, const char *needle)
 
 mts_mesh_format mts__mesh_sniff(const char *data, size_t size)
 {
+    return mts__mesh_sniff_head(data, size < 65536 ? size : 65536, size);
+}
+
+mts_mesh_format mts__mesh_sniff_head(const char *data, size_t size, uint64_t file_size)
+{
     /* binary STL first: its 80-byte header may say anything, even "solid" */
-    if (size >= 84 && 84 + (uint64_t)le32((const unsigned char *)data + 80) * 50 == size)
+    if (size >= 84 && 84 + (uint64_t)le32((const unsigned char *)data + 80) * 50 == file_size)
         return MTS_MESH_STL;
     if (size >= 4 && memcmp(data, "ply", 3) == 0 && (data[3] == '\n' || data[3] == '\r'))
         return MTS_MESH_PLY;
@@ -1744,4 +1803,63 @@ mts_mesh_format mts__mesh_sniff(const char *data, size_t size)
             break;
     }
     return MTS_MESH_AUTO;
+}
+
+/* ------------------------------------------------------------------------ */
+/* The head of a file, before the rest is read                              */
+
+mts_result mts__mesh_check_head(mts_mesh_format format, const char *name, const char *head,
+                                size_t head_size, uint64_t file_size, uint64_t *read_size,
+                                mts_error *err)
+{
+    *read_size = file_size;
+    if (head_size >= file_size)
+        return MTS_OK; /* the parser sees it all and says what is wrong */
+    switch (format) {
+    case MTS_MESH_OFF: {
+        text t = {head + bom_length(head, head_size), head + head_size, 1, 1, name};
+        text_space(&t);
+        const char *w;
+        size_t wn = text_word(&t, &w);
+        /* a first word cut by the head's end decides only once it is longer
+         * than the longest keyword, "STCN4nOFF", and the character after it */
+        if (text_eof(&t) && wn <= 10)
+            return MTS_OK;
+        off_flags fl;
+        size_t k;
+        return off_check_keyword(name, w, wn, &fl, &k, err);
+    }
+    case MTS_MESH_PLY: {
+        text t = {head, head + head_size, 1, 0, name};
+        const char *w;
+        size_t wn = text_word(&t, &w);
+        if ((text_eof(&t) && wn <= 3) || word_is(w, wn, "ply"))
+            return MTS_OK;
+        return mts_error_set(err, MTS_ERR_FORMAT, "%s: not a PLY file (no 'ply' magic)", name);
+    }
+    case MTS_MESH_STL: {
+        /* stl_is_binary with the file's size: ASCII when it starts with
+         * "solid" and is not exactly a binary STL's size */
+        size_t i = 0;
+        while (i < head_size && is_space(head[i]))
+            i++;
+        if (i == head_size)
+            return MTS_OK;
+        const unsigned char *b = (const unsigned char *)head;
+        int exact = head_size >= 84 && 84 + (uint64_t)le32(b + 80) * 50 == file_size;
+        if (!exact && head_size - i >= 5 && memcmp(head + i, "solid", 5) == 0)
+            return MTS_OK;
+        if (head_size < 84)
+            return MTS_OK;
+        uint32_t count;
+        mts_result r = stl_binary_count(name, b, file_size, &count, err);
+        if (r == MTS_OK)
+            *read_size = 84 + (uint64_t)count * 50; /* what follows the facets is never read */
+        return r;
+    }
+    case MTS_MESH_OBJ:
+        return obj_check_text(name, head, head_size, err);
+    default:
+        return MTS_OK;
+    }
 }

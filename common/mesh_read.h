@@ -43,8 +43,22 @@ mts_result mts__mesh_read_obj(mts__mesh_raw *raw, const char *data, size_t size,
 mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
 mts_result mts__mesh_read_stl(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
 
-/* The format the content looks like, or MTS_MESH_AUTO when none fits. */
+/* The format the content looks like, or MTS_MESH_AUTO when none fits. Only
+ * the first 64 KiB are looked at. */
 mts_mesh_format mts__mesh_sniff(const char *data, size_t size);
+/* The same from the head of a file of file_size bytes (head_size of them,
+ * at least 64 KiB unless that is the whole file). */
+mts_mesh_format mts__mesh_sniff_head(const char *head, size_t head_size, uint64_t file_size);
+
+/* Checks the head of a file of file_size bytes against what the parser of
+ * format will require of it, so that a file that cannot be one is refused
+ * before the rest is read: the same rules and the same messages as the
+ * parser, applied only where the head decides them. *read_size gets how
+ * much of the file the parser needs (all of it, but a binary STL's facets
+ * end where its count says). */
+mts_result mts__mesh_check_head(mts_mesh_format format, const char *name, const char *head,
+                                size_t head_size, uint64_t file_size, uint64_t *read_size,
+                                mts_error *err);
 
 /* Parses a decimal floating-point number at *s (no leading blanks) into the
  * nearest float, exactly as strtof would in the C locale, without needing a

@@ -143,6 +143,13 @@ static uint64_t fnv1a64(const char *s)
     return h;
 }
 
+static void printable(char *s)
+{
+    for (; *s; s++)
+        if ((unsigned char)*s < 0x20 || (unsigned char)*s >= 0x7f)
+            *s = '?';
+}
+
 static void report_to(const mts_catalog_report *rep, mts_catalog_report_kind kind,
                       const char *file, const char *fmt, ...)
 #if defined(__GNUC__)
@@ -154,12 +161,17 @@ static void report_to(const mts_catalog_report *rep, mts_catalog_report_kind kin
 {
     if (!rep || !rep->fn)
         return;
-    char msg[1024];
+    char msg[1024], shown[1024];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    rep->fn(rep->user, kind, file, msg);
+    /* a file name may hold any byte but '/' and NUL, and reports go to
+     * terminals and logs: nothing but printable ASCII gets there */
+    printable(msg);
+    snprintf(shown, sizeof shown, "%s", file ? file : "");
+    printable(shown);
+    rep->fn(rep->user, kind, shown, msg);
 }
 
 /* Progress with the model's name in front of the stage. */
@@ -357,26 +369,70 @@ void mts_catalog_free(mts_catalog *cat)
 /* ------------------------------------------------------------------------ */
 /* Loading one model                                                         */
 
+static uint64_t max_file_bytes(const mts_catalog *cat)
+{
+    uint64_t cap = cat->opts.max_mesh_bytes ? cat->opts.max_mesh_bytes : MTS_MESH_DEFAULT_MAX_BYTES;
+    return cap < SIZE_MAX / 2 ? cap : SIZE_MAX / 2;
+}
+
+/* mts_modelfile_load, for files of the folder: only a regular file, only up
+ * to the cap (checked on the open descriptor before reading), and a file
+ * without the model magic is refused from its first bytes. *bytes gets the
+ * file's size. */
+static mts_result load_model_file(const mts_catalog *cat, const char *path, mts_model *model,
+                                  uint64_t *bytes, mts_error *err)
+{
+    int fd;
+    uint64_t size;
+    mts_result r = mts_file_open_regular(path, max_file_bytes(cat), "--max-mesh-bytes", &fd,
+                                         &size, err);
+    if (r != MTS_OK)
+        return r;
+    *bytes = size;
+    /* the 16-byte header first: a file that is not a model costs no more */
+    uint8_t head[16];
+    size_t head_size = size < sizeof head ? (size_t)size : sizeof head;
+    uint8_t *data = NULL;
+    if ((r = mts_file_read_exact(fd, path, head, head_size, err)) != MTS_OK)
+        goto done;
+    if (head_size < sizeof head || memcmp(head, "MTSM", 4) != 0) {
+        r = mts_modelfile_decode(head, head_size, path, model, err); /* its own message */
+        goto done;
+    }
+    data = malloc((size_t)size);
+    if (!data) {
+        r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for %llu bytes", path,
+                          (unsigned long long)size);
+        goto done;
+    }
+    memcpy(data, head, head_size);
+    if ((r = mts_file_read_exact(fd, path, data + head_size, (size_t)size - head_size, err)) ==
+        MTS_OK)
+        r = mts_modelfile_decode(data, (size_t)size, path, model, err);
+done:
+    close(fd);
+    free(data);
+    return r;
+}
+
 static mts_result add_model_file(mts_catalog *cat, const char *name, const char *path,
                                  const mts_catalog_report *rep, mts_error *err)
 {
-    struct stat st;
-    if (stat(path, &st) != 0)
-        return mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
     mts_catalog_entry *e = entry_new(name, path);
     if (!e)
         return mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
     named_progress np;
     mts_progress p = named(cat, &np, name);
     mts_progress_report(&p, "load", 0);
-    mts_result r = mts_modelfile_load(path, &e->model, err);
+    uint64_t bytes = 0;
+    mts_result r = load_model_file(cat, path, &e->model, &bytes, err);
     if (r != MTS_OK) {
         entry_free(e);
         return r;
     }
     mts_progress_report(&p, "load", 1);
     e->origin = MTS_CATALOG_MODEL_FILE;
-    e->source_bytes = (uint64_t)st.st_size;
+    e->source_bytes = bytes;
     uint32_t n = e->model.level_count;
     report_to(rep, MTS_CATALOG_ADDED, path, "%s: loaded (%u vertices, %u triangles, %u levels)",
               name, e->model.vertex_count, e->model.level_triangles[n], n);
@@ -458,13 +514,18 @@ static mts_result add_mesh_file(mts_catalog *cat, const char *name, const char *
     mts_mesh mesh = {0};
     char *cache = NULL;
 
+    /* what the file is (for the cache key), from the descriptor that checked
+     * it is a regular file within the cap; mts_mesh_load checks again */
     struct stat st;
-    if (stat(path, &st) != 0) {
-        r = mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
+    int fd;
+    uint64_t file_size;
+    if ((r = mts_file_open_regular(path, max_file_bytes(cat), "--max-mesh-bytes", &fd,
+                                   &file_size, err)) != MTS_OK)
         goto done;
-    }
-    if (!S_ISREG(st.st_mode)) {
-        r = mts_error_set(err, MTS_ERR_IO, "%s: not a regular file", path);
+    int stat_errno = fstat(fd, &st) == 0 ? 0 : errno;
+    close(fd);
+    if (stat_errno) {
+        r = mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(stat_errno));
         goto done;
     }
     e = entry_new(name, path);
@@ -494,7 +555,8 @@ static mts_result add_mesh_file(mts_catalog *cat, const char *name, const char *
                           "%s: the mesh is newer than its cache %s: rebuilding", name, cache);
             } else {
                 mts_error cerr = {0};
-                if (mts_modelfile_load(cache, &e->model, &cerr) != MTS_OK) {
+                uint64_t cache_bytes;
+                if (load_model_file(cat, cache, &e->model, &cache_bytes, &cerr) != MTS_OK) {
                     report_to(rep, MTS_CATALOG_NOTE, path,
                               "%s: the cache does not load (%s): rebuilding", name, cerr.msg);
                 } else if (strcmp(e->model.build_key, key) != 0) {
@@ -524,7 +586,9 @@ static mts_result add_mesh_file(mts_catalog *cat, const char *name, const char *
     mts_progress p = named(cat, &np, name);
     double t0 = mts_clock_seconds();
     mts_progress_report(&p, "load", 0);
-    if ((r = mts_mesh_load(path, NULL, &mesh, NULL, err)) != MTS_OK)
+    mts_mesh_options mo = {0};
+    mo.max_bytes = max_file_bytes(cat);
+    if ((r = mts_mesh_load(path, &mo, &mesh, NULL, err)) != MTS_OK)
         goto done;
     mts_progress_report(&p, "load", 1);
     if ((r = build_into(cat, e, &mesh, path, err)) != MTS_OK) {
@@ -579,6 +643,10 @@ static mts_result add_url(mts_catalog *cat, const char *name, const char *url,
     named_progress np;
     mts_fetch_options fo = cat->opts.fetch;
     fo.progress = named(cat, &np, name);
+    /* a download is a mesh file too: the smaller of the two caps */
+    uint64_t fetch_cap = fo.max_bytes ? fo.max_bytes : MTS_FETCH_DEFAULT_MAX_BYTES;
+    if (fetch_cap > max_file_bytes(cat))
+        fo.max_bytes = max_file_bytes(cat);
     mts_fetch_result got = {0};
     mts_mesh mesh = {0};
     mts_catalog_entry *e = NULL;
@@ -594,7 +662,9 @@ static mts_result add_url(mts_catalog *cat, const char *name, const char *url,
     e->source_bytes = got.size;
     const char *file = got.file_name[0] ? got.file_name : "(download)";
     mts_progress_report(&fo.progress, "load", 0);
-    if ((r = mts_mesh_load_memory(file, got.data, got.size, NULL, &mesh, NULL, err)) != MTS_OK) {
+    mts_mesh_options mo = {0};
+    mo.max_bytes = max_file_bytes(cat);
+    if ((r = mts_mesh_load_memory(file, got.data, got.size, &mo, &mesh, NULL, err)) != MTS_OK) {
         mts_error_prefix(err, "%s", shown);
         goto done;
     }
@@ -773,8 +843,6 @@ mts_result mts_catalog_add_dir(mts_catalog *cat, const char *dir,
                 failed_first = &items[j];
         }
         const mts_catalog_entry *old;
-        struct stat st;
-        errno = 0;
         if (mts_catalog_check_name(it->stem, &e1) != MTS_OK) {
             report_to(report, MTS_CATALOG_SKIPPED, path, "skipped: %s", e1.msg);
         } else if (winner && winner->is_model && !it->is_model) {
@@ -787,26 +855,22 @@ mts_result mts_catalog_add_dir(mts_catalog *cat, const char *dir,
         } else if ((old = mts_catalog_find(cat, it->stem)) != NULL) {
             report_to(report, MTS_CATALOG_SKIPPED, path,
                       "skipped: the name %s is already used by %s", it->stem, old->source);
-        } else if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) {
-            report_to(report, MTS_CATALOG_SKIPPED, path, "skipped: %s",
-                      errno ? strerror(errno) : "not a regular file");
         } else {
-            if (failed_first)
-                report_to(report, MTS_CATALOG_NOTE, path,
-                          "%s: %s did not load; this file is served under its name instead",
-                          it->stem, failed_first->file);
+            /* what is not a regular file, is over the cap or is not a model
+             * fails here, by name; so does one too big for the memory left,
+             * which need not stop the others */
             mts_result ar = it->is_model ? add_model_file(cat, it->stem, path, report, &e1)
                                          : add_mesh_file(cat, it->stem, path, report, &e1);
-            if (ar == MTS_ERR_NOMEM) {
-                free(path);
-                r = mts_error_set(err, MTS_ERR_NOMEM, "%s", e1.msg);
-                goto done;
-            }
             if (ar != MTS_OK) {
                 nfailed++;
                 report_to(report, MTS_CATALOG_FAILED, path, "%s", e1.msg);
             } else {
                 added[i] = 1;
+                /* said once it is true: this one may fail as well */
+                if (failed_first)
+                    report_to(report, MTS_CATALOG_NOTE, path,
+                              "%s: %s did not load; this file is served under its name instead",
+                              it->stem, failed_first->file);
             }
         }
         free(path);

@@ -14,7 +14,13 @@
  * meshes with one name (cow.off, cow.ply): the first in byte order of the file
  * names wins, the others are skipped with a reason. A file whose name is not a
  * valid model name is skipped with a reason; a file that fails to load or
- * build is reported with its message; neither stops the others.
+ * build is reported with its message; neither stops the others. Failing to
+ * load includes not being a regular file (a directory, a FIFO, a device, a
+ * symbolic link to nothing or to one of those: never opened so as to block),
+ * being over max_mesh_bytes (refused before it is read), not being a mesh
+ * (refused from its first bytes where the format allows), and running out
+ * of memory for it. The messages never quote a file's contents, and file
+ * names reach the report with every byte outside printable ASCII as '?'.
  *
  * The cache. A mesh D/F is cached as
  *   D/.F.mtsm                          when no cache_dir is given and D is writable,
@@ -61,6 +67,10 @@ typedef struct mts_catalog_options {
                               created (one level, 0700) when missing */
     int no_cache;          /* 1: build meshes in memory only, never read or write a cache */
     uint32_t base_vertices; /* for builds (mts_build_options); 0: the builder's default */
+    /* The largest mesh or model file read, caches included, and the largest
+     * download (with fetch.max_bytes, the smaller cap applies); a larger
+     * one fails by name before it is read. 0: MTS_MESH_DEFAULT_MAX_BYTES */
+    uint64_t max_mesh_bytes;
     mts_fetch_options fetch; /* for URL models (its progress is replaced by progress below) */
     /* Progress of downloads and builds; the stage is "NAME: stage" (stages
      * "download", "load", then the builder's). */
@@ -107,7 +117,8 @@ mts_result mts_catalog_create(const mts_catalog_options *opts, mts_catalog **out
 void mts_catalog_free(mts_catalog *cat);
 
 /* Adds every model of dir (see above). Fails only when dir cannot be read or
- * memory runs out; single files' problems go to report (may be NULL). failed
+ * memory runs out listing it; single files' problems, their memory included,
+ * go to report (may be NULL). failed
  * (may be NULL) gets the number of FAILED reports. */
 mts_result mts_catalog_add_dir(mts_catalog *cat, const char *dir,
                                const mts_catalog_report *report, unsigned *failed,

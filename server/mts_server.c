@@ -21,6 +21,7 @@ static void usage(FILE *f)
           "                  [--ws-listen ADDR:PORT] [--max-clients N]\n"
           "                  [--idle-timeout S]\n"
           "                  [--handshake-timeout S] [--grace S] [--max-download BYTES]\n"
+          "                  [--max-mesh-bytes N]\n"
           "                  [--fetch-timeout S] [--fetch-connect-timeout S] [--workers N]\n"
           "                  [--rate-limit BYTES/S] [--sndbuf BYTES] [--stats-interval S]\n"
           "                  [--prepare-threads N] [--prepare-wait S] [--no-records-form]\n"
@@ -48,6 +49,9 @@ static void usage(FILE *f)
           "  --handshake-timeout S  drop a client that sends no HELLO for S s (default 10)\n"
           "  --grace S              on SIGTERM/SIGINT, let streams finish for S s (default 5)\n"
           "  --max-download BYTES   size cap for URL models (default 268435456)\n"
+          "  --max-mesh-bytes N     size cap of every mesh or model file read, and of a\n"
+          "                         download too; a bigger one is skipped, by name, before\n"
+          "                         it is read (bytes, or with K, M, G: 512M; default 4G)\n"
           "  --fetch-connect-timeout S  a URL model's connect may take S s (default 10)\n"
           "  --fetch-timeout S      a URL model's whole download may take S s (default 60)\n"
           "  --workers N            N event loops on N threads sharing the port through\n"
@@ -309,6 +313,12 @@ int main(int argc, char **argv)
                 return CLI_EXIT_USAGE;
             }
             co.fetch.max_bytes = (uint64_t)bytes;
+        } else if (!strcmp(a, "--max-mesh-bytes")) {
+            if (!cli_parse_bytes(v, &co.max_mesh_bytes) || co.max_mesh_bytes == 0) {
+                fprintf(stderr, "mts-server: --max-mesh-bytes needs a size in bytes above 0 "
+                                "(512M, 4G)\n");
+                return CLI_EXIT_USAGE;
+            }
         } else if (!strcmp(a, "--fetch-connect-timeout") || !strcmp(a, "--fetch-timeout")) {
             double secs;
             if (!parse_seconds(v, &secs) || secs > 86400) {

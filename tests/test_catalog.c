@@ -12,6 +12,7 @@
 #include <signal.h>
 #include <stdint.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/types.h>
@@ -595,6 +596,69 @@ static void test_names(mts_test *t)
     mts_catalog_free(cat);
 }
 
+/* One file too big for the memory left fails by itself: the others are
+ * still served (a file's allocation failing said nothing about the next). */
+typedef struct oom_dir {
+    const char *dir;
+} oom_dir;
+
+static int load_dir_in_little_memory(void *arg)
+{
+    oom_dir *o = arg;
+    reports rep;
+    memset(&rep, 0, sizeof rep);
+    mts_catalog_options co = {0};
+    co.no_cache = 1;
+    mts_catalog *cat = NULL;
+    mts_error err = {0};
+    mts_catalog_report cb = {collect, &rep};
+    unsigned failed = 0;
+    if (mts_catalog_create(&co, &cat, &err) != MTS_OK ||
+        mts_catalog_add_dir(cat, o->dir, &cb, &failed, &err) != MTS_OK) {
+        fprintf(stderr, "  %s\n", err.msg);
+        mts_catalog_free(cat);
+        return 0;
+    }
+    const report_line *l = find_report(&rep, MTS_CATALOG_FAILED, "/huge.off");
+    int ok = mts_catalog_find(cat, "cow") != NULL && failed == 1 && l &&
+             strstr(l->msg, "out of memory");
+    if (!ok)
+        fprintf(stderr, "  %zu models, %u failed: %s\n", mts_catalog_count(cat), failed,
+                l ? l->msg : "(no report)");
+    mts_catalog_free(cat);
+    return ok;
+}
+
+static void test_file_out_of_memory(mts_test *t)
+{
+#ifdef __SANITIZE_ADDRESS__
+    (void)load_dir_in_little_memory;
+    SKIP(t, "address-space limits and ASan's shadow memory do not mix");
+#else
+    char dir[1100], p[1300];
+    snprintf(dir, sizeof dir, "%s/oom", work);
+    CHECK(t, mkdir(dir, 0755) == 0);
+    snprintf(p, sizeof p, "%s/cow.off", dir);
+    CHECK(t, copy_file(cow_src, p));
+    /* an OFF header, then 1 GB of nothing (sparse): under the size cap,
+     * over the memory the child may have */
+    snprintf(p, sizeof p, "%s/huge.off", dir);
+    int fd = open(p, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    CHECK(t, fd >= 0 && write(fd, "OFF\n", 4) == 4 && ftruncate(fd, (off_t)1 << 30) == 0);
+    if (fd >= 0)
+        close(fd);
+    oom_dir o = {dir};
+    pid_t pid = fork();
+    if (pid == 0) {
+        struct rlimit rl = {(rlim_t)768 << 20, (rlim_t)768 << 20};
+        _exit(setrlimit(RLIMIT_AS, &rl) == 0 && load_dir_in_little_memory(&o) ? 0 : 1);
+    }
+    int st = 0;
+    CHECK(t, pid > 0 && waitpid(pid, &st, 0) == pid);
+    CHECKF(t, WIFEXITED(st) && WEXITSTATUS(st) == 0, "status %d", st);
+#endif
+}
+
 static void test_add_paths(mts_test *t)
 {
     char cache_dir[1300], mtsm[1300];
@@ -938,6 +1002,13 @@ static void test_url_models(mts_test *t)
     CHECK(t, mts_catalog_add(cat, "big", url, NULL, &err) == MTS_ERR_LIMIT);
     CHECKF(t, strstr(err.msg, "1000 bytes") && strstr(err.msg, "big"), "message: %s", err.msg);
     mts_catalog_free(cat);
+    co = (mts_catalog_options){0};
+    co.max_mesh_bytes = 1000; /* the smaller cap, announced by Content-Length */
+    CHECK(t, mts_catalog_create(&co, &cat, &err) == MTS_OK);
+    CHECK(t, mts_catalog_add(cat, "big", url, NULL, &err) == MTS_ERR_LIMIT);
+    CHECKF(t, strstr(err.msg, "cap of 1000 bytes") && strstr(err.msg, "big"), "message: %s",
+           err.msg);
+    mts_catalog_free(cat);
     /* exactly the cap is fine */
     fo.max_bytes = 182966;
     CHECK(t, mts_fetch_url(url, &fo, &r, &err) == MTS_OK && r.size == 182966);
@@ -998,6 +1069,16 @@ static void test_url_failures(mts_test *t)
     fo.max_bytes = 0;
     CHECK(t, mts_fetch_url(url, &fo, &r, &err) == MTS_OK && r.size == sizeof big - (size_t)n);
     mts_fetch_result_free(&r);
+    /* a download is a mesh file too: max_mesh_bytes caps it when smaller
+     * than the download cap */
+    mts_catalog_options co = {0};
+    co.max_mesh_bytes = 1000;
+    mts_catalog *cat = NULL;
+    CHECK(t, mts_catalog_create(&co, &cat, &err) == MTS_OK);
+    CHECK(t, mts_catalog_add(cat, "stream", url, NULL, &err) == MTS_ERR_LIMIT);
+    CHECKF(t, strstr(err.msg, "cap of 1000 bytes") && strstr(err.msg, "stream"), "message: %s",
+           err.msg);
+    mts_catalog_free(cat);
     canned_stop(pid);
 
     /* a redirect to another scheme is not followed */
@@ -1092,6 +1173,7 @@ int main(void)
     RUN(&t, test_cache_readonly_dir);
     RUN(&t, test_names);
     RUN(&t, test_add_paths);
+    RUN(&t, test_file_out_of_memory);
     RUN(&t, test_url_checks);
     RUN(&t, test_url_models);
     RUN(&t, test_url_failures);

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <sys/wait.h>
 
+#include "clock.h"
 #include "test.h"
 #include "test_proc.h"
 #include "modelfile.h"
@@ -84,6 +85,60 @@ static void test_bad_input_exits_1(mts_test *t)
     snprintf(cmd, sizeof cmd, "%s/mts-inspect %s", bin_dir, path);
     CHECK(t, mts_test_run(cmd, out, sizeof out) == 1);
     CHECKF(t, strstr(out, "not_a_model.mtsm") && strstr(out, "magic"), "message: %s", out);
+}
+
+/* mts-build reads regular files only, and only up to --max-mesh-bytes,
+ * checked before reading: a file over it, a 50 GB one (sparse: no disk) and
+ * a FIFO (whose open would wait for a writer) are refused by name with exit
+ * 1 at once. */
+static void test_build_refuses_non_files(mts_test *t)
+{
+    char cmd[8192], out[8192], dir[700], path[800];
+    snprintf(dir, sizeof dir, "%s/programs_files", tmp_dir);
+    snprintf(cmd, sizeof cmd, "rm -rf %s && mkdir -p %s && mkfifo %s/fifo.off && truncate -s 50G "
+             "%s/huge.off",
+             dir, dir, dir, dir);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    const struct {
+        const char *file, *option, *want;
+    } cases[] = {
+        {"tests/data/cow.off", "--max-mesh-bytes 100K",
+         "cow.off: 182966 bytes, over the size cap of 102400 bytes (--max-mesh-bytes)"},
+        {"huge.off", "", "huge.off: 53687091200 bytes, over the size cap of 4294967296 bytes"},
+        {"huge.off", "--max-mesh-bytes 64G", "huge.off: not an OFF file"},
+        {"fifo.off", "", "fifo.off: a FIFO, not a regular file"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        if (cases[i].file[0] == 't')
+            snprintf(path, sizeof path, "%s", cases[i].file);
+        else
+            snprintf(path, sizeof path, "%s/%s", dir, cases[i].file);
+        /* timeout: a FIFO opened without O_NONBLOCK would wait forever */
+        snprintf(cmd, sizeof cmd, "timeout 20 %s/mts-build %s -o %s/x.mtsm %s", bin_dir, path,
+                 dir, cases[i].option);
+        double t0 = mts_clock_seconds();
+        int rc = mts_test_run(cmd, out, sizeof out);
+        double dt = mts_clock_seconds() - t0;
+        CHECKF(t, rc == 1 && strstr(out, cases[i].want) && dt < 5, "%s %s: exit %d in %.1f s: %s",
+               cases[i].file, cases[i].option, rc, dt, out);
+    }
+    /* the cap's spellings: bytes, K, M, G; anything else is a usage error */
+    snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off -o %s/x.mtsm -q --max-mesh-bytes 1M",
+             bin_dir, dir);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    snprintf(cmd, sizeof cmd,
+             "%s/mts-build tests/data/cow.off -o %s/x.mtsm -q --max-mesh-bytes 182966", bin_dir,
+             dir);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    const char *bad[] = {"0", "abc", "1X", "-1", "1MB", "99999999999999999999", ""};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        snprintf(cmd, sizeof cmd, "%s/mts-build tests/data/cow.off --max-mesh-bytes '%s'",
+                 bin_dir, bad[i]);
+        CHECKF(t, mts_test_run(cmd, out, sizeof out) == 2 && strstr(out, "--max-mesh-bytes"),
+               "'%s': %s", bad[i], out);
+    }
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
 }
 
 static void test_build_inspect_verify(mts_test *t)
@@ -202,6 +257,7 @@ int main(int argc, char **argv)
     mts_test t = {0};
     RUN(&t, test_help_and_usage);
     RUN(&t, test_bad_input_exits_1);
+    RUN(&t, test_build_refuses_non_files);
     RUN(&t, test_build_inspect_verify);
     return mts_test_end(&t);
 }

@@ -72,6 +72,29 @@ int cli_parse_u32(const char *s, uint32_t *out)
     return 1;
 }
 
+int cli_parse_bytes(const char *s, uint64_t *out)
+{
+    if (!s || !isdigit((unsigned char)*s))
+        return 0;
+    char *end;
+    errno = 0;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno)
+        return 0;
+    unsigned shift = 0;
+    if (*end) {
+        const char *suffixes = "kmgt";
+        const char *at = end[1] ? NULL : strchr(suffixes, tolower((unsigned char)*end));
+        if (!at)
+            return 0;
+        shift = 10 * (unsigned)(at - suffixes + 1);
+    }
+    if (v > (UINT64_MAX >> shift))
+        return 0;
+    *out = (uint64_t)v << shift;
+    return 1;
+}
+
 int cli_option_u32(int argc, char **argv, int *i, const char *prog, uint32_t lo, uint32_t hi,
                    uint32_t *out)
 {

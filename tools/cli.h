@@ -39,6 +39,9 @@ uint64_t cli_peak_rss_reset(void);
 /* Strict parsers: the whole string must be a number in range. */
 int cli_parse_u32(const char *s, uint32_t *out);
 int cli_parse_double(const char *s, double *out);
+/* A size in bytes: a whole number, optionally with a binary suffix K, M, G
+ * or T (k, m, g, t too: 2^10, 2^20, 2^30, 2^40), as in "512M" or "4G". */
+int cli_parse_bytes(const char *s, uint64_t *out);
 
 /* The value of the option argv[*i] as a whole number from lo to hi: *i moves
  * onto the value. A missing or bad value prints "prog: OPTION needs a whole

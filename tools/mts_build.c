@@ -13,7 +13,8 @@ static void usage(FILE *f)
 {
     fputs("usage: mts-build MESH [-o MODEL.mtsm] [--base-vertices N] [--tunnel-length K]\n"
           "                 [--strip-effort E] [--max-strip M] [--key-ratio R]\n"
-          "                 [--reorder-window W] [--threads N] [--json] [--quiet]\n"
+          "                 [--reorder-window W] [--threads N] [--max-mesh-bytes N]\n"
+          "                 [--json] [--quiet]\n"
           "\n"
           "Builds a multiresolution triangle-strip model from a mesh (OFF, OBJ, PLY, STL):\n"
           "strips at full resolution, a quadric edge-collapse sequence down to a base mesh,\n"
@@ -49,6 +50,9 @@ static void usage(FILE *f)
           "  --threads N           the full-level strips beside the simplification on a\n"
           "                        second thread; 1: one after the other (the model is\n"
           "                        the same; default: the processors online)\n"
+          "  --max-mesh-bytes N    refuse a mesh file over N bytes before reading it (bytes,\n"
+          "                        or with K, M, G: 512M; default 4G); only a regular file\n"
+          "                        is read, never a FIFO or a device\n"
           "  --json                print one line of JSON with the figures\n"
           "  -q, --quiet           no progress bar, no summary\n"
           "  -h, --help            this help\n"
@@ -101,6 +105,7 @@ int main(int argc, char **argv)
              threads = 0;
     double key_ratio = MTS_LODBUILD_DEFAULT_KEY_RATIO;
     int json = 0, quiet = 0;
+    mts_mesh_options mo = {0};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
@@ -138,6 +143,12 @@ int main(int argc, char **argv)
         } else if (!strcmp(a, "--threads")) {
             if (!cli_option_u32(argc, argv, &i, "mts-build", 1, 1024, &threads))
                 return CLI_EXIT_USAGE;
+        } else if (!strcmp(a, "--max-mesh-bytes")) {
+            if (++i >= argc || !cli_parse_bytes(argv[i], &mo.max_bytes) || mo.max_bytes == 0) {
+                fprintf(stderr, "mts-build: --max-mesh-bytes needs a size in bytes above 0 "
+                                "(512M, 4G)\n");
+                return CLI_EXIT_USAGE;
+            }
         } else if (!strcmp(a, "--json")) {
             json = 1;
         } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
@@ -184,7 +195,7 @@ int main(int argc, char **argv)
     uint64_t rss_start = cli_peak_rss_reset(); /* the program itself, before the mesh */
     double t0 = cli_now();
     stage_memory_update(&sm, "load", 0);
-    if (mts_mesh_load(input, NULL, &mesh, &ms, &err) != MTS_OK)
+    if (mts_mesh_load(input, &mo, &mesh, &ms, &err) != MTS_OK)
         goto fail;
     double t1 = cli_now();
     mts_build_options bo = {0};
