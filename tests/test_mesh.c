@@ -1468,10 +1468,9 @@ static void test_refused_from_head(mts_test *t)
             SKIP(t, "cannot make a sparse file of 3 GB in %s", mts_test_tmpdir());
         }
         load_case c = {paths[i], 0, cases[i].want, cases[i].msg, cases[i].triangles};
-        double t0 = mts_clock_seconds();
+        /* 512 MB of address space: a loader that read the 3 GB before
+         * deciding dies of it; 20 s: one that blocked is killed */
         CHECKF(t, in_child(load_case_ok, &c, (size_t)512 << 20, 20), "%s", cases[i].name);
-        double dt = mts_clock_seconds() - t0;
-        CHECKF(t, dt < 2, "%s took %.2f s", cases[i].name, dt);
         remove(paths[i]);
     }
     buf_free(&stl);
