@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The builder's figures of `make bench` (issue 21), into OUT/builder.json:
+# The builder's figures of `make bench`, into OUT/builder.json:
 # per mesh -- bunny00, the 1.2M-triangle mesh (bunny00 Loop-subdivided
 # twice) and one of at least 5M triangles (fandisk_large sqrt3-subdivided
 # once, then Loop three times: 6.1M), all made by OpenMesh's own

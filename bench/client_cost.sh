@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The client's cost figures of `make bench` (issue 16), into OUT/client.json:
+# The client's cost figures of `make bench`, into OUT/client.json:
 #   - both stream forms applied in one process, warm (mts-bench-apply): ms,
 #     splits/s, ratio, ns per split against the mesh's size;
 #   - the same as fresh mts-client processes over loopback (median of 5 each);

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Pictures of `make bench` (issue 5, part 4), from bench/out/walk.json and
+"""Pictures of `make bench`, from bench/out/walk.json and
 bench/out/rd.json (written by build/bin/mts-bench-walk):
 
   bench/plots/walkthrough.png   frames/s and extraction ms per frame of the

@@ -29,7 +29,7 @@ rm -f "$out/models.json" # never merge a previous run's figures
 build/bin/mts-bench "${models[@]}" --json "$out/models.json" || status=1
 [ -s "$out/models.json" ] || { echo "bench: mts-bench wrote no figures" >&2; exit 1; }
 
-# --- streaming (issue 3) -------------------------------------------------------
+# --- streaming ----------------------------------------------------------------
 rm -f "$out/stream.json" "$out/loopback.txt"
 build/bin/mts-bench-stream "${models[@]}" --json "$out/stream.json" || status=1
 # time to first frame over loopback: the real server and client, bunny00
@@ -45,7 +45,7 @@ if [ -f "$shared/models/bunny00.off" ]; then
   for _ in 1 2 3 4 5; do
     build/bin/mts-client "127.0.0.1:$port" bunny00 --json >>"$out/loopback.txt" 2>/dev/null || status=1
   done
-  # previews that fetch what the view needs (issue 22): the distance policy's
+  # previews that fetch what the view needs: the distance policy's
   # bytes beside one stream stopped at the triangles it asked for
   : >"$out/previews.txt"
   for d in 4 8; do
@@ -61,7 +61,7 @@ if [ -f "$shared/models/bunny00.off" ]; then
   wait "$server" 2>/dev/null
 fi
 
-# --- many clients (issue 4): mts-server beside nginx on the same bytes --------
+# --- many clients: mts-server beside nginx on the same bytes ------------------
 rm -f "$out/stress.json"
 if [ "${MTS_BENCH_STRESS:-1}" = 0 ]; then
   printf '{"skipped": "MTS_BENCH_STRESS=0"}\n' >"$out/stress.json"
@@ -114,7 +114,7 @@ else
     t0=$(now)
     if build/bin/mts-build "$big" -o "$big_model" --json >"$out/bunny00_l2.json" 2>"$out/bunny00_l2.err"; then
       note big_wall_seconds "$(elapsed "$t0" "$(now)")"
-      # strip quality and ACMR at the full level against meshopt (issue 6)
+      # strip quality and ACMR at the full level against meshopt
       echo "bench: mts-bench $big (a few minutes) ..." >&2
       build/bin/mts-bench "$big" --runs 1 --reps 1 --json "$out/bunny00_l2_bench.json" \
         >"$out/bunny00_l2_bench.txt" 2>&1 || status=1
@@ -126,7 +126,7 @@ else
   fi
 fi
 
-# --- the client's cost (issue 16) --------------------------------------------------
+# --- the client's cost --------------------------------------------------------
 # both forms warm and as fresh processes, server ready, the window, a thousand
 # applying clients: on the shared models' .mtsm and the big mesh's
 rm -rf "$out/client" # never merge a previous run's figures
@@ -168,7 +168,7 @@ else
   fi
 fi
 
-# --- the builder at scale (issue 21) ----------------------------------------------
+# --- the builder at scale -----------------------------------------------------
 # time and peak memory per stage on bunny00, 1.2M and 6.1M triangles, threads 2
 # and 1, beside OpenMesh-mkbalancedpm on the same meshes
 rm -f "$out/builder.json"
@@ -179,7 +179,7 @@ else
   bench/builder.sh "$out" "$shared/models" || status=1
 fi
 
-# --- the browser client (issue 20) ------------------------------------------------
+# --- the browser client -------------------------------------------------------
 # the WebAssembly decoder beside the native one, the page in headless Chromium
 rm -f "$out/web.json"
 if [ "${MTS_BENCH_WEB:-1}" = 0 ]; then
@@ -207,7 +207,7 @@ else
   bench/web_front.py --json "$out/web_front.json" || status=1
 fi
 
-# --- walkthrough, rate-distortion and plots (issue 5) ---------------------------
+# --- walkthrough, rate-distortion and plots -----------------------------------
 # mts-bench-walk: the walkthrough of papers 000/002 (model moving away, linear
 # and exponential, 20 s at 60 Hz, distance LOD policy; strips coherent / from
 # the base / triangle list) and each stream's rate-distortion series beside
@@ -369,7 +369,7 @@ except (OSError, ValueError, KeyError):
     pass
 if previews:
     stream["previews"] = previews
-    print("\nPreviews (issue 22): --lod-policy distance asks for its stop (bunny00; bytes with "
+    print("\nPreviews: --lod-policy distance asks for its stop (bunny00; bytes with "
           "the listing, against one stream stopped at the triangles asked)")
     for v in previews:
         print(f"  distance {v['distance']}x: level {v['level']}, {v['bytes']} + {v['list_bytes']} B "
@@ -412,7 +412,7 @@ def median_of(v):
     v = sorted(v)
     return v[len(v) // 2] if v else None
 
-# --- the client's cost (issue 16) ---
+# --- the client's cost ---
 cc = {}
 cdir = os.path.join(out, "client")
 try:
@@ -473,7 +473,7 @@ try:
 except OSError:
     pass
 if warm:
-    print("\nThe client's cost (issue 16): splits form (records derived) against records form")
+    print("\nThe client's cost: splits form (records derived) against records form")
     print(f"{'model':<14} {'triangles':>9} {'splits':>8} {'warm split':>11} {'warm rec':>9} "
           f"{'ratio':>6} {'ns/split':>9} {'fresh split':>12} {'fresh rec':>10} {'ratio':>6} "
           f"{'listen s':>9} {'ready s':>8}")
@@ -518,12 +518,12 @@ def load_out(name):
     except (OSError, ValueError):
         return None
 
-# --- the builder at scale (issue 21) ---
+# --- the builder at scale ---
 builder = load_out("builder.json") or {"skipped": "bench/builder.sh wrote no figures"}
 if "skipped" in builder:
     print(f"\nBuilder at scale: skipped: {builder['skipped']}")
 else:
-    print("\nBuilder at scale (issue 21): mts-build (2 threads, 1 thread) beside OpenMesh-mkbalancedpm, same run")
+    print("\nBuilder at scale: mts-build (2 threads, 1 thread) beside OpenMesh-mkbalancedpm, same run")
     print(f"{'mesh':<12} {'triangles':>10} {'build s':>8} {'1 thr s':>8} {'mkbpm s':>8} {'ratio':>6} "
           f"{'us/tri':>7} {'vs bunny':>8} {'peak MB':>8} {'B/tri':>6} {'idx/tri':>7} {'worst':>6}")
     print("-" * 104)
@@ -542,12 +542,12 @@ else:
                   "; peak MB: " + ", ".join(f"{k} {v:.0f}" for k, v in b.get("stage_peak_mb", {}).items()))
 res["builder"] = builder
 
-# --- the browser client (issue 20) ---
+# --- the browser client ---
 web = load_out("web.json") or {"skipped": "bench/web.sh wrote no figures"}
 if "skipped" in web:
     print(f"\nBrowser client: skipped: {web['skipped']}")
 else:
-    print("\nBrowser client (issue 20): the WebAssembly decoder (node, median of 7 warm; first run) "
+    print("\nBrowser client: the WebAssembly decoder (node, median of 7 warm; first run) "
           "against the native one (mts-bench-apply, median of 7), splits form")
     print(f"{'model':<14} {'splits':>8} {'wasm ms':>9} {'first ms':>9} {'native ms':>10} "
           f"{'wasm M/s':>9} {'native M/s':>11} {'ratio':>7} {'first':>7}")

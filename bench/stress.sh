@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Part of `make bench` (issue 4): mts-server under many clients, beside nginx
+# Part of `make bench`: mts-server under many clients, beside nginx
 # serving the same bytes as a static file to the same number of connections,
 # both measured by the same client (mts-stress; --http for nginx) on this
 # machine. Writes $1/stress.json; bench/run.sh merges and prints it.

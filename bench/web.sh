@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The browser client's figures of `make bench` (issue 20), into OUT/web.json:
+# The browser client's figures of `make bench`, into OUT/web.json:
 #   - the WebAssembly decoder (node tests/web/decode.js: median of 7 warm
 #     decodes, and the first, in one process) beside the native one
 #     (mts-bench-apply, median of 7) on the same models in the same run:
