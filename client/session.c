@@ -367,10 +367,16 @@ static void stream_step(mts_session *s, int timeout_ms)
         return;
     }
     if (pr == 0) {
+        /* a listing has no END nor batches: its messages speak of the list */
         if ((1e3 * mts_clock_seconds()) - s->last_data >= s->ito * 1000)
             conversation_failed(s,
-                                mts_error_set(err, MTS_ERR_IO,
-                                              "no data from the server for %.0f s", s->ito),
+                                s->o->list
+                                    ? mts_error_set(err, MTS_ERR_IO,
+                                                    "the server stopped sending the model list "
+                                                    "(no data for %g s)",
+                                                    s->ito)
+                                    : mts_error_set(err, MTS_ERR_IO,
+                                                    "no data from the server for %.0f s", s->ito),
                                 1);
         return;
     }
@@ -381,10 +387,15 @@ static void stream_step(mts_session *s, int timeout_ms)
         if (got == 0) {
             conversation_failed(
                 s,
-                mts_error_set(err, MTS_ERR_IO,
-                              "the server closed the connection mid-stream (after %llu bytes, "
-                              "%u batches applied)",
-                              (unsigned long long)st->bytes, s->c->batches),
+                s->o->list
+                    ? mts_error_set(err, MTS_ERR_IO,
+                                    "the server closed the connection before the model list was "
+                                    "whole (after %llu bytes)",
+                                    (unsigned long long)st->bytes)
+                    : mts_error_set(err, MTS_ERR_IO,
+                                    "the server closed the connection mid-stream (after %llu "
+                                    "bytes, %u batches applied)",
+                                    (unsigned long long)st->bytes, s->c->batches),
                 1);
             return;
         }
@@ -449,7 +460,12 @@ mts_result mts_session_begin(const mts_session_options *o, mts_stream_client *c,
 int mts_session_poll(mts_session *s, int timeout_ms)
 {
     const double time_left = s->t0 + s->max_ms - (1e3 * mts_clock_seconds());
-    if (s->ph != PH_DONE && time_left <= 0)
+    if (s->ph != PH_DONE && time_left <= 0 && s->o->list)
+        finish(s, mts_error_set(&s->err, MTS_ERR_IO,
+                                "the model list did not come whole within %g s (the session's "
+                                "time limit)",
+                                s->max_ms / 1000));
+    else if (s->ph != PH_DONE && time_left <= 0)
         finish(s, mts_error_set(&s->err, MTS_ERR_IO,
                                 "no END after %g s (%u batches applied): the session's time "
                                 "limit",

@@ -71,6 +71,7 @@ struct mts_grow {
     grow_tri *tri;   /* 64-byte aligned: two to a cache line */
     int32_t *prev;   /* each triangle's previous on its path (read far less) */
     uint32_t *vhead; /* per vertex: a corner of it, NONE when it has none */
+    uint32_t vhead_room; /* vertices vhead holds: grown as splits bring them */
     /* slots */
     uint32_t slot_count, slot_cap;
     grow_slot *slot;
@@ -232,6 +233,30 @@ static int32_t tri_add(mts_grow *g, uint32_t a, uint32_t b, uint32_t c, int list
             g->vhead[g->tri[t].v[k]] = 3 * t + k;
     }
     return (int32_t)t;
+}
+
+/* Room in vhead for `count` vertices. It grows with the splits applied,
+ * not with the levels announced: a client's growth starts before it knows
+ * how many will really come. */
+static int vhead_reserve(mts_grow *g, uint32_t count)
+{
+    if (count <= g->vhead_room)
+        return 1;
+    uint64_t room = 2ull * g->vhead_room;
+    if (room < count)
+        room = count;
+    if (room > (uint64_t)g->nb + g->n)
+        room = (uint64_t)g->nb + g->n;
+    if (room < count)
+        return 0;
+    uint32_t *h = realloc(g->vhead, (size_t)room * sizeof *h);
+    if (!h)
+        return 0;
+    for (uint64_t x = g->vhead_room; x < room; x++)
+        h[x] = NONE;
+    g->vhead = h;
+    g->vhead_room = (uint32_t)room;
+    return 1;
 }
 
 /* Every half-edge sorted by (from, to): lookups of directed edges anywhere
@@ -1570,11 +1595,8 @@ mts_result mts_grow_create(const mts_strips *base, uint32_t nb, uint32_t n,
             goto fail;
         }
     }
-    g->vhead = malloc(((size_t)nb + n + 1) * sizeof *g->vhead);
-    if (!g->vhead || !tri_reserve(g, base->index_count + 1))
+    if (!vhead_reserve(g, nb) || !tri_reserve(g, base->index_count + 1))
         goto nomem;
-    for (size_t i = 0; i < (size_t)nb + n; i++)
-        g->vhead[i] = NONE;
     for (uint32_t k = 0; k < base->strip_count; k++) {
         const uint32_t *str = base->indices + base->offsets[k];
         uint32_t len = base->offsets[k + 1] - base->offsets[k];
@@ -1918,6 +1940,8 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
                              g->level, v, u, sp->left, sp->right);
     if (g->level + 1 == g->n && (!full || (!full->strips && !full->paths)))
         return mts_error_set(err, MTS_ERR_ARG, "grow: the last split needs the full strips");
+    if (!vhead_reserve(g, v + 1))
+        goto nomem;
     const int fan = !sp->moved_count && !sp->born_count;
 
     /* the corners v takes over */

@@ -85,9 +85,12 @@ mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start star
     }
     /* Room to walk the longest record backwards, so that no later move
      * allocates. Offsets that go backwards are left for mts_lod_split to
-     * report. */
+     * report. A runtime that starts at the base collapses only what it
+     * split, and each split reserves for its own record: it reads no
+     * record here, which a stream client's model does not hold yet (its
+     * offsets are sized by the levels the server claims). */
     uint32_t longest = 0;
-    for (uint32_t j = 0; j < lod->available; j++) {
+    for (uint32_t j = 0; start == MTS_LOD_AT_FULL && j < lod->available; j++) {
         uint32_t a = model->record_offsets[j], b = model->record_offsets[j + 1];
         if (b > a && b - a > longest)
             longest = b - a;

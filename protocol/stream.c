@@ -1325,9 +1325,10 @@ void mts_stream_put_end(const mts_stream *s, uint32_t stop_level, uint32_t bytes
  * after our base was in; its BASE is the one we hold (same stream_id). */
 enum { ST_INFO = 0, ST_BASE, ST_BATCHES, ST_DONE, ST_FAILED, ST_SKIP_BASE };
 
-/* A client allocates for the counts MODEL_INFO announces before any data
- * arrives, so those counts are capped: 2^24 vertices (a 16M-vertex model
- * holds about 1.2 GB here). */
+/* A client reserves room per level and per slot for the counts MODEL_INFO
+ * announces before any data arrives (take_info bounds the slots by the
+ * vertices), so those counts are capped: 2^24 vertices (a 16M-vertex model
+ * holds about 1.2 GB here once it has all come). */
 #define CLIENT_MAX_VERTICES (1u << 24)
 #define RECORDS_HUGE ((size_t)2 << 20) /* a huge page */
 
@@ -1379,32 +1380,69 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     if (rc != MTS_OK)
         return rc;
     const mts_wire_model_info *mi = &c->info;
+    /* Every count here is the server's word, and what the client sizes
+     * before data arrives follows from them, so each is held to what the
+     * others and the stream's invariants allow (PROTOCOL.md, MODEL_INFO,
+     * "What a client checks"), and the claim that cannot be true is named.
+     * Vertices are the root: capped here, and what they claim is only
+     * reserved, the per-vertex arrays growing as vertices arrive. */
     if (mi->vertices > CLIENT_MAX_VERTICES)
-        return mts_error_set(err, MTS_ERR_LIMIT, "MODEL_INFO: %u vertices (this client takes %u)",
-                             mi->vertices, CLIENT_MAX_VERTICES);
-    const uint64_t cap = mi->capacity_total;
-    /* A capacity is the longest its slot is at any level, so the slots add
-     * up to more than any one level's strips: those hold a few indices per
-     * triangle (a manifold mesh has under twice as many triangles as
-     * vertices), but strips rebuilt at key levels leave slots long at one
-     * level and empty at another. Built models hold 5.5 to 5.7 capacity per
-     * vertex (cow, bunny00, fandisk; 2.4 indices per vertex at the full
-     * level); 16 per vertex leaves room for that to grow and still bounds
-     * what a client allocates for its runtime before any strip arrives. */
-    if (cap > 16ull * mi->vertices + 2ull * mi->strips || cap > UINT32_MAX)
         return mts_error_set(err, MTS_ERR_LIMIT,
-                             "MODEL_INFO: strip capacities add up to %llu for %u vertices",
-                             (unsigned long long)cap, mi->vertices);
-    /* every full-level triangle is drawn by a strip no longer than its slot,
-     * so the capacities bound the triangles, and with them every count the
-     * batches may announce (explicit lists, the full strips) */
-    if (mi->triangles > cap || mi->stop_triangles > mi->triangles)
+                             "MODEL_INFO claims %u vertices (%u base, %u levels); this client "
+                             "takes at most %u",
+                             mi->vertices, mi->base_vertices, mi->levels, CLIENT_MAX_VERTICES);
+    /* a builder keeps no vertex outside a triangle (mesh cleaning drops
+     * them), so the full level's triangles have every vertex as a corner */
+    if ((uint64_t)mi->vertices > 3ull * mi->triangles)
         return mts_error_set(err, MTS_ERR_FORMAT,
-                             "MODEL_INFO: %u triangles (%u at the stop level) cannot fit strip "
-                             "slots of %llu indices",
-                             mi->triangles, mi->stop_triangles, (unsigned long long)cap);
+                             "MODEL_INFO claims %u vertices (%u base, %u levels) for %u "
+                             "triangles, which have at most %llu corners",
+                             mi->vertices, mi->base_vertices, mi->levels, mi->triangles,
+                             3ull * mi->triangles);
+    /* no triangle goes away on the way up: every level has at most the
+     * full level's */
+    if (mi->stop_triangles > mi->triangles)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "MODEL_INFO claims %u triangles at the stop level, more than the "
+                             "%u of the full level",
+                             mi->stop_triangles, mi->triangles);
+    /* A slot holds a strip of a triangle at least at some level (else it
+     * would not be one), and growth opens a slot only when every one it has
+     * holds a strip: there are never more slots than the triangles of one
+     * level, which are at most the full level's (built models: 5.5 to 6.6
+     * slots a hundred triangles). */
+    if (mi->strips > mi->triangles)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "MODEL_INFO claims %u strips for %u triangles", mi->strips,
+                             mi->triangles);
+    const uint64_t cap = mi->capacity_total;
+    /* every full-level triangle is drawn by a strip no longer than its
+     * slot, so the capacities bound the triangles, and with them every
+     * count the batches may announce (explicit lists, the full strips) */
+    if (mi->triangles > cap)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "MODEL_INFO claims %u triangles, more than strip capacities of "
+                             "%llu indices can draw",
+                             mi->triangles, (unsigned long long)cap);
+    /* a slot's capacity is its longest strip, three indices at least */
+    if (3ull * mi->strips > cap)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "MODEL_INFO claims %u strips, but strip capacities of %llu indices "
+                             "hold at most %llu (three a strip)",
+                             mi->strips, (unsigned long long)cap, (unsigned long long)cap / 3);
+    /* A capacity is the longest its slot is at any level, so the slots add
+     * up to more than any one level's strips, but not by much: built models
+     * hold 4.3 to 4.7 capacity per vertex (cow, bunny00, fandisk_large; 2.4
+     * indices per vertex at the full level). 16 per vertex is this client's
+     * bound (the one that is a policy, not an invariant), and with the
+     * checks above it bounds the triangles and slots too. */
+    if (cap > 16ull * mi->vertices)
+        return mts_error_set(err, MTS_ERR_LIMIT,
+                             "MODEL_INFO claims %llu indices of strip capacity for %u vertices "
+                             "(this client takes 16 a vertex)",
+                             (unsigned long long)cap, mi->vertices);
     mts_model *m = &c->model;
-    size_t nv = mi->vertices, n1 = (size_t)mi->levels + 1;
+    size_t n1 = (size_t)mi->levels + 1;
     m->vertex_count = mi->vertices;
     m->base_vertex_count = mi->base_vertices;
     m->level_count = mi->levels;
@@ -1412,22 +1450,20 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     memcpy(m->bbox_min, mi->bbox_min, 12);
     memcpy(m->bbox_max, mi->bbox_max, 12);
     snprintf(m->source, sizeof m->source, "%s", mi->model);
-    m->positions = calloc(nv, 12);
-    m->normals = calloc(nv, 12);
-    c->quantized = calloc(nv, 12);
+    /* the per-vertex arrays come with the vertices (reserve_vertices);
+     * these stay untouched but for the levels and slots that arrive */
     m->parents = calloc(n1, 4);
     m->record_offsets = calloc(n1, 4);
     m->capacity = calloc((size_t)mi->strips + 1, 4);
     c->models = malloc(sizeof *c->models);
-    if (mi->flags & MTS_INFO_NORMALS) {
+    if (mi->flags & MTS_INFO_NORMALS)
         m->flags = MTS_MODEL_NORMALS_GIVEN;
-        c->oct = malloc(nv * 4);
-    }
-    if (!m->positions || !m->normals || !c->quantized || !m->parents || !m->record_offsets ||
-        !m->capacity || !c->models || (m->flags && !c->oct) ||
+    c->vertex_room = 0;
+    if (!m->parents || !m->record_offsets || !m->capacity || !c->models ||
         mts_strips_alloc(&m->full, mi->strips, 0, err) != MTS_OK)
-        return mts_error_set(err, MTS_ERR_NOMEM, "MODEL_INFO: out of memory for %u vertices",
-                             mi->vertices);
+        return mts_error_set(err, MTS_ERR_NOMEM,
+                             "MODEL_INFO: out of memory for %u levels and %u strips", mi->levels,
+                             mi->strips);
     /* The slots' room is MODEL_INFO's total; each slot's capacity (the
      * longest it is at any level) comes with BASE or the batch that first
      * uses it, and is 0 until then (take_capacities). The full strips never
@@ -1557,6 +1593,45 @@ static mts_result take_capacities(mts_stream_client *c, mts_cursor *cur, mts_rc_
     return MTS_OK;
 }
 
+/* Room in the per-vertex arrays for `count` vertices (at most the model's).
+ * They hold the vertices that arrived, the base once decoded and each split
+ * as it is decoded, not what MODEL_INFO claims: a server that claims
+ * millions of vertices and sends a few thousand costs a few thousand.
+ * Doubling keeps the copying to a constant a vertex; the new normals are
+ * zero, as a stream without normals leaves them. 0 when out of memory (the
+ * arrays that did grow stay valid). */
+static int reserve_vertices(mts_stream_client *c, uint32_t count)
+{
+    mts_model *m = &c->model;
+    if (count <= c->vertex_room)
+        return 1;
+    uint64_t room = 2ull * c->vertex_room;
+    if (room < count)
+        room = count;
+    if (room > m->vertex_count)
+        room = m->vertex_count;
+    if (room < count)
+        return 0;
+    float *pos = realloc(m->positions, (size_t)room * 12);
+    if (pos)
+        m->positions = pos;
+    float *nrm = realloc(m->normals, (size_t)room * 12);
+    if (nrm) {
+        memset(nrm + 3 * (size_t)c->vertex_room, 0, (size_t)(room - c->vertex_room) * 12);
+        m->normals = nrm;
+    }
+    uint32_t *q = realloc(c->quantized, (size_t)room * 12);
+    if (q)
+        c->quantized = q;
+    uint16_t *o = NULL;
+    if ((m->flags & MTS_MODEL_NORMALS_GIVEN) && (o = realloc(c->oct, (size_t)room * 4)) != NULL)
+        c->oct = o;
+    if (!pos || !nrm || !q || ((m->flags & MTS_MODEL_NORMALS_GIVEN) && !o))
+        return 0;
+    c->vertex_room = (uint32_t)room;
+    return 1;
+}
+
 static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
 {
     /* the CRC has checked out (mts_stream_client_frame) */
@@ -1571,7 +1646,7 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     mts_result rc = mts_draco_decode(draco, dsize, &dec, err);
     if (rc != MTS_OK)
         return mts_error_prefix(err, "BASE");
-    const int carry_normals = c->oct != NULL;
+    const int carry_normals = (m->flags & MTS_MODEL_NORMALS_GIVEN) != 0;
     if (dec.vertex_count != nb || (dec.normals != NULL) != carry_normals ||
         dec.grid.bits != c->grid.bits ||
         memcmp(dec.grid.origin, c->grid.origin, 12) != 0 || dec.grid.range != c->grid.range) {
@@ -1582,9 +1657,19 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
         mts_draco_mesh_out_free(&dec);
         return rc;
     }
-    if (!base_in_grid_order(&dec, NULL)) {
+    /* no triangle goes away on the way up: the base has at most the
+     * triangles of any level */
+    if (dec.triangle_count > c->info.stop_triangles) {
+        rc = mts_error_set(err, MTS_ERR_FORMAT,
+                           "BASE: Draco mesh has %u triangles, more than the %u MODEL_INFO "
+                           "claims at the stop level",
+                           dec.triangle_count, c->info.stop_triangles);
         mts_draco_mesh_out_free(&dec);
-        return mts_error_set(err, MTS_ERR_NOMEM, "BASE: out of memory");
+        return rc;
+    }
+    if (!base_in_grid_order(&dec, NULL) || !reserve_vertices(c, nb)) {
+        mts_draco_mesh_out_free(&dec);
+        return mts_error_set(err, MTS_ERR_NOMEM, "BASE: out of memory for %u vertices", nb);
     }
     memcpy(m->positions, dec.positions, (size_t)nb * 12);
     if (carry_normals) {
@@ -1603,7 +1688,9 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     uint64_t total = 0;
     if (k0 > mts_cursor_left(&cur))
         return mts_error_set(err, MTS_ERR_FORMAT, "BASE: %u strip lengths cannot fit", k0);
-    uint32_t *lens = calloc((size_t)m->strip_count + 1, 4);
+    /* the announced slots' lengths: a varint each, so no more than the
+     * message holds; the slots after them are empty at level 0 */
+    uint32_t *lens = calloc((size_t)k0 + 1, 4);
     if (!lens)
         return mts_error_set(err, MTS_ERR_NOMEM, "BASE: out of memory");
     for (uint32_t s = 0; s < k0; s++) {
@@ -1629,7 +1716,7 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     for (uint32_t s = 0; s < m->strip_count; s++) {
         m->base.offsets[s] = o;
         uint32_t prev = 0;
-        for (uint32_t k = 0; k < lens[s]; k++) {
+        for (uint32_t k = 0; s < k0 && k < lens[s]; k++) {
             prev += mts_unzigzag_u32(mts_cursor_varint(&cur));
             if (prev >= nb) {
                 free(lens);
@@ -1791,6 +1878,9 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, mts_grow_
     full_source src;
     for (uint32_t i = 0; i < count; i++) {
         const uint32_t j = first + i, v = nb + j, before = j ? m->parents[j - 1] : 0;
+        if (!reserve_vertices(c, v + 1))
+            return mts_error_set(err, MTS_ERR_NOMEM, "BATCH %u: out of memory for %u vertices",
+                                 index, v + 1);
         /* up: u = before + gap, below v; else u = v - 1 - back, below before */
         const unsigned up = mts_rc_decode_bit(d, &md->parent_up);
         const uint32_t x = mts_rc_decode_uint(d, up ? &md->parent_gap : &md->parent);
@@ -1931,6 +2021,9 @@ static mts_result take_records(mts_stream_client *c, const uint8_t *p, size_t n,
     mts_cursor cur = mts_cursor_make(p + used, n - used);
     for (uint32_t i = 0; i < count; i++) {
         const uint32_t v = nb + first + i, u = m->parents[first + i];
+        if (!reserve_vertices(c, v + 1))
+            return mts_error_set(err, MTS_ERR_NOMEM, "BATCH %u: out of memory for %u vertices",
+                                 index, v + 1);
         uint32_t *q = c->quantized + 3 * (size_t)v;
         for (int a = 0; a < 3; a++) {
             int64_t x = (int64_t)c->quantized[3 * (size_t)u + a] +
@@ -2040,6 +2133,12 @@ static mts_result take_end(mts_stream_client *c, const uint8_t *p, size_t n, mts
     return MTS_OK;
 }
 
+static void skip_model(void *user, const mts_wire_model_entry *m)
+{
+    (void)user;
+    (void)m;
+}
+
 mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uint8_t *payload,
                                    size_t size, mts_stream_event *event, mts_error *err)
 {
@@ -2069,7 +2168,11 @@ mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uin
             return MTS_OK;
         }
         if (type == MTS_MSG_MODELS) {
-            if ((rc = mts_wire_parse_models(payload, size, c->on_model, c->user, err)) != MTS_OK)
+            /* the whole listing is checked before any entry is handed on:
+             * a caller that prints them must not print half a bad frame */
+            if ((rc = mts_wire_parse_models(payload, size, skip_model, NULL, err)) != MTS_OK ||
+                (rc = mts_wire_parse_models(payload, size, c->on_model ? c->on_model : skip_model,
+                                            c->user, err)) != MTS_OK)
                 return fail(c, rc);
             c->state = ST_DONE;
             *event = MTS_EV_MODELS;

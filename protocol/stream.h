@@ -161,6 +161,10 @@ typedef struct mts_stream_client {
     uint32_t announced;    /* slots 0..announced-1 have their capacities */
     uint64_t announced_sum; /* those capacities added up */
     uint32_t *quantized;
+    /* vertices the per-vertex arrays (the model's positions and normals,
+     * quantized, oct) have room for: the vertices that arrived, grown as
+     * the base and the splits are decoded, never what MODEL_INFO claims */
+    uint32_t vertex_room;
     size_t record_capacity;
     uint64_t record_word_limit; /* the most record words a records form may bring (take_info) */
     struct mts_grow *grow; /* derives each split's record (grow.h) */
