@@ -285,10 +285,18 @@ const char *mts_render_context_description(const mts_render_context *c)
 
 /* ---- renderer --------------------------------------------------------- */
 
+/* The vertex buffer's first room; it doubles as vertices come (a stream's
+ * base is usually well under this, a model file's whole mesh over it). */
+#define VERTEX_ROOM_START 65536u
+
 struct mts_renderer {
     mts_render_context *ctx;
     mts_render_options opts;
-    uint32_t vertex_capacity;
+    /* The buffers hold what arrived, not what the source claims: the vertex
+     * buffer grows (doubling) up to vertex_limit as vertices are appended,
+     * the strip buffer up to index_limit as slots are laid out. */
+    uint32_t vertex_capacity, vertex_limit;
+    uint64_t index_limit;
     uint32_t strip_count;
     uint32_t *offset;   /* strip s at index offset[s], cap_s + 1 entries: slot[s] + s */
     uint32_t *capacity; /* cap_s: the longest length */
@@ -551,23 +559,31 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
                              "render: %u vertices, GL addresses indices up to %lld",
                              layout->vertex_capacity, (long long)max_index);
     const uint32_t slots_end = layout->slot[layout->strip_count];
-    uint64_t index_count =
+    const uint64_t index_limit =
         (uint64_t)(layout->room > slots_end ? layout->room : slots_end) + layout->strip_count;
-    if (index_count > (uint64_t)INT32_MAX) /* glDrawElements takes a GLsizei */
+    if (index_limit > (uint64_t)INT32_MAX) /* glDrawElements takes a GLsizei */
         return mts_error_set(err, MTS_ERR_LIMIT,
                              "render: %llu indices in the strip buffer, at most %d",
-                             (unsigned long long)index_count, INT32_MAX);
-    uint64_t vbytes = (uint64_t)layout->vertex_capacity * 24u;
-    if (vbytes > (uint64_t)PTRDIFF_MAX || index_count * 4u > (uint64_t)PTRDIFF_MAX)
+                             (unsigned long long)index_limit, INT32_MAX);
+    if ((uint64_t)layout->vertex_capacity * 24u > (uint64_t)PTRDIFF_MAX ||
+        index_limit * 4u > (uint64_t)PTRDIFF_MAX)
         return mts_error_set(err, MTS_ERR_LIMIT, "render: buffers of %llu + %llu bytes",
-                             (unsigned long long)vbytes, (unsigned long long)index_count * 4u);
+                             (unsigned long long)layout->vertex_capacity * 24u,
+                             (unsigned long long)index_limit * 4u);
+    /* the slots laid out so far, and room for the vertices to come at first */
+    const uint64_t index_count = (uint64_t)slots_end + layout->strip_count;
+    const uint32_t vertex_capacity =
+        layout->vertex_capacity < VERTEX_ROOM_START ? layout->vertex_capacity : VERTEX_ROOM_START;
+    const uint64_t vbytes = (uint64_t)vertex_capacity * 24u;
 
     mts_renderer *r = calloc(1, sizeof *r);
     if (!r)
         return mts_error_set(err, MTS_ERR_NOMEM, "render: renderer");
     r->ctx = ctx;
     r->opts = *opts;
-    r->vertex_capacity = layout->vertex_capacity;
+    r->vertex_capacity = vertex_capacity;
+    r->vertex_limit = layout->vertex_capacity;
+    r->index_limit = index_limit;
     r->strip_count = layout->strip_count;
     r->index_count = index_count;
     memcpy(r->bbox_min, layout->bbox_min, sizeof r->bbox_min);
@@ -678,6 +694,91 @@ fail:
 
 /* ---- geometry --------------------------------------------------------- */
 
+/* A buffer of `bytes` bound to target whose first `keep` bytes are old's
+ * and whose bytes from `at` are old's from `old_at` (`tail` of them):
+ * two halves of a buffer moved apart as it grows, copied on the GPU. */
+static GLuint grown_buffer(GLuint old, uint64_t bytes, uint64_t keep, uint64_t old_at,
+                           uint64_t at, uint64_t tail)
+{
+    GLuint b = 0;
+    glGenBuffers(1, &b);
+    glBindBuffer(GL_COPY_WRITE_BUFFER, b);
+    glBufferData(GL_COPY_WRITE_BUFFER, (GLsizeiptr)bytes, NULL, GL_DYNAMIC_DRAW);
+    glBindBuffer(GL_COPY_READ_BUFFER, old);
+    if (keep)
+        glCopyBufferSubData(GL_COPY_READ_BUFFER, GL_COPY_WRITE_BUFFER, 0, 0, (GLsizeiptr)keep);
+    if (tail)
+        glCopyBufferSubData(GL_COPY_READ_BUFFER, GL_COPY_WRITE_BUFFER, (GLintptr)old_at,
+                            (GLintptr)at, (GLsizeiptr)tail);
+    glBindBuffer(GL_COPY_READ_BUFFER, 0);
+    glBindBuffer(GL_COPY_WRITE_BUFFER, 0);
+    glDeleteBuffers(1, &old);
+    return b;
+}
+
+/* Room for `need` vertices (at most vertex_limit): the vertex buffer, and
+ * the geomorph's sources where there are any, at least doubled, what was
+ * uploaded kept, the attributes pointed at the new halves. */
+static mts_result grow_vertices(mts_renderer *r, uint32_t need, mts_error *err)
+{
+    uint64_t cap = 2ull * r->vertex_capacity;
+    if (cap < need)
+        cap = need;
+    if (cap > r->vertex_limit)
+        cap = r->vertex_limit;
+    const uint64_t used = r->stats.vertices, old_cap = r->vertex_capacity;
+    r->vbo = grown_buffer(r->vbo, cap * 24u, used * 12u, old_cap * 12u, cap * 12u, used * 12u);
+    glBindVertexArray(r->vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->vbo);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, (const void *)0);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0, (const void *)(uintptr_t)(cap * 12u));
+    r->stats.vertex_buffer_bytes += (cap - old_cap) * 24u;
+    if (r->morph_vbo) {
+        /* positions (12 bytes a vertex), then normals in 4 */
+        r->morph_vbo = grown_buffer(r->morph_vbo, cap * 16u, used * 12u, old_cap * 12u,
+                                    cap * 12u, used * 4u);
+        glBindBuffer(GL_ARRAY_BUFFER, r->morph_vbo);
+        glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, 0, (const void *)0);
+        glVertexAttribPointer(3, 4, GL_INT_2_10_10_10_REV, GL_TRUE, 0,
+                              (const void *)(uintptr_t)(cap * 12u));
+        r->stats.vertex_buffer_bytes += (cap - old_cap) * 16u;
+    }
+    glBindVertexArray(0);
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
+    r->vertex_capacity = (uint32_t)cap;
+    return gl_check(err, "growing the vertex buffer");
+}
+
+/* Room for `need` indices in the strip buffer (at most index_limit), at
+ * least doubled: the host copy grows, and the GPU's buffer is made anew,
+ * to be filled whole at the next update (slots_stale). */
+static mts_result grow_indices(mts_renderer *r, uint64_t need, mts_error *err)
+{
+    uint64_t cap = 2ull * r->index_count;
+    if (cap < need)
+        cap = need;
+    if (cap > r->index_limit)
+        cap = r->index_limit;
+    uint32_t *host = realloc(r->host, (size_t)(cap ? cap : 1) * sizeof *host);
+    if (!host)
+        return mts_error_set(err, MTS_ERR_NOMEM, "render: %llu indices",
+                             (unsigned long long)cap);
+    r->host = host;
+    mts_result rc = mts_render_context_make_current(r->ctx, err);
+    if (rc != MTS_OK)
+        return rc;
+    glBindVertexArray(r->vao);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(cap * 4u), NULL, GL_DYNAMIC_DRAW);
+    glBindVertexArray(0);
+    r->stats.index_buffer_bytes = cap * 4u;
+    r->index_count = cap;
+    r->offset[r->strip_count] = (uint32_t)cap;
+    r->slots_stale = 1;
+    r->packed_kind = -1;
+    return gl_check(err, "growing the strip buffer");
+}
+
 mts_result mts_render_append_vertices(mts_renderer *r, uint32_t first, uint32_t count,
                                       const float *positions, const float *normals,
                                       mts_error *err)
@@ -689,14 +790,17 @@ mts_result mts_render_append_vertices(mts_renderer *r, uint32_t first, uint32_t 
                              "render: vertices from %u appended, but only %u are there "
                              "(appending leaves no gap)",
                              first, r->stats.vertices);
-    if ((uint64_t)first + count > r->vertex_capacity)
+    if ((uint64_t)first + count > r->vertex_limit)
         return mts_error_set(err, MTS_ERR_RANGE,
                              "render: vertices %u..%llu beyond the capacity of %u", first,
-                             (unsigned long long)first + count - 1, r->vertex_capacity);
+                             (unsigned long long)first + count - 1, r->vertex_limit);
     if (count == 0)
         return MTS_OK;
     mts_result rc = mts_render_context_make_current(r->ctx, err);
     if (rc != MTS_OK)
+        return rc;
+    if ((uint64_t)first + count > r->vertex_capacity &&
+        (rc = grow_vertices(r, first + count, err)) != MTS_OK)
         return rc;
     glBindBuffer(GL_ARRAY_BUFFER, r->vbo);
     glBufferSubData(GL_ARRAY_BUFFER, (GLintptr)((uint64_t)first * 12u),
@@ -901,10 +1005,15 @@ mts_result mts_render_set_strip(mts_renderer *r, uint32_t s, const uint32_t *ind
 static mts_result relayout(mts_renderer *r, const mts_lod *lod, mts_error *err)
 {
     const uint32_t from = lod->relayout_from, n = r->strip_count;
-    if ((uint64_t)lod->slot[n] + n > r->index_count)
+    if ((uint64_t)lod->slot[n] + n > r->index_limit)
         return mts_error_set(err, MTS_ERR_RANGE,
                              "render: the slots grow to %u indices, past the buffer's %llu",
-                             lod->slot[n], (unsigned long long)r->index_count - n);
+                             lod->slot[n], (unsigned long long)r->index_limit - n);
+    if ((uint64_t)lod->slot[n] + n > r->index_count) {
+        mts_result rc = grow_indices(r, (uint64_t)lod->slot[n] + n, err);
+        if (rc != MTS_OK)
+            return rc;
+    }
     uint32_t longest = r->max_capacity;
     for (uint32_t s = from; s < n; s++) {
         if (r->length[s] != 0)
@@ -970,6 +1079,7 @@ mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_err
             return mts_error_set(err, MTS_ERR_NOMEM, "render: %llu indices",
                                  (unsigned long long)r->index_count);
         }
+        uint64_t end = 0;
         for (uint32_t s = 0; s < r->strip_count; s++) {
             uint32_t len;
             const uint32_t *idx = mts_lod_strip(lod, s, &len);
@@ -978,7 +1088,11 @@ mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_err
             for (uint32_t i = len; i <= r->capacity[s]; i++)
                 dst[i] = MTS_RENDER_RESTART_INDEX;
             r->length[s] = len;
+            end = (uint64_t)r->offset[s] + r->capacity[s] + 1;
         }
+        /* room past the slots laid out so far holds restarts too */
+        for (uint64_t i = end; i < r->index_count; i++)
+            all[i] = MTS_RENDER_RESTART_INDEX;
         bytes = r->index_count * 4u;
         glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, all);
         memcpy(r->host, all, (size_t)r->index_count * sizeof *all);

@@ -505,16 +505,20 @@ static void test_idle_sender(mts_test *t)
         CHECK(t, fds[i] >= 0 && ws_send(fds[i], MTS_WS_BINARY, h.data, h.size));
         mts_buf_free(&answer);
     }
-    /* an empty frame from each every 100 ms for 3 s: bytes in, none out */
-    int closed = 0;
-    for (int round = 0; round < 30; round++) {
+    /* an empty frame from each every 100 ms, bytes in and none out, until
+     * the server has closed all three (a send then fails) or 15 s pass: a
+     * server that counts what a client sends as progress never does */
+    int closed = 0, gone[HOLDERS] = {0};
+    for (int round = 0; round < 150 && closed < HOLDERS; round++) {
         struct timespec ts = {0, 100 * 1000 * 1000};
         nanosleep(&ts, NULL);
-        closed = 0;
         for (int i = 0; i < HOLDERS; i++) {
-            if (fds[i] >= 0 && send(fds[i], empty.data, empty.size, MSG_NOSIGNAL | MSG_DONTWAIT) < 0 &&
-                (errno == EPIPE || errno == ECONNRESET))
+            if (fds[i] >= 0 && !gone[i] &&
+                send(fds[i], empty.data, empty.size, MSG_NOSIGNAL | MSG_DONTWAIT) < 0 &&
+                (errno == EPIPE || errno == ECONNRESET)) {
+                gone[i] = 1;
                 closed++;
+            }
         }
     }
     CHECKF(t, closed == HOLDERS, "%d of %d non-reading senders were dropped", closed, HOLDERS);
