@@ -20,12 +20,32 @@ WARN     := -Wall -Wextra -Werror
 # The wire's float steps (Draco's dequantization, normal codes) must round the
 # same on every build: no fused multiply-add (clang contracts by default).
 FP       := -ffp-contract=off
-CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(FP) $(WARN) -Icommon -Iprotocol -Iclient -Iserver -Itools -Ibench
+CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) $(FP) $(WARN)
 # OpenMesh's headers are not -Wextra clean and trip -Wmaybe-uninitialized when
 # inlined; the shims stay -Wall -Werror otherwise.
 # NDEBUG: OpenMesh asserts on property type names with string compares in
 # every point() access, a fifth of the decimation time.
-CXXFLAGS += -std=c++17 $(OPT) $(FP) -DNDEBUG -Wall -Werror -Wno-maybe-uninitialized -Icommon -Iprotocol
+CXXFLAGS += -std=c++17 $(OPT) $(FP) -DNDEBUG -Wall -Werror -Wno-maybe-uninitialized
+
+# The layers (docs/architecture.md): each folder is compiled with the include
+# paths of what it may use, so an include the wrong way fails the build.
+#   common/    the runtime every part shares (growth, LOD runtime, model file, ...)
+#   protocol/  the wire, the stream's coding, WebSocket, Draco      uses common
+#   builder/   mesh in, model file out (mts-build, mts-inspect)    uses common
+#   server/    mts-server                      uses common, protocol, builder
+#   client/    mts-client, its renderer and window          uses common, protocol
+#   stress/    mts-stress, many simulated clients           uses common, protocol
+#   web/       the page's decoder (WebAssembly)     uses common, protocol, client
+#   tests/, bench/: the public headers of every layer
+INC_common   := -Icommon
+INC_protocol := -Icommon -Iprotocol
+INC_builder  := -Icommon -Ibuilder
+INC_server   := -Icommon -Iprotocol -Ibuilder -Iserver
+INC_client   := -Icommon -Iprotocol -Iclient
+INC_stress   := -Icommon -Iprotocol -Istress
+INC_web      := -Icommon -Iprotocol -Iclient -Iweb
+INC_all      := -Icommon -Iprotocol -Ibuilder -Iserver -Iclient -Istress
+LAYERS   := common protocol builder server client stress
 # Draco, EGL, GLES, libpng, libcurl and X11 (mts-client --window) ship pkg-config
 # files; OpenMesh and meshoptimizer do not. --as-needed keeps each program linked
 # only to what it uses.
@@ -48,12 +68,11 @@ LDFLAGS  += $(filter -fsanitize=%,$(OPT)) -pthread -Wl,--as-needed
 LDLIBS   += $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
 
 # Library modules; a file named mts_*.c holds a program's main().
-LIB_C    := $(filter-out tools/mts_%.c server/mts_%.c client/mts_%.c,$(wildcard common/*.c protocol/*.c client/*.c server/*.c))
-LIB_CXX  := $(wildcard common/*.cpp protocol/*.cpp)
+LIB_C    := $(filter-out $(foreach l,$(LAYERS),$(l)/mts_%.c),$(wildcard $(foreach l,$(LAYERS),$(l)/*.c)))
+LIB_CXX  := $(wildcard $(foreach l,$(LAYERS),$(l)/*.cpp))
 LIB_OBJ  := $(patsubst %.c,$(BUILD)/obj/%.o,$(LIB_C)) $(patsubst %.cpp,$(BUILD)/obj/%.o,$(LIB_CXX))
 LIB      := $(BUILD)/libmts.a
 
-CLI_OBJ  := $(BUILD)/obj/tools/cli.o
 PROGRAMS := $(BUILD)/bin/mts-build $(BUILD)/bin/mts-inspect $(BUILD)/bin/mts-server \
             $(BUILD)/bin/mts-client $(BUILD)/bin/mts-stress
 TESTS    := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
@@ -67,67 +86,68 @@ all: programs tests
 programs: $(PROGRAMS)
 tests: $(TESTS)
 
+# each object gets its layer's include paths
+$(foreach l,$(LAYERS),$(eval $(BUILD)/obj/$(l)/%.o: LAYER_INC := $(INC_$(l))))
+$(BUILD)/obj/tests/%.o: LAYER_INC := $(INC_all)
+$(BUILD)/obj/bench/%.o: LAYER_INC := $(INC_all)
+
 $(BUILD)/obj/%.o: %.c Makefile
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS) -MMD -MP -c $< -o $@
+	$(CC) $(CFLAGS) $(LAYER_INC) -MMD -MP -c $< -o $@
 
 $(BUILD)/obj/%.o: %.cpp Makefile
 	@mkdir -p $(dir $@)
-	$(CXX) $(CXXFLAGS) -MMD -MP -c $< -o $@
+	$(CXX) $(CXXFLAGS) $(LAYER_INC) -MMD -MP -c $< -o $@
 
 $(LIB): $(LIB_OBJ)
 	@mkdir -p $(dir $@)
 	rm -f $@
 	ar rcs $@ $^
 
-$(BUILD)/bin/mts-%: $(BUILD)/obj/tools/mts_%.o $(CLI_OBJ) $(LIB)
+$(BUILD)/bin/mts-build: $(BUILD)/obj/builder/mts_build.o $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(BUILD)/bin/mts-server: $(BUILD)/obj/server/mts_server.o $(CLI_OBJ) $(LIB)
+$(BUILD)/bin/mts-inspect: $(BUILD)/obj/builder/mts_inspect.o $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
+$(BUILD)/bin/mts-server: $(BUILD)/obj/server/mts_server.o $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 # mts_client_window.c is mts-client's window run, beside its main()
 $(BUILD)/bin/mts-client: $(BUILD)/obj/client/mts_client.o $(BUILD)/obj/client/mts_client_window.o \
-		$(CLI_OBJ) $(LIB)
-	@mkdir -p $(dir $@)
-	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
-
-$(BUILD)/bin/mts-stress: $(BUILD)/obj/client/mts_stress.o $(CLI_OBJ) $(LIB)
-	@mkdir -p $(dir $@)
-	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
-
-$(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(CLI_OBJ) $(LIB)
-	@mkdir -p $(dir $@)
-	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
-
-# the draw paths the renderer is measured against (bench/drawmodes.c): the
-# benches draw them, test_render checks they draw the same picture
-DRAWMODES_OBJ := $(BUILD)/obj/bench/drawmodes.o
-$(BUILD)/tests/test_render: $(BUILD)/obj/tests/test_render.o $(DRAWMODES_OBJ) $(CLI_OBJ) $(LIB)
-	@mkdir -p $(dir $@)
-	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
-
-$(BENCH): $(BUILD)/obj/bench/mts_bench.o $(CLI_OBJ) $(LIB)
-	@mkdir -p $(dir $@)
-	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -lmeshoptimizer -o $@
-
-$(BUILD)/bin/mts-bench-stream: $(BUILD)/obj/bench/mts_bench_stream.o $(DRAWMODES_OBJ) $(CLI_OBJ) \
 		$(LIB)
 	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
+$(BUILD)/bin/mts-stress: $(BUILD)/obj/stress/mts_stress.o $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
+$(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
+$(BENCH): $(BUILD)/obj/bench/mts_bench.o $(LIB)
+	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -lmeshoptimizer -o $@
 
-$(BUILD)/bin/mts-bench-apply: $(BUILD)/obj/bench/mts_bench_apply.o $(CLI_OBJ) $(LIB)
+$(BUILD)/bin/mts-bench-stream: $(BUILD)/obj/bench/mts_bench_stream.o $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -lmeshoptimizer -o $@
+
+$(BUILD)/bin/mts-bench-apply: $(BUILD)/obj/bench/mts_bench_apply.o $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 # the browser client's figures (bench/web.sh): drives Chromium with tests/cdp.h
-$(BUILD)/bin/mts-bench-web: $(BUILD)/obj/bench/mts_bench_web.o $(CLI_OBJ) $(LIB)
+$(BUILD)/bin/mts-bench-web: $(BUILD)/obj/bench/mts_bench_web.o $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(BUILD)/bin/mts-bench-walk: $(BUILD)/obj/bench/mts_bench_walk.o $(DRAWMODES_OBJ) $(CLI_OBJ) $(LIB)
+$(BUILD)/bin/mts-bench-walk: $(BUILD)/obj/bench/mts_bench_walk.o $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
@@ -155,8 +175,8 @@ test-asan:
 	@$(MAKE) --no-print-directory SAN=1 all
 	@tests/run.sh build/asan
 
-# A long run of good and hostile clients against one server (issue 19;
-# not part of make test): scripts/soak.py, figures in bench/out/soak.json.
+# A long run of good and hostile clients against one server (not part of
+# make test): scripts/soak.py, figures in bench/out/soak.json.
 SOAK_SECONDS ?= 1800
 soak: all
 	@mkdir -p bench/out
@@ -203,9 +223,11 @@ EMAR     ?= emar
 WEB_ENV  := NODE_PATH=/usr/share/nodejs
 WEB_DIR  := build/web
 WEB_OBJ_DIR := build/web-obj
-WEB_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE -O2 $(FP) $(WARN) -Icommon -Iprotocol -Iclient -Iweb
-WEB_LIB_OBJ := $(patsubst %.c,$(WEB_OBJ_DIR)/%.o,$(wildcard common/*.c protocol/*.c) client/camera.c \
-               client/morph.c)
+WEB_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE -O2 $(FP) $(WARN) $(INC_web)
+# the runtime and the protocol, and the client's GL-free camera and geomorphs
+# (the command-line helpers and the sockets are the programs')
+WEB_LIB_OBJ := $(patsubst %.c,$(WEB_OBJ_DIR)/%.o,$(filter-out common/cli.c common/net.c,\
+               $(wildcard common/*.c protocol/*.c)) client/camera.c client/morph.c)
 WEB_OBJ  := $(WEB_OBJ_DIR)/web/mts_web.o $(WEB_OBJ_DIR)/web/draco_web.o
 WEB_LINK := -sMODULARIZE=1 -sEXPORT_NAME=createMtsWeb -sALLOW_MEMORY_GROWTH=1 \
             -sENVIRONMENT=web,node -sEXPORTED_FUNCTIONS=_malloc,_free \
@@ -236,7 +258,7 @@ $(WEB_DIR)/draco_decoder_nodejs.js:
 
 -include $(shell find $(WEB_OBJ_DIR) -name '*.d' 2>/dev/null)
 
-# ---- fuzzing (issue 4, "Hostile input") ----
+# ---- fuzzing ----
 # `make fuzz` builds the libFuzzer targets of tests/fuzz/ with clang (ASan +
 # UBSan + coverage) into build/fuzz/, writes their seed corpora from real
 # streams and files (tests/fuzz/fuzz_seeds.h: a small torus and
@@ -264,11 +286,16 @@ FUZZ_NAMES    := $(foreach t,$(FUZZ_TARGETS),$(firstword $(subst :, ,$(t))))
 FUZZ_SAN      := -fsanitize=address,undefined -fno-sanitize-recover=undefined
 FUZZ_OPT      := -O1 -g -fno-omit-frame-pointer -fsanitize=fuzzer-no-link $(FUZZ_SAN)
 FUZZ_CFLAGS   := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(FUZZ_OPT) $(FP) $(WARN) \
-                 -Icommon -Iprotocol $(filter-out -I/usr/include/draco%,$(PKG_CFLAGS))
-FUZZ_CXXFLAGS := -std=c++17 $(FUZZ_OPT) $(FP) -DNDEBUG -Wall -Werror -Icommon -Iprotocol
-# the library modules the targets reach: common/ and protocol/
-FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(wildcard common/*.c protocol/*.c)) \
-                 $(patsubst %.cpp,$(FUZZ_DIR)/obj/%.o,$(wildcard common/*.cpp protocol/*.cpp))
+                 $(filter-out -I/usr/include/draco%,$(PKG_CFLAGS))
+FUZZ_CXXFLAGS := -std=c++17 $(FUZZ_OPT) $(FP) -DNDEBUG -Wall -Werror
+# the library modules the targets reach: common/, protocol/, and builder/
+# (the seeds are built from meshes)
+FUZZ_LAYERS   := common protocol builder
+FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(filter-out common/cli.c,\
+                 $(wildcard $(foreach l,$(FUZZ_LAYERS),$(l)/*.c)))) \
+                 $(patsubst %.cpp,$(FUZZ_DIR)/obj/%.o,$(wildcard $(foreach l,$(FUZZ_LAYERS),$(l)/*.cpp)))
+$(foreach l,$(FUZZ_LAYERS),$(eval $(FUZZ_DIR)/obj/$(l)/%.o: FUZZ_INC := $(INC_$(l))))
+$(FUZZ_DIR)/obj/tests/%.o: FUZZ_INC := $(INC_all)
 FUZZ_BINS     := $(patsubst %,$(FUZZ_DIR)/bin/fuzz_%,$(FUZZ_NAMES))
 FUZZ_LDLIBS   := -Wl,--as-needed $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
 
@@ -280,7 +307,7 @@ fuzz: deps
 	@$(FUZZ_DIR)/bin/fuzz-seeds $(FUZZ_DIR)/seeds tests/data/cow.off
 	@scripts/fuzz.sh $(FUZZ_DIR) $(FUZZ_SECONDS) $(FUZZ_MIN_RUNS) $(FUZZ_MAX_SECONDS) $(FUZZ_TARGETS)
 
-# Fuzzing that reaches depth (issue 19): each target to FUZZ_LONG_RUNS
+# Fuzzing that reaches depth: each target to FUZZ_LONG_RUNS
 # executions or FUZZ_LONG_SECONDS, whichever comes first, FUZZ_JOBS targets
 # at once (one a core), the slowest first; what they grew is merged into
 # tests/fuzz/corpus/<target> (only inputs that add coverage), which every
@@ -299,11 +326,11 @@ fuzz-build: $(FUZZ_BINS) $(FUZZ_DIR)/bin/fuzz-seeds
 
 $(FUZZ_DIR)/obj/%.o: %.c Makefile
 	@mkdir -p $(dir $@)
-	$(FUZZ_CC) $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
+	$(FUZZ_CC) $(FUZZ_CFLAGS) $(FUZZ_INC) -MMD -MP -c $< -o $@
 
 $(FUZZ_DIR)/obj/%.o: %.cpp Makefile
 	@mkdir -p $(dir $@)
-	$(FUZZ_CXX) $(FUZZ_CXXFLAGS) -MMD -MP -c $< -o $@
+	$(FUZZ_CXX) $(FUZZ_CXXFLAGS) $(FUZZ_INC) -MMD -MP -c $< -o $@
 
 $(FUZZ_DIR)/bin/fuzz_%: $(FUZZ_DIR)/obj/tests/fuzz/fuzz_%.o $(FUZZ_LIB_OBJ)
 	@mkdir -p $(dir $@)

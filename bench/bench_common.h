@@ -1,4 +1,4 @@
-/* What the bench programs share beyond tools/cli.h (whose cli_now is their
+/* What the bench programs share beyond common/cli.h (whose cli_now is their
  * clock): a comparison for qsort, and the bytes a connection receives.
  * Header-only: each program is one file. */
 #ifndef MTS_BENCH_COMMON_H

@@ -1,4 +1,4 @@
-/* mts-bench-apply: what a client pays to apply a stream (issue 16), both
+/* mts-bench-apply: what a client pays to apply a stream, both
  * forms in the same process, memory warm: per model its splits, the
  * median time to decode and apply the whole splits form (deriving every
  * record) and the records form (records on the wire), their ratio, the cost
@@ -92,7 +92,7 @@ int main(int argc, char **argv)
     }
     if (js)
         fprintf(js, "{\"runs\":%d,\"models\":{", runs);
-    printf("\nApplying a stream (issue 16): both forms in one process, memory warm, median of %d\n",
+    printf("\nApplying a stream: both forms in one process, memory warm, median of %d\n",
            runs);
     printf("%-14s %9s %9s %10s %11s %10s %11s %7s %9s %9s\n", "model", "triangles", "splits",
            "splits ms", "splits M/s", "records ms", "records M/s", "ratio", "ns/split",

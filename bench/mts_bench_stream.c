@@ -1,10 +1,9 @@
-/* mts-bench-stream: the streaming figures of `make bench` (issue 3) for each
+/* mts-bench-stream: the streaming figures of `make bench` for each
  * mesh given: full-stream bytes beside Draco single-rate of the same full mesh
  * on the same grid (encoded here, in the same process), the raw file and the
  * .mtsm; bytes a client needs for 10%, 50% and 100% of the triangles; the
  * client's apply throughput (splits/s) decoding in memory, without GL upload
- * and, where EGL works, with it; and the draw-path table (issue 6, part 5:
- * every draw mode against the meshopt-optimized list at 100/50/25/10/5/1 % of
+ * and, where EGL works, with it; and the draw-path table (every draw mode against the meshopt-optimized list at 100/50/25/10/5/1 % of
  * the vertices, under "draw_path" in the JSON). Time to first frame over
  * loopback is measured by bench/run.sh with the real server and client.
  * Options for the table alone: --draw-only, --fractions F1,F2,..., --rounds N,
@@ -190,7 +189,7 @@ done:
     return ok;
 }
 
-/* ---- the draw path (issue 6, part 5) ------------------------------------
+/* ---- the draw path ------------------------------------
  * Every draw mode of the renderer and the meshopt-optimized triangle list of
  * the same triangles, at several levels: same renderer (1024x1024, shader,
  * camera, culling, depth), glFinish per frame (mts_render_draw). The modes
@@ -349,7 +348,7 @@ done:
     return ok;
 }
 
-/* Issue 17, part 1: where the full stream's bytes go, each part in bytes
+/* Where the full stream's bytes go, each part in bytes
  * and in bits a vertex of the full mesh, beside Draco's single-rate total
  * on the same grid; and the first picture (the stream stopped at level 0). */
 static void breakdown_table(const mts_stream_breakdown *bd, char (*names)[64], const size_t *draco,
@@ -357,7 +356,7 @@ static void breakdown_table(const mts_stream_breakdown *bd, char (*names)[64], c
 {
     if (n == 0)
         return;
-    printf("\nWhere the bytes go (issue 17): the full splits-form stream, bytes and bits a vertex "
+    printf("\nWhere the bytes go: the full splits-form stream, bytes and bits a vertex "
            "(of the full mesh)\n");
     static const char *const cols[] = {"capacities", "model info", "base draco", "base strips",
                                        "parent",    "fan code",  "position",   "normal",
@@ -463,7 +462,7 @@ int main(int argc, char **argv)
     if (draw_only)
         goto draw_path;
 
-    printf("\nStreaming (issue 3): bytes on the wire beside Draco single-rate on the same 14-bit grid\n");
+    printf("\nStreaming: bytes on the wire beside Draco single-rate on the same 14-bit grid\n");
     printf("%-14s %10s %10s %10s %10s %10s %10s %8s %10s %10s %10s\n", "model", "stream B",
            "base B", "draco cl7", "draco cl10", "+normals", "mtsm B", "x draco7", "10% tri B",
            "50% tri B", "100% B");
@@ -595,7 +594,7 @@ int main(int argc, char **argv)
     breakdown_table(bds, bd_name, bd_draco, bd_first, nbd, jf, &first_json);
 draw_path:
     if (have_gl) {
-        printf("\nDraw path (issue 6, part 5): frame ms at %ux%u on %s, median of %d rounds "
+        printf("\nDraw path: frame ms at %ux%u on %s, median of %d rounds "
                "(each the median of %d frames); index bytes read per frame\n",
                dt_side, dt_side, mts_render_context_description(ctx), dt_rounds, DT_FRAMES);
         printf("(list: the strips' triangles in strip order; list_opt: after "

@@ -1,6 +1,6 @@
 /* mts-bench-walk: the walkthrough of papers 000 (section 5, Table 2 and
  * Fig. 6) and 002 (section 4.3, Fig. 5), and a rate-distortion series, for
- * each mesh given (issue 5, part 4).
+ * each mesh given.
  *
  * Walkthrough: the model moves away from the viewer for --seconds of
  * simulated frames at --hz (frame f shows time f / hz; frames are drawn as

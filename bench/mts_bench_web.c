@@ -250,7 +250,7 @@ int main(int argc, char **argv)
     double m_connect = median(connect, (int)runs), m_first = median(first, (int)runs);
     double m_base = median(base, (int)runs);
     double m_final = median(final, (int)runs), m_decode = median(decode, (int)runs);
-    printf("Browser client (issue 20; %s, headless Chromium, SwiftShader, 800x600, loopback, "
+    printf("Browser client (%s, headless Chromium, SwiftShader, 800x600, loopback, "
            "median of %u):\n",
            model, runs);
     printf("  connect %.1f ms, base mesh in %.1f ms, first frame %.1f ms (at most %.1f), full "

@@ -1,5 +1,5 @@
 /* The renderer: draws a model's strips at the LOD runtime's current level
- * with OpenGL ES 3 (DESIGN.md, "Rendering").
+ * with OpenGL ES 3 (docs/architecture.md, "The client").
  *
  * Two parts, kept apart so that a windowed client reuses the same renderer:
  *
@@ -57,7 +57,7 @@
  * buffer; one joined strip is one pipeline run whose cache spans strips
  * (figures: docs/strips.md, "Drawing them"). The draws it is measured
  * against -- the slot buffer with restarts, strip by strip, multi-draw, one
- * restart between packed strips, a triangle list -- are bench/drawmodes.h's,
+ * restart between packed strips, a triangle list -- are client/drawmodes.h's,
  * through the seam in render_internal.h. The stored and streamed form stays
  * the strips and their slots; the packed buffer is the client's own.
  *

@@ -1,4 +1,4 @@
-/* The renderer's seam for measurements (bench/drawmodes.c, and the tests
+/* The renderer's seam for measurements (client/drawmodes.c, and the tests
  * that compare draw paths): a frame drawn by the caller's own draw calls,
  * with the renderer's state. Not the public API (render.h): mts__ names.
  *

@@ -21,7 +21,7 @@ typedef enum mts_result {
     MTS_ERR_RANGE,    /* an index, count or position is out of range */
     MTS_ERR_NOMEM,    /* an allocation failed */
     MTS_ERR_LIMIT,    /* input exceeds a documented limit */
-    MTS_ERR_INVARIANT, /* a model breaks a DESIGN.md invariant (verification) */
+    MTS_ERR_INVARIANT, /* a model breaks an invariant of docs/architecture.md (verification) */
     MTS_ERR_INTERNAL  /* a consistency check failed: a bug, not bad input */
 } mts_result;
 

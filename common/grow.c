@@ -30,7 +30,7 @@
 #include <string.h>
 
 #include "greedy.h"
-#include "stripify.h"
+#include "strips.h"
 #include "words.h"
 
 #define NONE MTS_GROW_NONE

@@ -1,8 +1,9 @@
 /* Strip growth: derives each split's strip record (model.h's format) from the
  * vertex split alone, the same way on the builder and on a client.
  *
- * Why a module of its own: the records are most of a stream's bytes (3.1 of
- * bunny00's 3.5 MB in protocol 2.0's stream), yet everything in them follows from
+ * Why a module of its own: the records are most of the bytes of a stream
+ * that carries them (bunny00's records form is 25 times its splits form),
+ * yet everything in them follows from
  * which triangles a split brings back and the rules that grow strips upward
  * (lodbuild.h). A client that runs these rules on the splits it receives
  * needs only the split itself on the wire: the parent, the two vertices the

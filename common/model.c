@@ -69,7 +69,7 @@ mts_result mts_model_validate(const mts_model *m, mts_error *err)
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "model: %u vertices, %u base vertices and %u levels do not add up",
                              m->vertex_count, m->base_vertex_count, n);
-    /* The box is the quantization grid's extent (DESIGN.md, "Streaming"): it
+    /* The box is the quantization grid's extent (docs/architecture.md, "The stream"): it
      * must be finite and hold every position, or quantized values leave
      * their range. */
     for (int a = 0; a < 3; a++) {

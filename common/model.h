@@ -1,5 +1,5 @@
 /* The multiresolution strip model, in memory: what a .mtsm file holds and
- * what the server streams. Vertex ids are in stream order (DESIGN.md, "Levels
+ * what the server streams. Vertex ids are in stream order (docs/architecture.md, "Levels
  * and vertex order"): base vertices 0..nb-1, then vertex nb+j is the one split
  * j brings back next to its parent parents[j] (< nb+j).
  *

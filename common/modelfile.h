@@ -2,7 +2,7 @@
  * table and a CRC-32C per section.
  *
  *   0   "MTSM"                     magic
- *   4   u16 major = 4, u16 minor   a reader accepts its own major version only
+ *   4   u16 major = 5, u16 minor   a reader accepts its own major version only
  *   8   u32 section_count          at most 64
  *   12  u32 header_crc             CRC-32C of bytes 0..11 and the table
  *   16  section_count x { u32 id, u32 crc32c, u64 offset, u64 size }

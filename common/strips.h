@@ -1,5 +1,5 @@
 /* A set of triangle strips in flat arrays: strip s is
- * indices[offsets[s] .. offsets[s+1]). Strip winding (DESIGN.md invariant 1):
+ * indices[offsets[s] .. offsets[s+1]). Strip winding (docs/architecture.md, invariant 1):
  * window k of a strip is (s[k], s[k+1], s[k+2]) for even k and
  * (s[k+1], s[k], s[k+2]) for odd k; a window with a repeated index is a
  * degenerate triangle and draws nothing. Strips are generalized: a swap is a
@@ -11,6 +11,12 @@
 #include <stdint.h>
 
 #include "error.h"
+
+/* The most triangles a strip draws, at every level: it bounds the
+ * stripifier's work per change and what a per-strip update re-sends, and
+ * the runtime's growth and key-level restripification keep to it too. */
+#define MTS_STRIPIFY_MAX_STRIP 256u
+#define MTS_STRIPIFY_MAX_STRIP_STR "256"
 
 typedef struct mts_strips {
     uint32_t strip_count;

@@ -1,4 +1,4 @@
-/* Draco shim for the stream's base mesh (DESIGN.md "Streaming").
+/* Draco shim for the stream's base mesh (docs/architecture.md, "The stream").
  *
  * The base mesh travels Draco-compressed. Positions are quantized on ONE grid
  * for the whole model (Draco's explicit quantization: origin = min corner of

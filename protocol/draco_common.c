@@ -145,7 +145,7 @@ static int head_varint(const uint8_t **p, const uint8_t *end, uint64_t *v)
  * declared points. A 100-byte buffer declaring a billion faces made it ask
  * for 5 GB (found by tests/fuzz/fuzz_draco.c; the input is kept in
  * tests/fuzz/regressions/draco/). So the head is read here first and the
- * counts bounded before Draco sees them (DESIGN.md invariant 4).
+ * counts bounded before Draco sees them (docs/architecture.md, invariant 4).
  *
  * What is accepted is what mts_draco_encode writes: the bitstream version
  * Draco 1.5 writes (2.2; the head's layout below is 2.2's), a triangle mesh,

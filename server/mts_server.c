@@ -30,7 +30,7 @@ static void usage(FILE *f)
           "Serves every .mtsm in DIR and every mesh there (built once and cached), each\n"
           "named by its file stem, plus models given one by one (a file, or an http(s)\n"
           "URL fetched and built). Clients get a Draco base mesh, then batches of strip\n"
-          "records (protocol/PROTOCOL.md): each batch's vertex splits, range-coded, from\n"
+          "records (docs/PROTOCOL.md): each batch's vertex splits, range-coded, from\n"
           "which the client derives the records, or where the client asks (mts-client\n"
           "--records) the records themselves. It listens as soon as the models are loaded\n"
           "and encodes their streams meanwhile: a client asking for one not ready yet\n"

@@ -276,7 +276,7 @@ static void test_models_dir(mts_test *t)
     const mts_catalog_entry *s2 = mts_catalog_find(cat, "Sphere2");
     CHECK(t, s2 && s2->origin == MTS_CATALOG_BUILT && strstr(s2->source, "Sphere2.OFF"));
 
-    /* a broken model file does not hide the mesh of its name (issue 19): the
+    /* a broken model file does not hide the mesh of its name: the
      * failure is reported, the mesh is built and served, and a note says so */
     const mts_catalog_entry *b2 = mts_catalog_find(cat, "ball2");
     CHECK(t, b2 && b2->origin == MTS_CATALOG_BUILT && strstr(b2->source, "ball2.off"));

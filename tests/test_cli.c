@@ -1,4 +1,4 @@
-/* What the programs share (tools/cli.c): strict option parsing, the one-line
+/* What the programs share (common/cli.c): strict option parsing, the one-line
  * JSON writer (escaping, nesting), file stems. */
 #include <math.h>
 #include <stdint.h>

@@ -144,7 +144,7 @@ static void test_server_dies_mid_stream(mts_test *t)
 }
 
 /* A server that answers HELLO for "horse" with cow's stream: the client
- * refuses it by name instead of drawing the wrong model (issue 19). */
+ * refuses it by name instead of drawing the wrong model. */
 static void test_info_for_another_model(mts_test *t)
 {
     mts_stream s;
@@ -167,7 +167,7 @@ static void test_info_for_another_model(mts_test *t)
 }
 
 /* A server that trickles a valid stream (a byte every 100 ms, never idle
- * for --timeout) holds a client no longer than --max-time (issue 19). */
+ * for --timeout) holds a client no longer than --max-time. */
 static void test_trickle_bounded(mts_test *t)
 {
     mts_stream s;
@@ -197,8 +197,7 @@ static void test_trickle_bounded(mts_test *t)
 
 /* A batch that fails its CRC is rejected whole; with --resume the client
  * asks for it again (PROTOCOL.md, "Split coding") and ends with the mesh of
- * an unbroken run; without, it stops at the batch before (issue 19: it did
- * not retry). The server's first answer has a byte of batch 3 flipped. */
+ * an unbroken run; without, it stops at the batch before. The server's first answer has a byte of batch 3 flipped. */
 static void test_crc_mismatch_resumed(mts_test *t)
 {
     mts_stream s;
@@ -263,7 +262,7 @@ static int all_utf8(const char *out)
 
 /* A server whose ERROR text is not UTF-8 (and holds control bytes): what
  * mts-client and mts-stress print of it, --json line and messages alike,
- * is still UTF-8, the bad bytes replaced (issue 19: they went through). */
+ * is still UTF-8, the bad bytes replaced. */
 static void test_peer_text_not_utf8(mts_test *t)
 {
     int port, lfd = mts_test_listen_any(&port);
@@ -467,7 +466,7 @@ static void test_records_form_programs(mts_test *t)
     }
 }
 
-/* --lod-policy distance and area ask for their stop point (issue 22): the
+/* --lod-policy distance and area ask for their stop point: the
  * bytes received are those of the stream stopped at the level they chose,
  * exactly -- the same bytes, level and checksum as --triangles with the
  * triangles they asked for -- far fewer than the whole stream's; and the

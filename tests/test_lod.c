@@ -1,4 +1,4 @@
-/* The LOD builder and runtime on real meshes: DESIGN.md invariants 1 and 2 at
+/* The LOD builder and runtime on real meshes: the invariants 1 and 2 of docs/architecture.md at
  * every level of cow and at 500 sampled levels of bunny00 and fandisk_large,
  * coherence (only the strips a record names change, and they are reported),
  * and random walks in both directions; and the runtime on hand-made records

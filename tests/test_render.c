@@ -34,7 +34,7 @@ static mts_model g_cow;
 static int g_cow_ok;
 
 /* the draw path draw_and_read takes: the renderer's own unless a case
- * compares others (bench/drawmodes.h) */
+ * compares others (client/drawmodes.h) */
 static mts_drawmodes g_dm;
 static mts_drawmode g_mode;
 

@@ -1,9 +1,9 @@
-/* Split reordering (common/reorder.h): the reordered collapses are the same
+/* Split reordering (builder/reorder.h): the reordered collapses are the same
  * collapses, each legal where it now stands and removing the faces it
  * removed before; the mesh after all of them is the same face for face; and
  * the parents come in a few ascending runs a window, which is the point.
  * On cow and, where ../shared is, bunny00; plus malformed sequences.
- * (DESIGN.md's invariants on reordered models: test_lod, every level.) */
+ * (docs/architecture.md's invariants on reordered models: test_lod, every level.) */
 #include <stdint.h>
 
 #include "mesh.h"

@@ -321,7 +321,7 @@ static void test_cut_anywhere_then_resume_records(mts_test *t)
     mts_stream_free(&s);
 }
 
-/* Continuing past the stop (issue 22: a preview that zooms in asks for
+/* Continuing past the stop (a preview that zooms in asks for
  * more): a stream stopped at one level, then asked for a higher stop from
  * the batches it holds, ends with the checksum and vertices of an unbroken
  * stream to that level, at every step; a step that lies within the splits

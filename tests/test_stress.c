@@ -341,7 +341,7 @@ static void test_workers_rate_stats(mts_test *t)
 }
 
 /* --quiet drops the per-connection lines and nothing an operator watches:
- * the listening, stats and stopped lines stay (issue 19: it dropped them). */
+ * the listening, stats and stopped lines stay. */
 static void test_quiet_keeps_stats(mts_test *t)
 {
     const char *extra[] = {"--quiet", "--stats-interval", "0.2", NULL};
@@ -361,7 +361,7 @@ static void test_quiet_keeps_stats(mts_test *t)
     CHECKF(t, !strstr(logtext, "peer=") && !strstr(logtext, "added:"), "%s", logtext);
 }
 
-/* Previews that ask for more (issue 22): half the clients stop at a tenth,
+/* Previews that ask for more: half the clients stop at a tenth,
  * the other half continue to a half from the batches they hold, in both
  * forms; every client completes with its END checked, and the batches are
  * exactly those of the two stops (none sent twice). */
@@ -393,7 +393,7 @@ static void test_continuing_clients(mts_test *t)
 }
 
 /* A stop (SIGTERM) while the models still load ends mts-server with status
- * 1 and a line saying so, not killed by the signal (issue 19: exit 143). A
+ * 1 and a line saying so, not killed by the signal (exit 143). A
  * grid mesh of 180,000 triangles takes seconds to build; the stop comes
  * half a second in. */
 static void test_stop_while_loading(mts_test *t)
@@ -437,8 +437,7 @@ static void test_stop_while_loading(mts_test *t)
 }
 
 /* --fetch-timeout bounds a URL model's download: a server that accepts and
- * never answers costs a second, named, not the default minute (issue 19:
- * the fetch timeouts were no option). */
+ * never answers costs a second, named, not the default minute. */
 static void test_fetch_timeout_option(mts_test *t)
 {
     int port, lfd = mts_test_listen_any(&port);

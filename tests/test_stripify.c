@@ -1,7 +1,7 @@
-/* Tests of the stripifier (common/stripify.c): on small hand-made and
+/* Tests of the stripifier (builder/stripify.c): on small hand-made and
  * generated meshes, on meshes that break the manifold / orientation
  * assumptions, and on real models, the strips must draw exactly the mesh's
- * oriented triangles (DESIGN.md invariant 1), deterministically.
+ * oriented triangles (docs/architecture.md, invariant 1), deterministically.
  *
  * With MTS_TEST_VERBOSE set, the real-model cases print the figures the
  * stripifier is judged by: indices per triangle counting one restart between

@@ -1,5 +1,5 @@
-/* Tests of the tunnelling pass (common/tunnel.c): the strips after it draw
- * exactly the oriented triangles the greedy strips drew (DESIGN.md
+/* Tests of the tunnelling pass (builder/tunnel.c): the strips after it draw
+ * exactly the oriented triangles the greedy strips drew (docs/architecture.md,
  * invariant 1), none over the cap, with no more indices, the same bytes on
  * every run; and on a hand-made mesh the one tunnel of length 3 that joins
  * two of three strips is found (and not with length 1).

@@ -20,7 +20,7 @@ static void usage(FILE *f)
           "Prints a model's figures. Loading always checks the file's checksums and\n"
           "replays every record once.\n"
           "\n"
-          "  --verify          check DESIGN.md invariants 1 (strips draw exactly the mesh\n"
+          "  --verify          check invariants 1 (strips draw exactly the mesh\n"
           "                    at each level, with its winding) and 2 (refining up and\n"
           "                    coarsening down agree) at every level; exit 1 at the first\n"
           "                    failure, naming the level and strip; and that every\n"

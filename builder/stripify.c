@@ -30,8 +30,8 @@
  *     with the fewest indices per triangle wins. Growing prefers, STRIPE's
  *     way, the neighbour with fewer free neighbours of its own (taking the
  *     swap for it), so that no triangle is stranded as a strip of its own;
- *     on ties it goes on without a swap. (Growing backwards from the seed as
- *     well is implemented but off: it did not pay, see docs/strips.md);
+ *     on ties it goes on without a swap. Paths grow forwards only: growing
+ *     them backwards from the seed as well did not pay (docs/strips.md);
  *  3. tunnelling: short alternating sequences of "link an end into a path,
  *     cut the path next to it" that end by joining two ends (one strip
  *     fewer) or that remove swaps, kept when 3 S + W drops; searched from

@@ -25,7 +25,7 @@ typedef struct mts_mesh {
     uint32_t *triangles; /* 3 per triangle, counter-clockwise seen from outside */
     /* 1 when the normals came from the file (the mesh's own shading), 0 when
      * mts_mesh_compute_normals made them: a stream need not carry those,
-     * since a client can shade the faces it has (protocol/PROTOCOL.md). */
+     * since a client can shade the faces it has (docs/PROTOCOL.md). */
     int normals_given;
 } mts_mesh;
 

@@ -1,7 +1,7 @@
 /* Tunnelling on the dual graph, after
  *   M. B. Porcu, N. Sanna, R. Scateni, "Efficiently Keeping an Optimal
- *   Stripification over a CLOD Mesh", WSCG 2005 (paper 004 in
- *   ../shared/papers), section 3, "The Tunnelling Algorithm",
+ *   Stripification over a CLOD Mesh", WSCG 2005 (paper 004 of
+ *   docs/README.md, "References"), section 3, "The Tunnelling Algorithm",
  * which builds on A. J. Stewart, "Tunneling for Triangle Strips in
  * Continuous Level-of-Detail Meshes", Graphics Interface 2001.
  *
@@ -28,8 +28,8 @@
  * sits where two consecutive triangles of a path turn around the same
  * vertex (their "pivot"), or at the start of a path whose two ends both
  * need one (even parity fixes the second triangle's turn; see start_delta):
- * both kinds are counted, the second only since it was seen to be 544 of
- * bunny00's 9606 swaps (now about 30); below, W counts both and "3 S + W"
+ * both kinds are counted (the second kind is a few hundred of bunny00's
+ * swaps where nothing avoids it); below, W counts both and "3 S + W"
  * is what every change is judged by. Complementing a tunnel changes the
  * pivots of the triangles on it, so a tunnel that saves a strip (-3) may
  * cost swaps; it is

@@ -19,9 +19,6 @@ typedef struct mts_stripify_stats {
     uint32_t singletons; /* strips of a single triangle */
 } mts_stripify_stats;
 
-#define MTS_STRIPIFY_MAX_STRIP 256u
-#define MTS_STRIPIFY_MAX_STRIP_STR "256"
-
 /* triangles: 3 indices per triangle, each < vertex_count. out is allocated
  * (free with mts_strips_free). stats may be NULL.
  * - zero triangles: MTS_OK with an empty set (strip_count 0, offsets[0] 0);
@@ -31,8 +28,7 @@ typedef struct mts_stripify_stats {
  * - edges that are not manifold and consistently oriented (3+ faces, two
  *   faces in the same direction) count as borders: the result is still
  *   exact, only with more strips.
- * Every strip draws at most MTS_STRIPIFY_MAX_STRIP triangles: that bounds the
- * optimiser's work per change, and what a per-strip update later re-sends. */
+ * Every strip draws at most MTS_STRIPIFY_MAX_STRIP triangles (strips.h). */
 mts_result mts_stripify(const uint32_t *triangles, uint32_t triangle_count,
                         uint32_t vertex_count, mts_strips *out, mts_stripify_stats *stats,
                         mts_error *err);

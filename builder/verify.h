@@ -1,4 +1,4 @@
-/* Model verification against an independent reference (DESIGN.md invariants
+/* Model verification against an independent reference (docs/architecture.md, invariants
  * 1 and 2):
  *   1. at a level l, the oriented non-degenerate triangles of the runtime's
  *      strips equal, as a multiset, the full mesh's triangles (taken from the
