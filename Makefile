@@ -291,8 +291,8 @@ FUZZ_CXXFLAGS := -std=c++17 $(FUZZ_OPT) $(FP) -DNDEBUG -Wall -Werror
 # the library modules the targets reach: common/, protocol/, and builder/
 # (the seeds are built from meshes)
 FUZZ_LAYERS   := common protocol builder
-FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(filter-out common/cli.c,\
-                 $(wildcard $(foreach l,$(FUZZ_LAYERS),$(l)/*.c)))) \
+FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(filter-out common/cli.c \
+                 $(foreach l,$(FUZZ_LAYERS),$(l)/mts_%.c),$(wildcard $(foreach l,$(FUZZ_LAYERS),$(l)/*.c)))) \
                  $(patsubst %.cpp,$(FUZZ_DIR)/obj/%.o,$(wildcard $(foreach l,$(FUZZ_LAYERS),$(l)/*.cpp)))
 $(foreach l,$(FUZZ_LAYERS),$(eval $(FUZZ_DIR)/obj/$(l)/%.o: FUZZ_INC := $(INC_$(l))))
 $(FUZZ_DIR)/obj/tests/%.o: FUZZ_INC := $(INC_all)

@@ -13,7 +13,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/epoll.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/uio.h>
@@ -21,6 +20,7 @@
 #include <unistd.h>
 
 #include "clock.h"
+#include "loop.h"
 #include "net.h"
 #include "wire.h"
 #include "ws.h"
@@ -78,7 +78,8 @@ typedef struct conn {
     int rd_closed;              /* the peer shut down its side: stop watching for input */
     double linger_until;        /* > 0: a refusal is sent and our side shut; wait for the
                                    peer's close so it reads the ERROR instead of a reset */
-    uint32_t events;            /* what epoll watches now */
+    mts_loop_io io;             /* its descriptor in the server's loop */
+    struct mts_server *server;
     /* set when the conversation has an end in sight: whether it counts as
      * served, and the log's words for it */
     conn_end end;
@@ -99,8 +100,12 @@ struct mts_server {
     /* the TCP listener, and the WebSocket one when asked for */
     struct listener {
         int fd, port, ws;
+        mts_loop_io io;
+        struct mts_server *server;
     } lis[2];
-    int epoll_fd;
+    mts_loop loop;
+    volatile sig_atomic_t *stop; /* mts_server_run's flag */
+    double stop_at;              /* when the stop began: the grace counts from here */
     conn *conns;
     conn *dead; /* closed during this round of events; freed after it */
     conn *paced; /* connections over their rate, waiting to resume */
@@ -143,6 +148,25 @@ static mts_result open_listener(mts_server *s, struct listener *l, const char *s
     return MTS_OK;
 }
 
+static void accept_all(mts_server *s, struct listener *l);
+static void on_conn(mts_loop *loop, mts_loop_io *io, unsigned events);
+
+static void on_listener(mts_loop *loop, mts_loop_io *io, unsigned events)
+{
+    (void)loop;
+    (void)events;
+    struct listener *l = io->user;
+    if (l->fd >= 0)
+        accept_all(l->server, l);
+}
+
+/* Watches a listener for connections: 0, or -1 with errno. */
+static int watch_listener(mts_server *s, struct listener *l)
+{
+    l->server = s;
+    return mts_loop_watch(&s->loop, &l->io, l->fd, MTS_LOOP_IN, on_listener, l);
+}
+
 mts_result mts_server_create_models(const mts_server_options *opts, mts_server_model *models,
                                     uint32_t model_count, mts_server **out, mts_error *err)
 {
@@ -167,7 +191,7 @@ mts_result mts_server_create_models(const mts_server_options *opts, mts_server_m
     s->models = models;
     s->model_count = model_count;
     s->next_stats = mts_clock_seconds() + s->opts.stats_interval;
-    s->lis[0].fd = s->lis[1].fd = s->epoll_fd = -1;
+    s->lis[0].fd = s->lis[1].fd = s->loop.epoll_fd = -1;
     s->lis[1].ws = 1;
     mts_result rc = open_listener(s, &s->lis[0], s->opts.listen, err);
     if (rc == MTS_OK && s->opts.ws_listen)
@@ -176,15 +200,14 @@ mts_result mts_server_create_models(const mts_server_options *opts, mts_server_m
         mts_server_free(s);
         return rc;
     }
-    s->epoll_fd = epoll_create1(EPOLL_CLOEXEC);
-    for (int k = 0; k < 2; k++) {
-        struct epoll_event ev = {.events = EPOLLIN, .data.ptr = &s->lis[k]};
-        if (s->epoll_fd < 0 ||
-            (s->lis[k].fd >= 0 && epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, s->lis[k].fd, &ev) != 0)) {
+    rc = mts_loop_init(&s->loop, err);
+    for (int k = 0; k < 2 && rc == MTS_OK; k++) {
+        if (s->lis[k].fd >= 0 && watch_listener(s, &s->lis[k]) != 0)
             rc = mts_error_set(err, MTS_ERR_IO, "epoll: %s", strerror(errno));
-            mts_server_free(s);
-            return rc;
-        }
+    }
+    if (rc != MTS_OK) {
+        mts_server_free(s);
+        return rc;
     }
     *out = s;
     return MTS_OK;
@@ -305,7 +328,7 @@ static void conn_close(mts_server *s, conn *c, const char *failure)
           c->peer,
           c->model[0] ? c->model : "-", (unsigned long long)c->sent, c->stop_level,
           (mts_clock_seconds() - c->started) * 1e3, outcome);
-    epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, c->fd, NULL);
+    mts_loop_unwatch(&s->loop, &c->io);
     close(c->fd);
     c->fd = -1;
     mts_buf_free(&c->head);
@@ -348,8 +371,7 @@ void mts_server_free(mts_server *s)
         if (s->lis[k].fd >= 0)
             close(s->lis[k].fd);
     }
-    if (s->epoll_fd >= 0)
-        close(s->epoll_fd);
+    mts_loop_close(&s->loop);
     free(s->own_models);
     free(s);
 }
@@ -519,12 +541,8 @@ static void conn_serve(mts_server *s, conn *c, double now)
 
 static void update_events(mts_server *s, conn *c)
 {
-    uint32_t want = (c->rd_closed ? 0 : EPOLLIN | EPOLLRDHUP) | (c->watching_out ? EPOLLOUT : 0);
-    if (want == c->events)
-        return;
-    struct epoll_event ev = {.events = want, .data.ptr = c};
-    epoll_ctl(s->epoll_fd, EPOLL_CTL_MOD, c->fd, &ev);
-    c->events = want;
+    mts_loop_set(&s->loop, &c->io,
+                 (c->rd_closed ? 0 : MTS_LOOP_IN) | (c->watching_out ? MTS_LOOP_OUT : 0));
 }
 
 static void watch_out(mts_server *s, conn *c, int on)
@@ -926,7 +944,7 @@ static void accept_all(mts_server *s, struct listener *l)
                  * readable: stop watching them for a moment instead of spinning */
                 for (int k = 0; k < 2; k++) {
                     if (s->lis[k].fd >= 0)
-                        epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, s->lis[k].fd, NULL);
+                        mts_loop_unwatch(&s->loop, &s->lis[k].io);
                 }
                 s->listen_paused_until = mts_clock_seconds() + 0.1;
                 logf_(s, MTS_SERVER_LOG_NOTICE, "accept: %s; not accepting for 100 ms",
@@ -982,11 +1000,10 @@ static void accept_all(mts_server *s, struct listener *l)
         if (s->opts.sndbuf > 0) /* fixed, not autotuned: bounds kernel memory per client */
             setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &s->opts.sndbuf, sizeof s->opts.sndbuf);
         c->fd = fd;
-        c->events = EPOLLIN | EPOLLRDHUP;
+        c->server = s;
         c->started = c->last_progress = mts_clock_seconds();
         snprintf(c->peer, sizeof c->peer, "%s", peer);
-        struct epoll_event ev = {.events = EPOLLIN | EPOLLRDHUP, .data.ptr = c};
-        if (epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, fd, &ev) != 0) {
+        if (mts_loop_watch(&s->loop, &c->io, fd, MTS_LOOP_IN, on_conn, c) != 0) {
             close(fd);
             free(c->ws);
             free(c);
@@ -1080,92 +1097,92 @@ static void check_timeouts(mts_server *s, double now)
     }
 }
 
+/* A connection's events of a round: an error or hang-up closes it, input
+ * is read (a first frame answered starts the writing at once), output is
+ * written. */
+static void on_conn(mts_loop *loop, mts_loop_io *io, unsigned events)
+{
+    (void)loop;
+    conn *c = io->user;
+    mts_server *s = c->server;
+    if (c->fd < 0) /* closed earlier in this round */
+        return;
+    if (events & MTS_LOOP_ERR) {
+        /* a refused client closing after its ERROR is the expected end:
+         * keep the refusal's outcome in the log */
+        conn_close(s, c, c->linger_until > 0 ? NULL
+                         : c->phase == READING ? "error: closed before hello"
+                                               : "error: reset by peer");
+        return;
+    }
+    if (events & MTS_LOOP_IN) {
+        phase before = c->phase;
+        conn_read(s, c);
+        if (c->fd < 0)
+            return;
+        if (before == READING && c->phase == WRITING) {
+            conn_write(s, c);
+            return;
+        }
+    }
+    if ((events & MTS_LOOP_OUT) && c->fd >= 0)
+        conn_write(s, c);
+}
+
+/* What the loop does between rounds: what the last round left (paced
+ * connections due, prepared models' waiting clients, timeouts, stats, the
+ * connections it closed), then the listeners (back after running out of
+ * descriptors; closed on a stop, the streams given their grace). The next
+ * round's longest sleep, or -1 once stopped and every stream has ended. */
+static int server_tick(mts_loop *loop, void *user, double now)
+{
+    (void)loop;
+    mts_server *s = user;
+    if (s->paced_count)
+        resume_paced(s, now);
+    if (s->waiting)
+        serve_waiting(s, now);
+    /* the timeout scan is over every connection: a few times a second */
+    if (now >= s->next_scan) {
+        check_timeouts(s, now);
+        s->next_scan = now + 0.05;
+    }
+    if (s->opts.stats_interval > 0 && now >= s->next_stats)
+        stats_line(s, now);
+    free_dead(s);
+    if (s->listen_paused_until > 0 && now >= s->listen_paused_until && s->lis[0].fd >= 0) {
+        s->listen_paused_until = 0;
+        for (int k = 0; k < 2; k++) {
+            if (s->lis[k].fd >= 0 && watch_listener(s, &s->lis[k]) != 0)
+                s->listen_paused_until = now + 0.1; /* try again */
+        }
+    }
+    if (*s->stop && s->lis[0].fd >= 0) {
+        for (int k = 0; k < 2; k++) {
+            if (s->lis[k].fd < 0)
+                continue;
+            mts_loop_unwatch(&s->loop, &s->lis[k].io);
+            close(s->lis[k].fd);
+            s->lis[k].fd = -1;
+        }
+        s->stop_at = now;
+        logf_(s, MTS_SERVER_LOG_NOTICE, "stopping: %u streams to finish within %.1f s",
+              s->conn_count, s->opts.grace);
+    }
+    if (s->lis[0].fd < 0 && (s->conn_count == 0 || now - s->stop_at > s->opts.grace)) {
+        while (s->conns)
+            conn_close(s, s->conns, "error: server stopped");
+        free_dead(s);
+        return -1;
+    }
+    /* paced connections resume from the tick, and waiting ones are
+     * answered from it: tick often then */
+    return s->paced_count ? 5 : s->waiting ? 20 : 100;
+}
+
 mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error *err)
 {
-    struct epoll_event events[1024];
-    double stop_at = 0;
-    for (;;) {
-        double now = mts_clock_seconds();
-        if (s->listen_paused_until > 0 && now >= s->listen_paused_until && s->lis[0].fd >= 0) {
-            s->listen_paused_until = 0;
-            for (int k = 0; k < 2; k++) {
-                struct epoll_event ev = {.events = EPOLLIN, .data.ptr = &s->lis[k]};
-                if (s->lis[k].fd >= 0 &&
-                    epoll_ctl(s->epoll_fd, EPOLL_CTL_ADD, s->lis[k].fd, &ev) != 0)
-                    s->listen_paused_until = now + 0.1; /* try again */
-            }
-        }
-        if (*stop && s->lis[0].fd >= 0) {
-            for (int k = 0; k < 2; k++) {
-                if (s->lis[k].fd < 0)
-                    continue;
-                epoll_ctl(s->epoll_fd, EPOLL_CTL_DEL, s->lis[k].fd, NULL);
-                close(s->lis[k].fd);
-                s->lis[k].fd = -1;
-            }
-            stop_at = now;
-            logf_(s, MTS_SERVER_LOG_NOTICE, "stopping: %u streams to finish within %.1f s",
-                  s->conn_count,
-                  s->opts.grace);
-        }
-        if (s->lis[0].fd < 0 && (s->conn_count == 0 || now - stop_at > s->opts.grace)) {
-            while (s->conns)
-                conn_close(s, s->conns, "error: server stopped");
-            free_dead(s);
-            return MTS_OK;
-        }
-        /* paced connections resume from the scan below, and waiting ones
-         * are answered from it: scan often then */
-        int n = epoll_wait(s->epoll_fd, events, 1024,
-                           s->paced_count ? 5 : s->waiting ? 20 : 100);
-        if (n < 0) {
-            if (errno == EINTR)
-                continue;
-            return mts_error_set(err, MTS_ERR_IO, "epoll_wait: %s", strerror(errno));
-        }
-        for (int i = 0; i < n; i++) {
-            void *ptr = events[i].data.ptr;
-            if (ptr == &s->lis[0] || ptr == &s->lis[1]) {
-                if (((struct listener *)ptr)->fd >= 0)
-                    accept_all(s, ptr);
-                continue;
-            }
-            conn *c = ptr;
-            if (c->fd < 0) /* closed earlier in this round */
-                continue;
-            if (events[i].events & (EPOLLERR | EPOLLHUP)) {
-                /* a refused client closing after its ERROR is the expected
-                 * end: keep the refusal's outcome in the log */
-                conn_close(s, c, c->linger_until > 0 ? NULL
-                                 : c->phase == READING ? "error: closed before hello"
-                                                       : "error: reset by peer");
-                continue;
-            }
-            if (events[i].events & (EPOLLIN | EPOLLRDHUP)) {
-                phase before = c->phase;
-                conn_read(s, c);
-                if (c->fd < 0)
-                    continue;
-                if (before == READING && c->phase == WRITING) {
-                    conn_write(s, c);
-                    continue;
-                }
-            }
-            if ((events[i].events & EPOLLOUT) && c->fd >= 0)
-                conn_write(s, c);
-        }
-        now = mts_clock_seconds();
-        if (s->paced_count)
-            resume_paced(s, now);
-        if (s->waiting)
-            serve_waiting(s, now);
-        /* the timeout scan is over every connection: a few times a second */
-        if (now >= s->next_scan) {
-            check_timeouts(s, now);
-            s->next_scan = now + 0.05;
-        }
-        if (s->opts.stats_interval > 0 && now >= s->next_stats)
-            stats_line(s, now);
-        free_dead(s);
-    }
+    s->stop = stop;
+    s->stop_at = 0;
+    return mts_loop_run(&s->loop, server_tick, s, err);
 }

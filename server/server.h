@@ -1,4 +1,4 @@
-/* The streaming server's event loop: one non-blocking epoll loop that
+/* The streaming server: one non-blocking event loop (common/loop.h) that
  * accepts clients, reads each one's HELLO (or LIST), and writes it its
  * model's wire stream straight from the stream's immutable buffer with
  * sendmsg (a connection is a few offsets, never a copy), then END.

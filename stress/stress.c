@@ -10,16 +10,17 @@
 #include <netinet/tcp.h>
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/epoll.h>
 #include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
 
 #include "clock.h"
 #include "crc32c.h"
+#include "loop.h"
 #include "net.h"
 #include "stream.h"
 
@@ -32,6 +33,7 @@ typedef enum sc_state { SC_WAITING = 0, SC_CONNECTING, SC_SENDING, SC_READING, S
 typedef struct sclient {
     int fd;
     sc_state state;
+    mts_loop_io io; /* its socket in the shard's loop (user: the stress) */
     uint8_t got_info, got_base;
     uint32_t hello_sent;
     double t_start, t_last; /* seconds */
@@ -57,7 +59,7 @@ typedef struct stress {
     const mts_stress_options *o;
     mts_stress_report *rep;
     struct addrinfo *addr;
-    int epfd;
+    mts_loop loop;
     sclient *c;
     uint8_t *hello;
     size_t hello_size;
@@ -81,7 +83,7 @@ const char *mts_stress_failure_name(mts_stress_failure f)
 static void sc_close_socket(stress *s, sclient *c)
 {
     if (c->fd >= 0) {
-        epoll_ctl(s->epfd, EPOLL_CTL_DEL, c->fd, NULL);
+        mts_loop_unwatch(&s->loop, &c->io);
         close(c->fd);
         c->fd = -1;
         s->connected--;
@@ -148,6 +150,8 @@ static void sc_start(stress *s, sclient *c, double now)
     sc_connect(s, c);
 }
 
+static void on_client(mts_loop *loop, mts_loop_io *io, unsigned events);
+
 /* A connection for c's conversation: HELLO goes when it is up. */
 static void sc_connect(stress *s, sclient *c)
 {
@@ -163,8 +167,7 @@ static void sc_connect(stress *s, sclient *c)
     }
     s->connected++;
     c->state = r > 0 ? SC_SENDING : SC_CONNECTING;
-    struct epoll_event ev = {.events = EPOLLOUT, .data.ptr = c};
-    if (epoll_ctl(s->epfd, EPOLL_CTL_ADD, c->fd, &ev) != 0)
+    if (mts_loop_watch(&s->loop, &c->io, c->fd, MTS_LOOP_OUT, on_client, s) != 0)
         sc_fail(s, c, MTS_STRESS_LOCAL, "epoll_ctl: %s", strerror(errno));
 }
 
@@ -195,8 +198,7 @@ static void sc_send(stress *s, sclient *c, double now)
     }
     c->state = SC_READING;
     c->t_last = now;
-    struct epoll_event ev = {.events = EPOLLIN | EPOLLRDHUP, .data.ptr = c};
-    if (epoll_ctl(s->epfd, EPOLL_CTL_MOD, c->fd, &ev) != 0)
+    if (mts_loop_set(&s->loop, &c->io, MTS_LOOP_IN) != 0)
         sc_fail(s, c, MTS_STRESS_LOCAL, "epoll_ctl: %s", strerror(errno));
 }
 
@@ -651,6 +653,11 @@ typedef struct shard {
     atomic_int *stop;  /* the watcher's: give up on the clients still running */
     mts_result rc;
     mts_error err;
+    /* the loop's tick: the next client to start, when the last scan and
+     * report were, and whether decoding is left that needs no bytes */
+    uint32_t next;
+    double last_progress, last_scan;
+    int pending;
 } shard;
 
 static void shard_publish(shard *h, int finished)
@@ -662,65 +669,73 @@ static void shard_publish(shard *h, int finished)
     pthread_mutex_unlock(&h->lock);
 }
 
-static void *shard_main(void *arg)
+/* A client's socket has events: the HELLO goes out while it connects and
+ * sends, then bytes are read (data, or the EOF or reset a read reports). */
+static void on_client(mts_loop *loop, mts_loop_io *io, unsigned events)
 {
-    shard *h = arg;
+    (void)loop;
+    (void)events;
+    stress *s = io->user;
+    sclient *c = (sclient *)(void *)((char *)io - offsetof(sclient, io));
+    if (c->state == SC_DONE)
+        return;
+    double now = mts_clock_seconds();
+    if (c->state == SC_CONNECTING || c->state == SC_SENDING)
+        sc_send(s, c, now);
+    else
+        sc_read(s, c, now);
+}
+
+/* Between rounds: decoding, timeouts and the shard's report for what the
+ * last round brought, then the clients due (the ramp spaces all the
+ * threads' clients as one) under the concurrency limit. The next round's
+ * longest sleep, or -1 once every client has ended or the watcher stops
+ * the run. */
+static int shard_tick(mts_loop *loop, void *user, double now)
+{
+    (void)loop;
+    shard *h = user;
     stress *sp = &h->s;
     const mts_stress_options *o = sp->o;
     mts_stress_report *rep = &h->rep;
     const uint32_t n = h->n, conc = h->conc;
-    struct epoll_event events[512];
-    uint32_t next = 0; /* the next client to start */
-    sp->t0 = h->t0;
-    double last_progress = sp->t0, last_scan = sp->t0;
-    int pending = 0; /* apply_round left decoding to do */
-    while (rep->succeeded + rep->failed < n &&
-           !atomic_load_explicit(h->stop, memory_order_relaxed)) {
-        double now = mts_clock_seconds();
-        /* start whoever is due and fits under the concurrency limit; the
-         * ramp spaces all the threads' clients as one */
-        while (next < n && sp->connected < conc &&
-               (h->ramp == 0 || now - sp->t0 >= h->ramp * (double)(next * h->count + h->index) /
-                                                   (double)(n * h->count))) {
-            sc_start(sp, &sp->c[next], now);
-            next++;
-        }
-        /* decoding left that needs no bytes: do not sleep on the sockets */
-        int timeout_ms = pending ? 0 : 100;
-        if (next < n && sp->connected < conc && h->ramp > 0) {
-            double due = sp->t0 +
-                         h->ramp * (double)(next * h->count + h->index) / (double)(n * h->count) -
-                         now;
-            int ms = (int)(due * 1e3) + 1;
-            timeout_ms = ms < timeout_ms ? (ms > 0 ? ms : 0) : timeout_ms;
-        }
-        int got = epoll_wait(sp->epfd, events, 512, timeout_ms);
-        if (got < 0 && errno != EINTR) {
-            h->rc = mts_error_set(&h->err, MTS_ERR_IO, "epoll_wait: %s", strerror(errno));
-            break;
-        }
-        now = mts_clock_seconds();
-        for (int i = 0; i < got; i++) {
-            sclient *c = events[i].data.ptr;
-            if (c->state == SC_DONE)
-                continue;
-            if (c->state == SC_CONNECTING || c->state == SC_SENDING)
-                sc_send(sp, c, now);
-            else
-                sc_read(sp, c, now); /* data, or the EOF/reset a read reports */
-        }
-        if (!o->no_apply && !o->http_path)
-            pending = apply_round(sp, next, 0.02);
-        now = mts_clock_seconds();
-        if (now - last_scan >= 0.1) {
-            check_timeouts(sp, next, now);
-            last_scan = now;
-        }
-        if (now - last_progress >= 0.1) {
-            shard_publish(h, 0);
-            last_progress = now;
-        }
+    if (!o->no_apply && !o->http_path)
+        h->pending = apply_round(sp, h->next, 0.02);
+    now = mts_clock_seconds();
+    if (now - h->last_scan >= 0.1) {
+        check_timeouts(sp, h->next, now);
+        h->last_scan = now;
     }
+    if (now - h->last_progress >= 0.1) {
+        shard_publish(h, 0);
+        h->last_progress = now;
+    }
+    if (rep->succeeded + rep->failed >= n || atomic_load_explicit(h->stop, memory_order_relaxed))
+        return -1;
+    while (h->next < n && sp->connected < conc &&
+           (h->ramp == 0 || now - sp->t0 >= h->ramp * (double)(h->next * h->count + h->index) /
+                                               (double)(n * h->count))) {
+        sc_start(sp, &sp->c[h->next], now);
+        h->next++;
+    }
+    /* decoding left that needs no bytes: do not sleep on the sockets */
+    int timeout_ms = h->pending ? 0 : 100;
+    if (h->next < n && sp->connected < conc && h->ramp > 0) {
+        double due = sp->t0 +
+                     h->ramp * (double)(h->next * h->count + h->index) / (double)(n * h->count) -
+                     now;
+        int ms = (int)(due * 1e3) + 1;
+        timeout_ms = ms < timeout_ms ? (ms > 0 ? ms : 0) : timeout_ms;
+    }
+    return timeout_ms;
+}
+
+static void *shard_main(void *arg)
+{
+    shard *h = arg;
+    h->s.t0 = h->t0;
+    h->last_progress = h->last_scan = h->t0;
+    h->rc = mts_loop_run(&h->s.loop, shard_tick, h, &h->err);
     shard_publish(h, 1);
     return NULL;
 }
@@ -832,14 +847,14 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
         sp->ms_final = malloc(((size_t)h->n + 1) * sizeof *sp->ms_final);
         sp->ms_base = malloc(((size_t)h->n + 1) * sizeof *sp->ms_base);
         sp->chunk = malloc(1 << 16);
-        sp->epfd = epoll_create1(EPOLL_CLOEXEC);
+        sp->loop.epoll_fd = -1;
+        sp->loop.max_events = 512;
         if (!sp->c || !sp->ms_final || !sp->ms_base || !sp->chunk) {
             rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for %u clients", n);
             made++;
             goto done;
         }
-        if (sp->epfd < 0) {
-            rc = mts_error_set(err, MTS_ERR_IO, "epoll: %s", strerror(errno));
+        if ((rc = mts_loop_init(&sp->loop, err)) != MTS_OK) {
             made++;
             goto done;
         }
@@ -913,8 +928,7 @@ done:
                 }
             }
         }
-        if (sp->epfd >= 0)
-            close(sp->epfd);
+        mts_loop_close(&sp->loop);
         free(sp->c);
         free(sp->ms_final);
         free(sp->ms_base);

@@ -1,5 +1,5 @@
 /* Many simulated clients from one process, for load-testing a server: a
- * non-blocking epoll loop per thread (one per core) drives its share of N
+ * non-blocking event loop (common/loop.h) per thread (one per core) drives its share of N
  * conversations (no GL), each speaking the whole protocol. By default every client decodes and applies its batches
  * through the same mts_stream_client and LOD runtime as mts-client, so the
  * figures include a real client's work; with no_apply a client only reads
