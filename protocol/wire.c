@@ -7,18 +7,45 @@
 
 #include "utf8.h"
 
-int mts_wire_valid_name(const char *name, size_t len)
+mts_result mts_wire_check_name(const char *name, size_t len, mts_error *err)
 {
-    if (len == 0 || len > MTS_WIRE_MAX_NAME || name[0] == '.')
-        return 0;
+    if (!name || len == 0)
+        return mts_error_set(err, MTS_ERR_ARG, "a model name cannot be empty");
+    if (len > MTS_WIRE_MAX_NAME)
+        return mts_error_set(err, MTS_ERR_ARG,
+                             "model name \"%.64s...\" is too long (%zu characters, at most %d)",
+                             name, len, MTS_WIRE_MAX_NAME);
+    if (name[0] == '.')
+        return mts_error_set(err, MTS_ERR_ARG,
+                             "model name \"%.*s\" starts with '.' (not allowed)", (int)len, name);
     for (size_t i = 0; i < len; i++) {
-        char c = name[i];
+        unsigned char c = (unsigned char)name[i];
         int ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
                  c == '.' || c == '_' || c == '-';
-        if (!ok)
-            return 0;
+        if (ok)
+            continue;
+        char shown[16];
+        if (c >= 0x20 && c < 0x7f)
+            snprintf(shown, sizeof shown, "'%c'", c);
+        else
+            snprintf(shown, sizeof shown, "byte 0x%02x", c);
+        /* the name as shown: printable ASCII only */
+        char printable[MTS_WIRE_MAX_NAME + 1];
+        for (size_t k = 0; k < len; k++) {
+            unsigned char b = (unsigned char)name[k];
+            printable[k] = b >= 0x20 && b < 0x7f ? (char)b : '?';
+        }
+        printable[len] = 0;
+        return mts_error_set(err, MTS_ERR_ARG,
+                             "model name \"%s\" has %s at position %zu (allowed: A-Z a-z 0-9 . _ -)",
+                             printable, shown, i + 1);
     }
-    return 1;
+    return MTS_OK;
+}
+
+int mts_wire_valid_name(const char *name, size_t len)
+{
+    return mts_wire_check_name(name, len, NULL) == MTS_OK;
 }
 
 size_t mts_wire_frame_begin(mts_buf *b, uint8_t type)

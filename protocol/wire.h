@@ -123,7 +123,13 @@ typedef struct mts_wire_model_entry {
     uint32_t vertices, triangles, levels, stream_bytes;
 } mts_wire_model_entry;
 
-/* 1 when name is 1..64 bytes of [A-Za-z0-9._-] not starting with '.'. */
+/* The one rule for a model's name, on the wire, in a models folder and on
+ * the command line: 1..64 bytes of [A-Za-z0-9._-], not starting with '.'
+ * (no hidden files, no paths). MTS_OK, or MTS_ERR_ARG with what breaks it
+ * (the name shown in printable ASCII). */
+mts_result mts_wire_check_name(const char *name, size_t len, mts_error *err);
+
+/* 1 when mts_wire_check_name accepts it. */
 int mts_wire_valid_name(const char *name, size_t len);
 
 /* Frames: begin writes the header with a placeholder length, end patches it. */

@@ -16,6 +16,7 @@
 #include "fileio.h"
 #include "mesh.h"
 #include "modelfile.h"
+#include "wire.h"
 
 struct mts_catalog {
     mts_catalog_options opts;
@@ -27,45 +28,10 @@ struct mts_catalog {
 /* ------------------------------------------------------------------------ */
 /* Names                                                                     */
 
-static int name_char(unsigned char c)
-{
-    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
-           c == '.' || c == '_' || c == '-';
-}
-
+/* The wire's rule, the one every name follows (wire.h). */
 static mts_result check_name_n(const char *name, size_t len, mts_error *err)
 {
-    if (!name || len == 0)
-        return mts_error_set(err, MTS_ERR_ARG, "a model name cannot be empty");
-    if (len > MTS_CATALOG_NAME_MAX)
-        return mts_error_set(err, MTS_ERR_ARG,
-                             "model name \"%.64s...\" is too long (%zu characters, at most %d)",
-                             name, len, MTS_CATALOG_NAME_MAX);
-    if (name[0] == '.')
-        return mts_error_set(err, MTS_ERR_ARG,
-                             "model name \"%.*s\" starts with '.' (not allowed)", (int)len, name);
-    for (size_t i = 0; i < len; i++) {
-        unsigned char c = (unsigned char)name[i];
-        if (!name_char(c)) {
-            char shown[16];
-            if (c >= 0x20 && c < 0x7f)
-                snprintf(shown, sizeof shown, "'%c'", c);
-            else
-                snprintf(shown, sizeof shown, "byte 0x%02x", c);
-            /* the name as shown: printable ASCII only */
-            char printable[MTS_CATALOG_NAME_MAX + 1];
-            for (size_t k = 0; k < len; k++) {
-                unsigned char b = (unsigned char)name[k];
-                printable[k] = b >= 0x20 && b < 0x7f ? (char)b : '?';
-            }
-            printable[len] = 0;
-            return mts_error_set(err, MTS_ERR_ARG,
-                                 "model name \"%s\" has %s at position %zu (allowed: "
-                                 "A-Z a-z 0-9 . _ -)",
-                                 printable, shown, i + 1);
-        }
-    }
-    return MTS_OK;
+    return mts_wire_check_name(name, len, err);
 }
 
 mts_result mts_catalog_check_name(const char *name, mts_error *err)

@@ -56,8 +56,10 @@
 #include "fetch.h"
 #include "model.h"
 #include "progress.h"
+#include "wire.h"
 
-#define MTS_CATALOG_NAME_MAX 64
+/* a model's name follows the wire's one rule (mts_wire_check_name) */
+#define MTS_CATALOG_NAME_MAX MTS_WIRE_MAX_NAME
 
 typedef struct mts_catalog mts_catalog;
 
