@@ -25,6 +25,10 @@
 #include "wire.h"
 #include "ws.h"
 
+/* The ERROR texts said in more than one place, worded once. */
+#define TEXT_NOT_HELLO "the first message must be HELLO or LIST"
+#define TEXT_BUSY "server busy: try again later"
+
 /* A client's first frame is a HELLO or LIST: small, so it fits here. */
 #define IN_MAX 512
 
@@ -456,7 +460,7 @@ static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, 
         return;
     }
     if (type != MTS_MSG_HELLO) {
-        conn_refuse(c, MTS_WERR_PROTOCOL, "the first message must be HELLO or LIST",
+        conn_refuse(c, MTS_WERR_PROTOCOL, TEXT_NOT_HELLO,
                     "error: no hello");
         return;
     }
@@ -562,7 +566,7 @@ static int conn_first_frame(mts_server *s, conn *c)
     uint32_t len = (uint32_t)c->in[0] | (uint32_t)c->in[1] << 8 | (uint32_t)c->in[2] << 16 |
                    (uint32_t)c->in[3] << 24;
     if (len == 0 || len > IN_MAX - 4) {
-        conn_refuse(c, MTS_WERR_PROTOCOL, "first frame is not a HELLO or LIST", "error: garbage");
+        conn_refuse(c, MTS_WERR_PROTOCOL, TEXT_NOT_HELLO, "error: garbage");
         return 1;
     }
     if (c->in_len < 4 + (size_t)len)
@@ -968,9 +972,9 @@ static void accept_all(mts_server *s, struct listener *l)
         if (s->conn_count >= s->opts.max_clients) {
             mts_buf b = {0};
             if (l->ws) /* before its upgrade: HTTP */
-                mts_ws_put_http_error(&b, 503, "server busy: try again later");
+                mts_ws_put_http_error(&b, 503, TEXT_BUSY);
             else
-                mts_wire_put_error(&b, MTS_WERR_BUSY, "server busy: try again later");
+                mts_wire_put_error(&b, MTS_WERR_BUSY, TEXT_BUSY);
             if (!b.failed)
                 (void)!send(fd, b.data, b.size, MSG_NOSIGNAL | MSG_DONTWAIT);
             mts_buf_free(&b);
