@@ -168,7 +168,7 @@ typedef struct mts_stream_client {
     size_t record_capacity;
     uint64_t record_word_limit; /* the most record words a records form may bring (take_info) */
     struct mts_grow *grow; /* derives each split's record (grow.h) */
-    struct mts__stream_models *models; /* the batches' coding models (stream.c) */
+    struct mts__stream_models *models; /* the batches' coding models (stream_coding.h) */
     uint16_t *oct; /* per vertex its normal's code, when the stream has normals */
     mts_lod lod;
     int have_lod;
