@@ -15,7 +15,7 @@
  *    orientation, and drops degenerate faces and unreferenced vertices.
  *  The server therefore encodes, decodes its own output with mts_draco_decode
  *  and calls mts_draco_renumber for original id -> decoded id; the stream's
- *  base vertex ids follow from the decoded ones (stream.c sorts them by grid
+ *  base vertex ids follow from the decoded ones (stream_coding.c sorts them by grid
  *  point), which every client gets too. When
  *  renumbering fails the caller encodes again with MTS_DRACO_SEQUENTIAL.
  *  The mesh is built as a draco::Mesh directly, one point per vertex (no

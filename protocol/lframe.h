@@ -1,7 +1,7 @@
 /* A local frame for a vertex's position residual, exactly invertible in
  * integers.
  *
- * A split vertex is predicted at the centroid of its ring (stream.c); what
+ * A split vertex is predicted at the centroid of its ring (stream_coding.c); what
  * is left is mostly in the ring's tangent plane, with a smaller, skewed part
  * along its normal. Coded in x, y, z the two mix and every axis pays for the
  * tangential spread. Rotated so that the ring's normal is the third axis,

@@ -14,7 +14,7 @@
  * applies a batch only once it is whole), too short to pay for frequency
  * tables on the wire. Binary models need no tables: they start flat and
  * learn from what they code, the decoder mirroring the encoder step by step
- * (the stream keeps them from batch to batch, stream.c). They adapt faster
+ * (the stream keeps them from batch to batch, stream_coding.h). They adapt faster
  * than LZMA's (MTS_RC_ADAPT_SHIFT 4, not 5): on geometric integers that
  * costs 5.5% over the entropy after 1000 symbols where 5 costs 6.7%, and
  * wins more on fewer (33% against 50% after 50). On whole streams the two
@@ -77,7 +77,7 @@ typedef struct mts_rc_encoder {
     mts_buf *out;
     /* when not NULL, the information each coded bit carries (-log2 of its
      * probability, in bits) is added here: where a stream's bytes go
-     * (stream.c's breakdown), without changing a byte of it */
+     * (stream_enc.c's breakdown), without changing a byte of it */
     double *cost;
 } mts_rc_encoder;
 

@@ -987,7 +987,7 @@ static void test_records_form_trailing_bytes(mts_test *t)
 /* Records that pass every check of mts_lod_split can still be padded with
  * edits that change nothing (the record format allows them). A records-form
  * client keeps at most MODEL_INFO's bound of record words
- * (c->record_word_limit, stream.c take_info): a little padding still fits
+ * (c->record_word_limit, stream_dec.c take_info): a little padding still fits
  * and ends on the right checksum, padding past the bound is refused with
  * MTS_ERR_LIMIT and the memory held stays within it. */
 static mts_result feed_padded(const mts_stream *r, const mts_buf *b, uint32_t pad,

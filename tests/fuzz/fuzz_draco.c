@@ -4,7 +4,7 @@
  * -- counts within bounds, every index below the vertex count, every
  * quantized value on the grid, positions equal to mts_draco_dequantize of
  * them, normals finite -- since the client copies the mesh into its model on
- * exactly those promises (stream.c, take_base); a failed one must leave the
+ * exactly those promises (stream_dec.c, take_base); a failed one must leave the
  * output empty and say why.
  *
  * libdraco itself is Debian's build, not instrumented: the fuzzer sees the
