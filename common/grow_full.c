@@ -1,0 +1,303 @@
+/* The full level's strips, which a client cannot afford to compute (they
+ * are tunnelled) and a stream does not send as indices: each strip is
+ * described by its first triangle, the corner it starts at and one swap bit
+ * per inner triangle (grow.h, mts_grow_full), and both ends walk the same
+ * description over the same mesh -- the builder's encoder to learn which
+ * bits the walk forces (mts_grow_full_describe), a client to turn it into
+ * the full level's paths (mts__grow_resolve_full, at the last split). */
+#include <stdlib.h>
+#include <string.h>
+
+#include "grow.h"
+#include "grow_internal.h"
+#include "strips.h"
+#include "words.h"
+
+/* the notation of grow_internal.h, short */
+#define NONE MTS_GROW_NONE
+#define NX mts__grow_nx
+#define PV mts__grow_pv
+#define TWIN MTS__GROW_TWIN
+
+/* ---- the walk ---- */
+
+/* Walking a described strip: it entered triangle u across u's edge e
+ * (corner e of u holds the end of the edge it crossed), its last two
+ * indices are (a, c), and w = u's third corner is the index u adds. It
+ * leaves across the edge that keeps c (no swap) or a (a swap): the
+ * half-edge of u it crosses next. */
+static inline uint32_t full_exit(const mts_grow *g, uint32_t u, uint32_t e, uint32_t keep)
+{
+    unsigned ck = g->tri[u].v[e] == keep ? e : NX[e];
+    return 3 * u + (NX[ck] == PV[e] ? ck : PV[e]);
+}
+
+/* Which exits of u are open (bit 0: no swap, bit 1: a swap): a border or a
+ * triangle an earlier strip (or this one) holds is closed, so where only one
+ * is open the swap bit is forced and the stream does not carry it. */
+static inline unsigned full_open(const mts_grow *g, uint32_t u, uint32_t e, uint32_t a, uint32_t c,
+                                 const uint8_t *claimed)
+{
+    unsigned open = 0;
+    for (unsigned k = 0; k < 2; k++) {
+        uint32_t x = TWIN(g, full_exit(g, u, e, k ? a : c));
+        if (x != NONE && !claimed[x / 3])
+            open |= 1u << k;
+    }
+    return open;
+}
+
+/* The triangles next to strip `prev` (given as its triangles in order) that
+ * no strip holds yet: per triangle of it, across its edges 0, 1, 2, each
+ * once. Where strips lie side by side, as tunnelled ones do, the next
+ * strip often starts among them (grow.h, mts_grow_full_path.near). */
+static int full_near(const mts_grow *g, const mts_words *prev, const uint8_t *claimed,
+                     uint32_t *seen, uint32_t stamp, mts_words *out)
+{
+    out->n = 0;
+    for (size_t k = 0; k < prev->n; k++) {
+        const uint32_t *tw = g->tri[prev->w[k]].tw;
+        for (unsigned e = 0; e < 3; e++) {
+            const uint32_t x = tw[e] == NONE ? NONE : tw[e] / 3;
+            if (x == NONE || claimed[x] || seen[x] == stamp)
+                continue;
+            seen[x] = stamp;
+            if (!mts_words_reserve(out, 1))
+                return 0;
+            out->w[out->n++] = x;
+        }
+    }
+    return 1;
+}
+
+/* Walks the described full strips over g's mesh (at the full level), slot
+ * by slot, the one walk both ends make. A strip's start comes from f->paths
+ * or, with f->start, from the source, handed the triangles next to the
+ * strip before (full_near). Each inner triangle's swap bit is forced where
+ * full_open leaves one exit; else it comes from f (the array, or the
+ * source, which is handed the bit before as context). With `describe`
+ * (f->paths itself, for an encoder), each path's near fields are set and
+ * each swap byte in f->swaps marked forced (bit 1); with `resolve` (g
+ * itself), the paths become g's. */
+static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow_full *f,
+                            mts_grow_full_path *describe, mts_error *err)
+{
+    uint8_t *claimed = calloc((size_t)g->tri_count + 1, 1);
+    uint32_t *seen = calloc((size_t)g->tri_count + 1, 4);
+    mts_words prev = {0}, cur = {0}, near = {0};
+    mts_result rc = claimed && seen ? MTS_OK
+                                    : mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    uint8_t *mark = describe ? (uint8_t *)f->swaps : NULL;
+    uint64_t bit = 0;
+    unsigned last = 0;
+    for (uint32_t s = 0, stamp = 1; s < f->slot_count && rc == MTS_OK; s++) {
+        const mts_grow_full_path *p = &f->paths[s];
+        if (!p->triangles)
+            continue;
+        if ((f->start || describe) && !full_near(g, &prev, claimed, seen, stamp++, &near)) {
+            rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+            break;
+        }
+        uint32_t t = p->first, r = p->rotation;
+        if (f->start && !f->start(f->user, near.w, (uint32_t)near.n, &t, &r)) {
+            rc = mts_error_set(err, MTS_ERR_FORMAT, "full strips: strip %u's start is malformed",
+                               s);
+            break;
+        }
+        if (t >= g->tri_count || r > 2 || claimed[t]) {
+            rc = mts_error_set(err, MTS_ERR_FORMAT,
+                               "full strips: strip %u starts at corner %u of triangle %u, which "
+                               "is none of the %u or one a strip holds",
+                               s, r, t, g->tri_count);
+            break;
+        }
+        if (describe) {
+            describe[s].near = NONE;
+            describe[s].near_count = (uint32_t)near.n;
+            for (uint32_t k = 0; k < near.n && describe[s].near == NONE; k++)
+                describe[s].near = near.w[k] == t ? k : NONE;
+        }
+        claimed[t] = 1;
+        cur.n = 0;
+        if (!mts_words_reserve(&cur, p->triangles)) {
+            rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+            break;
+        }
+        cur.w[cur.n++] = t;
+        if (resolve) {
+            resolve->slot[s].head = (int32_t)t;
+            resolve->tri[t].slot = (int32_t)s;
+            resolve->slot[s].ntri = 1;
+        }
+        /* the strip's last two indices (a, c) and the half-edge between them */
+        uint32_t a = g->tri[t].v[NX[r]], c = g->tri[t].v[PV[r]], h = 3 * t + NX[r];
+        for (uint32_t i = 1; i < p->triangles; i++) {
+            uint32_t o = TWIN(g, h);
+            if (o == NONE) {
+                rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                   "full strips: strip %u runs off the mesh at triangle %u", s, i);
+                break;
+            }
+            uint32_t u = o / 3, e = o % 3;
+            if (claimed[u]) {
+                rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                   "full strips: strip %u crosses into triangle %u, which a strip "
+                                   "holds",
+                                   s, u);
+                break;
+            }
+            claimed[u] = 1;
+            cur.w[cur.n++] = u;
+            if (resolve) {
+                mts__grow_set_next(resolve, t, (int32_t)u);
+                resolve->prev[u] = (int32_t)t;
+                resolve->tri[u].slot = (int32_t)s;
+                resolve->slot[s].ntri++;
+            }
+            uint32_t w = g->tri[u].v[PV[e]];
+            int swap = 0;
+            if (i + 1 < p->triangles) {
+                const unsigned open = full_open(g, u, e, a, c, claimed);
+                if (open == 0) {
+                    rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                       "full strips: strip %u ends at triangle %u of %u, every "
+                                       "way on closed",
+                                       s, i, p->triangles);
+                    break;
+                }
+                if (f->swaps && bit >= f->swap_count) {
+                    rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                       "full strips: more inner triangles than %llu swap bits",
+                                       (unsigned long long)f->swap_count);
+                    break;
+                }
+                if (open != 3)
+                    swap = open == 2;
+                else
+                    swap = f->swaps ? (f->swaps[bit] & 1) != 0 : f->swap_bit(f->user, last) != 0;
+                if (mark)
+                    mark[bit] = (uint8_t)((mark[bit] & 1) | (open != 3) << 1);
+                bit++;
+                last = (unsigned)swap;
+            }
+            h = full_exit(g, u, e, swap ? a : c);
+            if (swap) {
+                c = w;
+            } else {
+                a = c;
+                c = w;
+            }
+            t = u;
+        }
+        mts_words x = prev;
+        prev = cur;
+        cur = x;
+    }
+    if (rc == MTS_OK && f->swaps && bit != f->swap_count)
+        rc = mts_error_set(err, MTS_ERR_FORMAT, "full strips: %llu swap bits for %llu",
+                           (unsigned long long)f->swap_count, (unsigned long long)bit);
+    free(claimed);
+    free(seen);
+    free(prev.w);
+    free(cur.w);
+    free(near.w);
+    return rc;
+}
+
+/* Resolves a description of the full strips (mts_grow_full_describe) on
+ * the current (full) mesh straight into paths, slot by slot: each strip
+ * leaves a triangle across the edge of its last two indices, and a swap
+ * bit says which of them stays. */
+mts_result mts__grow_resolve_full(mts_grow *g, const mts_grow_full *f, mts_error *err)
+{
+    uint64_t tris = 0;
+    for (uint32_t s = 0; s < f->slot_count; s++)
+        tris += f->paths[s].triangles;
+    if (tris > g->tri_count)
+        return mts_error_set(err, MTS_ERR_FORMAT, "full strips: %llu triangles of %u",
+                             (unsigned long long)tris, g->tri_count);
+    if (!f->swaps && !f->swap_bit)
+        return mts_error_set(err, MTS_ERR_ARG, "full strips: no swap bits");
+    if (!mts__grow_paths_reset(g, f->slot_count))
+        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    mts_result rc = full_walk(g, g, f, NULL, err);
+    if (rc == MTS_OK)
+        mts__grow_slots_free_unused(g, f->slot_count);
+    return rc;
+}
+
+/* ---- describing ---- */
+
+/* Reads a strip in derived form: its triangle count and, per inner
+ * triangle, whether it swaps (one byte each, appended at swaps + *count).
+ * Returns 0 when the strip is not in that form. */
+static int parse_derived(const uint32_t *s, uint32_t len, uint32_t *ntri, uint8_t *swaps,
+                         uint64_t *count_swaps)
+{
+    if (len == 0) {
+        *ntri = 0;
+        return 1;
+    }
+    if (len < 3 || s[0] == s[1] || s[1] == s[2] || s[0] == s[2])
+        return 0;
+    uint32_t a = s[1], c = s[2], k = 3, count = 1;
+    while (k < len) {
+        int swap = 0;
+        if (s[k] == a && k + 1 < len) {
+            swap = 1;
+            k++;
+        }
+        uint32_t w = s[k++];
+        if (w == a || w == c)
+            return 0;
+        count++;
+        if (k < len) /* an inner triangle */
+            swaps[(*count_swaps)++] = (uint8_t)swap;
+        else if (swap)
+            return 0; /* the last triangle never swaps */
+        if (swap) {
+            c = w;
+        } else {
+            a = c;
+            c = w;
+        }
+    }
+    *ntri = count;
+    return 1;
+}
+
+mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
+                                  mts_grow_full_path *paths, uint8_t *swaps, uint64_t *swap_count,
+                                  mts_error *err)
+{
+    *swap_count = 0;
+    if (g->level != g->n)
+        return mts_error_set(err, MTS_ERR_ARG,
+                             "grow: the full strips described at level %u of %u", g->level, g->n);
+    for (uint32_t st = 0; st < full->strip_count; st++) {
+        const uint32_t *s = full->indices + full->offsets[st];
+        uint32_t len = full->offsets[st + 1] - full->offsets[st];
+        mts_grow_full_path *p = &paths[st];
+        memset(p, 0, sizeof *p);
+        if (!parse_derived(s, len, &p->triangles, swaps, swap_count))
+            return mts_error_set(err, MTS_ERR_ARG,
+                                 "grow: full strip %u is not in the form growth derives", st);
+        if (!p->triangles)
+            continue;
+        int32_t t = mts_grow_find(g, s[0], s[1], s[2]);
+        if (t < 0)
+            return mts_error_set(err, MTS_ERR_ARG,
+                                 "grow: full strip %u starts on (%u %u %u), not a triangle of "
+                                 "level %u",
+                                 st, s[0], s[1], s[2], g->level);
+        p->first = (uint32_t)t;
+        while (g->tri[t].v[p->rotation] != s[0])
+            p->rotation++;
+    }
+    /* which bits the walk forces: the walk a client makes */
+    const mts_grow_full f = {.paths = paths,
+                             .swaps = swaps,
+                             .swap_count = *swap_count,
+                             .slot_count = full->strip_count};
+    return full_walk(g, NULL, &f, paths, err);
+}
