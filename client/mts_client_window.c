@@ -35,7 +35,8 @@ typedef struct win_shot {
 } win_shot;
 
 typedef struct win {
-    client_run *rn;
+    mts_client_run *rn;
+    int quiet;             /* -q: nothing on stderr */
     mts_stream_client *c;
     mts_session_stats *st;
     mts_window *w;
@@ -250,21 +251,16 @@ static int win_input(win *wn, const mts_input *ev)
 static int win_on_event(void *user, mts_stream_event ev, mts_stream_client *c)
 {
     win *wn = user;
-    client_run *rn = wn->rn;
-    if (ev == MTS_EV_RESUMED && !rn->quiet && !wn->fetching)
+    mts_client_run *rn = wn->rn;
+    if (ev == MTS_EV_RESUMED && !wn->quiet && !wn->fetching)
         fprintf(stderr, "mts-client: reconnected; resuming at batch %u of %u\n", c->batches,
                 c->info.batch_count);
     if (ev == MTS_EV_BASE && !rn->have_view) {
-        rn->ro.style.flat_shading = !(c->info.flags & MTS_INFO_NORMALS);
         /* the budget policy reads frame times: those need a finished frame */
         rn->ro.timed = wn->po->kind == MTS_LOD_POLICY_BUDGET;
         mts_view_options vo = {1, rn->morph_ms >= 0 ? rn->morph_ms : WIN_MORPH_MS};
-        mts_view_source src = mts_view_source_of_stream(c);
-        if (mts_view_create(&rn->view, rn->ctx, &rn->ro, &src, &vo, &rn->err) != MTS_OK) {
-            rn->failed = 1;
+        if (!mts_client_run_make_view(rn, c, &vo))
             return 1;
-        }
-        rn->have_view = 1;
         mts_view_set_wireframe(&rn->view, rn->ro.style.wireframe);
         if (wn->po->kind != MTS_LOD_POLICY_RECEIVED) { /* it frames the model's box */
             mts_lod_policy_init(&wn->policy, wn->po, &c->model);
@@ -280,7 +276,7 @@ static int win_on_event(void *user, mts_stream_event ev, mts_stream_client *c)
 /* Brings the view up to the stream and towards the chosen level. */
 static int win_sync(win *wn, double now)
 {
-    client_run *rn = wn->rn;
+    mts_client_run *rn = wn->rn;
     if (!rn->have_view)
         return 1;
     mts_view_source src = mts_view_source_of_stream(wn->c);
@@ -324,7 +320,7 @@ static void win_hud_text(win *wn, double now)
 
 static int win_frame(win *wn, double now)
 {
-    client_run *rn = wn->rn;
+    mts_client_run *rn = wn->rn;
     win_hud_text(wn, now);
     int scale = wn->width >= 1000 ? 2 : 1;
     mts_renderer *r = rn->have_view ? rn->view.renderer : NULL;
@@ -371,7 +367,7 @@ static int win_frame(win *wn, double now)
             s->strips = v->shown.strips;
             snprintf(s->hud, sizeof s->hud, "%s", wn->hud_text);
         }
-        if (!rn->quiet)
+        if (!wn->quiet)
             fprintf(stderr, "mts-client: wrote %s (level %u, %u triangles)\n", path,
                     v->shown.level, v->shown.triangles);
     }
@@ -391,7 +387,7 @@ static void win_stream_ended(win *wn)
 static mts_result win_run(win *wn, mts_session_options *so, const char *script_path,
                           const mts_lod_policy_options *po, mts_error *err)
 {
-    client_run *rn = wn->rn;
+    mts_client_run *rn = wn->rn;
     mts_result rc = MTS_OK;
     wn->po = po;
     if (script_path) {
@@ -409,12 +405,15 @@ static mts_result win_run(win *wn, mts_session_options *so, const char *script_p
                                                err)) != MTS_OK ||
         (rc = mts_hud_create(rn->ctx, &wn->hud, err)) != MTS_OK)
         return rc;
-    if (!client_warm_up(rn)) {
+    if (!mts_client_run_warm_up(rn)) {
         *err = rn->err;
         return err->code ? err->code : MTS_ERR_INTERNAL;
     }
     so->on_event = win_on_event;
     so->user = wn;
+    /* no retry lines from the window: win_on_event says when the stream
+     * resumes, and the HUD what it is doing */
+    so->on_retry = NULL;
     mts_session *sess;
     if ((rc = mts_session_begin(so, wn->c, wn->st, &sess, err)) != MTS_OK)
         return rc;
@@ -484,7 +483,7 @@ static mts_result win_run(win *wn, mts_session_options *so, const char *script_p
                     /* the window stays up with the last whole batch; q ends it */
                     wn->failed_stream = 1;
                     snprintf(wn->status, sizeof wn->status, "stopped: %.180s", err->msg);
-                    if (!rn->quiet)
+                    if (!wn->quiet)
                         fprintf(stderr, "mts-client: %s\n", err->msg);
                 }
             }
@@ -507,9 +506,11 @@ static void win_free(win *wn)
     mts_script_free(&wn->script);
 }
 
-int client_window_main(client_run *rn, mts_session_options *so, const char *script_path,
-                       int json, const mts_lod_policy_options *po)
+int client_window_main(client_options *o)
 {
+    mts_client_run *rn = &o->run;
+    mts_session_options *so = &o->so;
+    const mts_lod_policy_options *po = &rn->po;
     win wn;
     memset(&wn, 0, sizeof wn);
     mts_stream_client c;
@@ -517,40 +518,26 @@ int client_window_main(client_run *rn, mts_session_options *so, const char *scri
     mts_session_stats st;
     memset(&st, 0, sizeof st);
     wn.rn = rn;
+    wn.quiet = o->quiet;
     wn.c = &c;
     wn.st = &st;
     mts_error err = {0};
     /* the camera policies ask for their level's stop, as headless; zooming
      * in then asks for more (win_wants_more) */
-    uint32_t asked = 0;
-    uint64_t list_bytes = 0, full_bytes = 0;
+    mts_client_run_stop stop = {0};
     if (so->hello.stop_kind == MTS_STOP_FULL && po->kind != MTS_LOD_POLICY_RECEIVED)
-        client_policy_stop(so, rn, po, 1.0 / rn->ro.camera.zoom, &asked, &list_bytes,
-                           &full_bytes);
-    mts_result rc = win_run(&wn, so, script_path, po, &err);
+        mts_client_run_policy_stop(so, rn, 1.0 / rn->ro.camera.zoom, &stop);
+    mts_result rc = win_run(&wn, so, o->script, po, &err);
     if (rn->failed && rc == MTS_OK) {
         rc = rn->err.code ? rn->err.code : MTS_ERR_INTERNAL;
         err = rn->err;
     }
-    uint32_t triangles = 0;
-    if (c.have_lod) {
-        mts_strip_stats ss;
-        mts_lod_strip_stats(&c.lod, &ss);
-        triangles = (uint32_t)ss.triangles;
-    }
     int complete = rc == MTS_OK && !wn.quit_early;
-    if (json) {
+    if (o->json) {
         cli_json j;
         cli_json_begin(&j, stdout);
-        cli_json_str(&j, "model", rn->model);
-        cli_json_bool(&j, "complete", complete);
-        cli_json_u64(&j, "bytes", wn.bytes_before + st.bytes);
-        cli_json_u64(&j, "batches", c.batches);
-        cli_json_str(&j, "form", c.records ? "records" : "splits");
-        cli_json_u64(&j, "level", c.have_lod ? c.lod.level : 0);
-        cli_json_u64(&j, "levels", c.info.levels);
-        cli_json_u64(&j, "triangles", triangles);
-        client_json_run(&j, &c, &st, rn);
+        mts_client_run_json_head(&j, rn, &c, complete, wn.bytes_before + st.bytes);
+        mts_client_run_json(&j, &c, &st, rn);
         cli_json_num(&j, "morph_ms", rn->have_view ? rn->view.opts.morph_ms : 0, 1);
         cli_json_u64(&j, "frames", wn.frames);
         /* conversations that went on past the stop because the view asked */
@@ -579,10 +566,10 @@ int client_window_main(client_run *rn, mts_session_options *so, const char *scri
         if (rc != MTS_OK)
             cli_json_str(&j, "error", err.msg);
         cli_json_end(&j);
-    } else if (!rn->quiet && c.have_lod) {
+    } else if (!o->quiet && c.have_lod) {
         printf("%s: level %u of %u received, %u triangles, %u batches, %llu bytes; %llu frames "
                "shown%s\n",
-               rn->model, c.lod.level, c.info.levels, triangles, c.batches,
+               rn->model, c.lod.level, c.info.levels, mts_client_run_triangles(&c), c.batches,
                (unsigned long long)(wn.bytes_before + st.bytes), (unsigned long long)wn.frames,
                wn.quit_early ? " (quit before the end of the stream)" : "");
         for (uint32_t i = 0; i < wn.shot_count; i++)
@@ -592,8 +579,7 @@ int client_window_main(client_run *rn, mts_session_options *so, const char *scri
     if (rc != MTS_OK && !wn.failed_stream)
         fprintf(stderr, "mts-client: %s\n", err.msg);
     win_free(&wn);
-    mts_view_free(&rn->view);
-    mts_render_context_destroy(rn->ctx); /* its EGL surface before the window under it */
+    mts_client_run_free(rn); /* its EGL surface before the window under it */
     mts_window_destroy(wn.w);
     mts_stream_client_free(&c);
     return rc == MTS_OK ? CLI_EXIT_OK : CLI_EXIT_FAIL;

@@ -52,4 +52,10 @@ mts_result mts__render_draw_packed(mts_renderer *r, int compact, uint32_t *calls
 mts_result mts__render_frame_end(mts_renderer *r, const mts__render_frame *f, uint32_t calls,
                                  uint64_t indices, uint64_t index_bytes, mts_error *err);
 
+/* render_options.c's, for render.c: the style's zero fields given their
+ * defaults (mts_render_options_default), and a layout checked before
+ * mts_renderer_create makes anything (MTS_ERR_ARG, the fault named). */
+void mts__render_style_defaults(mts_render_style *style);
+mts_result mts__render_check_layout(const mts_render_layout *layout, mts_error *err);
+
 #endif
