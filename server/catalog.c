@@ -28,17 +28,11 @@ struct mts_catalog {
 /* ------------------------------------------------------------------------ */
 /* Names                                                                     */
 
-/* The wire's rule, the one every name follows (wire.h). */
-static mts_result check_name_n(const char *name, size_t len, mts_error *err)
-{
-    return mts_wire_check_name(name, len, err);
-}
-
 mts_result mts_catalog_check_name(const char *name, mts_error *err)
 {
     if (!name)
-        return check_name_n(NULL, 0, err);
-    return check_name_n(name, strnlen(name, MTS_CATALOG_NAME_MAX + 1), err);
+        return mts_wire_check_name(NULL, 0, err);
+    return mts_wire_check_name(name, strnlen(name, MTS_CATALOG_NAME_MAX + 1), err);
 }
 
 int mts_catalog_name_valid(const char *name)
@@ -199,7 +193,7 @@ static size_t locate(const mts_catalog *cat, const char *name, size_t len, int *
 
 const mts_catalog_entry *mts_catalog_find_n(const mts_catalog *cat, const char *name, size_t len)
 {
-    if (!cat || check_name_n(name, len, NULL) != MTS_OK)
+    if (!cat || mts_wire_check_name(name, len, NULL) != MTS_OK)
         return NULL;
     int found;
     size_t i = locate(cat, name, len, &found);
@@ -693,7 +687,7 @@ mts_result mts_catalog_add_spec(mts_catalog *cat, const char *spec,
         return mts_error_set(err, MTS_ERR_ARG,
                              "\"%.100s\": give a model as NAME=PATH or NAME=URL", spec);
     size_t len = (size_t)(eq - spec);
-    mts_result r = check_name_n(spec, len, err);
+    mts_result r = mts_wire_check_name(spec, len, err);
     if (r != MTS_OK)
         return r;
     char name[MTS_CATALOG_NAME_MAX + 1];
