@@ -31,7 +31,8 @@ CXXFLAGS += -std=c++17 $(OPT) $(FP) -DNDEBUG -Wall -Werror -Wno-maybe-uninitiali
 # paths of what it may use, so an include the wrong way fails the build.
 #   common/    the runtime every part shares (growth, LOD runtime, model file, ...)
 #   protocol/  the wire, the stream's coding, WebSocket, Draco      uses common
-#   builder/   mesh in, model file out (mts-build, mts-inspect)    uses common
+#   builder/   mesh in, model or stream file out (mts-build, mts-inspect)
+#                                                     uses common, protocol
 #   server/    mts-server                      uses common, protocol, builder
 #   client/    mts-client, its renderer and window          uses common, protocol
 #   stress/    mts-stress, many simulated clients           uses common, protocol
@@ -39,7 +40,7 @@ CXXFLAGS += -std=c++17 $(OPT) $(FP) -DNDEBUG -Wall -Werror -Wno-maybe-uninitiali
 #   tests/, bench/: the public headers of every layer
 INC_common   := -Icommon
 INC_protocol := -Icommon -Iprotocol
-INC_builder  := -Icommon -Ibuilder
+INC_builder  := -Icommon -Iprotocol -Ibuilder
 INC_server   := -Icommon -Iprotocol -Ibuilder -Iserver
 INC_client   := -Icommon -Iprotocol -Iclient
 INC_stress   := -Icommon -Iprotocol -Istress

@@ -5,13 +5,18 @@
 
 #include "build.h"
 #include "cli.h"
+#include "fileio.h"
 #include "mesh.h"
 #include "model.h"
 #include "modelfile.h"
+#include "stream.h"
+#include "stream_file.h"
+#include "wire.h"
 
 static void usage(FILE *f)
 {
-    fputs("usage: mts-build MESH [-o MODEL.mtsm] [--base-vertices N] [--tunnel-length K]\n"
+    fputs("usage: mts-build MESH [-o MODEL.mtsm] [--stream FILE.mts [--records]]\n"
+          "                 [--base-vertices N] [--tunnel-length K]\n"
           "                 [--strip-effort E] [--max-strip M] [--key-ratio R]\n"
           "                 [--reorder-window W] [--threads N] [--max-mesh-bytes N]\n"
           "                 [--json] [--quiet]\n"
@@ -20,8 +25,17 @@ static void usage(FILE *f)
           "strips at full resolution, a quadric edge-collapse sequence down to a base mesh,\n"
           "and per-collapse strip records, written to a .mtsm model file.\n"
           "\n"
+          "       mts-build MODEL.mtsm --stream FILE.mts [--records]\n"
+          "\n"
           "  -o, --output FILE     model file to write (default: MESH's name with .mtsm,\n"
-          "                        in the current directory)\n"
+          "                        in the current directory; with --stream, only when\n"
+          "                        given)\n"
+          "  --stream FILE         write the model's stream as one static file that any web\n"
+          "                        server can serve (mts-client http(s)://.../FILE reads it\n"
+          "                        with range requests); its name without .mts is the\n"
+          "                        model's name. MESH may be a model file already built\n"
+          "  --records             the stream file in the records form: about 16x the\n"
+          "                        bytes, far less work for the client\n"
           "  --base-vertices N     stop simplifying at N vertices (default: max(4, 1%))\n"
           "  --tunnel-length K     after the greedy strips, complement alternating tunnels\n"
           "                        of up to K dual-graph edges (paper 004) and order the\n"
@@ -97,6 +111,109 @@ static void stage_memory_update(void *user, const char *stage, double done)
     cli_bar_update(sm->bar, stage, done);
 }
 
+static int has_model_extension(const char *path)
+{
+    size_t n = strlen(path);
+    return n > 5 && mts_ascii_ieq(path + n - 5, ".mtsm");
+}
+
+typedef struct stream_figures {
+    uint64_t file_bytes;  /* the stream file */
+    uint64_t index_bytes; /* of it: header, table and checks */
+    uint64_t frame_bytes; /* of it: MODEL_INFO, BASE and the batches */
+    uint32_t batches;
+    double seconds;
+} stream_figures;
+
+/* The stream file of a model: the same encoder mts-server runs, so that its
+ * frames are byte for byte what a connection to mts-server carries. The
+ * model's name on the wire is the file's name without .mts. */
+static mts_result write_stream_file(const mts_model *model, const char *path, int records,
+                                    stream_figures *sf, mts_error *err)
+{
+    double t0 = cli_now();
+    char name[1024];
+    cli_stem(path, name, sizeof name);
+    if (mts_wire_check_name(name, strlen(name), err) != MTS_OK)
+        return mts_error_prefix(err, "%s: the stream file's name is the model's name", path);
+    mts_stream_options so = {0};
+    so.with_records = records;
+    mts_stream s = {0};
+    mts_buf b = {0};
+    mts_result rc = mts_stream_build(model, name, &so, &s, err);
+    if (rc == MTS_OK) {
+        const mts_stream *form = records ? s.records_form : &s;
+        rc = mts_stream_file_write(form, &b, err);
+        if (rc == MTS_OK)
+            rc = mts_file_write_atomic(path, b.data, b.size, err);
+        if (rc == MTS_OK) {
+            mts_buf info = {0};
+            mts_stream_put_model_info(form, model->level_count, &info);
+            sf->file_bytes = b.size;
+            sf->frame_bytes = info.size + form->size;
+            sf->index_bytes = b.size - sf->frame_bytes;
+            sf->batches = form->batch_count;
+            mts_buf_free(&info);
+        }
+    }
+    mts_buf_free(&b);
+    mts_stream_free(&s);
+    sf->seconds = cli_now() - t0;
+    return rc;
+}
+
+static void json_stream(cli_json *j, const char *path, const stream_figures *sf)
+{
+    cli_json_object_begin(j, "stream_file");
+    cli_json_str(j, "path", path);
+    cli_json_u64(j, "bytes", sf->file_bytes);
+    cli_json_u64(j, "index_bytes", sf->index_bytes);
+    cli_json_u64(j, "frame_bytes", sf->frame_bytes);
+    cli_json_u64(j, "batches", sf->batches);
+    cli_json_num(j, "seconds", sf->seconds, 4);
+    cli_json_object_end(j);
+}
+
+static void print_stream(const char *path, const stream_figures *sf)
+{
+    printf("  wrote %s: %llu bytes, %u batches; header, table and checks %llu bytes "
+           "(%.2f%% of the frames) in %.2f s\n",
+           path, (unsigned long long)sf->file_bytes, sf->batches,
+           (unsigned long long)sf->index_bytes,
+           sf->frame_bytes ? 100.0 * sf->index_bytes / sf->frame_bytes : 0, sf->seconds);
+}
+
+/* mts-build MODEL.mtsm --stream FILE: the stream file of a model built before. */
+static int stream_from_model(const char *input, const char *path, int records, int json,
+                             int quiet)
+{
+    mts_error err = {0};
+    mts_model model = {0};
+    stream_figures sf = {0};
+    int status = CLI_EXIT_FAIL;
+    if (mts_modelfile_load(input, &model, &err) == MTS_OK &&
+        write_stream_file(&model, path, records, &sf, &err) == MTS_OK) {
+        status = CLI_EXIT_OK;
+        if (json) {
+            cli_json j;
+            cli_json_begin(&j, stdout);
+            cli_json_str(&j, "input", input);
+            cli_json_u64(&j, "vertices", model.vertex_count);
+            cli_json_u64(&j, "levels", model.level_count);
+            json_stream(&j, path, &sf);
+            cli_json_end(&j);
+        } else if (!quiet) {
+            printf("%s: %u vertices, %u levels\n", input, model.vertex_count,
+                   model.level_count);
+            print_stream(path, &sf);
+        }
+    } else {
+        fprintf(stderr, "mts-build: %s\n", err.msg);
+    }
+    mts_model_free(&model);
+    return status;
+}
+
 int main(int argc, char **argv)
 {
     const char *input = NULL, *output = NULL;
@@ -104,7 +221,8 @@ int main(int argc, char **argv)
              strip_effort = MTS_TUNNEL_DEFAULT_ANNEAL, max_strip = 0, reorder_window = 0,
              threads = 0;
     double key_ratio = MTS_LODBUILD_DEFAULT_KEY_RATIO;
-    int json = 0, quiet = 0;
+    int json = 0, quiet = 0, records = 0;
+    const char *stream_path = NULL;
     mts_mesh_options mo = {0};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -149,6 +267,14 @@ int main(int argc, char **argv)
                                 "(512M, 4G)\n");
                 return CLI_EXIT_USAGE;
             }
+        } else if (!strcmp(a, "--stream")) {
+            if (++i >= argc) {
+                fprintf(stderr, "mts-build: %s needs a file name\n", a);
+                return CLI_EXIT_USAGE;
+            }
+            stream_path = argv[i];
+        } else if (!strcmp(a, "--records")) {
+            records = 1;
         } else if (!strcmp(a, "--json")) {
             json = 1;
         } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
@@ -167,13 +293,25 @@ int main(int argc, char **argv)
         usage(stderr);
         return CLI_EXIT_USAGE;
     }
+    if (records && !stream_path) {
+        fprintf(stderr, "mts-build: --records is the form of a stream file: give --stream FILE\n");
+        return CLI_EXIT_USAGE;
+    }
+    if (has_model_extension(input)) {
+        if (!stream_path) {
+            fprintf(stderr, "mts-build: %s is a model already; give --stream FILE.mts to write "
+                            "its stream file\n", input);
+            return CLI_EXIT_USAGE;
+        }
+        return stream_from_model(input, stream_path, records, json, quiet);
+    }
     if (max_strip && tunnel_length == 0) {
         fprintf(stderr, "mts-build: --max-strip needs the tunnelling pass (--tunnel-length 0 "
                         "turns it off)\n");
         return CLI_EXIT_USAGE;
     }
     char out_buf[4096];
-    if (!output) {
+    if (!output && !stream_path) {
         char stem[1024];
         cli_stem(input, stem, sizeof stem);
         snprintf(out_buf, sizeof out_buf, "%s.mtsm", stem);
@@ -211,8 +349,14 @@ int main(int argc, char **argv)
         goto fail;
     double t2 = cli_now();
     stage_memory_update(&sm, "write", 0);
-    if (mts_modelfile_save(&model, output, &file_bytes, &err) != MTS_OK)
+    if (output && mts_modelfile_save(&model, output, &file_bytes, &err) != MTS_OK)
         goto fail;
+    stream_figures sf = {0};
+    if (stream_path) {
+        stage_memory_update(&sm, "stream", 0);
+        if (write_stream_file(&model, stream_path, records, &sf, &err) != MTS_OK)
+            goto fail;
+    }
     double t3 = cli_now();
     stage_memory_close(&sm);
     cli_bar_done(&bar);
@@ -237,7 +381,10 @@ int main(int argc, char **argv)
         cli_json j;
         cli_json_begin(&j, stdout);
         cli_json_str(&j, "input", input);
-        cli_json_str(&j, "output", output);
+        if (output)
+            cli_json_str(&j, "output", output);
+        if (stream_path)
+            json_stream(&j, stream_path, &sf);
         cli_json_str(&j, "format", mts_mesh_format_name(ms.format));
         cli_json_u64(&j, "vertices", model.vertex_count);
         cli_json_u64(&j, "triangles", model.level_triangles[n]);
@@ -320,9 +467,12 @@ int main(int argc, char **argv)
                "worst %.3f indices/triangle (level %u); %llu splits described explicitly\n",
                n, model.base_vertex_count, model.level_triangles[0], rep.records.key_levels,
                ipt_worst, worst_level, (unsigned long long)rep.records.explicit_splits);
-        printf("  wrote %s: %llu bytes in %.2f s (load %.2f, stripify %.2f, tunnel %.2f, "
+        if (stream_path)
+            print_stream(stream_path, &sf);
+        printf("  %s%s: %llu bytes in %.2f s (load %.2f, stripify %.2f, tunnel %.2f, "
                "simplify %.2f%s, records %.2f, write %.2f)\n",
-               output, (unsigned long long)file_bytes, t3 - t0, t1 - t0, rep.seconds_stripify,
+               output ? "wrote " : "built", output ? output : "",
+               (unsigned long long)file_bytes, t3 - t0, t1 - t0, rep.seconds_stripify,
                rep.seconds_tunnel, rep.seconds_simplify,
                rep.threads > 1 ? " beside them" : "", rep.seconds_records, t3 - t2);
     }
