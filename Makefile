@@ -226,8 +226,8 @@ WEB_DIR  := build/web
 WEB_OBJ_DIR := build/web-obj
 WEB_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE -O2 $(FP) $(WARN) $(INC_web)
 # the runtime and the protocol, and the client's GL-free camera and geomorphs
-# (the command-line helpers and the sockets are the programs')
-WEB_LIB_OBJ := $(patsubst %.c,$(WEB_OBJ_DIR)/%.o,$(filter-out common/cli.c common/net.c,\
+# (the command-line helpers, the sockets and libcurl are the programs')
+WEB_LIB_OBJ := $(patsubst %.c,$(WEB_OBJ_DIR)/%.o,$(filter-out common/cli.c common/net.c common/fetch.c common/http.c,\
                $(wildcard common/*.c protocol/*.c)) client/camera.c client/morph.c)
 WEB_OBJ  := $(WEB_OBJ_DIR)/web/mts_web.o $(WEB_OBJ_DIR)/web/draco_web.o
 WEB_LINK := -sMODULARIZE=1 -sEXPORT_NAME=createMtsWeb -sALLOW_MEMORY_GROWTH=1 \
@@ -292,7 +292,7 @@ FUZZ_CXXFLAGS := -std=c++17 $(FUZZ_OPT) $(FP) -DNDEBUG -Wall -Werror
 # the library modules the targets reach: common/, protocol/, and builder/
 # (the seeds are built from meshes)
 FUZZ_LAYERS   := common protocol builder
-FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(filter-out common/cli.c \
+FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(filter-out common/cli.c common/fetch.c common/http.c \
                  $(foreach l,$(FUZZ_LAYERS),$(l)/mts_%.c),$(wildcard $(foreach l,$(FUZZ_LAYERS),$(l)/*.c)))) \
                  $(patsubst %.cpp,$(FUZZ_DIR)/obj/%.o,$(wildcard $(foreach l,$(FUZZ_LAYERS),$(l)/*.cpp)))
 $(foreach l,$(FUZZ_LAYERS),$(eval $(FUZZ_DIR)/obj/$(l)/%.o: FUZZ_INC := $(INC_$(l))))

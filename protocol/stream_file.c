@@ -55,7 +55,11 @@ mts_result mts_stream_file_write(const mts_stream *s, mts_buf *out, mts_error *e
         mts_buf_varint(&table, zigzag(d_end));
         prev = t_end;
     }
-    mts_buf_u32(&table, mts_crc32c(0, table.data, table.size));
+    /* one CRC over MODEL_INFO and the table: MODEL_INFO has none of its own
+     * on the wire, and a client plans every request from these two */
+    if (!info.failed && !table.failed)
+        mts_buf_u32(&table, mts_crc32c(mts_crc32c(0, info.data, info.size), table.data,
+                                       table.size));
 
     const uint64_t checks_size = 8ull * (s->batch_count + 1) + 4;
     const uint64_t file_size = MTS_SFILE_HEADER_SIZE + info.size + table.size + s->size +
@@ -177,6 +181,9 @@ mts_result mts_stream_file_index_parse(const uint8_t *data, size_t size, uint64_
     const uint32_t info_size = le32(data + 8), table_size = le32(data + 12);
 
     const uint8_t *f = data + MTS_SFILE_HEADER_SIZE;
+    if (mts_crc32c(0, f, info_size + table_size - 4) != le32(f + info_size + table_size - 4))
+        return mts_error_set(err, MTS_ERR_CHECKSUM,
+                             "stream file: the CRC of its MODEL_INFO and table does not match");
     if (le32(f) != info_size - 4 || f[4] != MTS_MSG_MODEL_INFO)
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "stream file: no MODEL_INFO frame of the header's size after it");
@@ -191,8 +198,6 @@ mts_result mts_stream_file_index_parse(const uint8_t *data, size_t size, uint64_
                              mi->stop_level, mi->levels);
 
     const uint8_t *t = f + info_size;
-    if (mts_crc32c(0, t, table_size - 4) != le32(t + table_size - 4))
-        return mts_error_set(err, MTS_ERR_CHECKSUM, "stream file: the table's CRC does not match");
     mts_cursor cur = mts_cursor_make(t, table_size - 4);
     const uint32_t count = mts_cursor_varint(&cur);
     const uint32_t base_size = mts_cursor_varint(&cur);

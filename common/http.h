@@ -1,0 +1,84 @@
+/* Ranged HTTP(S) GETs of one file, without blocking (libcurl's multi
+ * interface), the bytes handed on as they arrive: how a client reads a
+ * stream file from any web server or CDN.
+ *
+ * One mts_http is one URL and one libcurl handle, reused from range to
+ * range so that the connection (and TLS session, and HTTP/2 where the server
+ * offers it) is kept. Only http and https, for the URL and every redirect;
+ * redirects bounded; TLS verified against the system's CA store, or the
+ * file given (never turned off); connect, no-byte and total timeouts; the
+ * file's size capped by what the server says (Content-Range's total or the
+ * length of a 200).
+ *
+ * A server that answers a range with the whole file (200) is used anyway:
+ * the bytes before the range are skipped, the transfer ends where the range
+ * ends. A 206 whose Content-Range is not the range asked for, a 416, any
+ * other status of 300 or more, and a body longer than its range are errors
+ * that name what came. Nothing is buffered here: each piece goes to the
+ * callback as libcurl hands it over.
+ *
+ * The program calls mts_fetch_global_init() once first (fetch.h). */
+#ifndef MTS_HTTP_H
+#define MTS_HTTP_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "error.h"
+
+/* Zero-initialised means the defaults. */
+typedef struct mts_http_options {
+    const char *cacert;       /* PEM file of the CAs to trust instead of the system's */
+    double connect_timeout;   /* seconds; 0: 10 */
+    double io_timeout;        /* seconds without a byte; 0: 30 */
+    double max_time;          /* seconds a range may take; 0: no limit here */
+    uint32_t max_redirects;   /* 0: 5 */
+    uint64_t max_bytes;       /* the file's size cap; 0: 1 GiB */
+} mts_http_options;
+
+/* A piece of the range: its offset in the file. Returning non-zero stops
+ * the transfer (mts_http_result then gives MTS_ERR_ARG, "stopped"). */
+typedef int (*mts_http_on_data)(void *user, uint64_t offset, const uint8_t *data, size_t size);
+
+typedef struct mts_http mts_http;
+
+/* Checks the URL (http or https only; no I/O yet). */
+mts_result mts_http_create(mts_http **http, const char *url, const mts_http_options *opts,
+                           mts_error *err);
+void mts_http_free(mts_http *http);
+
+/* Starts a GET of bytes [from, to) of the file. With MTS_HTTP_UP_TO a file
+ * that ends before `to` is no error: the range ends with it (a client's
+ * first request asks for more than small files have). */
+#define MTS_HTTP_UP_TO 1
+mts_result mts_http_get(mts_http *http, uint64_t from, uint64_t to, int flags,
+                        mts_http_on_data fn, void *user, mts_error *err);
+
+/* Waits at most timeout_ms (-1: until something happens) and moves the
+ * transfer on; the callback runs from here. 1: still going; 0: it ended
+ * (mts_http_result says how). */
+int mts_http_poll(mts_http *http, int timeout_ms);
+
+/* After poll returned 0: MTS_OK when every byte of the range came, else an
+ * error naming the URL (password removed) and what went wrong. */
+mts_result mts_http_result(mts_http *http, mts_error *err);
+
+/* Stops a transfer under way (the connection is closed). */
+void mts_http_cancel(mts_http *http);
+
+/* What the last response said: the file's size (0 when not told), the
+ * status, the bytes received in the body (all of them: for a 200, those
+ * skipped before the range too), and the HTTP version (2 for HTTP/2). */
+typedef struct mts_http_info {
+    uint64_t file_size;
+    long status;
+    uint64_t body_bytes;
+    int http_version;
+    int whole_file; /* the server ignored the range */
+} mts_http_info;
+mts_http_info mts_http_last(const mts_http *http);
+
+/* The URL as it may be shown (no password). */
+const char *mts_http_url(const mts_http *http);
+
+#endif
