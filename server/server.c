@@ -22,77 +22,12 @@
 #include "clock.h"
 #include "loop.h"
 #include "net.h"
+#include "server_internal.h"
 #include "wire.h"
-#include "ws.h"
 
 /* The ERROR texts said in more than one place, worded once. */
 #define TEXT_NOT_HELLO "the first message must be HELLO or LIST"
 #define TEXT_BUSY "server busy: try again later"
-
-/* A client's first frame is a HELLO or LIST: small, so it fits here. */
-#define IN_MAX 512
-
-/* WAITING: a HELLO for a model whose stream is still being encoded */
-typedef enum phase { READING = 0, WAITING, WRITING } phase;
-
-/* How a conversation ends, as the stats count it (the log says more). */
-typedef enum conn_end { CONN_OPEN = 0, CONN_SERVED, CONN_REFUSED } conn_end;
-
-/* A WebSocket client's state (--ws-listen): the opening request while it
- * comes, then frames both ways around the same conversation. */
-typedef struct ws_state {
-    int open;                 /* the 101 is queued: frames from here */
-    uint8_t req[MTS_WS_MAX_REQUEST];
-    size_t req_len;
-    mts_ws_reader rd;
-    /* raw bytes sent between data frames: the HTTP answer, pongs, the close */
-    mts_buf raw;
-    size_t raw_off;
-    int close_queued;
-    /* the binary frame being sent: its header, and its payload still to go */
-    uint8_t hdr[MTS_WS_MAX_HEADER];
-    size_t hdr_len, hdr_off;
-    uint64_t left;
-} ws_state;
-
-/* A server message carries at most this much of the stream: a browser sees
- * a message only once all of it is in, so a large one would hold the
- * picture back (at 10 bytes of header a message, 0.03 % more bytes). */
-#define WS_MESSAGE_MAX (32u << 10)
-
-typedef struct conn {
-    int fd;
-    phase phase;
-    ws_state *ws;               /* NULL: a TCP client */
-    uint8_t in[IN_MAX];
-    size_t in_len;
-    const mts_stream *stream;
-    mts_server_model *waits_for; /* WAITING: the model, and the HELLO to answer */
-    mts_wire_hello hello;
-    mts_buf head, tail;         /* per-connection frames around the shared body */
-    size_t head_off, tail_off;
-    size_t info_off, info_size; /* MODEL_INFO's shared tail, sent right after head */
-    size_t body_off, body_end;  /* range of stream->bytes still to send */
-    uint64_t sent;
-    double started, last_progress;
-    double answered;            /* when the HELLO was answered: pacing counts from here */
-    double paced_until;         /* > 0: over its rate; output resumes then */
-    uint32_t stop_level;
-    int watching_out;
-    int rd_closed;              /* the peer shut down its side: stop watching for input */
-    double linger_until;        /* > 0: a refusal is sent and our side shut; wait for the
-                                   peer's close so it reads the ERROR instead of a reset */
-    mts_loop_io io;             /* its descriptor in the server's loop */
-    struct mts_server *server;
-    /* set when the conversation has an end in sight: whether it counts as
-     * served, and the log's words for it */
-    conn_end end;
-    const char *outcome;
-    char peer[64];
-    char model[MTS_WIRE_MAX_NAME + 1];
-    struct conn *prev, *next;
-    struct conn *pprev, *pnext; /* on the paced list while paced_until > 0 */
-} conn;
 
 struct mts_server {
     mts_server_options opts;
@@ -100,19 +35,20 @@ struct mts_server {
     mts_server_model *models;
     uint32_t model_count;
     mts_server_model *own_models; /* mts_server_create's table, freed with the server */
-    uint32_t waiting;             /* connections WAITING */
+    uint32_t waiting;             /* connections in MTS__WAITING */
     /* the TCP listener, and the WebSocket one when asked for */
     struct listener {
-        int fd, port, ws;
+        int fd, port;
+        const mts__transport *tr; /* its connections' */
         mts_loop_io io;
         struct mts_server *server;
     } lis[2];
     mts_loop loop;
     volatile sig_atomic_t *stop; /* mts_server_run's flag */
     double stop_at;              /* when the stop began: the grace counts from here */
-    conn *conns;
-    conn *dead; /* closed during this round of events; freed after it */
-    conn *paced; /* connections over their rate, waiting to resume */
+    mts__conn *conns;
+    mts__conn *dead; /* closed during this round of events; freed after it */
+    mts__conn *paced; /* connections over their rate, waiting to resume */
     uint32_t conn_count, paced_count;
     double next_scan, next_stats;
     uint64_t bytes_out;      /* sent so far, live (stats.bytes counts closed connections) */
@@ -196,7 +132,8 @@ mts_result mts_server_create_models(const mts_server_options *opts, mts_server_m
     s->model_count = model_count;
     s->next_stats = mts_clock_seconds() + s->opts.stats_interval;
     s->lis[0].fd = s->lis[1].fd = s->loop.epoll_fd = -1;
-    s->lis[1].ws = 1;
+    s->lis[0].tr = &mts__tcp_transport;
+    s->lis[1].tr = &mts__ws_transport;
     mts_result rc = open_listener(s, &s->lis[0], s->opts.listen, err);
     if (rc == MTS_OK && s->opts.ws_listen)
         rc = open_listener(s, &s->lis[1], s->opts.ws_listen, err);
@@ -285,7 +222,7 @@ void mts_server_get_stats(const mts_server *s, mts_server_stats *stats)
     *stats = s->stats;
 }
 
-static void paced_add(mts_server *s, conn *c, double until)
+static void paced_add(mts_server *s, mts__conn *c, double until)
 {
     if (c->paced_until == 0) {
         c->pprev = NULL;
@@ -298,7 +235,7 @@ static void paced_add(mts_server *s, conn *c, double until)
     c->paced_until = until;
 }
 
-static void paced_remove(mts_server *s, conn *c)
+static void paced_remove(mts_server *s, mts__conn *c)
 {
     if (c->paced_until == 0)
         return;
@@ -313,12 +250,11 @@ static void paced_remove(mts_server *s, conn *c)
     s->paced_count--;
 }
 
-/* Closes c: with `failure`, it failed so (a reset, a timeout, the server
- * stopping); else it ends as it was set to (served, refused, or closed
- * before either). */
-static void conn_close(mts_server *s, conn *c, const char *failure)
+/* A failure may also be the server stopping. */
+void mts__conn_close(mts__conn *c, const char *failure)
 {
-    const int ok = !failure && c->end == CONN_SERVED;
+    mts_server *s = c->server;
+    const int ok = !failure && c->end == MTS__SERVED;
     const char *outcome = failure ? failure : c->outcome ? c->outcome : "closed";
     if (ok)
         s->stats.completed++;
@@ -326,7 +262,7 @@ static void conn_close(mts_server *s, conn *c, const char *failure)
         s->stats.failed++;
     s->stats.bytes += c->sent;
     paced_remove(s, c);
-    if (c->phase == WAITING)
+    if (c->phase == MTS__WAITING)
         s->waiting--;
     logf_(s, MTS_SERVER_LOG_CONNECTION, "peer=%s model=%s bytes=%llu level=%u ms=%.1f outcome=%s",
           c->peer,
@@ -337,11 +273,7 @@ static void conn_close(mts_server *s, conn *c, const char *failure)
     c->fd = -1;
     mts_buf_free(&c->head);
     mts_buf_free(&c->tail);
-    if (c->ws) {
-        mts_buf_free(&c->ws->raw);
-        free(c->ws);
-        c->ws = NULL;
-    }
+    c->tr->release(c);
     if (c->prev)
         c->prev->next = c->next;
     else
@@ -358,7 +290,7 @@ static void conn_close(mts_server *s, conn *c, const char *failure)
 static void free_dead(mts_server *s)
 {
     while (s->dead) {
-        conn *c = s->dead;
+        mts__conn *c = s->dead;
         s->dead = c->next;
         free(c);
     }
@@ -369,7 +301,7 @@ void mts_server_free(mts_server *s)
     if (!s)
         return;
     while (s->conns)
-        conn_close(s, s->conns, "shutdown");
+        mts__conn_close(s->conns, "shutdown");
     free_dead(s);
     for (int k = 0; k < 2; k++) {
         if (s->lis[k].fd >= 0)
@@ -394,42 +326,45 @@ static const mts_stream *model_stream(mts_server_model *m)
     return atomic_load_explicit(&m->stream, memory_order_acquire);
 }
 
-/* Ends a WebSocket client's connection before its upgrade with an HTTP
- * answer (status, text) once it is flushed. */
-static void conn_refuse_http(conn *c, int status, const char *text, const char *outcome)
+/* Drops what the conversation still had to send: it ends refused, with
+ * `outcome`, once what is queued is flushed. */
+static void conn_drop(mts__conn *c, const char *outcome)
 {
-    c->ws->raw.size = c->ws->raw_off = 0;
-    mts_ws_put_http_error(&c->ws->raw, status, text);
-    c->ws->close_queued = 1; /* not upgraded: no Close frame */
-    c->head.size = 0;
+    c->head.size = c->head_off = 0;
     c->body_off = c->body_end = 0;
-    c->info_size = 0;
-    c->tail.size = 0;
-    c->phase = WRITING;
-    c->end = CONN_REFUSED;
+    c->info_size = c->info_off = 0;
+    c->tail.size = c->tail_off = 0;
+    c->phase = MTS__WRITING;
+    c->end = MTS__REFUSED;
     c->outcome = outcome;
 }
 
-/* Ends the conversation with an ERROR frame once it is flushed. */
-static void conn_refuse(conn *c, uint16_t code, const char *text, const char *outcome)
+/* Ends the conversation with an ERROR frame once it is flushed (or with
+ * the transport's own answer, before its handshake is through). Nothing of
+ * the conversation has gone out yet. */
+static void conn_refuse(mts__conn *c, uint16_t code, const char *text, const char *outcome)
 {
-    if (c->ws && !c->ws->open) {
-        conn_refuse_http(c, code == MTS_WERR_TIMEOUT ? 408 : 400, text, outcome);
-        return;
-    }
-    c->head.size = 0;
-    mts_wire_put_error(&c->head, code, text);
-    c->body_off = c->body_end = 0;
-    c->info_size = 0;
-    c->tail.size = 0;
-    c->phase = WRITING;
-    c->end = CONN_REFUSED;
-    c->outcome = outcome;
+    conn_drop(c, outcome);
+    if (!c->tr->refuse(c, code, text))
+        mts_wire_put_error(&c->head, code, text);
 }
 
-static void conn_serve(mts_server *s, conn *c, double now);
+void mts__conn_stop(mts__conn *c, const char *outcome)
+{
+    if (c->phase == MTS__WAITING)
+        c->server->waiting--;
+    conn_drop(c, outcome);
+}
 
-static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, size_t n)
+int mts__conn_all_sent(const mts__conn *c)
+{
+    return c->phase == MTS__WRITING && c->end == MTS__SERVED && c->body_off == c->body_end &&
+           c->tail_off == c->tail.size;
+}
+
+static void conn_serve(mts_server *s, mts__conn *c, double now);
+
+static void conn_answer(mts_server *s, mts__conn *c, uint8_t type, const uint8_t *p, size_t n)
 {
     mts_error err = {0};
     if (type == MTS_MSG_LIST) {
@@ -454,8 +389,8 @@ static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, 
             return;
         }
         snprintf(c->model, sizeof c->model, "(list)");
-        c->phase = WRITING;
-        c->end = CONN_SERVED;
+        c->phase = MTS__WRITING;
+        c->end = MTS__SERVED;
         c->outcome = "ok";
         return;
     }
@@ -481,14 +416,14 @@ static void conn_answer(mts_server *s, conn *c, uint8_t type, const uint8_t *p, 
     }
     c->waits_for = m;
     c->hello = h;
-    c->phase = WAITING;
+    c->phase = MTS__WAITING;
     s->waiting++;
     conn_serve(s, c, mts_clock_seconds());
 }
 
 /* Answers a HELLO whose model is ready, has failed, or has been waited for
- * long enough; leaves it WAITING otherwise. */
-static void conn_serve(mts_server *s, conn *c, double now)
+ * long enough; leaves it waiting otherwise. */
+static void conn_serve(mts_server *s, mts__conn *c, double now)
 {
     mts_error err = {0};
     mts_server_model *m = c->waits_for;
@@ -538,229 +473,50 @@ static void conn_serve(mts_server *s, conn *c, double now)
         conn_refuse(c, MTS_WERR_INTERNAL, "out of memory", "error: out of memory");
         return;
     }
-    c->phase = WRITING;
-    c->end = CONN_SERVED;
+    c->phase = MTS__WRITING;
+    c->end = MTS__SERVED;
     c->outcome = "ok";
 }
 
-static void update_events(mts_server *s, conn *c)
+void mts__conn_update_events(mts__conn *c)
 {
-    mts_loop_set(&s->loop, &c->io,
+    mts_loop_set(&c->server->loop, &c->io,
                  (c->rd_closed ? 0 : MTS_LOOP_IN) | (c->watching_out ? MTS_LOOP_OUT : 0));
 }
 
-static void watch_out(mts_server *s, conn *c, int on)
+void mts__conn_watch_out(mts__conn *c, int on)
 {
     c->watching_out = on;
-    update_events(s, c);
+    mts__conn_update_events(c);
 }
 
-static void conn_write(mts_server *s, conn *c);
-
-/* The first frame is in c->in[0..in_len) when complete: answers it, or
- * refuses a frame that cannot be a HELLO or LIST. 1: answered or refused. */
-static int conn_first_frame(mts_server *s, conn *c)
+/* Gathers the first frame in c->in and answers it once complete, or
+ * refuses a frame that cannot be a HELLO or LIST. The longest frame taken
+ * fits c->in, so bytes past its room are never needed. */
+int mts__conn_input(mts__conn *c, const uint8_t *buf, size_t n)
 {
+    if (c->phase != MTS__READING || n == 0)
+        return 0;
+    size_t room = sizeof c->in - c->in_len, k = n < room ? n : room;
+    memcpy(c->in + c->in_len, buf, k);
+    c->in_len += k;
     if (c->in_len < MTS_WIRE_HEADER)
         return 0;
     uint32_t len = (uint32_t)c->in[0] | (uint32_t)c->in[1] << 8 | (uint32_t)c->in[2] << 16 |
                    (uint32_t)c->in[3] << 24;
-    if (len == 0 || len > IN_MAX - 4) {
+    if (len == 0 || len > sizeof c->in - 4) {
         conn_refuse(c, MTS_WERR_PROTOCOL, TEXT_NOT_HELLO, "error: garbage");
         return 1;
     }
     if (c->in_len < 4 + (size_t)len)
         return 0;
-    conn_answer(s, c, c->in[4], c->in + 5, len - 1);
+    conn_answer(c->server, c, c->in[4], c->in + 5, len - 1);
     return 1;
-}
-
-/* Ends a WebSocket conversation with a Close frame (then the usual close):
- * for a broken frame, or a Close from the client. */
-static void ws_end(mts_server *s, conn *c, uint16_t code, const char *reason,
-                   const char *outcome)
-{
-    ws_state *w = c->ws;
-    if (c->phase == WAITING)
-        s->waiting--;
-    if (!w->close_queued)
-        mts_ws_put_close(&w->raw, code, reason, NULL);
-    w->close_queued = 1;
-    c->head.size = c->head_off = 0;
-    c->body_off = c->body_end = 0;
-    c->info_size = c->info_off = 0;
-    c->tail.size = c->tail_off = 0;
-    c->phase = WRITING;
-    c->end = CONN_REFUSED;
-    c->outcome = outcome;
-}
-
-/* Frames from a WebSocket client, buf[0..n): their payload is the
- * conversation (only its first frame matters, as over TCP); a Ping is
- * answered, a Close ends it. 0: the connection is ending. */
-static int ws_frames(mts_server *s, conn *c, uint8_t *buf, size_t n)
-{
-    ws_state *w = c->ws;
-    mts_ws_control ctl = {0};
-    mts_error err = {0};
-    size_t p = 0;
-    mts_result rc = mts_ws_reader_feed(&w->rd, buf, n, &p, &ctl, &err);
-    if (c->phase == READING && p > 0) {
-        size_t room = IN_MAX - c->in_len, k = p < room ? p : room;
-        memcpy(c->in + c->in_len, buf, k);
-        c->in_len += k;
-        conn_first_frame(s, c);
-    }
-    if (rc != MTS_OK) {
-        ws_end(s, c, ctl.fail_code, err.msg + strlen("websocket: "), "error: bad websocket frame");
-        return 0;
-    }
-    if (ctl.ping && !w->close_queued) {
-        if (w->raw.size - w->raw_off > 4096) {
-            ws_end(s, c, MTS_WS_CLOSE_PROTOCOL, "too many pings", "error: ping flood");
-            return 0;
-        }
-        mts_ws_put_frame(&w->raw, MTS_WS_PONG, ctl.pong, ctl.pong_len, NULL);
-    }
-    if (ctl.close) {
-        int done = c->phase == WRITING && c->end == CONN_SERVED && c->body_off == c->body_end &&
-                   c->tail_off == c->tail.size;
-        if (!done && c->end != CONN_REFUSED)
-            ws_end(s, c, MTS_WS_CLOSE_NORMAL, NULL,
-                   c->phase == WRITING ? "error: closed by client" : "error: closed before hello");
-        else if (!w->close_queued) { /* all sent already: answer the Close, end as served */
-            mts_ws_put_close(&w->raw, MTS_WS_CLOSE_NORMAL, NULL, NULL);
-            w->close_queued = 1;
-        }
-        return 0;
-    }
-    return 1;
-}
-
-/* The opening request of a WebSocket client is in: upgrade, or answer a
- * plain GET with 426 (the page comes from a web server, never from here).
- * 1: upgraded (frames may follow in w->req past req->size). */
-static int ws_open(conn *c, const mts_ws_request *req)
-{
-    if (!req->upgrade) {
-        conn_refuse_http(c, 426,
-                         "this port streams models over WebSocket to the page, which a web "
-                         "server hands out (docs: web/nginx.conf)",
-                         "error: not a websocket request");
-        return 0;
-    }
-    mts_ws_put_accept(&c->ws->raw, req);
-    c->ws->open = 1;
-    return 1;
-}
-
-/* Reads what a WebSocket client sent: its opening request, then frames. */
-static void ws_read(mts_server *s, conn *c)
-{
-    ws_state *w = c->ws;
-    uint8_t buf[4096];
-    for (int rounds = 0; rounds < 16; rounds++) {
-        int opening = !w->open;
-        uint8_t *dst = opening ? w->req + w->req_len : buf;
-        size_t cap = opening ? sizeof w->req - w->req_len : sizeof buf;
-        ssize_t r = mts_net_read(c->fd, dst, cap);
-        if (r == 0) {
-            if (c->linger_until > 0)
-                conn_close(s, c, NULL); /* the client has read and closed */
-            else if (c->phase == READING || c->phase == WAITING)
-                conn_close(s, c, "error: closed before hello");
-            else {
-                c->rd_closed = 1; /* half-closed: writing goes on */
-                update_events(s, c);
-            }
-            return;
-        }
-        if (r == MTS_NET_FAILED) {
-            conn_close(s, c, "error: reset by peer");
-            return;
-        }
-        if (r < 0)
-            break; /* all read: what it asked for goes out below */
-        /* ending (refused, or answered without an upgrade): what it sends
-         * is read and dropped, never parsed as a request again */
-        if (c->linger_until > 0 || (w->close_queued && (c->end == CONN_REFUSED || !w->open)))
-            continue;
-        /* what a client sends is never progress (only what it takes from
-         * us is): one that trickles bytes and reads nothing is idle */
-        if (opening) {
-            w->req_len += (size_t)r;
-            mts_ws_request req;
-            mts_error err = {0};
-            if (mts_ws_parse_request(w->req, w->req_len, &req, &err) != MTS_OK) {
-                conn_refuse_http(c, req.status, err.msg + strlen("websocket: "),
-                                 "error: bad websocket request");
-                break;
-            }
-            if (req.size == 0)
-                continue; /* more to come */
-            if (!ws_open(c, &req))
-                break;
-            size_t extra = w->req_len - req.size;
-            memcpy(buf, w->req + req.size, extra);
-            w->req_len = 0;
-            if (extra > 0 && !ws_frames(s, c, buf, extra))
-                break;
-            continue;
-        }
-        if (!ws_frames(s, c, buf, (size_t)r))
-            break;
-    }
-    if (c->fd >= 0 && (c->ws->raw.size > c->ws->raw_off || c->phase == WRITING))
-        conn_write(s, c);
-}
-
-/* Reads what the client sent; answers once a whole first frame is in. */
-static void conn_read(mts_server *s, conn *c)
-{
-    if (c->ws) {
-        ws_read(s, c);
-        return;
-    }
-    for (int rounds = 0;; rounds++) {
-        if (c->phase != READING) { /* nothing more is expected: drain and ignore */
-            /* a bounded drain per wake-up: a client that keeps sending cannot
-             * hold the loop (the level-triggered event comes back) */
-            if (rounds >= 16)
-                return;
-            uint8_t sink[4096];
-            ssize_t r = mts_net_read(c->fd, sink, sizeof sink);
-            if (r > 0)
-                continue;
-            if (r == 0 && c->linger_until > 0) {
-                conn_close(s, c, NULL); /* the refused client has read and closed */
-            } else if (r == 0) {
-                /* half-closed after its request (legal): the input event
-                 * would fire forever, so stop watching it; writing goes on */
-                c->rd_closed = 1;
-                update_events(s, c);
-            } else if (r == MTS_NET_FAILED) {
-                conn_close(s, c, "error: reset by peer");
-            }
-            return;
-        }
-        ssize_t r = mts_net_read(c->fd, c->in + c->in_len, IN_MAX - c->in_len);
-        if (r <= 0) {
-            if (r == 0)
-                conn_close(s, c, "error: closed before hello");
-            else if (r == MTS_NET_FAILED)
-                conn_close(s, c, "error: reset by peer");
-            return;
-        }
-        c->in_len += (size_t)r;
-        c->last_progress = mts_clock_seconds();
-        if (conn_first_frame(s, c))
-            return;
-    }
 }
 
 /* Bytes a paced connection may send now: its rate since it was answered,
  * plus a burst of a tenth of a second so writes are not tiny. */
-static size_t pace_allowance(const mts_server *s, const conn *c, double now)
+static size_t pace_allowance(const mts_server *s, const mts__conn *c, double now)
 {
     double rate = s->opts.rate_limit;
     double burst = rate * 0.1 > 4096 ? rate * 0.1 : 4096;
@@ -768,55 +524,23 @@ static size_t pace_allowance(const mts_server *s, const conn *c, double now)
     return allowed > 0 ? (size_t)allowed : 0;
 }
 
-/* A WebSocket client's raw bytes (the HTTP answer, pongs, the Close), sent
- * only between data frames. 1: none left; 0: the socket is full (output is
- * watched) or the connection closed. */
-static int ws_flush_raw(mts_server *s, conn *c)
-{
-    ws_state *w = c->ws;
-    if (w->hdr_off < w->hdr_len || w->left > 0)
-        return 1; /* inside a data frame: after it */
-    while (w->raw_off < w->raw.size) {
-        if (w->raw.failed) {
-            conn_close(s, c, "error: out of memory");
-            return 0;
-        }
-        ssize_t k = send(c->fd, w->raw.data + w->raw_off, w->raw.size - w->raw_off,
-                         MSG_NOSIGNAL | MSG_DONTWAIT);
-        if (k < 0 && errno == EINTR)
-            continue;
-        if (k < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-            watch_out(s, c, 1);
-            return 0;
-        }
-        if (k < 0) {
-            conn_close(s, c, errno == EPIPE ? "error: peer went away" : "error: reset by peer");
-            return 0;
-        }
-        w->raw_off += (size_t)k;
-        c->last_progress = mts_clock_seconds();
-    }
-    w->raw.size = w->raw_off = 0;
-    return 1;
-}
-
 /* Writes as much as the socket (and the rate limit) takes: the head frame,
  * MODEL_INFO's shared tail, the shared stream range, the END frame -- one
- * sendmsg, no copies; for a WebSocket client inside binary messages of at
- * most WS_MESSAGE_MAX, whose header goes first in the same sendmsg. */
-static void conn_write(mts_server *s, conn *c)
+ * sendmsg through the transport, no copies (a header of its own may go
+ * first in the same sendmsg). */
+void mts__conn_write(mts__conn *c)
 {
-    ws_state *w = c->ws;
+    mts_server *s = c->server;
     for (;;) {
-        if (w && !ws_flush_raw(s, c))
+        if (!c->tr->flush(c))
             return;
-        if (c->phase != WRITING) {
-            if (c->watching_out) /* the raw bytes are out; the rest waits for input */
-                watch_out(s, c, 0);
+        if (c->phase != MTS__WRITING) {
+            if (c->watching_out) /* the transport's bytes are out; the rest waits for input */
+                mts__conn_watch_out(c, 0);
             return;
         }
         struct iovec iov[5];
-        int n = 1; /* iov[0]: a WebSocket frame header */
+        int n = 1; /* iov[0]: the transport's, for a header of its own */
         if (c->head_off < c->head.size)
             iov[n++] = (struct iovec){c->head.data + c->head_off, c->head.size - c->head_off};
         if (c->info_off < c->info_size)
@@ -828,24 +552,21 @@ static void conn_write(mts_server *s, conn *c)
         if (c->tail_off < c->tail.size)
             iov[n++] = (struct iovec){c->tail.data + c->tail_off, c->tail.size - c->tail_off};
         if (n == 1) {
-            if (w && !w->close_queued) {
-                /* the conversation is out: the Close that ends it */
-                mts_ws_put_close(&w->raw, MTS_WS_CLOSE_NORMAL, NULL, NULL);
-                w->close_queued = 1;
+            mts__transport_end how = c->tr->finish(c);
+            if (how == MTS__END_MORE)
                 continue;
-            }
-            if ((c->end == CONN_REFUSED || w) && !c->rd_closed) {
-                /* Closing now, with client bytes still unread (or a
-                 * WebSocket client's answering Close to come), would send a
+            if ((c->end == MTS__REFUSED || how == MTS__END_LINGER) && !c->rd_closed) {
+                /* Closing now, with client bytes still unread (or the
+                 * transport's peer still to answer its end), would send a
                  * reset that can destroy what is in flight: shut our side
                  * and let the client close first (briefly). */
                 shutdown(c->fd, SHUT_WR);
                 c->linger_until = mts_clock_seconds() + 1.0;
                 c->watching_out = 0;
-                update_events(s, c);
+                mts__conn_update_events(c);
                 return;
             }
-            conn_close(s, c, NULL);
+            mts__conn_close(c, NULL);
             return;
         }
         if (s->opts.rate_limit > 0 && c->stream) {
@@ -857,7 +578,7 @@ static void conn_write(mts_server *s, conn *c)
                 double chunk = s->opts.rate_limit * 0.05 > 4096 ? s->opts.rate_limit * 0.05 : 4096;
                 paced_add(s, c, now + chunk / s->opts.rate_limit);
                 c->last_progress = now; /* pacing is not stalling */
-                watch_out(s, c, 0);
+                mts__conn_watch_out(c, 0);
                 return;
             }
             for (int k = 1; k < n; k++) {
@@ -869,53 +590,19 @@ static void conn_write(mts_server *s, conn *c)
                 allow -= iov[k].iov_len;
             }
         }
-        int first = 1;
-        if (w) {
-            if (w->hdr_off == w->hdr_len && w->left == 0) { /* a new message */
-                uint64_t total = 0;
-                for (int k = 1; k < n; k++)
-                    total += iov[k].iov_len;
-                w->left = total < WS_MESSAGE_MAX ? total : WS_MESSAGE_MAX;
-                w->hdr_len = mts_ws_header(w->hdr, MTS_WS_BINARY, w->left, NULL);
-                w->hdr_off = 0;
-            }
-            uint64_t room = w->left;
-            for (int k = 1; k < n; k++) {
-                if (iov[k].iov_len >= room) {
-                    iov[k].iov_len = (size_t)room;
-                    n = k + 1;
-                    break;
-                }
-                room -= iov[k].iov_len;
-            }
-            if (w->hdr_off < w->hdr_len) {
-                iov[0] = (struct iovec){w->hdr + w->hdr_off, w->hdr_len - w->hdr_off};
-                first = 0;
-            }
-        }
-        struct msghdr msg = {0};
-        msg.msg_iov = iov + first;
-        msg.msg_iovlen = (size_t)(n - first);
-        ssize_t wr = sendmsg(c->fd, &msg, MSG_NOSIGNAL | MSG_DONTWAIT);
+        ssize_t wr = c->tr->send(c, iov, n);
         if (wr < 0) {
             if (errno == EINTR)
                 continue;
             if (errno == EAGAIN || errno == EWOULDBLOCK) {
-                watch_out(s, c, 1);
+                mts__conn_watch_out(c, 1);
                 return;
             }
-            conn_close(s, c, errno == EPIPE ? "error: peer went away" : "error: reset by peer");
+            mts__conn_close(c, errno == EPIPE ? "error: peer went away" : "error: reset by peer");
             return;
         }
         size_t left = (size_t)wr;
-        c->last_progress = mts_clock_seconds();
-        if (w) {
-            size_t k = w->hdr_len - w->hdr_off < left ? w->hdr_len - w->hdr_off : left;
-            w->hdr_off += k;
-            left -= k;
-            w->left -= left;
-        }
-        /* the conversation's own bytes, as over TCP */
+        c->last_progress = mts_clock_seconds(); /* a header's bytes too */
         c->sent += left;
         s->bytes_out += left;
         size_t k = c->head.size - c->head_off < left ? c->head.size - c->head_off : left;
@@ -928,7 +615,7 @@ static void conn_write(mts_server *s, conn *c)
         c->body_off += k;
         left -= k;
         c->tail_off += left;
-        if (c->head_off == c->head.size && c->head.data && c->end == CONN_SERVED) {
+        if (c->head_off == c->head.size && c->head.data && c->end == MTS__SERVED) {
             /* sent: a long stream should not keep its head frame around */
             mts_buf_free(&c->head);
             c->head_off = 0;
@@ -966,15 +653,12 @@ static void accept_all(mts_server *s, struct listener *l)
             inet_ntop(AF_INET6, &((struct sockaddr_in6 *)&ss)->sin6_addr, host, sizeof host);
             port = ntohs(((struct sockaddr_in6 *)&ss)->sin6_port);
         }
-        /* a WebSocket client's peer says so, for the log */
-        snprintf(peer, sizeof peer, "%s%s:%d", l->ws ? "ws/" : "", host, port);
+        /* the log says which transport a peer came by ("ws/" for WebSocket) */
+        snprintf(peer, sizeof peer, "%s%s:%d", l->tr->tag, host, port);
         s->stats.accepted++;
         if (s->conn_count >= s->opts.max_clients) {
             mts_buf b = {0};
-            if (l->ws) /* before its upgrade: HTTP */
-                mts_ws_put_http_error(&b, 503, TEXT_BUSY);
-            else
-                mts_wire_put_error(&b, MTS_WERR_BUSY, TEXT_BUSY);
+            l->tr->busy(&b, TEXT_BUSY);
             if (!b.failed)
                 (void)!send(fd, b.data, b.size, MSG_NOSIGNAL | MSG_DONTWAIT);
             mts_buf_free(&b);
@@ -991,8 +675,10 @@ static void accept_all(mts_server *s, struct listener *l)
                   "peer=%s model=- bytes=0 level=0 ms=0.0 outcome=error: busy", peer);
             continue;
         }
-        conn *c = calloc(1, sizeof *c);
-        if (c && l->ws && !(c->ws = calloc(1, sizeof *c->ws))) {
+        mts__conn *c = calloc(1, sizeof *c);
+        if (c)
+            c->tr = l->tr;
+        if (c && c->tr->open(c) != 0) {
             free(c);
             c = NULL;
         }
@@ -1009,7 +695,7 @@ static void accept_all(mts_server *s, struct listener *l)
         snprintf(c->peer, sizeof c->peer, "%s", peer);
         if (mts_loop_watch(&s->loop, &c->io, fd, MTS_LOOP_IN, on_conn, c) != 0) {
             close(fd);
-            free(c->ws);
+            c->tr->release(c);
             free(c);
             continue;
         }
@@ -1053,13 +739,13 @@ static void stats_line(mts_server *s, double now)
 /* Paced connections whose time has come send their allowance. */
 static void resume_paced(mts_server *s, double now)
 {
-    conn *c = s->paced;
+    mts__conn *c = s->paced;
     while (c) {
-        conn *next = c->pnext;
+        mts__conn *next = c->pnext;
         if (now >= c->paced_until) {
             paced_remove(s, c);
             c->last_progress = now;
-            conn_write(s, c); /* sends; paces again, waits for room, or closes */
+            mts__conn_write(c); /* sends; paces again, waits for room, or closes */
         }
         c = next;
     }
@@ -1068,34 +754,32 @@ static void resume_paced(mts_server *s, double now)
 /* HELLOs whose model was being prepared: served once it is ready. */
 static void serve_waiting(mts_server *s, double now)
 {
-    for (conn *c = s->conns, *next; c && s->waiting; c = next) {
+    for (mts__conn *c = s->conns, *next; c && s->waiting; c = next) {
         next = c->next;
-        if (c->phase != WAITING)
+        if (c->phase != MTS__WAITING)
             continue;
         conn_serve(s, c, now);
-        if (c->phase == WRITING)
-            conn_write(s, c);
+        if (c->phase == MTS__WRITING)
+            mts__conn_write(c);
     }
 }
 
 static void check_timeouts(mts_server *s, double now)
 {
-    conn *c = s->conns;
+    mts__conn *c = s->conns;
     while (c) {
-        conn *next = c->next;
+        mts__conn *next = c->next;
         if (c->linger_until > 0) {
             if (now > c->linger_until)
-                conn_close(s, c, NULL);
-        } else if (c->phase == READING && now - c->started > s->opts.handshake_timeout) {
-            conn_refuse(c, MTS_WERR_TIMEOUT,
-                        c->ws && !c->ws->open ? "no WebSocket opening request in time"
-                                              : "no HELLO or LIST in time",
+                mts__conn_close(c, NULL);
+        } else if (c->phase == MTS__READING && now - c->started > s->opts.handshake_timeout) {
+            conn_refuse(c, MTS_WERR_TIMEOUT, "no HELLO or LIST in time",
                         "error: handshake timeout");
-            conn_write(s, c); /* best effort; closes once flushed or on error */
+            mts__conn_write(c); /* best effort; closes once flushed or on error */
         } else if (c->paced_until > 0) {
             /* resumed by resume_paced */
-        } else if (c->phase == WRITING && now - c->last_progress > s->opts.idle_timeout) {
-            conn_close(s, c, "error: idle timeout");
+        } else if (c->phase == MTS__WRITING && now - c->last_progress > s->opts.idle_timeout) {
+            mts__conn_close(c, "error: idle timeout");
         }
         c = next;
     }
@@ -1107,30 +791,29 @@ static void check_timeouts(mts_server *s, double now)
 static void on_conn(mts_loop *loop, mts_loop_io *io, unsigned events)
 {
     (void)loop;
-    conn *c = io->user;
-    mts_server *s = c->server;
+    mts__conn *c = io->user;
     if (c->fd < 0) /* closed earlier in this round */
         return;
     if (events & MTS_LOOP_ERR) {
         /* a refused client closing after its ERROR is the expected end:
          * keep the refusal's outcome in the log */
-        conn_close(s, c, c->linger_until > 0 ? NULL
-                         : c->phase == READING ? "error: closed before hello"
-                                               : "error: reset by peer");
+        mts__conn_close(c, c->linger_until > 0 ? NULL
+                           : c->phase == MTS__READING ? "error: closed before hello"
+                                                      : "error: reset by peer");
         return;
     }
     if (events & MTS_LOOP_IN) {
-        phase before = c->phase;
-        conn_read(s, c);
+        mts__phase before = c->phase;
+        c->tr->read(c);
         if (c->fd < 0)
             return;
-        if (before == READING && c->phase == WRITING) {
-            conn_write(s, c);
+        if (before == MTS__READING && c->phase == MTS__WRITING) {
+            mts__conn_write(c);
             return;
         }
     }
     if ((events & MTS_LOOP_OUT) && c->fd >= 0)
-        conn_write(s, c);
+        mts__conn_write(c);
 }
 
 /* What the loop does between rounds: what the last round left (paced
@@ -1175,7 +858,7 @@ static int server_tick(mts_loop *loop, void *user, double now)
     }
     if (s->lis[0].fd < 0 && (s->conn_count == 0 || now - s->stop_at > s->opts.grace)) {
         while (s->conns)
-            conn_close(s, s->conns, "error: server stopped");
+            mts__conn_close(s->conns, "error: server stopped");
         free_dead(s);
         return -1;
     }
