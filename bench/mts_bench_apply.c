@@ -15,27 +15,20 @@
 #include "mesh.h"
 #include "modelfile.h"
 #include "stream.h"
-#include "wire.h"
 
 /* Seconds to take every frame of b into a fresh client; 0 on an error. */
 static double apply(const mts_buf *b, uint64_t *checksum, mts_error *err)
 {
     mts_stream_client c;
     mts_stream_client_init(&c);
-    mts_wire_reader rd = {0};
     double t0 = cli_now();
-    int ok = mts_wire_reader_feed(&rd, b->data, b->size, err) == MTS_OK;
-    uint8_t type;
-    const uint8_t *p;
-    size_t n;
-    while (ok && mts_wire_reader_next(&rd, &type, &p, &n, err) == 1) {
-        mts_stream_event ev;
-        ok = mts_stream_client_frame(&c, type, p, n, &ev, err) == MTS_OK;
-    }
+    int ok = mts_stream_client_feed(&c, b->data, b->size, err) == MTS_OK, got = 0;
+    mts_stream_event ev;
+    while (ok && (got = mts_stream_client_next(&c, &ev, err)) > 0)
+        ;
     double t = cli_now() - t0;
-    ok = ok && c.end_checksum != 0;
+    ok = ok && got == 0 && c.end_checksum != 0;
     *checksum = c.checksum;
-    mts_wire_reader_free(&rd);
     mts_stream_client_free(&c);
     return ok ? t : 0;
 }

@@ -24,7 +24,6 @@
 #include "render.h"
 #include "stream.h"
 #include "view.h"
-#include "wire.h"
 
 #include <meshoptimizer.h>
 
@@ -36,17 +35,13 @@ static double apply_all(const mts_buf *b, mts_render_context *ctx, mts_error *er
 {
     mts_stream_client c;
     mts_stream_client_init(&c);
-    mts_wire_reader rd = {0};
     mts_view view;
     int have_view = 0;
     double t0 = cli_now(), t_create = 0;
-    int ok = mts_wire_reader_feed(&rd, b->data, b->size, err) == MTS_OK;
-    uint8_t type;
-    const uint8_t *p;
-    size_t n;
-    while (ok && mts_wire_reader_next(&rd, &type, &p, &n, err) == 1) {
-        mts_stream_event ev;
-        ok = mts_stream_client_frame(&c, type, p, n, &ev, err) == MTS_OK;
+    int ok = mts_stream_client_feed(&c, b->data, b->size, err) == MTS_OK, got;
+    mts_stream_event ev;
+    while (ok && (got = mts_stream_client_next(&c, &ev, err)) != 0) {
+        ok = got > 0;
         if (!ok || !ctx || (ev != MTS_EV_BASE && ev != MTS_EV_BATCH))
             continue;
         mts_view_source src = mts_view_source_of_stream(&c);
@@ -64,7 +59,6 @@ static double apply_all(const mts_buf *b, mts_render_context *ctx, mts_error *er
     double t = cli_now() - t0 - t_create;
     if (have_view)
         mts_view_free(&view);
-    mts_wire_reader_free(&rd);
     mts_stream_client_free(&c);
     return ok ? t : 0;
 }

@@ -162,11 +162,10 @@ struct mts_session {
     phase ph;
     connector k;
     int fd;               /* the connection in PH_STREAM */
-    mts_wire_reader r;    /* a reader per connection: a frame cut by a break is dropped with it */
     uint8_t *buf;
     double last_data;     /* ms: the last byte (or the connect), for io_timeout */
     int progress;         /* this conversation applied something */
-    int backlog;          /* the reader may hold whole frames not yet taken */
+    int backlog;          /* the client may hold whole frames not yet taken */
     double retry_at;      /* ms, PH_WAIT */
     mts_result result;    /* PH_DONE */
     mts_error err;
@@ -184,8 +183,6 @@ static void close_conversation(mts_session *s)
     s->fd = -1;
     free(s->buf);
     s->buf = NULL;
-    mts_wire_reader_free(&s->r);
-    memset(&s->r, 0, sizeof s->r);
 }
 
 static void finish(mts_session *s, mts_result rc)
@@ -269,34 +266,31 @@ static void connected(mts_session *s, int fd)
     s->ph = PH_STREAM;
 }
 
-/* Hands the whole frames the reader holds to the stream client until the
- * deadline (ms; the rest wait in the reader: s->backlog). 1: go on, 0: the
- * conversation ended (s->ph moved on). */
+/* Takes the whole frames the stream client holds until the deadline (ms;
+ * the rest wait in it: s->backlog). A new conversation starts with
+ * mts_stream_client_reconnected, which drops a frame cut by the break.
+ * 1: go on, 0: the conversation ended (s->ph moved on). */
 static int take_frames(mts_session *s, double deadline)
 {
     const mts_session_options *o = s->o;
     mts_stream_client *c = s->c;
     mts_session_stats *st = s->st;
     mts_error *err = &s->err;
-    uint8_t type;
-    const uint8_t *p;
-    size_t n;
-    int next;
     s->backlog = 0;
-    while ((next = mts_wire_reader_next(&s->r, &type, &p, &n, err)) != 0) {
-        if (next < 0) {
-            conversation_failed(s, err->code, 0);
-            return 0;
-        }
+    for (;;) {
+        size_t before = mts_stream_client_buffered(c);
         double a = (1e3 * mts_clock_seconds());
         mts_stream_event ev;
-        mts_result rc = mts_stream_client_frame(c, type, p, n, &ev, err);
+        int next = mts_stream_client_next(c, &ev, err);
+        if (next == 0)
+            break;
         st->ms_apply += (1e3 * mts_clock_seconds()) - a;
-        st->frames++;
-        if (rc != MTS_OK) {
+        /* a frame was taken unless its header was refused */
+        st->frames += mts_stream_client_buffered(c) < before;
+        if (next < 0) {
             /* a frame that failed its CRC was rejected whole: a resume asks
              * for it again; anything else would fail again */
-            conversation_failed(s, rc, c->rejected);
+            conversation_failed(s, err->code, c->rejected);
             return 0;
         }
         if (ev == MTS_EV_BASE || ev == MTS_EV_BATCH || ev == MTS_EV_END)
@@ -309,9 +303,9 @@ static int take_frames(mts_session *s, double deadline)
         if (ev == MTS_EV_INFO && strcmp(c->info.model, s->hello.model) != 0) {
             /* a stream of another model is no answer to this HELLO (names
              * are checked as [A-Za-z0-9._-] when parsed) */
-            rc = mts_error_set(err, MTS_ERR_FORMAT,
-                               "MODEL_INFO is for model '%s', not the '%s' asked for",
-                               c->info.model, s->hello.model);
+            mts_result rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                          "MODEL_INFO is for model '%s', not the '%s' asked for",
+                                          c->info.model, s->hello.model);
             conversation_failed(s, rc, 0);
             return 0;
         }
@@ -324,8 +318,8 @@ static int take_frames(mts_session *s, double deadline)
             finish(s, MTS_OK);
             return 0;
         } else if (ev == MTS_EV_ERROR) {
-            rc = mts_error_set(err, MTS_ERR_FORMAT, "the server said: %s (%s)", c->error_text,
-                               mts_wire_error_name(c->error_code));
+            mts_result rc = mts_error_set(err, MTS_ERR_FORMAT, "the server said: %s (%s)",
+                                          c->error_text, mts_wire_error_name(c->error_code));
             if (c->error_code == MTS_WERR_STALE)
                 mts_error_prefix(err, "cannot resume at batch %u: the server's stream "
                                       "changed since",
@@ -409,7 +403,7 @@ static void stream_step(mts_session *s, int timeout_ms)
         }
         s->last_data = (1e3 * mts_clock_seconds());
         st->bytes += (uint64_t)got;
-        mts_result rc = mts_wire_reader_feed(&s->r, s->buf, (size_t)got, err);
+        mts_result rc = mts_stream_client_feed(s->c, s->buf, (size_t)got, err);
         if (rc != MTS_OK) {
             conversation_failed(s, rc, 0);
             return;

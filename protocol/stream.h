@@ -187,10 +187,50 @@ typedef struct mts_stream_client {
     uint32_t resumes;   /* conversations that resumed (MTS_EV_RESUMED) */
     void (*on_model)(void *user, const mts_wire_model_entry *m); /* for LIST */
     void *user;
+    mts_wire_reader reader; /* bytes fed, not yet taken as frames (mts_stream_client_feed) */
 } mts_stream_client;
 
 void mts_stream_client_init(mts_stream_client *c);
 void mts_stream_client_free(mts_stream_client *c);
+
+/* Bytes to events, for a caller that holds bytes rather than frames: a
+ * socket's reads, WebSocket messages, an HTTP download's write callback.
+ * feed buffers bytes of the conversation in the order they came, split
+ * anywhere (one at a time works); next takes the next whole frame they hold
+ * through mts_stream_client_frame. Feed what came, then call next until it
+ * returns 0:
+ *
+ *     if (mts_stream_client_feed(c, data, size, err) != MTS_OK) ...
+ *     while ((got = mts_stream_client_next(c, &ev, err)) > 0)
+ *         ... ev ...
+ *     if (got < 0) ... err ...
+ *
+ * A frame cut between two feeds is joined again, whatever carried the
+ * pieces (reads of one connection, or ranges of a file holding the frames
+ * fetched one after another): only a new conversation drops the start of a
+ * frame left incomplete (mts_stream_client_reconnected and
+ * mts_stream_client_continue do), as that frame comes again whole.
+ *
+ * feed fails with MTS_ERR_LIMIT when fed while more than two of the
+ * largest frames (MTS_WIRE_MAX_FRAME) wait untaken -- a caller calls next
+ * between feeds -- and with MTS_ERR_NOMEM. The bytes are copied: the
+ * caller's may be reused as soon as feed returns. */
+mts_result mts_stream_client_feed(mts_stream_client *c, const void *data, size_t size,
+                                  mts_error *err);
+
+/* 1: a frame was taken and *ev says what it brought (MTS_EV_NONE for a
+ * frame that brings nothing new: the BASE a resumed conversation repeats,
+ * checked and skipped); 0: no whole frame is buffered, feed more; -1: an
+ * error, err says what and err->code is its mts_result. Either the bytes
+ * are not frames (a frame length out of 1..MTS_WIRE_MAX_FRAME, which
+ * also ends the client, as nothing after it can be framed) or
+ * mts_stream_client_frame refused the frame, and then, as there,
+ * c->rejected says whether it only failed its CRC. */
+int mts_stream_client_next(mts_stream_client *c, mts_stream_event *ev, mts_error *err);
+
+/* Bytes fed and not yet taken: whole frames next has not taken yet, then
+ * the start of one still coming. */
+size_t mts_stream_client_buffered(const mts_stream_client *c);
 
 /* Takes one frame. Errors name the message and the problem; a client that
  * returned an error is not fed again, but for a frame that failed its CRC
@@ -215,9 +255,9 @@ int mts_stream_client_resume_point(const mts_stream_client *c, uint32_t *resume_
                                    uint64_t *stream_id);
 
 /* Readies c for the frames of a new conversation, started with the HELLO
- * that resume_point described; the caller starts a new frame reader, so a
- * partial frame of the broken one is dropped. Before the base was in, c
- * starts over (the next MODEL_INFO gives MTS_EV_INFO again). After it, the
+ * that resume_point described; the bytes fed and not taken are dropped,
+ * the partial frame of the broken one among them. Before the base was in,
+ * c starts over (the next MODEL_INFO gives MTS_EV_INFO again). After it, the
  * new MODEL_INFO must describe the same stream as the first -- stream_id,
  * counts, grid, batches, stop level -- or it is rejected (MTS_ERR_FORMAT):
  * two streams are never mixed. It gives MTS_EV_RESUMED; a BASE that follows
@@ -228,10 +268,11 @@ mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err);
 
 /* Continuing a stream that ended at its stop level towards a higher one
  * (PROTOCOL.md, "Continuing"): a preview that zooms in asks for more. Call
- * after END was checked; it readies c for a new conversation (a new frame
- * reader, as after a break) whose HELLO asks for the new stop point with
- * *resume_batch (c->batches: every batch the client decoded, including the
- * splits of the last one past the old stop) and *stream_id. The MODEL_INFO
+ * after END was checked; it readies c for a new conversation (dropping the
+ * bytes fed and not taken, as after a break) whose HELLO asks for the new
+ * stop point with *resume_batch (c->batches: every batch the client
+ * decoded, including the splits of the last one past the old stop) and
+ * *stream_id. The MODEL_INFO
  * must describe the same stream in everything but its stop level, which
  * may not fall below the level the client is at (MTS_ERR_FORMAT); the
  * runtime then moves up to the new stop as far as the splits held allow,

@@ -42,6 +42,7 @@ void mts_stream_client_free(mts_stream_client *c)
     mts_wire_model_info_free(&c->info);
     mts_model_free(&c->model);
     free(c->quantized);
+    mts_wire_reader_free(&c->reader);
     memset(c, 0, sizeof *c);
 }
 
@@ -925,6 +926,43 @@ mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uin
                                  type));
 }
 
+mts_result mts_stream_client_feed(mts_stream_client *c, const void *data, size_t size,
+                                  mts_error *err)
+{
+    return mts_wire_reader_feed(&c->reader, data, size, err);
+}
+
+int mts_stream_client_next(mts_stream_client *c, mts_stream_event *ev, mts_error *err)
+{
+    *ev = MTS_EV_NONE;
+    uint8_t type;
+    const uint8_t *p;
+    size_t n;
+    int got = mts_wire_reader_next(&c->reader, &type, &p, &n, err);
+    if (got < 0) {
+        /* a length that cannot be leaves no way to find the next frame; a
+         * stream that had ended stays ended (it may still continue) */
+        c->rejected = 0;
+        if (c->state != ST_DONE)
+            c->state = ST_FAILED;
+        return -1;
+    }
+    if (got == 0)
+        return 0;
+    mts_result rc = mts_stream_client_frame(c, type, p, n, ev, err);
+    if (rc != MTS_OK) {
+        if (err)
+            err->code = rc; /* what a caller of next has for the result */
+        return -1;
+    }
+    return 1;
+}
+
+size_t mts_stream_client_buffered(const mts_stream_client *c)
+{
+    return c->reader.len - c->reader.start;
+}
+
 int mts_stream_client_resume_point(const mts_stream_client *c, uint32_t *resume_batch,
                                    uint64_t *stream_id)
 {
@@ -951,6 +989,7 @@ mts_result mts_stream_client_continue(mts_stream_client *c, uint32_t *resume_bat
     c->resuming = 1;
     c->continuing = 1;
     c->end_checksum = 0;
+    mts_wire_reader_free(&c->reader);
     return MTS_OK;
 }
 
@@ -974,5 +1013,6 @@ mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)
     /* from ST_BATCHES, ST_SKIP_BASE, or ST_INFO of a resume broken again */
     c->state = ST_INFO;
     c->resuming = 1;
+    mts_wire_reader_free(&c->reader);
     return MTS_OK;
 }

@@ -38,8 +38,13 @@ typedef struct sclient {
     uint32_t hello_sent;
     double t_start, t_last; /* seconds */
     float ms_base;
+    uint64_t bytes_in;          /* read in this conversation (for the error messages) */
+    /* no_apply with verify: frames are checked, not decoded, so there is no
+     * stream client to cut them: this reader does */
     mts_wire_reader reader;
-    mts_stream_client *decoder; /* apply mode: while it applies (at most max_appliers do) */
+    /* apply mode: from its first bytes, which wait in it until its turn to
+     * apply comes (at most max_appliers apply at once) */
+    mts_stream_client *decoder;
     uint8_t eof;                /* apply mode: all its bytes are in, the socket closed */
     char *http_head;            /* http mode: the response head so far (then NULL) */
     uint32_t http_head_len;
@@ -274,21 +279,11 @@ static int sc_frame_light(stress *s, sclient *c, uint8_t type, const uint8_t *p,
     }
 }
 
-static int sc_frame_apply(stress *s, sclient *c, uint8_t type, const uint8_t *p, size_t n,
-                          int *done)
+/* What an applied frame brought: splits_before is the decoder's count
+ * before it. 0 once c failed (released). */
+static int sc_event(stress *s, sclient *c, mts_stream_event ev, uint32_t splits_before,
+                    int *done)
 {
-    mts_error err = {0};
-    mts_stream_event ev = MTS_EV_NONE;
-    uint32_t splits_before = c->decoder->splits;
-    mts_result rc = mts_stream_client_frame(c->decoder, type, p, n, &ev, &err);
-    if (rc != MTS_OK) {
-        sc_fail(s, c,
-                rc == MTS_ERR_NOMEM                                 ? MTS_STRESS_LOCAL
-                : type == MTS_MSG_END && rc == MTS_ERR_CHECKSUM     ? MTS_STRESS_VERIFY
-                                                                    : MTS_STRESS_PROTOCOL,
-                "%s", err.msg);
-        return 0;
-    }
     switch (ev) {
     case MTS_EV_BASE:
         c->ms_base = (float)((mts_clock_seconds() - c->t_start) * 1e3);
@@ -450,8 +445,7 @@ static int sc_continues(stress *s, sclient *c)
     c->hello2 = b.data;
     c->hello2_size = (uint32_t)b.size;
     sc_close_socket(s, c);
-    mts_wire_reader_free(&c->reader);
-    memset(&c->reader, 0, sizeof c->reader);
+    c->bytes_in = 0;
     c->eof = 0;
     c->hello_sent = 0;
     c->got_info = c->got_base = 0;
@@ -461,10 +455,9 @@ static int sc_continues(stress *s, sclient *c)
     return 1;
 }
 
-/* Apply mode: applies c's whole frames until the deadline. 0 once c has
- * ended (succeeded or failed and released), 2 when the deadline stopped it,
- * 1 when it waits for bytes. */
-static int sc_apply(stress *s, sclient *c, double deadline)
+/* Apply mode: c's decoder, made the first time. 0 when out of memory (c
+ * failed and released). */
+static int sc_decoder(stress *s, sclient *c)
 {
     if (!c->decoder) {
         c->decoder = malloc(sizeof *c->decoder);
@@ -474,14 +467,24 @@ static int sc_apply(stress *s, sclient *c, double deadline)
         }
         mts_stream_client_init(c->decoder);
     }
+    return 1;
+}
+
+/* Apply mode: applies c's whole frames until the deadline. 0 once c has
+ * ended (succeeded or failed and released), 2 when the deadline stopped it,
+ * 1 when it waits for bytes. */
+static int sc_apply(stress *s, sclient *c, double deadline)
+{
+    if (!sc_decoder(s, c))
+        return 0;
     mts_error err = {0};
-    uint8_t type;
-    const uint8_t *p;
-    size_t n;
+    mts_stream_event ev;
     int next, done = 0;
-    while ((next = mts_wire_reader_next(&c->reader, &type, &p, &n, &err)) > 0) {
-        if (!sc_frame_apply(s, c, type, p, n, &done))
+    uint32_t splits_before = c->decoder->splits;
+    while ((next = mts_stream_client_next(c->decoder, &ev, &err)) > 0) {
+        if (!sc_event(s, c, ev, splits_before, &done))
             return 0; /* failed and released */
+        splits_before = c->decoder->splits;
         if (done) {
             if (sc_continues(s, c))
                 return 0; /* connecting again, or failed and released */
@@ -494,12 +497,17 @@ static int sc_apply(stress *s, sclient *c, double deadline)
             return 2;
     }
     if (next < 0) {
-        sc_fail(s, c, MTS_STRESS_PROTOCOL, "%s", err.msg);
+        mts_stress_failure why = MTS_STRESS_PROTOCOL;
+        if (err.code == MTS_ERR_NOMEM)
+            why = MTS_STRESS_LOCAL;
+        else if (err.code == MTS_ERR_CHECKSUM && !c->decoder->rejected)
+            why = MTS_STRESS_VERIFY; /* END's checksum: the mesh is not the server's */
+        sc_fail(s, c, why, "%s", err.msg);
         return 0;
     }
     if (c->eof) {
         sc_fail(s, c, MTS_STRESS_CLOSED, "closed before END (after %llu bytes)",
-                (unsigned long long)c->reader.bytes_in);
+                (unsigned long long)c->bytes_in);
         return 0;
     }
     return 1;
@@ -521,7 +529,7 @@ static int apply_round(stress *s, uint32_t started, double budget)
         if (c->state == SC_DONE || c->state == SC_WAITING)
             continue;
         busy++;
-        if (c->reader.bytes_in == 0 && !c->eof)
+        if (c->bytes_in == 0 && !c->eof)
             continue;
         double share = (deadline - mts_clock_seconds()) / (double)(s->max_appliers - busy + 1);
         if (share <= 0)
@@ -553,36 +561,44 @@ static void sc_read(stress *s, sclient *c, double now)
         }
         if (got == 0) {
             sc_fail(s, c, MTS_STRESS_CLOSED, "closed before END (after %llu bytes)",
-                    (unsigned long long)c->reader.bytes_in);
+                    (unsigned long long)c->bytes_in);
             return;
         }
         if (got < 0) {
             sc_fail(s, c, MTS_STRESS_CLOSED, "after %llu bytes: %s",
-                    (unsigned long long)c->reader.bytes_in, strerror(errno));
+                    (unsigned long long)c->bytes_in, strerror(errno));
             return;
         }
         s->rep->bytes += (uint64_t)got;
+        c->bytes_in += (uint64_t)got;
         c->t_last = now;
         if (s->o->no_apply && !s->o->verify && !s->o->http_path) {
             if (!sc_skim(s, c, s->chunk, (size_t)got))
                 return;
-            c->reader.bytes_in += (uint64_t)got; /* for the error messages */
             continue;
         }
         if (s->o->http_path) {
             sc_read_http(s, c, s->chunk, (size_t)got);
             if (c->state == SC_DONE)
                 return;
-            c->reader.bytes_in += (uint64_t)got; /* for the error messages */
             continue;
         }
         mts_error err = {0};
-        if (mts_wire_reader_feed(&c->reader, s->chunk, (size_t)got, &err) != MTS_OK) {
-            sc_fail(s, c, err.code == MTS_ERR_NOMEM ? MTS_STRESS_LOCAL : MTS_STRESS_PROTOCOL,
-                    "%s", err.msg);
-            return;
-        }
-        if (s->o->no_apply) { /* with verify: checked as it comes, cheaply */
+        if (!s->o->no_apply) {
+            /* applied in apply_round, the oldest clients first */
+            if (!sc_decoder(s, c))
+                return; /* failed and released */
+            if (mts_stream_client_feed(c->decoder, s->chunk, (size_t)got, &err) != MTS_OK) {
+                sc_fail(s, c, err.code == MTS_ERR_NOMEM ? MTS_STRESS_LOCAL : MTS_STRESS_PROTOCOL,
+                        "%s", err.msg);
+                return;
+            }
+        } else { /* with verify: checked as it comes, cheaply */
+            if (mts_wire_reader_feed(&c->reader, s->chunk, (size_t)got, &err) != MTS_OK) {
+                sc_fail(s, c, err.code == MTS_ERR_NOMEM ? MTS_STRESS_LOCAL : MTS_STRESS_PROTOCOL,
+                        "%s", err.msg);
+                return;
+            }
             uint8_t type;
             const uint8_t *p;
             size_t n;

@@ -356,32 +356,26 @@ typedef struct mts_test_events {
 } mts_test_events;
 
 /* Feeds data to c as one connection does: in pieces of 1 to max_piece bytes
- * drawn from seed, through a fresh frame reader (a frame left incomplete is
- * dropped with it), up to the end or the first error, the reader's or the
- * client's; adds the events to *n. */
+ * drawn from seed, up to the end or the first error, the client's or its
+ * frames'; adds the events to *n. A frame left incomplete stays in c until a
+ * new conversation (mts_stream_client_reconnected or _continue) drops it. */
 static inline mts_result mts_test_feed(mts_stream_client *c, const uint8_t *data, size_t size,
                                        uint64_t seed, size_t max_piece, mts_test_events *n,
                                        mts_error *err)
 {
-    mts_wire_reader r = {0};
-    mts_result rc = MTS_OK;
     size_t at = 0;
-    while (at < size && rc == MTS_OK) {
+    while (at < size) {
         seed = seed * 6364136223846793005ull + 1442695040888963407ull;
         size_t piece = 1 + (size_t)((seed >> 33) % max_piece);
         if (piece > size - at)
             piece = size - at;
-        if ((rc = mts_wire_reader_feed(&r, data + at, piece, err)) != MTS_OK)
-            break;
+        mts_result rc = mts_stream_client_feed(c, data + at, piece, err);
+        if (rc != MTS_OK)
+            return rc;
         at += piece;
-        uint8_t type;
-        const uint8_t *p;
-        size_t len;
+        mts_stream_event ev;
         int got;
-        while (rc == MTS_OK && (got = mts_wire_reader_next(&r, &type, &p, &len, err)) == 1) {
-            mts_stream_event ev;
-            if ((rc = mts_stream_client_frame(c, type, p, len, &ev, err)) != MTS_OK)
-                break;
+        while ((got = mts_stream_client_next(c, &ev, err)) > 0) {
             n->info += ev == MTS_EV_INFO;
             n->base += ev == MTS_EV_BASE;
             n->batch += ev == MTS_EV_BATCH;
@@ -389,11 +383,10 @@ static inline mts_result mts_test_feed(mts_stream_client *c, const uint8_t *data
             n->resumed += ev == MTS_EV_RESUMED;
             n->error += ev == MTS_EV_ERROR;
         }
-        if (rc == MTS_OK && got < 0)
-            rc = err->code;
+        if (got < 0)
+            return err->code;
     }
-    mts_wire_reader_free(&r);
-    return rc;
+    return MTS_OK;
 }
 
 #endif

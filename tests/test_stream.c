@@ -304,6 +304,270 @@ static void test_garbage_frames(mts_test *t)
     CHECK(t, 1); /* reaching here under ASan is the assertion: no crash, no leak */
 }
 
+/* What a client made of a stream: its events in order, where it ended. */
+typedef struct fed {
+    uint8_t events[4096];
+    size_t count;
+    int failed; /* next returned -1 */
+    uint64_t checksum, end_checksum;
+    uint32_t level, batches;
+} fed;
+
+static void fed_event(fed *f, mts_stream_event ev)
+{
+    if (f->count < sizeof f->events)
+        f->events[f->count] = (uint8_t)ev;
+    f->count++;
+}
+
+static void fed_end(fed *f, const mts_stream_client *c)
+{
+    f->checksum = c->checksum;
+    f->end_checksum = c->end_checksum;
+    f->level = c->have_lod ? c->lod.level : 0;
+    f->batches = c->batches;
+}
+
+/* The reference: the connection's frames cut out here and handed to
+ * mts_stream_client_frame whole, one by one. */
+static void feed_whole_frames(const mts_buf *b, fed *f)
+{
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_error err = {0};
+    size_t at = 0;
+    while (at + MTS_WIRE_HEADER <= b->size && !f->failed) {
+        const uint8_t *h = b->data + at;
+        size_t len = (size_t)h[0] | (size_t)h[1] << 8 | (size_t)h[2] << 16 | (size_t)h[3] << 24;
+        mts_stream_event ev;
+        f->failed = mts_stream_client_frame(&c, h[4], h + MTS_WIRE_HEADER, len - 1, &ev, &err) !=
+                    MTS_OK;
+        if (!f->failed)
+            fed_event(f, ev);
+        at += 4 + len;
+    }
+    fed_end(f, &c);
+    mts_stream_client_free(&c);
+}
+
+/* b through feed and next, in pieces of 1..max_piece bytes from seed. */
+static void feed_pieces(mts_test *t, const mts_buf *b, uint64_t seed, size_t max_piece, fed *f)
+{
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_error err = {0};
+    size_t at = 0;
+    while (at < b->size && !f->failed) {
+        seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+        size_t piece = 1 + (size_t)((seed >> 33) % max_piece);
+        if (piece > b->size - at)
+            piece = b->size - at;
+        CHECKF(t, mts_stream_client_feed(&c, b->data + at, piece, &err) == MTS_OK, "%s", err.msg);
+        at += piece;
+        mts_stream_event ev;
+        int got;
+        while ((got = mts_stream_client_next(&c, &ev, &err)) > 0)
+            fed_event(f, ev);
+        f->failed = got < 0;
+    }
+    CHECKF(t, !f->failed, "%s", err.msg);
+    CHECK(t, mts_stream_client_buffered(&c) == 0);
+    fed_end(f, &c);
+    mts_stream_client_free(&c);
+}
+
+static int fed_same(const fed *a, const fed *b)
+{
+    size_t kept = a->count < sizeof a->events ? a->count : sizeof a->events;
+    return a->count == b->count && a->failed == b->failed &&
+           memcmp(a->events, b->events, kept) == 0 && a->checksum == b->checksum &&
+           a->end_checksum == b->end_checksum && a->level == b->level &&
+           a->batches == b->batches;
+}
+
+/* Bytes split anywhere give what whole frames give: the same events in the
+ * same order, the same mesh. */
+static void test_feed_any_split(mts_test *t)
+{
+    mts_stream s;
+    if (!build_stream(t, "tests/data/cow.off", &s))
+        return;
+    const uint32_t stops[2] = {s.model.level_count, s.model.level_count / 3};
+    for (int k = 0; k < 2 && !t->case_failed; k++) {
+        mts_buf b = {0};
+        uint32_t stop;
+        connection_bytes(&s, MTS_STOP_LEVEL, stops[k], &b, &stop);
+        fed whole = {0};
+        feed_whole_frames(&b, &whole);
+        /* MODEL_INFO, BASE, the batches, END */
+        CHECK(t, !whole.failed && whole.count == (size_t)whole.batches + 3 && whole.level == stop);
+        CHECK(t, whole.checksum == s.level_checksum[stop] && whole.end_checksum == whole.checksum);
+        fed one = {0};
+        feed_pieces(t, &b, 0, 1, &one);
+        CHECKF(t, fed_same(&whole, &one), "stop %u, a byte at a time: %zu events, checksum %016llx",
+               stop, one.count, (unsigned long long)one.checksum);
+        for (uint64_t seed = 1; seed <= 20 && !t->case_failed; seed++) {
+            fed some = {0};
+            size_t max_piece = seed % 4 == 0 ? b.size : seed % 4 == 1 ? 7 : 3000;
+            feed_pieces(t, &b, seed, max_piece, &some);
+            CHECKF(t, fed_same(&whole, &some), "stop %u, seed %llu, pieces up to %zu", stop,
+                   (unsigned long long)seed, max_piece);
+        }
+        mts_buf_free(&b);
+    }
+    mts_stream_free(&s);
+}
+
+/* A connection that breaks inside a frame leaves its start in the client;
+ * the new conversation drops it, so the resumed stream ends as the
+ * unbroken one. The same after END for a continuation. */
+static void test_feed_reconnect_drops_cut_frame(mts_test *t)
+{
+    mts_stream s;
+    if (!build_stream(t, "tests/data/cow.off", &s))
+        return;
+    const uint32_t n = s.model.level_count;
+    mts_error err = {0};
+    mts_buf first = {0};
+    uint32_t stop;
+    connection_bytes(&s, MTS_STOP_FULL, 0, &first, &stop);
+    mts_buf info = {0};
+    mts_stream_put_model_info(&s, n, &info);
+    size_t cut = info.size + s.batch_offset[4] + 10; /* inside batch 4 */
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_test_events ev = {0};
+    CHECKF(t, mts_test_feed(&c, first.data, cut, 1, 977, &ev, &err) == MTS_OK, "%s", err.msg);
+    CHECK(t, c.batches == 4 && ev.batch == 4 && mts_stream_client_buffered(&c) == 10);
+    uint32_t batch;
+    uint64_t id;
+    CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == 4);
+    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK);
+    CHECK(t, mts_stream_client_buffered(&c) == 0);
+    /* what the server sends for the resume: MODEL_INFO, batches 4.., END */
+    mts_buf second = {0};
+    size_t off, len;
+    CHECK(t, mts_stream_range(&s, batch, n, &off, &len, &err) == MTS_OK);
+    mts_stream_put_model_info(&s, n, &second);
+    size_t head = second.size;
+    mts_buf_put(&second, s.bytes + off, len);
+    mts_stream_put_end(&s, n, (uint32_t)(head + len), &second);
+    CHECKF(t, mts_test_feed(&c, second.data, second.size, 2, 977, &ev, &err) == MTS_OK, "%s",
+           err.msg);
+    CHECK(t, ev.resumed == 1 && ev.end == 1 && (uint32_t)ev.batch == s.batch_count);
+    CHECK(t, c.checksum == s.level_checksum[n] && c.end_checksum == c.checksum);
+    CHECK(t, mts_stream_client_buffered(&c) == 0);
+
+    /* after END: the start of a frame that never came whole, dropped by
+     * continue */
+    CHECK(t, mts_stream_client_feed(&c, first.data, 3, &err) == MTS_OK);
+    mts_stream_event e;
+    CHECK(t, mts_stream_client_next(&c, &e, &err) == 0 && mts_stream_client_buffered(&c) == 3);
+    CHECK(t, mts_stream_client_continue(&c, &batch, &id, &err) == MTS_OK);
+    CHECK(t, mts_stream_client_buffered(&c) == 0);
+    mts_stream_client_free(&c);
+
+    /* before the base: a fresh start, the partial MODEL_INFO dropped */
+    mts_stream_client_init(&c);
+    ev = (mts_test_events){0};
+    CHECK(t, mts_test_feed(&c, first.data, info.size - 1, 3, 977, &ev, &err) == MTS_OK);
+    CHECK(t, ev.info == 0 && mts_stream_client_buffered(&c) == info.size - 1);
+    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK);
+    CHECK(t, mts_stream_client_buffered(&c) == 0);
+    CHECK(t, mts_test_feed(&c, first.data, first.size, 4, 977, &ev, &err) == MTS_OK);
+    CHECK(t, ev.info == 1 && ev.end == 1 && c.checksum == s.level_checksum[n]);
+    mts_stream_client_free(&c);
+
+    mts_buf_free(&info);
+    mts_buf_free(&first);
+    mts_buf_free(&second);
+    mts_stream_free(&s);
+}
+
+/* Bytes that are not this protocol's frames give -1 and an error that
+ * names what is wrong, and end the client; a frame that only failed its CRC
+ * is said so by c->rejected. */
+static void test_feed_garbage_named(mts_test *t)
+{
+    static const struct {
+        const char *bytes;
+        size_t size;
+        mts_result code;
+        const char *says;
+    } bad[] = {
+        {"GET / HTTP/1.1\r\n\r\n", 18, MTS_ERR_FORMAT, "frame of 542393671 bytes"},
+        {"\0\0\0\0\x10", 5, MTS_ERR_FORMAT, "frame of 0 bytes"},
+        {"\x03\0\0\0\x7f\1\2", 7, MTS_ERR_FORMAT, "unexpected message type 127"},
+        {"\x03\0\0\0\x12\1\2", 7, MTS_ERR_FORMAT, "unexpected message type 18"},
+        {"\x03\0\0\0\x10\1\2", 7, MTS_ERR_FORMAT, "MODEL_INFO"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        mts_error err = {0};
+        mts_stream_event ev;
+        CHECK(t, mts_stream_client_feed(&c, bad[i].bytes, bad[i].size, &err) == MTS_OK);
+        CHECK(t, mts_stream_client_next(&c, &ev, &err) == -1);
+        CHECKF(t, err.code == bad[i].code && strstr(err.msg, bad[i].says), "case %zu: %s (%s)", i,
+               err.msg, mts_result_name(err.code));
+        CHECK(t, !c.rejected);
+        uint32_t batch;
+        uint64_t id;
+        CHECK(t, !mts_stream_client_resume_point(&c, &batch, &id)); /* nothing to resume */
+        CHECK(t, mts_stream_client_next(&c, &ev, &err) != 1);
+        mts_stream_client_free(&c);
+    }
+
+    /* random bytes: an error or a wait for more, never a crash */
+    uint64_t seed = 29;
+    for (int round = 0; round < 500; round++) {
+        uint8_t junk[64];
+        for (size_t i = 0; i < sizeof junk; i++) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            junk[i] = (uint8_t)(seed >> 56);
+        }
+        if (round % 2) { /* a length that fits, so the type and payload are read */
+            junk[0] = (uint8_t)(round % 59 + 1);
+            junk[1] = junk[2] = junk[3] = 0;
+        }
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        mts_error err = {0};
+        mts_stream_event ev;
+        CHECK(t, mts_stream_client_feed(&c, junk, sizeof junk, &err) == MTS_OK);
+        int got;
+        while ((got = mts_stream_client_next(&c, &ev, &err)) > 0)
+            ;
+        CHECKF(t, got == 0 || err.msg[0], "round %d", round);
+        mts_stream_client_free(&c);
+    }
+
+    /* a batch that fails its CRC: rejected, and said so */
+    mts_stream s;
+    if (!build_stream(t, "tests/data/cow.off", &s))
+        return;
+    mts_buf b = {0};
+    uint32_t stop;
+    connection_bytes(&s, MTS_STOP_FULL, 0, &b, &stop);
+    size_t info_size = 4 + ((size_t)b.data[0] | (size_t)b.data[1] << 8 |
+                            (size_t)b.data[2] << 16 | (size_t)b.data[3] << 24);
+    b.data[info_size + s.batch_offset[1] + 12] ^= 0x10;
+    mts_stream_client c;
+    mts_stream_client_init(&c);
+    mts_error err = {0};
+    mts_stream_event ev;
+    CHECK(t, mts_stream_client_feed(&c, b.data, b.size, &err) == MTS_OK);
+    int got;
+    while ((got = mts_stream_client_next(&c, &ev, &err)) > 0)
+        ;
+    CHECKF(t, got == -1 && err.code == MTS_ERR_CHECKSUM && c.rejected && c.batches == 1 &&
+                  strstr(err.msg, "BATCH 1"),
+           "%d %s", got, err.msg);
+    mts_stream_client_free(&c);
+    mts_buf_free(&b);
+    mts_stream_free(&s);
+}
+
 /* records: also build the records form, and check it at the full level
  * (the build is the slow part: one build serves both forms) */
 static void shared_model_stops(mts_test *t, const char *file, int records)
@@ -1315,6 +1579,9 @@ int main(void)
     RUN(&t, test_corrupt_batch_rejected);
     RUN(&t, test_cut_stream_keeps_last_batch);
     RUN(&t, test_garbage_frames);
+    RUN(&t, test_feed_any_split);
+    RUN(&t, test_feed_reconnect_drops_cut_frame);
+    RUN(&t, test_feed_garbage_named);
     RUN(&t, test_client_derives_every_record);
     RUN(&t, test_model_without_descriptions_refused);
     RUN(&t, test_breakdown_adds_up);
