@@ -7,16 +7,20 @@
 #include <string.h>
 
 #include "cli.h"
+#include "fetch.h"
 #include "lodpolicy.h"
 #include "mts_client.h"
 #include "run.h"
 #include "stream.h"
+#include "webfile.h"
 #include "wire.h"
 #include "words.h"
 
 static void usage(FILE *f)
 {
     fputs("usage: mts-client [HOST[:PORT]] MODEL [--level L | --triangles N | --fraction F]\n"
+          "       mts-client http(s)://HOST/PATH/NAME.mts [the same options]\n"
+          "                  [--cacert FILE] [--max-file-bytes N]\n"
           "                  [--png FILE] [--png-levels L1,L2,...] [--size WxH] [--color-strips]\n"
           "                  [--verify] [--model-file M.mtsm] [--no-render] [--records]\n"
           "                  [--resume] [--retries N] [--connect-timeout S] [--timeout S]\n"
@@ -29,6 +33,10 @@ static void usage(FILE *f)
           "\n"
           "Streams MODEL from an mts-server (default 127.0.0.1:7447): a Draco base mesh,\n"
           "then batches of strip records applied as they arrive, rendered headless.\n"
+          "Or reads a stream file (mts-build --stream) from any web server with HTTP\n"
+          "range requests: the index, then the base and batches up to the stop, decoded\n"
+          "as they arrive; --resume and the window's continuation ask for the batches\n"
+          "not held. TLS is verified against the system's CAs.\n"
           "\n"
           "  --level L / --triangles N / --fraction F   stop there (default: full)\n"
           "  --png FILE          write the final frame\n"
@@ -74,6 +82,9 @@ static void usage(FILE *f)
           "  --script FILE       with --window: input from FILE, one event a line, seconds\n"
           "                      after the first frame first: '0.5 key End', '1.2 drag 40\n"
           "                      -10', '1.4 scroll -2', '2.0 key q'\n"
+          "  --cacert FILE       for https: trust the CAs in FILE (PEM) instead of the\n"
+          "                      system's (a private CA); verification is never skipped\n"
+          "  --max-file-bytes N  refuse a stream file over N bytes (K, M, G; default 1G)\n"
           "  --list              print the server's models\n"
           "  --json              one line of JSON with the figures\n"
           "  -q, --quiet         no progress, no summary\n"
@@ -130,6 +141,20 @@ static int parse_args(int argc, char **argv, client_options *o)
             o->so.hello.flags |= MTS_HELLO_RECORDS;
         } else if (!strcmp(a, "--window")) {
             o->window = 1;
+        } else if (!strcmp(a, "--cacert")) {
+            if (!v) {
+                fprintf(stderr, "mts-client: --cacert needs a PEM file\n");
+                return CLI_EXIT_USAGE;
+            }
+            o->cacert = v;
+            i++;
+        } else if (!strcmp(a, "--max-file-bytes")) {
+            if (!v || !cli_parse_bytes(v, &o->max_file_bytes) || o->max_file_bytes == 0) {
+                fprintf(stderr, "mts-client: --max-file-bytes needs a size in bytes above 0 "
+                                "(512M, 4G)\n");
+                return CLI_EXIT_USAGE;
+            }
+            i++;
         } else if (!strcmp(a, "--script")) {
             if (!v) {
                 fprintf(stderr, "mts-client: --script needs a file name\n");
@@ -233,6 +258,44 @@ static int parse_args(int argc, char **argv, client_options *o)
     return -1;
 }
 
+/* The model's name from a stream file's URL: its last path segment without
+ * ".mts" (for the PNGs' names and the summary), "stream" when that is no
+ * model name. */
+static void name_of_url(const char *url, char *out, size_t size)
+{
+    const char *end = url + strcspn(url, "?#");
+    const char *start = end;
+    while (start > url && start[-1] != '/')
+        start--;
+    size_t n = (size_t)(end - start);
+    if (n > 4 && !memcmp(end - 4, ".mts", 4))
+        n -= 4;
+    if (n == 0 || n >= size || !mts_wire_valid_name(start, n))
+        snprintf(out, size, "stream");
+    else
+        snprintf(out, size, "%.*s", (int)n, start);
+}
+
+/* mts-client URL: the stream file's options. */
+static int check_url(client_options *o)
+{
+    if (o->list || o->npos != 1) {
+        fprintf(stderr, "mts-client: a stream file's URL is the only argument (no --list, no "
+                        "HOST)\n");
+        return CLI_EXIT_USAGE;
+    }
+    if (o->so.hello.flags & MTS_HELLO_RECORDS) {
+        fprintf(stderr, "mts-client: --records asks mts-server for a form; a stream file holds "
+                        "the one it was written in (mts-build --stream FILE --records)\n");
+        return CLI_EXIT_USAGE;
+    }
+    o->url = o->pos[0];
+    name_of_url(o->url, o->url_name, sizeof o->url_name);
+    o->run.model = o->url_name;
+    snprintf(o->so.hello.model, sizeof o->so.hello.model, "%s", o->url_name);
+    return -1;
+}
+
 /* What the options mean together: the combinations refused, the settings
  * they imply, the model and the server. Returns -1 to go on, or the exit
  * status of bad usage (said on stderr). */
@@ -269,6 +332,12 @@ static int check_options(client_options *o)
         rn->ro.height = 600;
     }
     const char *server = NULL;
+    if (o->npos >= 1 && mts_fetch_is_url(o->pos[o->npos - 1]))
+        return check_url(o);
+    if (o->cacert || o->max_file_bytes) {
+        fprintf(stderr, "mts-client: --cacert and --max-file-bytes are for a stream file's URL\n");
+        return CLI_EXIT_USAGE;
+    }
     if (o->list) {
         if (o->npos > 1) {
             fprintf(stderr, "mts-client: --list takes only HOST[:PORT]\n");
@@ -441,6 +510,23 @@ static int run_headless(client_options *o)
     return rc == MTS_OK ? CLI_EXIT_OK : CLI_EXIT_FAIL;
 }
 
+/* A stream file's URL: libcurl, and the file the sessions read from. */
+static int open_url(client_options *o)
+{
+    mts_error err = {0};
+    mts_http_options ho = {0};
+    ho.cacert = o->cacert;
+    ho.connect_timeout = o->so.connect_timeout > 0 ? o->so.connect_timeout : 5;
+    ho.io_timeout = o->so.io_timeout;
+    ho.max_bytes = o->max_file_bytes;
+    if (mts_fetch_global_init(&err) != MTS_OK ||
+        mts_webfile_create(&o->so.file, o->url, &ho, &err) != MTS_OK) {
+        fprintf(stderr, "mts-client: %s\n", err.msg);
+        return 0;
+    }
+    return 1;
+}
+
 int main(int argc, char **argv)
 {
     client_options o;
@@ -449,5 +535,12 @@ int main(int argc, char **argv)
         status = check_options(&o);
     if (status >= 0)
         return status;
-    return o.window ? client_window_main(&o) : run_headless(&o);
+    if (o.url && !open_url(&o))
+        return CLI_EXIT_FAIL;
+    status = o.window ? client_window_main(&o) : run_headless(&o);
+    if (o.url) {
+        mts_webfile_free(o.so.file);
+        mts_fetch_global_cleanup();
+    }
+    return status;
 }

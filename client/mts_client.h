@@ -17,6 +17,11 @@ typedef struct client_options {
     const char *pos[2];     /* [HOST[:PORT]] MODEL */
     int npos;
     char host[256], port[16];
+    /* a stream file's URL instead of a server and a model */
+    const char *url;
+    char url_name[65];      /* the file's name without .mts: the run's model name */
+    const char *cacert;     /* --cacert */
+    uint64_t max_file_bytes; /* --max-file-bytes; 0: the default */
     cli_bar bar;            /* headless: the stream's progress */
 } client_options;
 

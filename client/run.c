@@ -8,6 +8,7 @@
 #include "clock.h"
 #include "modelfile.h"
 #include "strips.h"
+#include "webfile.h"
 
 static void level_png_path(const mts_client_run *rn, uint32_t level, char *out, size_t size)
 {
@@ -106,6 +107,30 @@ static void find_model(void *user, const mts_wire_model_entry *m)
     }
 }
 
+/* The stop a policy asks for, from the model's full triangle count. */
+static int stop_from_triangles(mts_session_options *so, const mts_client_run *rn,
+                               double distance, uint32_t full_triangles, uint64_t list_bytes,
+                               uint64_t full_bytes, mts_client_run_stop *stop)
+{
+    const mts_lod_policy_options *po = &rn->po;
+    /* budget cannot know its level before frames are timed: a first guess,
+     * an eighth of the model, then more while frames stay in the budget */
+    double t = po->kind == MTS_LOD_POLICY_BUDGET
+                   ? full_triangles / 8.0
+                   : mts_lod_policy_stop_triangles(po, distance,
+                                                   rn->ro.camera.fov_y_deg * 3.14159265f / 180.0f,
+                                                   (int)rn->ro.width, (int)rn->ro.height,
+                                                   full_triangles);
+    if (!(t >= 0) || t > UINT32_MAX)
+        return 0;
+    so->hello.stop_kind = MTS_STOP_TRIANGLES;
+    so->hello.stop_value = (uint32_t)t;
+    stop->asked = (uint32_t)t;
+    stop->list_bytes = list_bytes;
+    stop->full_bytes = full_bytes;
+    return 1;
+}
+
 /* --lod-policy distance or area: the level they choose is known from the
  * view and the model's full triangle count (the server's MODELS listing,
  * a few dozen bytes), so the stream is asked to stop there instead of
@@ -115,7 +140,16 @@ static void find_model(void *user, const mts_wire_model_entry *m)
 int mts_client_run_policy_stop(mts_session_options *so, const mts_client_run *rn,
                                double distance, mts_client_run_stop *stop)
 {
-    const mts_lod_policy_options *po = &rn->po;
+    if (so->file) {
+        /* a stream file: its index has the counts, and the session that
+         * follows reuses it, so the stream is still one more request */
+        mts_error ferr = {0};
+        if (mts_webfile_read_index(so->file, &ferr) != MTS_OK)
+            return 0; /* the session will say what is wrong */
+        const mts_stream_file_index *idx = mts_webfile_index(so->file);
+        return stop_from_triangles(so, rn, distance, idx->info.triangles,
+                                   mts_webfile_bytes(so->file), idx->file_size, stop);
+    }
     mts_session_options lo = *so;
     lo.list = 1;
     lo.on_event = NULL;
@@ -133,22 +167,8 @@ int mts_client_run_policy_stop(mts_session_options *so, const mts_client_run *rn
     mts_stream_client_free(&lc);
     if (rc != MTS_OK || !l.found)
         return 0; /* the stream comes whole and the policy picks after it */
-    /* budget cannot know its level before frames are timed: a first guess,
-     * an eighth of the model, then more while frames stay in the budget */
-    double t = po->kind == MTS_LOD_POLICY_BUDGET
-                   ? l.entry.triangles / 8.0
-                   : mts_lod_policy_stop_triangles(po, distance,
-                                                   rn->ro.camera.fov_y_deg * 3.14159265f / 180.0f,
-                                                   (int)rn->ro.width, (int)rn->ro.height,
-                                                   l.entry.triangles);
-    if (!(t >= 0) || t > UINT32_MAX)
-        return 0;
-    so->hello.stop_kind = MTS_STOP_TRIANGLES;
-    so->hello.stop_value = (uint32_t)t;
-    stop->asked = (uint32_t)t;
-    stop->list_bytes = st.bytes;
-    stop->full_bytes = l.entry.stream_bytes;
-    return 1;
+    return stop_from_triangles(so, rn, distance, l.entry.triangles, st.bytes,
+                               l.entry.stream_bytes, stop);
 }
 
 int mts_client_run_make_view(mts_client_run *rn, mts_stream_client *c,

@@ -14,6 +14,7 @@
 
 #include "clock.h"
 #include "net.h"
+#include "webfile.h"
 
 /* Connecting runs as steps so that a window loop never waits on it: the
  * name is resolved (getaddrinfo blocks, but a numeric address or
@@ -177,6 +178,8 @@ struct mts_session {
 
 static void close_conversation(mts_session *s)
 {
+    if (s->o->file)
+        mts_webfile_cancel(s->o->file);
     connector_close(&s->k);
     if (s->fd >= 0)
         close(s->fd);
@@ -266,13 +269,59 @@ static void connected(mts_session *s, int fd)
     s->ph = PH_STREAM;
 }
 
+/* One event of the stream client: the caller's callback, the times, and
+ * the end of the conversation on END, MODELS or ERROR. 1: go on, 0: the
+ * conversation ended (s->ph moved on). */
+static int take_event(mts_session *s, mts_stream_event ev)
+{
+    const mts_session_options *o = s->o;
+    mts_stream_client *c = s->c;
+    mts_session_stats *st = s->st;
+    mts_error *err = &s->err;
+    if (ev == MTS_EV_BASE || ev == MTS_EV_BATCH || ev == MTS_EV_END)
+        s->progress = 1;
+    if (o->on_event && o->on_event(o->user, ev, c)) {
+        conversation_failed(s, mts_error_set(err, MTS_ERR_ARG, "stopped by the caller"), 0);
+        return 0;
+    }
+    double t = (1e3 * mts_clock_seconds()) - s->t0;
+    if (ev == MTS_EV_INFO && !o->file && strcmp(c->info.model, s->hello.model) != 0) {
+        /* a stream of another model is no answer to this HELLO (names
+         * are checked as [A-Za-z0-9._-] when parsed); a stream file is
+         * named by its URL, not by the model in it */
+        mts_result rc = mts_error_set(err, MTS_ERR_FORMAT,
+                                      "MODEL_INFO is for model '%s', not the '%s' asked for",
+                                      c->info.model, s->hello.model);
+        conversation_failed(s, rc, 0);
+        return 0;
+    }
+    if (ev == MTS_EV_INFO) {
+        st->ms_info = t;
+    } else if (ev == MTS_EV_BASE) {
+        st->ms_base = t;
+    } else if (ev == MTS_EV_END || ev == MTS_EV_MODELS) {
+        st->ms_final = t;
+        finish(s, MTS_OK);
+        return 0;
+    } else if (ev == MTS_EV_ERROR) {
+        mts_result rc = mts_error_set(err, MTS_ERR_FORMAT, "the server said: %s (%s)",
+                                      c->error_text, mts_wire_error_name(c->error_code));
+        if (c->error_code == MTS_WERR_STALE)
+            mts_error_prefix(err, "cannot resume at batch %u: the server's stream "
+                                  "changed since",
+                             c->batches);
+        conversation_failed(s, rc, 0);
+        return 0;
+    }
+    return 1;
+}
+
 /* Takes the whole frames the stream client holds until the deadline (ms;
  * the rest wait in it: s->backlog). A new conversation starts with
  * mts_stream_client_reconnected, which drops a frame cut by the break.
  * 1: go on, 0: the conversation ended (s->ph moved on). */
 static int take_frames(mts_session *s, double deadline)
 {
-    const mts_session_options *o = s->o;
     mts_stream_client *c = s->c;
     mts_session_stats *st = s->st;
     mts_error *err = &s->err;
@@ -293,40 +342,8 @@ static int take_frames(mts_session *s, double deadline)
             conversation_failed(s, err->code, c->rejected);
             return 0;
         }
-        if (ev == MTS_EV_BASE || ev == MTS_EV_BATCH || ev == MTS_EV_END)
-            s->progress = 1;
-        if (o->on_event && o->on_event(o->user, ev, c)) {
-            conversation_failed(s, mts_error_set(err, MTS_ERR_ARG, "stopped by the caller"), 0);
+        if (!take_event(s, ev))
             return 0;
-        }
-        double t = (1e3 * mts_clock_seconds()) - s->t0;
-        if (ev == MTS_EV_INFO && strcmp(c->info.model, s->hello.model) != 0) {
-            /* a stream of another model is no answer to this HELLO (names
-             * are checked as [A-Za-z0-9._-] when parsed) */
-            mts_result rc = mts_error_set(err, MTS_ERR_FORMAT,
-                                          "MODEL_INFO is for model '%s', not the '%s' asked for",
-                                          c->info.model, s->hello.model);
-            conversation_failed(s, rc, 0);
-            return 0;
-        }
-        if (ev == MTS_EV_INFO) {
-            st->ms_info = t;
-        } else if (ev == MTS_EV_BASE) {
-            st->ms_base = t;
-        } else if (ev == MTS_EV_END || ev == MTS_EV_MODELS) {
-            st->ms_final = t;
-            finish(s, MTS_OK);
-            return 0;
-        } else if (ev == MTS_EV_ERROR) {
-            mts_result rc = mts_error_set(err, MTS_ERR_FORMAT, "the server said: %s (%s)",
-                                          c->error_text, mts_wire_error_name(c->error_code));
-            if (c->error_code == MTS_WERR_STALE)
-                mts_error_prefix(err, "cannot resume at batch %u: the server's stream "
-                                      "changed since",
-                                 c->batches);
-            conversation_failed(s, rc, 0);
-            return 0;
-        }
         if ((1e3 * mts_clock_seconds()) >= deadline) {
             s->backlog = 1; /* more frames may be whole already: the next poll */
             break;
@@ -413,6 +430,41 @@ static void stream_step(mts_session *s, int timeout_ms)
     } while ((1e3 * mts_clock_seconds()) < deadline && !s->backlog);
 }
 
+/* A conversation with a stream file: what came is handed on as in
+ * stream_step, and once the range is in and its frames are taken the file's
+ * checks end the stream as END would. */
+static void file_step(mts_session *s, int timeout_ms)
+{
+    mts_webfile *wf = s->o->file;
+    mts_error *err = &s->err;
+    const double deadline = (1e3 * mts_clock_seconds()) + SESSION_SLICE_MS;
+    if (s->backlog) {
+        if (!take_frames(s, deadline) || s->backlog)
+            return;
+        timeout_ms = 0;
+    }
+    const uint64_t before = mts_webfile_bytes(wf);
+    int going = mts_webfile_poll(wf, s->c, timeout_ms);
+    s->st->bytes += mts_webfile_bytes(wf) - before;
+    if (!take_frames(s, deadline) || s->backlog)
+        return;
+    if (going)
+        return;
+    mts_result rc = mts_webfile_result(wf, err);
+    if (rc != MTS_OK) {
+        /* a cut, a timeout or a server down is worth a new conversation; a
+         * 404, a damaged file or a refused certificate is not */
+        conversation_failed(s, rc, rc == MTS_ERR_IO || s->c->rejected);
+        return;
+    }
+    mts_stream_event ev;
+    if ((rc = mts_webfile_end(wf, s->c, &ev, err)) != MTS_OK) {
+        conversation_failed(s, rc, 0);
+        return;
+    }
+    take_event(s, ev);
+}
+
 mts_result mts_session_begin(const mts_session_options *o, mts_stream_client *c,
                              mts_session_stats *st, mts_session **out, mts_error *err)
 {
@@ -466,6 +518,19 @@ int mts_session_poll(mts_session *s, int timeout_ms)
                                 s->max_ms / 1000, s->c->batches));
     else if (timeout_ms < 0 || timeout_ms > time_left) /* no wait past the limit */
         timeout_ms = (int)time_left + 1;
+    if (s->ph == PH_CONNECT && s->o->file) {
+        s->progress = 0;
+        if (s->connections++ == 0)
+            s->st->ms_connect = (1e3 * mts_clock_seconds()) - s->t0;
+        else
+            s->st->reconnects++;
+        mts_result rc = mts_webfile_begin(s->o->file, s->c, s->hello.stop_kind,
+                                          s->hello.stop_value, &s->err);
+        if (rc != MTS_OK)
+            conversation_failed(s, rc, rc == MTS_ERR_IO);
+        else
+            s->ph = PH_STREAM;
+    }
     if (s->ph == PH_CONNECT) { /* then on to connecting at once */
         int transient;
         s->progress = 0;
@@ -487,7 +552,10 @@ int mts_session_poll(mts_session *s, int timeout_ms)
         break;
     }
     case PH_STREAM:
-        stream_step(s, timeout_ms);
+        if (s->o->file)
+            file_step(s, timeout_ms);
+        else
+            stream_step(s, timeout_ms);
         break;
     case PH_WAIT: {
         double left = s->retry_at - (1e3 * mts_clock_seconds());

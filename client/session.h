@@ -36,6 +36,12 @@ typedef struct mts_session_options {
                              * stream cannot hold a client forever; 0: 600 */
     mts_wire_hello hello;   /* major/minor are filled in when zero */
     int list;               /* send LIST instead of HELLO */
+    /* When set, the stream comes from this stream file on a web server
+     * instead (webfile.h; host, port and list unused): each conversation
+     * is a range request, a resume asks for the batches not held, and the
+     * file's checks stand for END. The caller's, kept across sessions so
+     * that its index is read once; its own options hold the timeouts. */
+    struct mts_webfile *file;
     /* after each event; returning non-zero stops the session (MTS_ERR_ARG) */
     int (*on_event)(void *user, mts_stream_event ev, mts_stream_client *c);
     void *user;

@@ -165,7 +165,32 @@ static int prefix_done(mts_webfile *wf)
         MTS_OK)
         return failed(wf, mts_error_prefix(&wf->err, "%s", mts_http_url(wf->http)));
     wf->have_idx = 1;
+    if (!wf->c) { /* mts_webfile_read_index: the index was all it asked for */
+        wf->phase = PH_IDLE;
+        return 0;
+    }
     return start_range(wf);
+}
+
+mts_result mts_webfile_read_index(mts_webfile *wf, mts_error *err)
+{
+    if (wf->have_idx)
+        return MTS_OK;
+    mts_http_cancel(wf->http);
+    wf->c = NULL;
+    wf->rc = MTS_OK;
+    wf->phase = PH_PREFIX;
+    uint64_t to = wf->prefix_size ? wf->prefix_size : MTS_SFILE_FIRST_REQUEST;
+    if (wf->pre_len >= to)
+        prefix_done(wf);
+    else if (get(wf, wf->pre_len, to, wf->prefix_size ? 0 : MTS_HTTP_UP_TO))
+        while (wf->phase == PH_PREFIX)
+            mts_webfile_poll(wf, NULL, -1);
+    if (wf->phase == PH_FAILED) {
+        *err = wf->err;
+        return wf->rc;
+    }
+    return MTS_OK;
 }
 
 int mts_webfile_poll(mts_webfile *wf, mts_stream_client *c, int timeout_ms)

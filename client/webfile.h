@@ -36,6 +36,11 @@ void mts_webfile_free(mts_webfile *wf);
 mts_result mts_webfile_begin(mts_webfile *wf, mts_stream_client *c, uint8_t stop_kind,
                              uint32_t stop_value, mts_error *err);
 
+/* Reads only the index, waiting for it (its timeouts are the options'), so
+ * that a caller can choose its stop from the file's counts before the first
+ * conversation, which then asks only for the range. */
+mts_result mts_webfile_read_index(mts_webfile *wf, mts_error *err);
+
 /* Waits at most timeout_ms for the network, and hands c what came. 1: the
  * conversation goes on; 0: every byte of it came, or it failed
  * (mts_webfile_result says which). */
