@@ -228,7 +228,7 @@ WEB_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE -O2 $(FP) $(W
 # the runtime and the protocol, and the client's GL-free camera and geomorphs
 # (the command-line helpers, the sockets and libcurl are the programs')
 WEB_LIB_OBJ := $(patsubst %.c,$(WEB_OBJ_DIR)/%.o,$(filter-out common/cli.c common/net.c common/fetch.c common/http.c,\
-               $(wildcard common/*.c protocol/*.c)) client/camera.c client/morph.c)
+               $(wildcard common/*.c protocol/*.c)) client/camera.c client/morph.c client/follow.c)
 WEB_OBJ  := $(WEB_OBJ_DIR)/web/mts_web.o $(WEB_OBJ_DIR)/web/draco_web.o
 WEB_LINK := -sMODULARIZE=1 -sEXPORT_NAME=createMtsWeb -sALLOW_MEMORY_GROWTH=1 \
             -sENVIRONMENT=web,node -sEXPORTED_FUNCTIONS=_malloc,_free \

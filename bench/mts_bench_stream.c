@@ -44,7 +44,7 @@ static double apply_all(const mts_buf *b, mts_render_context *ctx, mts_error *er
         ok = got > 0;
         if (!ok || !ctx || (ev != MTS_EV_BASE && ev != MTS_EV_BATCH))
             continue;
-        mts_view_source src = mts_view_source_of_stream(&c);
+        mts_follow_source src = mts_follow_source_of_stream(&c);
         if (!have_view) {
             double tc = cli_now();
             mts_render_options ro;

@@ -159,7 +159,7 @@ static uint32_t win_batch_step(const win *wn, uint32_t level, int up)
 
 static void win_key(win *wn, mts_key key)
 {
-    uint32_t cur = wn->rn->have_view ? wn->rn->view.lod->level : 0;
+    uint32_t cur = wn->rn->have_view ? wn->rn->view.follow.lod->level : 0;
     /* past what came only where the stream stopped short: that asks for more */
     uint32_t levels = wn->c->info.levels,
              avail = wn->c->end_checksum && !wn->failed_stream ? levels : wn->c->lod.level;
@@ -279,7 +279,7 @@ static int win_sync(win *wn, double now)
     mts_client_run *rn = wn->rn;
     if (!rn->have_view)
         return 1;
-    mts_view_source src = mts_view_source_of_stream(wn->c);
+    mts_follow_source src = mts_follow_source_of_stream(wn->c);
     return mts_view_sync(&rn->view, &src, win_choose_level(wn), now, &rn->err) == MTS_OK;
 }
 
@@ -295,7 +295,7 @@ static void win_hud_text(win *wn, double now)
                         : wn->streaming                   ? "streaming"
                         : c->stop_level < c->info.levels ? "complete to here (zoom in for more)"
                                                           : "complete";
-    const mts_view *v = &wn->rn->view;
+    const mts_follow *v = &wn->rn->view.follow;
     if (!wn->rn->have_view || !v->have_figures) {
         snprintf(wn->hud_text, sizeof wn->hud_text,
                  "%s  waiting for the base mesh\n%.1f frames/s  %llu bytes  %.2f MB/s  %s",
@@ -324,7 +324,7 @@ static int win_frame(win *wn, double now)
     win_hud_text(wn, now);
     int scale = wn->width >= 1000 ? 2 : 1;
     mts_renderer *r = rn->have_view ? rn->view.renderer : NULL;
-    if (r && rn->view.have_figures) {
+    if (r && rn->view.follow.have_figures) {
         double t = (1e3 * mts_clock_seconds());
         mts_render_set_camera(r, &rn->ro.camera);
         mts_render_set_style(r, &rn->ro.style);
@@ -348,8 +348,8 @@ static int win_frame(win *wn, double now)
         wn->fps_frames = 0;
         wn->fps_t = now;
     }
-    if (wn->want_shot && r && rn->view.have_figures) {
-        const mts_view *v = &rn->view;
+    if (wn->want_shot && r && rn->view.follow.have_figures) {
+        const mts_follow *v = &rn->view.follow;
         wn->want_shot = 0;
         char path[300];
         if (v->morph.active) /* a frame between two levels: say so in its name */
@@ -538,7 +538,7 @@ int client_window_main(client_options *o)
         cli_json_begin(&j, stdout);
         mts_client_run_json_head(&j, rn, &c, complete, wn.bytes_before + st.bytes);
         mts_client_run_json(&j, &c, &st, rn);
-        cli_json_num(&j, "morph_ms", rn->have_view ? rn->view.opts.morph_ms : 0, 1);
+        cli_json_num(&j, "morph_ms", rn->have_view ? rn->view.follow.opts.morph_ms : 0, 1);
         cli_json_u64(&j, "frames", wn.frames);
         /* conversations that went on past the stop because the view asked */
         cli_json_u64(&j, "continuations", wn.continuations);
@@ -549,7 +549,7 @@ int client_window_main(client_options *o)
                      wn.ms_streaming > 0 ? wn.frames_streaming * 1e3 / wn.ms_streaming : 0, 1);
         if (po->kind != MTS_LOD_POLICY_RECEIVED)
             cli_json_str(&j, "lod_policy", mts_lod_policy_name(po->kind));
-        cli_json_u64(&j, "level_shown", rn->have_view ? rn->view.shown.level : 0);
+        cli_json_u64(&j, "level_shown", rn->have_view ? rn->view.follow.shown.level : 0);
         /* each screenshot with the figures its frame's HUD showed, and the HUD text */
         cli_json_key(&j, "screenshots");
         fputc('[', stdout);

@@ -14,6 +14,7 @@
 
 #include "camera.h"
 #include "clock.h"
+#include "follow.h"
 #include "glprog.h"
 #include "pngwrite.h"
 
@@ -61,8 +62,7 @@ struct mts_renderer {
      * first draw after the strips changed */
     uint32_t *host;
     GLuint packed_ibo;
-    void *packed;              /* staging for the packed buffer */
-    uint64_t packed_cap;       /* entries packed can hold */
+    mts_follow_packed packed;  /* staging for the packed buffer */
     uint64_t packed_count;     /* entries in packed_ibo */
     int packed_kind;           /* the mode packed_ibo was built for; -1: stale */
     /* the slot buffer (ibo) lags the host copy: the packed modes never read
@@ -185,7 +185,7 @@ void mts_renderer_destroy(mts_renderer *r)
     free(r->length);
     free(r->staging);
     free(r->host);
-    free(r->packed);
+    mts_follow_packed_free(&r->packed);
     free(r);
 }
 
@@ -788,32 +788,23 @@ mts_result mts_render_update_strips(mts_renderer *r, const mts_lod *lod, mts_err
 /* ---- drawing ---------------------------------------------------------- */
 
 /* Rebuilds the packed buffer for COMPACT or JOINED from the host copy of
- * the strips (mts_strips_pack). */
+ * the strips (follow.h's packing, the page's too). */
 static mts_result build_packed(mts_renderer *r, int kind, mts_error *err)
 {
-    uint64_t need = mts_strips_pack_bound(r->length, r->strip_count, kind == PACK_JOINED);
-    if (need > (uint64_t)INT32_MAX)
-        return mts_error_set(err, MTS_ERR_LIMIT, "render: %llu packed indices",
-                             (unsigned long long)need);
-    size_t esize = r->packed_u16 ? 2u : 4u;
-    if (need > r->packed_cap) {
-        void *p = realloc(r->packed, (size_t)need * esize);
-        if (!p)
-            return mts_error_set(err, MTS_ERR_NOMEM, "render: %llu packed indices",
-                                 (unsigned long long)need);
-        r->packed = p;
-        r->packed_cap = need;
-    }
     uint32_t restart = kind == PACK_JOINED ? 0
                        : r->packed_u16     ? 0xFFFFu
                                            : MTS_RENDER_RESTART_INDEX;
-    uint64_t n = mts_strips_pack(r->host, r->offset, r->length, r->strip_count, restart,
-                                 r->packed_u16, r->packed, NULL);
+    mts_result rc = mts_follow_pack_strips(&r->packed, r->host, r->offset, r->length,
+                                           r->strip_count, restart, r->packed_u16, 0, err);
+    if (rc != MTS_OK)
+        return rc;
+    uint64_t n = r->packed.count;
+    size_t esize = r->packed_u16 ? 2u : 4u;
     if (!r->packed_ibo)
         glGenBuffers(1, &r->packed_ibo);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->packed_ibo);
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(n ? n * esize : esize),
-                 n ? r->packed : NULL, GL_DYNAMIC_DRAW);
+                 n ? r->packed.indices : NULL, GL_DYNAMIC_DRAW);
     r->packed_count = n;
     r->packed_kind = kind;
     r->stats.packed_builds++;

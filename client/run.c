@@ -30,7 +30,7 @@ static void level_png_path(const mts_client_run *rn, uint32_t level, char *out, 
 static int draw(mts_client_run *rn, mts_stream_client *c, uint32_t level)
 {
     double t = 1e3 * mts_clock_seconds();
-    mts_view_source src = mts_view_source_of_stream(c);
+    mts_follow_source src = mts_follow_source_of_stream(c);
     if (mts_view_sync(&rn->view, &src, level, t, &rn->err) != MTS_OK ||
         mts_view_draw(&rn->view, &rn->err) != MTS_OK)
         return 0;
@@ -67,7 +67,7 @@ static int level_pngs(mts_client_run *rn, mts_stream_client *c, int final)
         level_png_path(rn, want, path, sizeof path);
         if (!write_png(rn, path))
             return 0;
-        mts_view_source src = mts_view_source_of_stream(c);
+        mts_follow_source src = mts_follow_source_of_stream(c);
         if (mts_view_sync(&rn->view, &src, reached, 1e3 * mts_clock_seconds(), &rn->err) !=
             MTS_OK)
             return 0;
@@ -176,7 +176,7 @@ int mts_client_run_make_view(mts_client_run *rn, mts_stream_client *c,
 {
     /* a stream without normals is shaded from the faces each level has */
     rn->ro.style.flat_shading = !(c->info.flags & MTS_INFO_NORMALS);
-    mts_view_source src = mts_view_source_of_stream(c);
+    mts_follow_source src = mts_follow_source_of_stream(c);
     if (mts_view_create(&rn->view, rn->ctx, &rn->ro, &src, vo, &rn->err) != MTS_OK) {
         rn->failed = 1;
         return 0;

@@ -99,27 +99,28 @@ static void test_view_levels(mts_test *t)
     mts_error err = {0};
     mts_lod src_lod;
     CHECK(t, mts_lod_init(&src_lod, &g_cow, MTS_LOD_AT_FULL, &err) == MTS_OK);
-    mts_view_source src = mts_view_source_of_model(&src_lod, &g_cow);
+    mts_follow_source src = mts_follow_source_of_model(&src_lod, &g_cow);
     mts_render_options o;
     options(&o);
     const uint32_t n = g_cow.level_count;
     const uint32_t levels[4] = {n, n / 10, 0, n / 2};
     for (int own = 0; own < 2; own++) {
         mts_view v;
+        const mts_follow *vf = &v.follow; /* the level drawn, its figures, the morph */
         mts_view_options vo = {own, 0};
         CHECKF(t, mts_view_create(&v, g_ctx, &o, &src, &vo, &err) == MTS_OK, "%s", err.msg);
         for (int i = 0; i < 4; i++) {
             uint32_t l = levels[i];
             CHECKF(t, mts_view_sync(&v, &src, l, 0, &err) == MTS_OK, "%s", err.msg);
-            CHECKF(t, v.shown.level == l && v.lod->level == l, "own %d: at %u, asked %u", own,
-                   v.shown.level, l);
-            CHECKF(t, v.shown.triangles == g_cow.level_triangles[l] &&
-                          v.shown.strips == g_cow.level_strips[l] &&
-                          v.shown.indices == g_cow.level_indices[l],
+            CHECKF(t, vf->shown.level == l && vf->lod->level == l, "own %d: at %u, asked %u", own,
+                   vf->shown.level, l);
+            CHECKF(t, vf->shown.triangles == g_cow.level_triangles[l] &&
+                          vf->shown.strips == g_cow.level_strips[l] &&
+                          vf->shown.indices == g_cow.level_indices[l],
                    "own %d level %u: %u triangles %u strips %llu indices, the model says %u %u "
                    "%u",
-                   own, l, v.shown.triangles, v.shown.strips,
-                   (unsigned long long)v.shown.indices, g_cow.level_triangles[l],
+                   own, l, vf->shown.triangles, vf->shown.strips,
+                   (unsigned long long)vf->shown.indices, g_cow.level_triangles[l],
                    g_cow.level_strips[l], g_cow.level_indices[l]);
             CHECKF(t, own ? src_lod.level == n : src_lod.level == l,
                    "own %d: the source is at %u", own, src_lod.level);
@@ -130,9 +131,9 @@ static void test_view_levels(mts_test *t)
                        pixels_differing(&got, &want, 0));
         }
         /* asking past what is there shows what is there */
-        CHECK(t, mts_view_sync(&v, &src, n + 100, 0, &err) == MTS_OK && v.shown.level == n);
+        CHECK(t, mts_view_sync(&v, &src, n + 100, 0, &err) == MTS_OK && vf->shown.level == n);
         CHECK(t, mts_view_sync(&v, &src, MTS_VIEW_NEWEST, 0, &err) == MTS_OK &&
-                     v.shown.level == n);
+                     vf->shown.level == n);
         mts_view_free(&v);
     }
     /* geomorphs need a runtime of the view's own */
@@ -151,13 +152,14 @@ static void test_view_follows_growing_source(mts_test *t)
     mts_error err = {0};
     mts_lod src_lod;
     CHECK(t, mts_lod_init(&src_lod, &g_cow, MTS_LOD_AT_BASE, &err) == MTS_OK);
-    mts_view_source src = mts_view_source_of_model(&src_lod, &g_cow);
+    mts_follow_source src = mts_follow_source_of_model(&src_lod, &g_cow);
     const uint32_t nb = g_cow.base_vertex_count, n = g_cow.level_count;
     src.vertices = nb;
     mts_lod_set_available(&src_lod, 0);
     mts_render_options o;
     options(&o);
     mts_view v;
+    const mts_follow *vf = &v.follow; /* the level drawn, its figures, the morph */
     mts_view_options vo = {1, 0};
     CHECKF(t, mts_view_create(&v, g_ctx, &o, &src, &vo, &err) == MTS_OK, "%s", err.msg);
     for (uint32_t step = 0; step <= 4; step++) {
@@ -166,7 +168,7 @@ static void test_view_follows_growing_source(mts_test *t)
         mts_lod_set_available(&src_lod, have);
         CHECK(t, mts_lod_set_level(&src_lod, have, &err) == MTS_OK);
         CHECKF(t, mts_view_sync(&v, &src, MTS_VIEW_NEWEST, 0, &err) == MTS_OK, "%s", err.msg);
-        CHECKF(t, v.shown.level == have, "step %u: view at %u, %u came", step, v.shown.level,
+        CHECKF(t, vf->shown.level == have, "step %u: view at %u, %u came", step, vf->shown.level,
                have);
         CHECK(t, mts_render_vertex_count(v.renderer) == nb + have);
         frame got, want;
@@ -190,7 +192,7 @@ static void test_view_morph(mts_test *t)
     mts_error err = {0};
     mts_lod src_lod;
     CHECK(t, mts_lod_init(&src_lod, &g_cow, MTS_LOD_AT_FULL, &err) == MTS_OK);
-    mts_view_source src = mts_view_source_of_model(&src_lod, &g_cow);
+    mts_follow_source src = mts_follow_source_of_model(&src_lod, &g_cow);
     const uint32_t a = g_cow.level_count / 20, b = g_cow.level_count / 4;
     frame ref_a, ref_b;
     if (!reference_frame(t, a, &ref_a) || !reference_frame(t, b, &ref_b))
@@ -201,11 +203,13 @@ static void test_view_morph(mts_test *t)
     mts_render_options o;
     options(&o);
     mts_view v;
+    const mts_follow *vf = &v.follow; /* the level drawn, its figures, the morph */
     mts_view_options vo = {1, 100};
     CHECKF(t, mts_view_create(&v, g_ctx, &o, &src, &vo, &err) == MTS_OK, "%s", err.msg);
     /* base -> a, to its end */
-    CHECK(t, mts_view_sync(&v, &src, a, 0, &err) == MTS_OK && v.morph.active && v.lod->level == a);
-    CHECK(t, mts_view_sync(&v, &src, a, 1000, &err) == MTS_OK && !v.morph.active);
+    CHECK(t, mts_view_sync(&v, &src, a, 0, &err) == MTS_OK && vf->morph.active &&
+                 vf->lod->level == a);
+    CHECK(t, mts_view_sync(&v, &src, a, 1000, &err) == MTS_OK && !vf->morph.active);
     frame f;
     if (view_frame(t, &v, &f))
         CHECKF(t, pixels_differing(&f, &ref_a, 0) == 0, "after the morph to %u: %u pixels",
@@ -214,8 +218,8 @@ static void test_view_morph(mts_test *t)
     /* up: the level is set at once, its new vertices start at their
      * ancestors' places; the first frame is level a's surface */
     CHECK(t, mts_view_sync(&v, &src, b, 2000, &err) == MTS_OK);
-    CHECKF(t, v.morph.active && v.lod->level == b && v.shown.level == b && v.morph.t == 0,
-           "morphing %d at %u, t %.2f", v.morph.active, v.lod->level, v.morph.t);
+    CHECKF(t, vf->morph.active && vf->lod->level == b && vf->shown.level == b && vf->morph.t == 0,
+           "morphing %d at %u, t %.2f", vf->morph.active, vf->lod->level, vf->morph.t);
     frame m0, m50, m_down;
     if (view_frame(t, &v, &m0)) {
         uint32_t d = pixels_differing(&m0, &ref_a, 8);
@@ -226,8 +230,8 @@ static void test_view_morph(mts_test *t)
     }
     /* a request meanwhile waits for the morph to end */
     CHECK(t, mts_view_sync(&v, &src, g_cow.level_count, 2050, &err) == MTS_OK);
-    CHECKF(t, v.morph.active && v.lod->level == b && v.morph.t > 0.45f && v.morph.t < 0.55f,
-           "half-way: morphing %d at %u, t %.2f", v.morph.active, v.lod->level, v.morph.t);
+    CHECKF(t, vf->morph.active && vf->lod->level == b && vf->morph.t > 0.45f && vf->morph.t < 0.55f,
+           "half-way: morphing %d at %u, t %.2f", vf->morph.active, vf->lod->level, vf->morph.t);
     if (view_frame(t, &v, &m50)) {
         double da = frame_diff(&m50, &ref_a), db = frame_diff(&m50, &ref_b);
         fprintf(stderr, "  half-way: %.3f from level %u, %.3f from level %u (they are %.3f "
@@ -236,28 +240,28 @@ static void test_view_morph(mts_test *t)
                "half-way frame not between: %.3f from a, %.3f from b, a to b %.3f", da, db,
                d_ab);
     }
-    CHECK(t, mts_view_sync(&v, &src, b, 3000, &err) == MTS_OK && !v.morph.active);
+    CHECK(t, mts_view_sync(&v, &src, b, 3000, &err) == MTS_OK && !vf->morph.active);
     if (view_frame(t, &v, &f))
         CHECKF(t, pixels_differing(&f, &ref_b, 0) == 0, "after the morph to %u: %u pixels",
                b, pixels_differing(&f, &ref_b, 0));
 
     /* down: the vertices slide back first, the level drops at the end */
     CHECK(t, mts_view_sync(&v, &src, a, 4000, &err) == MTS_OK);
-    CHECKF(t, v.morph.active && v.lod->level == b && v.morph.t == 1, "down: at %u, t %.2f",
-           v.lod->level, v.morph.t);
+    CHECKF(t, vf->morph.active && vf->lod->level == b && vf->morph.t == 1, "down: at %u, t %.2f",
+           vf->lod->level, vf->morph.t);
     if (view_frame(t, &v, &f))
         CHECKF(t, pixels_differing(&f, &ref_b, 0) == 0,
                "the first frame down differs from level %u's in %u pixels", b,
                pixels_differing(&f, &ref_b, 0));
-    CHECK(t, mts_view_sync(&v, &src, a, 4050, &err) == MTS_OK && v.morph.active);
+    CHECK(t, mts_view_sync(&v, &src, a, 4050, &err) == MTS_OK && vf->morph.active);
     if (view_frame(t, &v, &m_down)) {
         double da = frame_diff(&m_down, &ref_a), db = frame_diff(&m_down, &ref_b);
         CHECKF(t, da < d_ab && db < d_ab && pixels_differing(&m_down, &m50, 8) < SIDE * SIDE / 500,
                "half-way down: %.3f from a, %.3f from b; half-way up and down differ in %u "
                "pixels", da, db, pixels_differing(&m_down, &m50, 8));
     }
-    CHECK(t, mts_view_sync(&v, &src, a, 5000, &err) == MTS_OK && !v.morph.active &&
-                 v.lod->level == a && v.shown.level == a);
+    CHECK(t, mts_view_sync(&v, &src, a, 5000, &err) == MTS_OK && !vf->morph.active &&
+                 vf->lod->level == a && vf->shown.level == a);
     if (view_frame(t, &v, &f))
         CHECKF(t, pixels_differing(&f, &ref_a, 0) == 0, "back at %u: %u pixels", a,
                pixels_differing(&f, &ref_a, 0));

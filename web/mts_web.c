@@ -1,5 +1,6 @@
 /* The browser's decoder (mts_web.h): the native stream client, fed from
- * JavaScript, and a view runtime the page draws. */
+ * JavaScript, and a follower (client/follow.h, the native view's) whose
+ * packed level the page draws. */
 #include "mts_web.h"
 
 #include <stdio.h>
@@ -15,10 +16,8 @@
 
 #include "bytes.h"
 #include "camera.h"
-#include "morph.h"
-#include "lod.h"
+#include "follow.h"
 #include "stream.h"
-#include "strips.h"
 #include "wire.h"
 
 struct mts_web {
@@ -29,20 +28,13 @@ struct mts_web {
     int failed, state;
     char checksum[17], server_checksum[17];
     mts_buf models; /* the listing as text, NUL-terminated */
-    /* the view: a runtime of its own over the client's model */
-    mts_lod view;
-    int have_view;
-    uint32_t announced;
-    uint32_t *packed, *strip_first, *strip_length;
-    float *strip_rgb; /* 3 floats a strip drawn */
+    /* what the page draws: a runtime of its own over the client's model,
+     * made at the first show */
+    mts_follow follow;
+    int have_follow;
+    double morph_ms;
     mts_camera_view camera;
-    mts_morph morph;
-    int shown; /* a level was shown: later changes morph */
-    uint32_t morph_serial; /* counts the morph's range changes */
     float style[11];
-    uint64_t packed_cap;
-    uint32_t packed_count, strip_cap, strip_drawn;
-    uint32_t triangles, strips;
     float bbox[6];
 };
 
@@ -51,7 +43,7 @@ MTS_WEB_API mts_web *mts_web_create(void)
     mts_web *w = calloc(1, sizeof *w);
     if (w) {
         mts_stream_client_init(&w->client);
-        w->morph.t = 1;
+        w->follow.morph.t = 1; /* what the page reads before the first show */
     }
     return w;
 }
@@ -60,17 +52,12 @@ MTS_WEB_API void mts_web_destroy(mts_web *w)
 {
     if (!w)
         return;
-    if (w->have_view)
-        mts_lod_free(&w->view);
-    mts_morph_free(&w->morph);
+    if (w->have_follow)
+        mts_follow_free(&w->follow);
     mts_stream_client_free(&w->client);
     mts_wire_reader_free(&w->reader);
     mts_buf_free(&w->out);
     mts_buf_free(&w->models);
-    free(w->packed);
-    free(w->strip_first);
-    free(w->strip_length);
-    free(w->strip_rgb);
     free(w);
 }
 
@@ -228,166 +215,107 @@ MTS_WEB_API const char *mts_web_models(const mts_web *w)
     return w->models.size ? (const char *)w->models.data : "";
 }
 
-/* Packs the view's level as one joined strip. */
-static mts_result pack(mts_web *w)
-{
-    const mts_lod *l = &w->view;
-    uint64_t need = mts_strips_pack_bound(l->length, l->strip_count, 1);
-    if (need > UINT32_MAX)
-        return mts_error_set(&w->err, MTS_ERR_LIMIT, "web: %llu packed indices",
-                             (unsigned long long)need);
-    if (need > w->packed_cap) {
-        uint32_t *p = realloc(w->packed, (size_t)(need ? need : 1) * sizeof *p);
-        if (!p)
-            return mts_error_set(&w->err, MTS_ERR_NOMEM, "web: %llu packed indices",
-                                 (unsigned long long)need);
-        w->packed = p;
-        w->packed_cap = need;
-    }
-    if (l->strip_count > w->strip_cap) {
-        uint32_t *f = realloc(w->strip_first, (size_t)l->strip_count * sizeof *f);
-        if (f)
-            w->strip_first = f;
-        uint32_t *n = realloc(w->strip_length, (size_t)l->strip_count * sizeof *n);
-        if (n)
-            w->strip_length = n;
-        float *rgb = realloc(w->strip_rgb, (size_t)l->strip_count * 3 * sizeof *rgb);
-        if (rgb)
-            w->strip_rgb = rgb;
-        if (!f || !n || !rgb)
-            return mts_error_set(&w->err, MTS_ERR_NOMEM, "web: %u strips", l->strip_count);
-        w->strip_cap = l->strip_count;
-    }
-    w->packed_count = (uint32_t)mts_strips_pack(l->data, l->slot, l->length, l->strip_count, 0,
-                                                0, w->packed, w->strip_first);
-    uint32_t k = 0;
-    for (uint32_t s = 0; s < l->strip_count; s++)
-        if (l->length[s] >= 3) {
-            mts_camera_strip_color(s, w->strip_rgb + 3 * (size_t)k);
-            w->strip_length[k++] = l->length[s];
-        }
-    w->strip_drawn = k;
-    mts_strip_stats ss;
-    mts_lod_strip_stats(l, &ss);
-    w->triangles = (uint32_t)ss.triangles;
-    w->strips = ss.strips;
-    return MTS_OK;
-}
-
 MTS_WEB_API mts_result mts_web_show(mts_web *w, uint32_t level, double now_ms)
 {
     mts_stream_client *c = &w->client;
     mts_result rc;
     if (w->state < 2 || !c->have_lod)
         return MTS_OK; /* nothing to draw yet */
-    if (!w->have_view) {
-        if ((rc = mts_lod_init(&w->view, &c->model, MTS_LOD_AT_BASE, &w->err)) != MTS_OK)
-            return rc;
-        w->have_view = 1;
-        w->announced = c->announced;
-    }
-    /* slots the stream laid out since are laid out before the view uses them */
-    if (c->announced > w->announced) {
-        if ((rc = mts_lod_announce(&w->view, w->announced, &w->err)) != MTS_OK)
-            return rc;
-        w->announced = c->announced;
-    }
-    uint32_t available = mts_web_received_level(w);
-    mts_lod_set_available(&w->view, available);
-    uint32_t target = level < available ? level : available;
-    int range_changed = 0;
-    if (!w->shown) {
+    mts_follow_source src = mts_follow_source_of_stream(c);
+    if (!w->have_follow) {
         /* the first picture has nothing to slide from: what came, at once
          * (and no morph program to compile before it) */
-        if ((rc = mts_lod_set_level(&w->view, target, &w->err)) != MTS_OK)
+        mts_follow_options fo = {1, w->morph_ms, 1};
+        if ((rc = mts_follow_init(&w->follow, &src, &fo, &w->err)) != MTS_OK)
             return rc;
-        w->shown = 1;
-    } else if ((rc = mts_morph_move(&w->morph, &w->view, &c->model, target, now_ms,
-                                    &range_changed, &w->err)) != MTS_OK) {
-        return rc;
+        w->have_follow = 1;
     }
-    w->morph_serial += range_changed;
-    return pack(w);
+    if ((rc = mts_follow_sync(&w->follow, &src, level, now_ms, NULL, &w->err)) != MTS_OK)
+        return rc;
+    /* the page repacks the whole level; nothing takes the changed list */
+    mts_follow_clear_changed(&w->follow);
+    return mts_follow_pack(&w->follow, &w->err);
 }
 
 MTS_WEB_API void mts_web_set_morph_ms(mts_web *w, double ms)
 {
-    w->morph.ms = ms > 0 && ms <= 1e6 ? ms : 0;
+    w->morph_ms = ms > 0 && ms <= 1e6 ? ms : 0;
+    w->follow.morph.ms = w->morph_ms;
 }
 
 MTS_WEB_API int mts_web_morph_active(const mts_web *w)
 {
-    return w->morph.active;
+    return w->follow.morph.active;
 }
 
 MTS_WEB_API float mts_web_morph_t(const mts_web *w)
 {
-    return w->morph.t;
+    return w->follow.morph.t;
 }
 
 MTS_WEB_API uint32_t mts_web_morph_first(const mts_web *w)
 {
-    return w->morph.first;
+    return w->follow.morph.first;
 }
 
 MTS_WEB_API uint32_t mts_web_morph_count(const mts_web *w)
 {
-    return w->morph.count;
+    return w->follow.morph.count;
 }
 
 MTS_WEB_API const float *mts_web_morph_from(const mts_web *w)
 {
-    return w->morph.from;
+    return w->follow.morph.from;
 }
 
 MTS_WEB_API uint32_t mts_web_morph_serial(const mts_web *w)
 {
-    return w->morph_serial;
+    return w->follow.morph_serial;
 }
 
 MTS_WEB_API uint32_t mts_web_shown_level(const mts_web *w)
 {
-    return w->have_view ? w->view.level : 0;
+    return w->have_follow ? w->follow.lod->level : 0;
 }
 
 MTS_WEB_API uint32_t mts_web_shown_triangles(const mts_web *w)
 {
-    return w->triangles;
+    return w->follow.shown.triangles;
 }
 
 MTS_WEB_API uint32_t mts_web_shown_strips(const mts_web *w)
 {
-    return w->strips;
+    return w->follow.shown.strips;
 }
 
 MTS_WEB_API const uint32_t *mts_web_indices(const mts_web *w)
 {
-    return w->packed;
+    return w->follow.packed.indices;
 }
 
 MTS_WEB_API uint32_t mts_web_index_count(const mts_web *w)
 {
-    return w->packed_count;
+    return (uint32_t)w->follow.packed.count;
 }
 
 MTS_WEB_API uint32_t mts_web_strip_count(const mts_web *w)
 {
-    return w->strip_drawn;
+    return w->follow.packed.strips;
 }
 
 MTS_WEB_API const uint32_t *mts_web_strip_first(const mts_web *w)
 {
-    return w->strip_first;
+    return w->follow.packed.strip_first;
 }
 
 MTS_WEB_API const uint32_t *mts_web_strip_length(const mts_web *w)
 {
-    return w->strip_length;
+    return w->follow.packed.strip_length;
 }
 
 MTS_WEB_API const float *mts_web_strip_colors(const mts_web *w)
 {
-    return w->strip_rgb;
+    return w->follow.packed.strip_rgb;
 }
 
 MTS_WEB_API const float *mts_web_camera(mts_web *w, float yaw_deg, float pitch_deg, float zoom,
