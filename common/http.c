@@ -163,6 +163,14 @@ static int check_start(mts_http *h)
                  (h->range_last == last ||
                   ((h->flags & MTS_HTTP_UP_TO) && h->range_last < last &&
                    h->range_total && h->range_last + 1 == h->range_total));
+        if (!ok && h->range_first == h->from && h->range_total &&
+            h->range_last + 1 == h->range_total)
+            return mts_error_set(&h->fail, MTS_ERR_FORMAT,
+                                 "the file ends after %llu bytes, before the end of the range "
+                                 "%llu-%llu asked for (cut short?)",
+                                 (unsigned long long)h->range_total, (unsigned long long)h->from,
+                                 (unsigned long long)last),
+                   failed(h);
         if (!ok)
             return mts_error_set(&h->fail, MTS_ERR_FORMAT,
                                  "the server sent bytes %llu-%llu for the range %llu-%llu asked "
@@ -354,13 +362,9 @@ mts_result mts_http_get(mts_http *h, uint64_t from, uint64_t to, int flags, mts_
     return MTS_OK;
 }
 
-int mts_http_poll(mts_http *h, int timeout_ms)
+/* Takes the transfer's DONE message, if libcurl has queued it. */
+static void harvest(mts_http *h)
 {
-    if (!h->active)
-        return 0;
-    int running = 0;
-    curl_multi_poll(h->multi, NULL, 0, timeout_ms < 0 ? 1000 : timeout_ms, NULL);
-    curl_multi_perform(h->multi, &running);
     CURLMsg *m;
     int left;
     while ((m = curl_multi_info_read(h->multi, &left)) != NULL) {
@@ -370,6 +374,20 @@ int mts_http_poll(mts_http *h, int timeout_ms)
             h->active = 0;
         }
     }
+}
+
+int mts_http_poll(mts_http *h, int timeout_ms)
+{
+    /* a transfer can end inside the perform of mts_http_get or of the last
+     * poll: waiting on the sockets first would then sleep the whole timeout
+     * on a connection that has nothing more to say */
+    harvest(h);
+    if (!h->active)
+        return 0;
+    int running = 0;
+    curl_multi_poll(h->multi, NULL, 0, timeout_ms < 0 ? 1000 : timeout_ms, NULL);
+    curl_multi_perform(h->multi, &running);
+    harvest(h);
     return h->active;
 }
 

@@ -229,7 +229,7 @@ static inline int mts_test_conf_from(const char *src, const char *dst, const cha
                                      const char *const *lines, int n)
 {
     FILE *in = fopen(src, "r"), *out = in ? fopen(dst, "w") : NULL;
-    int found[8] = {0}, ok = in && out && n <= 8;
+    int found[16] = {0}, ok = in && out && n <= 16;
     char line[1024];
     while (ok && fgets(line, sizeof line, in)) {
         const char *t = line + strspn(line, " \t");
@@ -309,6 +309,107 @@ static inline pid_t mts_test_front_start(const char *nginx, const char *dir, con
         }
     }
     return -1;
+}
+
+/* docker/nginx-tls.conf run as is, with its marked lines replaced: a
+ * throwaway CA of its own (dir/ca.pem, made by mts_test_tls_front_ca) and a
+ * certificate for 127.0.0.1 it signed, root served over http and https
+ * (HTTP/2), /stream proxied to ws_upstream and TLS on tls_port proxied to
+ * tcp_upstream. limit_rate, when set, replaces the stream files' rate line
+ * (the tests slow a transfer down with ?rate=). */
+typedef struct mts_test_tls_front {
+    char dir[600];  /* absolute: the CA, the config, nginx's prefix and log */
+    char root[700]; /* absolute: what it serves */
+    char nginx[512];
+    int ws_upstream, tcp_upstream;
+    const char *limit_rate;
+    int http_port, https_port, tls_port; /* chosen at the first start, kept on restarts */
+    pid_t pid;
+} mts_test_tls_front;
+
+/* The CA (ca.pem, ca.key) and nginx's certificate (cert.pem, key.pem) for
+ * 127.0.0.1 and localhost, made by openssl in f->dir. 1 on success; else
+ * out says what openssl said. */
+static inline int mts_test_tls_front_ca(const mts_test_tls_front *f, char *out, size_t size)
+{
+    char cmd[4096];
+    mkdir(f->dir, 0755);
+    snprintf(cmd, sizeof cmd,
+             "cd %s && openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes "
+             "-keyout ca.key -out ca.pem -days 2 -subj '/CN=mtstream test CA' && "
+             "openssl req -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -keyout key.pem "
+             "-out srv.csr -subj /CN=127.0.0.1 && "
+             "printf 'subjectAltName=IP:127.0.0.1,DNS:localhost\\n' > ext.cnf && "
+             "openssl x509 -req -in srv.csr -CA ca.pem -CAkey ca.key -CAcreateserial "
+             "-out cert.pem -days 2 -extfile ext.cnf 2>&1",
+             f->dir);
+    return mts_test_run(cmd, out, size) == 0;
+}
+
+/* Starts (or starts again) nginx on f's ports. The pid (also in f->pid),
+ * or -1 when it did not listen (dir/nginx.log says why). */
+static inline pid_t mts_test_tls_front_start(mts_test_tls_front *f)
+{
+    char conf[800], prefix[800], log[800];
+    snprintf(conf, sizeof conf, "%s/nginx.conf", f->dir);
+    snprintf(prefix, sizeof prefix, "%s/nginx/", f->dir);
+    snprintf(log, sizeof log, "%s/nginx.log", f->dir);
+    mkdir(prefix, 0755);
+    f->pid = -1;
+    if (!f->http_port) {
+        f->http_port = mts_test_free_port();
+        f->https_port = mts_test_free_port();
+        f->tls_port = mts_test_free_port();
+    }
+    char l[11][900];
+    snprintf(l[0], sizeof l[0], "listen 127.0.0.1:%d;", f->http_port);
+    snprintf(l[1], sizeof l[1], "listen 127.0.0.1:%d ssl http2;", f->https_port);
+    snprintf(l[2], sizeof l[2], "ssl_certificate %s/cert.pem;", f->dir);
+    snprintf(l[3], sizeof l[3], "ssl_certificate_key %s/key.pem;", f->dir);
+    snprintf(l[4], sizeof l[4], "root %s;", f->root);
+    snprintf(l[5], sizeof l[5], "server 127.0.0.1:%d;", f->ws_upstream ? f->ws_upstream : 9);
+    snprintf(l[6], sizeof l[6], "server 127.0.0.1:%d;", f->tcp_upstream ? f->tcp_upstream : 9);
+    snprintf(l[7], sizeof l[7], "listen 127.0.0.1:%d ssl;", f->tls_port);
+    snprintf(l[8], sizeof l[8], "%s", f->limit_rate ? f->limit_rate : "limit_rate 0;");
+    const char *marks[] = {"@HTTP_LISTEN@", "@HTTPS_LISTEN@", "@CERT@",        "@KEY@",
+                           "@ROOT@",        "@WS_UPSTREAM@",  "@TCP_UPSTREAM@", "@TLS_LISTEN@",
+                           "@LIMIT_RATE@",  "@STREAM_CERT@",  "@STREAM_KEY@"};
+    const char *lines[] = {l[0], l[1], l[2], l[3], l[4], l[5], l[6], l[7], l[8], l[2], l[3]};
+    if (!mts_test_conf_from("docker/nginx-tls.conf", conf, marks, lines, 11))
+        return -1;
+    pid_t parent = getpid();
+    pid_t pid = fork();
+    if (pid == 0) {
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
+        if (getppid() != parent || !freopen(log, "a", stderr) || !freopen("/dev/null", "w", stdout))
+            _exit(126);
+        execl(f->nginx, f->nginx, "-e", "stderr", "-p", prefix, "-c", conf, "-g",
+              "master_process off; pid nginx.pid;", (char *)NULL);
+        _exit(127);
+    }
+    if (pid < 0)
+        return -1;
+    for (int i = 0; i < 100; i++) {
+        int st;
+        if (waitpid(pid, &st, WNOHANG) == pid)
+            return -1;
+        if (mts_test_wait_port(f->https_port, 0.05) && mts_test_wait_port(f->http_port, 0.05) &&
+            mts_test_wait_port(f->tls_port, 0.05))
+            return f->pid = pid;
+    }
+    kill(pid, SIGKILL);
+    waitpid(pid, NULL, 0);
+    return -1;
+}
+
+/* Stops it: SIGKILL as a crash (every connection cut at once), else SIGTERM. */
+static inline void mts_test_tls_front_stop(mts_test_tls_front *f, int crash)
+{
+    if (f->pid > 0) {
+        kill(f->pid, crash ? SIGKILL : SIGTERM);
+        waitpid(f->pid, NULL, 0);
+    }
+    f->pid = -1;
 }
 
 /* The first size-1 bytes of a file, NUL-terminated ("" when unreadable). */

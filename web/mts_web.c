@@ -22,7 +22,6 @@
 
 struct mts_web {
     mts_stream_client client;
-    mts_wire_reader reader;
     mts_buf out;
     mts_error err;
     int failed, state;
@@ -55,7 +54,6 @@ MTS_WEB_API void mts_web_destroy(mts_web *w)
     if (w->have_follow)
         mts_follow_free(&w->follow);
     mts_stream_client_free(&w->client);
-    mts_wire_reader_free(&w->reader);
     mts_buf_free(&w->out);
     mts_buf_free(&w->models);
     free(w);
@@ -112,17 +110,12 @@ MTS_WEB_API mts_result mts_web_feed(mts_web *w, const uint8_t *data, size_t size
         return w->err.code ? w->err.code : MTS_ERR_FORMAT;
     w->client.on_model = on_model;
     w->client.user = w;
-    mts_result rc = mts_wire_reader_feed(&w->reader, data, size, &w->err);
+    mts_result rc = mts_stream_client_feed(&w->client, data, size, &w->err);
     if (rc != MTS_OK)
         return fail(w, rc);
-    uint8_t type;
-    const uint8_t *p;
-    size_t len;
+    mts_stream_event ev;
     int got;
-    while ((got = mts_wire_reader_next(&w->reader, &type, &p, &len, &w->err)) == 1) {
-        mts_stream_event ev;
-        if ((rc = mts_stream_client_frame(&w->client, type, p, len, &ev, &w->err)) != MTS_OK)
-            return fail(w, rc);
+    while ((got = mts_stream_client_next(&w->client, &ev, &w->err)) == 1) {
         if (ev == MTS_EV_INFO) {
             w->state = 1;
             memcpy(w->bbox, w->client.info.bbox_min, 12);
