@@ -36,6 +36,14 @@ struct mts_http {
     int whole_file, done_early, stopped;
     int failed;
     mts_error fail;
+    /* The file as the first answer described it, so that a later range --
+     * a resume, a continuation -- never mixes in bytes of a file rebuilt
+     * under the same name meanwhile: asked for with If-Range (a server
+     * whose file changed answers 200, a new whole file) and checked. */
+    char etag_now[128];      /* this response's strong ETag ("" when none) */
+    char etag[128];          /* the first response's */
+    uint64_t size_seen;      /* the file's size as first told (0: not yet) */
+    struct curl_slist *if_range;
 };
 
 static int ieq_prefix(const char *s, size_t n, const char *lower)
@@ -120,12 +128,22 @@ static size_t on_header(char *line, size_t size, size_t count, void *user)
         h->status = 0;
         h->have_range = h->range_unsatisfied = 0;
         h->content_length = -1;
+        h->etag_now[0] = 0;
         const char *sp = memchr(line, ' ', len);
         uint64_t st;
         if (sp && (sp++, number(&sp, end, &st)) && st < 1000)
             h->status = (long)st;
     } else if (ieq_prefix(line, len, "content-range:")) {
         parse_content_range(h, line + 14, end);
+    } else if (ieq_prefix(line, len, "etag:")) {
+        /* only a strong one: a weak ETag may not be used with If-Range */
+        const char *v = line + 5;
+        skip_spaces(&v, end);
+        size_t k = (size_t)(end - v);
+        if (k >= 2 && *v == '"' && k < sizeof h->etag_now) {
+            memcpy(h->etag_now, v, k);
+            h->etag_now[k] = 0;
+        }
     } else if (ieq_prefix(line, len, "content-length:")) {
         const char *v = line + 15;
         skip_spaces(&v, end);
@@ -194,6 +212,22 @@ static int check_start(mts_http *h)
                    failed(h);
     } else {
         return mts_error_set(&h->fail, MTS_ERR_IO, "HTTP status %ld", h->status), failed(h);
+    }
+    /* the same file as the first answer's, or the held bytes mean nothing */
+    const uint64_t size = h->status == 206 ? h->range_total
+                          : h->content_length >= 0 ? (uint64_t)h->content_length
+                                                   : 0;
+    if ((h->etag[0] && strcmp(h->etag, h->etag_now) != 0) ||
+        (h->size_seen && size && size != h->size_seen))
+        return mts_error_set(&h->fail, MTS_ERR_FORMAT,
+                             "the file changed on the server since its first bytes were read "
+                             "(ETag %s, %llu bytes; now %s, %llu bytes): start again",
+                             h->etag[0] ? h->etag : "none", (unsigned long long)h->size_seen,
+                             h->etag_now[0] ? h->etag_now : "none", (unsigned long long)size),
+               failed(h);
+    if (!h->size_seen && !h->etag[0]) {
+        memcpy(h->etag, h->etag_now, sizeof h->etag);
+        h->size_seen = size;
     }
     h->started = 1;
     return 1;
@@ -325,6 +359,7 @@ void mts_http_free(mts_http *h)
         curl_easy_cleanup(h->easy);
     if (h->multi)
         curl_multi_cleanup(h->multi);
+    curl_slist_free_all(h->if_range);
     free(h->url);
     free(h);
 }
@@ -352,6 +387,13 @@ mts_result mts_http_get(mts_http *h, uint64_t from, uint64_t to, int flags, mts_
     char range[64];
     snprintf(range, sizeof range, "%llu-%llu", (unsigned long long)from,
              (unsigned long long)(to - 1));
+    if (h->etag[0] && !h->if_range) {
+        char line[160];
+        snprintf(line, sizeof line, "If-Range: %s", h->etag);
+        if (!(h->if_range = curl_slist_append(NULL, line)) ||
+            curl_easy_setopt(h->easy, CURLOPT_HTTPHEADER, h->if_range) != CURLE_OK)
+            return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for a header", h->shown);
+    }
     if (curl_easy_setopt(h->easy, CURLOPT_RANGE, range) != CURLE_OK ||
         curl_multi_add_handle(h->multi, h->easy) != CURLM_OK)
         return mts_error_set(err, MTS_ERR_INTERNAL, "%s: libcurl could not start a transfer",

@@ -17,6 +17,11 @@
  * that name what came. Nothing is buffered here: each piece goes to the
  * callback as libcurl hands it over.
  *
+ * Every range after the first is of the same file: it is asked for with
+ * If-Range and the first answer's ETag, and an answer of another ETag or
+ * another size (a file rebuilt under the same name between a cut and its
+ * resume) is an error that says so, never bytes mixed from two files.
+ *
  * The program calls mts_fetch_global_init() once first (fetch.h). */
 #ifndef MTS_HTTP_H
 #define MTS_HTTP_H

@@ -225,6 +225,44 @@ static void test_resume_after_restart(mts_test *t)
            "after the restart: %s (TCP checksum %s)", out, ref.checksum);
 }
 
+/* The file rebuilt under the same name while a client was cut off: its
+ * resume asks with If-Range and must refuse the new bytes by name rather
+ * than mix two files. */
+static void test_file_changed_between_ranges(mts_test *t)
+{
+    char src[800], dst[800], cmd[4000], out[8192];
+    snprintf(src, sizeof src, "%s/cow.mts", E.www);
+    snprintf(dst, sizeof dst, "%s/changing.mts", E.www);
+    snprintf(cmd, sizeof cmd, "cp %s %s", src, dst);
+    CHECK(t, sh(cmd));
+    snprintf(cmd, sizeof cmd,
+             "%s/mts-client 'http://127.0.0.1:%d/changing.mts?rate=4k' --no-render --json "
+             "--resume --retries 40 --timeout 5 > %s/changed.json 2>%s/changed.log",
+             E.bin, E.front.http_port, E.dir, E.dir);
+    pid_t pid = fork();
+    if (pid == 0) {
+        execl("/bin/sh", "sh", "-c", cmd, (char *)NULL);
+        _exit(127);
+    }
+    sleep_ms(1500);
+    mts_test_tls_front_stop(&E.front, 1);
+    /* another build of the model: other bytes late in the file and a new
+     * modification time, so nginx gives it a new ETag */
+    snprintf(cmd, sizeof cmd,
+             "printf 'XXXX' | dd of=%s bs=1 seek=$(($(stat -c %%s %s) - 100)) conv=notrunc "
+             "2>/dev/null && touch -d '+1 minute' %s",
+             dst, dst, dst);
+    CHECK(t, sh(cmd));
+    CHECKF(t, mts_test_tls_front_start(&E.front) > 0, "nginx did not start again");
+    int st = 0;
+    waitpid(pid, &st, 0);
+    char path[800];
+    snprintf(path, sizeof path, "%s/changed.json", E.dir);
+    mts_test_read_file(path, out, sizeof out);
+    CHECKF(t, WIFEXITED(st) && WEXITSTATUS(st) == 1 && strstr(out, "changed on the server"),
+           "exit %d: %s", WIFEXITED(st) ? WEXITSTATUS(st) : -1, out);
+}
+
 static int write_file(const char *path, const uint8_t *data, size_t size)
 {
     FILE *f = fopen(path, "wb");
@@ -421,6 +459,7 @@ int main(int argc, char **argv)
         RUN(&t, test_damaged_files);
         RUN(&t, test_hostile_web_server);
         RUN(&t, test_resume_after_restart);
+        RUN(&t, test_file_changed_between_ranges);
     }
     mts_test_tls_front_stop(&E.front, 0);
     if (E.sv.pid > 0)
