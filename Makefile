@@ -30,7 +30,8 @@ CXXFLAGS += -std=c++17 $(OPT) $(FP) -DNDEBUG -Wall -Werror -Wno-maybe-uninitiali
 # The layers (docs/architecture.md): each folder is compiled with the include
 # paths of what it may use, so an include the wrong way fails the build.
 #   common/    the runtime every part shares (growth, LOD runtime, model file, ...)
-#   protocol/  the wire, the stream's coding, WebSocket, Draco      uses common
+#   protocol/  the wire, the stream's coding, stream files, WebSocket, Draco
+#                                                               uses common
 #   builder/   mesh in, model or stream file out (mts-build, mts-inspect)
 #                                                     uses common, protocol
 #   server/    mts-server                      uses common, protocol, builder
@@ -225,9 +226,10 @@ WEB_ENV  := NODE_PATH=/usr/share/nodejs
 WEB_DIR  := build/web
 WEB_OBJ_DIR := build/web-obj
 WEB_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE -O2 $(FP) $(WARN) $(INC_web)
-# the runtime and the protocol, and the client's GL-free camera and geomorphs
+# the runtime and the protocol, and the client's GL-free camera, geomorphs
+# and follower (client/follow.c: the level, slots and packing the page draws)
 # (the command-line helpers, the sockets and libcurl are the programs')
-WEB_LIB_OBJ := $(patsubst %.c,$(WEB_OBJ_DIR)/%.o,$(filter-out common/cli.c common/net.c common/fetch.c common/http.c,\
+WEB_LIB_OBJ := $(patsubst %.c,$(WEB_OBJ_DIR)/%.o,$(filter-out common/cli.c common/net.c common/fetch.c common/http.c common/tls.c,\
                $(wildcard common/*.c protocol/*.c)) client/camera.c client/morph.c client/follow.c)
 WEB_OBJ  := $(WEB_OBJ_DIR)/web/mts_web.o $(WEB_OBJ_DIR)/web/draco_web.o
 WEB_LINK := -sMODULARIZE=1 -sEXPORT_NAME=createMtsWeb -sALLOW_MEMORY_GROWTH=1 \
@@ -292,7 +294,7 @@ FUZZ_CXXFLAGS := -std=c++17 $(FUZZ_OPT) $(FP) -DNDEBUG -Wall -Werror
 # the library modules the targets reach: common/, protocol/, and builder/
 # (the seeds are built from meshes)
 FUZZ_LAYERS   := common protocol builder
-FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(filter-out common/cli.c common/fetch.c common/http.c \
+FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(filter-out common/cli.c common/fetch.c common/http.c common/tls.c \
                  $(foreach l,$(FUZZ_LAYERS),$(l)/mts_%.c),$(wildcard $(foreach l,$(FUZZ_LAYERS),$(l)/*.c)))) \
                  $(patsubst %.cpp,$(FUZZ_DIR)/obj/%.o,$(wildcard $(foreach l,$(FUZZ_LAYERS),$(l)/*.cpp)))
 $(foreach l,$(FUZZ_LAYERS),$(eval $(FUZZ_DIR)/obj/$(l)/%.o: FUZZ_INC := $(INC_$(l))))

@@ -21,6 +21,7 @@ static void usage(FILE *f)
     fputs("usage: mts-client [HOST[:PORT]] MODEL [--level L | --triangles N | --fraction F]\n"
           "       mts-client http(s)://HOST/PATH/NAME.mts [the same options]\n"
           "                  [--cacert FILE] [--max-file-bytes N]\n"
+          "       mts-client HOST:PORT MODEL --tls [--cacert FILE] [the same options]\n"
           "                  [--png FILE] [--png-levels L1,L2,...] [--size WxH] [--color-strips]\n"
           "                  [--verify] [--model-file M.mtsm] [--no-render] [--records]\n"
           "                  [--resume] [--retries N] [--connect-timeout S] [--timeout S]\n"
@@ -36,7 +37,9 @@ static void usage(FILE *f)
           "Or reads a stream file (mts-build --stream) from any web server with HTTP\n"
           "range requests: the index, then the base and batches up to the stop, decoded\n"
           "as they arrive; --resume and the window's continuation ask for the batches\n"
-          "not held. TLS is verified against the system's CAs.\n"
+          "not held. Or, with --tls, the TCP stream inside TLS, from a TLS terminator\n"
+          "(nginx's stream module) in front of mts-server. TLS is verified against the\n"
+          "system's CAs.\n"
           "\n"
           "  --level L / --triangles N / --fraction F   stop there (default: full)\n"
           "  --png FILE          write the final frame\n"
@@ -82,7 +85,9 @@ static void usage(FILE *f)
           "  --script FILE       with --window: input from FILE, one event a line, seconds\n"
           "                      after the first frame first: '0.5 key End', '1.2 drag 40\n"
           "                      -10', '1.4 scroll -2', '2.0 key q'\n"
-          "  --cacert FILE       for https: trust the CAs in FILE (PEM) instead of the\n"
+          "  --tls               the server's port speaks TLS (a terminator in front of\n"
+          "                      mts-server, as docker/nginx-tls.conf sets up)\n"
+          "  --cacert FILE       for https and --tls: trust the CAs in FILE (PEM) instead of the\n"
           "                      system's (a private CA); verification is never skipped\n"
           "  --max-file-bytes N  refuse a stream file over N bytes (K, M, G; default 1G)\n"
           "  --list              print the server's models\n"
@@ -141,6 +146,8 @@ static int parse_args(int argc, char **argv, client_options *o)
             o->so.hello.flags |= MTS_HELLO_RECORDS;
         } else if (!strcmp(a, "--window")) {
             o->window = 1;
+        } else if (!strcmp(a, "--tls")) {
+            o->tls = 1;
         } else if (!strcmp(a, "--cacert")) {
             if (!v) {
                 fprintf(stderr, "mts-client: --cacert needs a PEM file\n");
@@ -332,11 +339,22 @@ static int check_options(client_options *o)
         rn->ro.height = 600;
     }
     const char *server = NULL;
-    if (o->npos >= 1 && mts_fetch_is_url(o->pos[o->npos - 1]))
+    if (o->npos >= 1 && mts_fetch_is_url(o->pos[o->npos - 1])) {
+        if (o->tls) {
+            fprintf(stderr, "mts-client: --tls is for HOST:PORT (a URL says https itself)\n");
+            return CLI_EXIT_USAGE;
+        }
         return check_url(o);
-    if (o->cacert || o->max_file_bytes) {
-        fprintf(stderr, "mts-client: --cacert and --max-file-bytes are for a stream file's URL\n");
+    }
+    if (o->max_file_bytes || (o->cacert && !o->tls)) {
+        fprintf(stderr, "mts-client: --max-file-bytes is for a stream file's URL, --cacert for "
+                        "one or for --tls\n");
         return CLI_EXIT_USAGE;
+    }
+    if (o->tls) {
+        o->tls_options.cacert = o->cacert;
+        o->tls_options.connect_timeout = o->so.connect_timeout;
+        o->so.tls = &o->tls_options;
     }
     if (o->list) {
         if (o->npos > 1) {
@@ -537,8 +555,15 @@ int main(int argc, char **argv)
         return status;
     if (o.url && !open_url(&o))
         return CLI_EXIT_FAIL;
+    if (o.tls) {
+        mts_error err = {0};
+        if (mts_fetch_global_init(&err) != MTS_OK) {
+            fprintf(stderr, "mts-client: %s\n", err.msg);
+            return CLI_EXIT_FAIL;
+        }
+    }
     status = o.window ? client_window_main(&o) : run_headless(&o);
-    if (o.url) {
+    if (o.url || o.tls) {
         mts_webfile_free(o.so.file);
         mts_fetch_global_cleanup();
     }

@@ -7,6 +7,7 @@
 #include "cli.h"
 #include "run.h"
 #include "session.h"
+#include "tls.h"
 
 typedef struct client_options {
     mts_client_run run;     /* the run's settings (and, once it runs, its state) */
@@ -20,7 +21,9 @@ typedef struct client_options {
     /* a stream file's URL instead of a server and a model */
     const char *url;
     char url_name[65];      /* the file's name without .mts: the run's model name */
-    const char *cacert;     /* --cacert */
+    const char *cacert;     /* --cacert (a URL's, or --tls's) */
+    int tls;                /* --tls: the TCP stream inside TLS */
+    mts_tls_options tls_options;
     uint64_t max_file_bytes; /* --max-file-bytes; 0: the default */
     cli_bar bar;            /* headless: the stream's progress */
 } client_options;

@@ -6,6 +6,7 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
@@ -14,6 +15,7 @@
 
 #include "clock.h"
 #include "net.h"
+#include "tls.h"
 #include "webfile.h"
 
 /* Connecting runs as steps so that a window loop never waits on it: the
@@ -163,6 +165,8 @@ struct mts_session {
     phase ph;
     connector k;
     int fd;               /* the connection in PH_STREAM */
+    mts_tls *tls;         /* its TLS (owns fd), when the options ask for TLS */
+    int tls_pending;      /* TLS may hold decrypted bytes: read before waiting */
     uint8_t *buf;
     double last_data;     /* ms: the last byte (or the connect), for io_timeout */
     int progress;         /* this conversation applied something */
@@ -181,8 +185,12 @@ static void close_conversation(mts_session *s)
     if (s->o->file)
         mts_webfile_cancel(s->o->file);
     connector_close(&s->k);
-    if (s->fd >= 0)
+    if (s->tls)
+        mts_tls_free(s->tls); /* and its socket */
+    else if (s->fd >= 0)
         close(s->fd);
+    s->tls = NULL;
+    s->tls_pending = 0;
     s->fd = -1;
     free(s->buf);
     s->buf = NULL;
@@ -257,6 +265,7 @@ static void connected(mts_session *s, int fd)
         mts_wire_put_hello(&req, &s->hello);
     /* a request is a few hundred bytes: the socket buffer takes it at once */
     mts_result rc = req.failed ? mts_error_set(err, MTS_ERR_NOMEM, "out of memory")
+                     : s->tls  ? mts_tls_send_all(s->tls, req.data, req.size, s->ito, err)
                                : send_all(fd, req.data, req.size, s->ito, err);
     mts_buf_free(&req);
     if (rc == MTS_OK && !(s->buf = malloc(SESSION_CHUNK)))
@@ -370,7 +379,8 @@ static void stream_step(mts_session *s, int timeout_ms)
     if (timeout_ms >= 0 && timeout_ms < wait)
         wait = timeout_ms;
     struct pollfd pf = {s->fd, POLLIN, 0};
-    int pr = poll(&pf, 1, wait);
+    /* bytes TLS already decrypted wake no poll */
+    int pr = s->tls_pending ? 1 : poll(&pf, 1, wait);
     if (pr < 0) {
         if (errno != EINTR)
             conversation_failed(s, mts_error_set(err, MTS_ERR_IO, "poll: %s", strerror(errno)),
@@ -392,7 +402,9 @@ static void stream_step(mts_session *s, int timeout_ms)
         return;
     }
     do {
-        ssize_t got = mts_net_read(s->fd, s->buf, SESSION_CHUNK);
+        ssize_t got = s->tls ? mts_tls_read(s->tls, s->buf, SESSION_CHUNK, err)
+                             : mts_net_read(s->fd, s->buf, SESSION_CHUNK);
+        s->tls_pending = s->tls && got > 0;
         if (got == MTS_NET_AGAIN)
             return;
         if (got == 0) {
@@ -411,10 +423,12 @@ static void stream_step(mts_session *s, int timeout_ms)
             return;
         }
         if (got < 0) {
+            char why[sizeof err->msg];
+            snprintf(why, sizeof why, "%s", s->tls ? err->msg : strerror(errno));
             conversation_failed(s,
                                 mts_error_set(err, MTS_ERR_IO,
                                               "connection lost after %llu bytes (%s)",
-                                              (unsigned long long)st->bytes, strerror(errno)),
+                                              (unsigned long long)st->bytes, why),
                                 1);
             return;
         }
@@ -531,6 +545,14 @@ int mts_session_poll(mts_session *s, int timeout_ms)
         else
             s->ph = PH_STREAM;
     }
+    if (s->ph == PH_CONNECT && s->o->tls) {
+        s->progress = 0;
+        mts_result rc = mts_tls_start(&s->tls, s->host, s->port, s->o->tls, &s->err);
+        if (rc != MTS_OK)
+            conversation_failed(s, rc, rc == MTS_ERR_IO);
+        else
+            s->ph = PH_CONNECTING;
+    }
     if (s->ph == PH_CONNECT) { /* then on to connecting at once */
         int transient;
         s->progress = 0;
@@ -544,6 +566,14 @@ int mts_session_poll(mts_session *s, int timeout_ms)
     case PH_CONNECT:
         break;
     case PH_CONNECTING: {
+        if (s->tls) {
+            int k = mts_tls_step(s->tls, timeout_ms, &s->err);
+            if (k > 0)
+                connected(s, mts_tls_fd(s->tls));
+            else if (k < 0)
+                conversation_failed(s, s->err.code, s->err.code == MTS_ERR_IO);
+            break;
+        }
         int k = connector_step(&s->k, s->host, s->port, s->cto, timeout_ms, &s->err);
         if (k > 0)
             connected(s, s->k.fd);
@@ -595,6 +625,8 @@ int mts_session_poll(mts_session *s, int timeout_ms)
 
 int mts_session_fd(const mts_session *s)
 {
+    if (s->tls)
+        return s->ph == PH_STREAM ? s->fd : -1;
     return s->ph == PH_STREAM ? s->fd : s->ph == PH_CONNECTING ? s->k.fd : -1;
 }
 

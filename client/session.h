@@ -42,6 +42,11 @@ typedef struct mts_session_options {
      * file's checks stand for END. The caller's, kept across sessions so
      * that its index is read once; its own options hold the timeouts. */
     struct mts_webfile *file;
+    /* When set, the TCP stream inside TLS (tls.h), as a TLS terminator in
+     * front of mts-server offers it: the certificate verified against the
+     * system's CAs or tls->cacert; a certificate that does not verify is
+     * no connection error and is not retried. */
+    const struct mts_tls_options *tls;
     /* after each event; returning non-zero stops the session (MTS_ERR_ARG) */
     int (*on_event)(void *user, mts_stream_event ev, mts_stream_client *c);
     void *user;

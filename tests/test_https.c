@@ -180,6 +180,42 @@ static void test_stops_match_tcp(mts_test *t)
     }
 }
 
+/* The TCP stream inside TLS, nginx's stream module terminating it in front
+ * of mts-server: the same stream, so the same levels and checksums. */
+static void test_tcp_through_tls(mts_test *t)
+{
+    const char *models[] = {"cow", "cow", "cow", "bunny00"};
+    const char *stops[] = {"", "--level 64", "--triangles 900", ""};
+    for (size_t i = 0; i < sizeof stops / sizeof stops[0] && !t->case_failed; i++) {
+        if (i == 3 && !E.have_bunny)
+            break;
+        char tcp[100], tls[1000];
+        snprintf(tcp, sizeof tcp, "127.0.0.1:%d %s", E.sv.port, models[i]);
+        snprintf(tls, sizeof tls, "127.0.0.1:%d %s --tls --cacert %s/ca.pem", E.front.tls_port,
+                 models[i], E.dir);
+        run a = client(tcp, stops[i]), b = client(tls, stops[i]);
+        CHECKF(t, a.status == 0 && b.status == 0 && a.checksum[0] &&
+                      !strcmp(a.checksum, b.checksum) && a.level == b.level &&
+                      a.bytes == b.bytes,
+               "%s: TCP exit %d level %ld %s %ld bytes; TLS exit %d level %ld %s %ld bytes (%s)",
+               stops[i], a.status, a.level, a.checksum, a.bytes, b.status, b.level, b.checksum,
+               b.bytes, b.out);
+    }
+    char cmd[2000], out[4096];
+    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d --list --tls --cacert %s/ca.pem", E.bin,
+             E.front.tls_port, E.dir);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0 && strstr(out, "cow"), "--list: %s", out);
+    /* not verified without the CA; a port that does not speak TLS */
+    char tls[1000];
+    snprintf(tls, sizeof tls, "127.0.0.1:%d cow --tls --resume", E.front.tls_port);
+    run r = client(tls, "");
+    CHECKF(t, r.status == 1 && strstr(r.out, "certificate") && r.reconnects == 0,
+           "no CA: exit %d: %s", r.status, r.out);
+    snprintf(tls, sizeof tls, "127.0.0.1:%d cow --tls --cacert %s/ca.pem", E.sv.port, E.dir);
+    r = client(tls, "");
+    CHECKF(t, r.status == 1 && strstr(r.out, "TLS"), "plain port: exit %d: %s", r.status, r.out);
+}
+
 static void test_certificate_verified(mts_test *t)
 {
     char url[200];
@@ -456,6 +492,7 @@ int main(int argc, char **argv)
     if (E.up) {
         RUN(&t, test_stops_match_tcp);
         RUN(&t, test_certificate_verified);
+        RUN(&t, test_tcp_through_tls);
         RUN(&t, test_damaged_files);
         RUN(&t, test_hostile_web_server);
         RUN(&t, test_resume_after_restart);
