@@ -43,23 +43,27 @@
  *
  * The draw: a packed buffer of its own, rebuilt from the host copy of the
  * strips at the first draw after they changed (O(indices drawn), one
- * glBufferData), holding only the strips of 3 or more indices, with 16-bit
- * indices when vertex_capacity <= 65535, each strip joined to the one before
- * by repeating the previous strip's last index and its own first, once more
- * when that leaves it at an odd position: every strip starts at an even
- * position as after a restart, so keeps its winding, and each window across
- * a joint repeats an index, so draws nothing (2 or 3 indices a joint, no
- * restart): one glDrawElements. Why (measured with mts-bench-stream
- * --draw-only on Mesa 22.3 llvmpipe): Mesa's draw module runs its vertex
- * pipeline once per restart-delimited piece (and once per draw of a
- * multi-draw), restarting its small vertex cache each time, and a draw over
- * the slots also walks their padding, which at coarse levels is most of the
- * buffer; one joined strip is one pipeline run whose cache spans strips
- * (figures: docs/strips.md, "Drawing them"). The draws it is measured
+ * glBufferData). The packing is not the renderer's: it is follow.h's
+ * (mts_follow_pack_strips over strips.h's mts_strips_pack, which
+ * mts_follow_pack and so the browser page use too), so the page and the
+ * native view draw the same arrays. It holds only the strips of 3 or more
+ * indices, with 16-bit indices when vertex_capacity <= 65535, each strip
+ * joined to the one before by repeating the previous strip's last index and
+ * its own first, once more when that leaves it at an odd position: every
+ * strip starts at an even position as after a restart, so keeps its winding,
+ * and each window across a joint repeats an index, so draws nothing (2 or 3
+ * indices a joint, no restart): one glDrawElements. Why (measured with
+ * mts-bench-stream --draw-only on Mesa 22.3 llvmpipe): Mesa's draw module
+ * runs its vertex pipeline once per restart-delimited piece (and once per
+ * draw of a multi-draw), restarting its small vertex cache each time, and a
+ * draw over the slots also walks their padding, which at coarse levels is
+ * most of the buffer; one joined strip is one pipeline run whose cache spans
+ * strips (figures: docs/strips.md, "Drawing them"). The draws it is measured
  * against -- the slot buffer with restarts, strip by strip, multi-draw, one
- * restart between packed strips, a triangle list -- are client/drawmodes.h's,
- * through the seam in render_internal.h. The stored and streamed form stays
- * the strips and their slots; the packed buffer is the client's own.
+ * restart between packed strips, a triangle list -- are
+ * client/drawmodes.h's, through the seam in render_internal.h. The stored
+ * and streamed form stays the strips and their slots; the packed buffer is
+ * the client's own.
  *
  * Colour by strip: a per-vertex attribute cannot carry a strip id (strips
  * share vertices), and gl_PrimitiveID (fragment shaders, GLES 3.2) numbers

@@ -249,8 +249,11 @@ mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uin
  * resume_point says what the next HELLO asks for: *resume_batch is
  * c->batches once the base is in (0 before: that is a fresh start), and
  * *stream_id the first MODEL_INFO's when *resume_batch > 0 (else 0). Returns
- * 0 when there is nothing to resume: the stream ended or a frame was
- * rejected (c->lod may be broken), and a new conversation would not help. */
+ * 0 when a new conversation would not help: the stream ended (END, ERROR or
+ * MODELS) or failed (a frame refused past its CRC, or bytes that are not
+ * frames; c->lod may be broken). A frame rejected only for its CRC
+ * (c->rejected) left the state as it was, so that returns 1 and the resume
+ * asks for that frame again. */
 int mts_stream_client_resume_point(const mts_stream_client *c, uint32_t *resume_batch,
                                    uint64_t *stream_id);
 

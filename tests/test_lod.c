@@ -101,7 +101,7 @@ static void sampled_model(mts_test *t, const char *name, uint32_t v, uint32_t tr
     if (!build_from(t, path, &m))
         return;
     check_basic_shape(t, &m, v, tri);
-    check_model_invariants(t, &m, 500);      /* the dense sample */
+    check_model_invariants(t, &m, 500);      /* 500 sampled levels, as mts-inspect --sample */
     check_model_invariants(t, &m, 0);        /* and every level, which the walk makes cheap */
     exact_check_levels(t, &m, 100);
     mts_model_free(&m);

@@ -87,8 +87,9 @@ static int conversation(const mts_stream *s, uint32_t stop, uint32_t resume_batc
 
 typedef mts_test_events tally;
 
-/* Feeds data in seeded pieces through a fresh frame reader, as one
- * connection does; a frame left incomplete is dropped with the reader. */
+/* Feeds data in seeded pieces into the stream client, as one connection
+ * does; a frame the cut leaves incomplete stays in the client until the
+ * next connection's mts_stream_client_reconnected drops it. */
 static mts_result feed(mts_stream_client *c, const uint8_t *data, size_t size, uint64_t seed,
                        tally *n, mts_error *err)
 {

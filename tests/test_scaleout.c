@@ -37,9 +37,10 @@
 #endif
 #endif
 
-/* The issue asks for 1,000 clients; the sanitizer build runs the same number
- * (every client decodes and applies its batches, a few seconds of work even
- * there) but gets more time for everything to come up and finish. */
+/* 1,000 clients, as compose's stress service sends (docker/README.md); the
+ * sanitizer build runs the same number (every client decodes and applies
+ * its batches, a few seconds of work even there) but gets more time for
+ * everything to come up and finish. */
 #define CLIENTS 1000
 #ifdef MTS_ASAN
 #define WAIT_S 60
