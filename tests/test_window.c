@@ -126,9 +126,10 @@ static int screenshots(const char *out, const char **e, int max)
 }
 
 /* Where the windowed client runs: its folder (screenshots land there), the
- * Xvfb display and the server's address. */
+ * Xvfb display and where the stream comes from ("HOST:PORT cow", or a
+ * stream file's URL). */
 typedef struct window_env {
-    const char *dir, *listen;
+    const char *dir, *source;
     int display;
 } window_env;
 
@@ -147,9 +148,9 @@ static int run_window(mts_test *t, const window_env *w, const char *name, const 
     }
     /* detect_leaks=0: llvmpipe's threads upset LeakSanitizer (see test_e2e) */
     snprintf(cmd, sizeof cmd,
-             "cd %s && DISPLAY=:%d ASAN_OPTIONS=detect_leaks=0 timeout 120 %s/mts-client %s cow "
+             "cd %s && DISPLAY=:%d ASAN_OPTIONS=detect_leaks=0 timeout 120 %s/mts-client %s "
              "--window --size 640x480 --script %s --json %s 2>%s.log",
-             w->dir, w->display, bin_dir, w->listen, script, opts, name);
+             w->dir, w->display, bin_dir, w->source, script, opts, name);
     return mts_test_run(cmd, out, size);
 }
 
@@ -200,7 +201,9 @@ static void test_window_screenshots(mts_test *t)
 
     /* times count from the first frame of the model; by 1.5 s a loopback
      * stream of cow has long ended, so End is the full level */
-    const window_env w = {dir, listen, display};
+    char source[100];
+    snprintf(source, sizeof source, "%s cow", listen);
+    const window_env w = {dir, source, display};
     int rc = run_window(t, &w, "client",
                         "# three levels, the keys between them\n"
                         "0.2 key Home\n"
@@ -279,6 +282,46 @@ static void test_window_screenshots(mts_test *t)
     json_s(ref, "checksum", rsum, sizeof rsum);
     CHECKF(t, zsum[0] && !strcmp(zsum, rsum), "checksum %s after the zoom, %s unbroken to %ld",
            zsum, rsum, zl);
+
+    /* the same from a stream file on a web server: the policy's stop is one
+     * range, zooming in asks nginx for the next */
+    mts_test_tls_front front = {0};
+    char said[4096];
+    if (mts_test_find_nginx(front.nginx, sizeof front.nginx)) {
+        snprintf(front.dir, sizeof front.dir, "%.580s/front", dir);
+        snprintf(front.root, sizeof front.root, "%.580s/www", dir);
+        snprintf(cmd, sizeof cmd, "mkdir -p %s && ASAN_OPTIONS=detect_leaks=0 %s/mts-build "
+                 "tests/data/cow.off --stream %s/cow.mts -q", front.root, bin_dir, front.root);
+        CHECK(t, mts_test_run(cmd, said, sizeof said) == 0);
+        CHECKF(t, mts_test_tls_front_ca(&front, said, sizeof said), "openssl: %s", said);
+        CHECKF(t, mts_test_tls_front_start(&front) > 0, "nginx did not start (%s)", front.dir);
+        char url[200], uout[8192], usum[40] = "";
+        snprintf(url, sizeof url, "http://127.0.0.1:%d/cow.mts", front.http_port);
+        const window_env wu = {dir, url, display};
+        const char *u[2];
+        if (front.pid > 0 &&
+            run_window_two_shots(t, &wu, "zoomurl", "0.8 key s\n1.0 scroll 8\n2.5 key s\n2.8 key q\n",
+                                 "--lod-policy distance --distance 4", uout, sizeof uout, u)) {
+            long ul = mts_test_json_long(uout, "level");
+            CHECKF(t, mts_test_json_long(u[0], "level") < ul &&
+                          mts_test_json_long(u[1], "level") == ul &&
+                          mts_test_json_long(uout, "continuations") >= 1,
+                   "zooming in did not fetch more from the file: %s", uout);
+            json_s(uout, "checksum", usum, sizeof usum);
+            snprintf(cmd, sizeof cmd,
+                     "ASAN_OPTIONS=detect_leaks=0 %s/mts-client %s cow --level %ld --no-render "
+                     "--json",
+                     bin_dir, listen, ul);
+            CHECK(t, mts_test_run(cmd, ref, sizeof ref) == 0);
+            json_s(ref, "checksum", rsum, sizeof rsum);
+            CHECKF(t, usum[0] && !strcmp(usum, rsum),
+                   "checksum %s after the zoom over http, %s over TCP to %ld", usum, rsum, ul);
+        }
+        mts_test_tls_front_stop(&front, 0);
+    } else {
+        CHECKF(t, !getenv("MTS_TEST_REQUIRE_NGINX"), "nginx is not installed (scripts/deps.sh)");
+        printf("  (no nginx: the window's continuation over a stream file is not tried)\n");
+    }
     char clog[800], logtext[4096];
     snprintf(clog, sizeof clog, "%s/client.log", dir);
     mts_test_read_file(clog, logtext, sizeof logtext);
