@@ -9,7 +9,8 @@
 # runs, MTS_BENCH_CLIENT=0 the client's cost, MTS_BENCH_WEB=0 the browser
 # client, MTS_BENCH_BUILDER=0 the builder at scale (MTS_BENCH_HUGE=0 its 6M
 # mesh); MTS_BENCH_APPLYING_CLIENTS (default 1000) sets the applying
-# mts-stress clients. Exit status 1 when a requested
+# mts-stress clients, MTS_BENCH_FILES=0 the stream files on nginx
+# (bench/files.sh). Exit status 1 when a requested
 # figure could not be measured; absent tools and models are skipped, with a
 # reason, and do not fail the run.
 set -uo pipefail
@@ -67,6 +68,14 @@ if [ "${MTS_BENCH_STRESS:-1}" = 0 ]; then
   printf '{"skipped": "MTS_BENCH_STRESS=0"}\n' >"$out/stress.json"
 else
   bench/stress.sh "$out" || status=1
+fi
+
+# --- stream files: nginx (http, https) beside mts-server (TCP, TLS) ------------
+rm -f "$out/files.json"
+if [ "${MTS_BENCH_FILES:-1}" = 0 ]; then
+  printf '{"skipped": "MTS_BENCH_FILES=0"}\n' >"$out/files.json"
+else
+  bench/files.sh "$out" || status=1
 fi
 
 # seconds since some epoch, with microseconds (bash 5)
@@ -407,6 +416,41 @@ else:
               f"{c['failed']} failed, server RSS {c['server_idle_rss_mb']} -> "
               f"{c['server_peak_rss_mb']} MB = {c['bytes_per_connection']} B per connection")
 res["stress"] = stress
+
+files = {}
+try:
+    with open(os.path.join(out, "files.json")) as f:
+        files = json.load(f)
+except (OSError, ValueError):
+    files = {"skipped": "bench/files.sh wrote nothing"}
+if "skipped" in files:
+    print(f"\nStream files: skipped: {files['skipped']}")
+else:
+    fb, ib = files.get("file_bytes"), files.get("index_bytes")
+    print(f"\nStream files: bunny00 from nginx (http; https with HTTP/2) beside mts-server (TCP; "
+          f"TCP in TLS through nginx), mts-client --no-render, loopback, median of "
+          f"{files['runs']} interleaved runs; file {fb} B, index {ib} B")
+    print(f"{'stop':<16} {'way':<6} {'first ms':>9} {'full ms':>9} {'bytes':>8} {'vs TCP':>7} "
+          f"{'failed':>6} checksum")
+    print("-" * 78)
+    for stop, table in files["stops"].items():
+        tcp = table.get("tcp", {})
+        for way in ("tcp", "tls", "http", "https"):
+            r = table.get(way, {})
+            if "full_ms" not in r:
+                print(f"{stop:<16} {way:<6} {'':>9} {'':>9} {'':>8} {'':>7} {r.get('failed', '?'):>6}")
+                continue
+            ratio = f"{r['full_ms'] / tcp['full_ms']:.2f}" if tcp.get("full_ms") else ""
+            r["full_vs_tcp"] = float(ratio) if ratio else None
+            print(f"{stop:<16} {way:<6} {r['first_ms']:>9.1f} {r['full_ms']:>9.1f} "
+                  f"{r['bytes']:>8.0f} {ratio:>7} {r['failed']:>6} {r['checksum']}")
+    full = files["stops"].get("full", {})
+    if "bytes" in full.get("tcp", {}) and ib:
+        print(f"  the index adds {ib} B = {100 * ib / full['tcp']['bytes']:.2f}% to the full "
+              f"stream; a file read fetches {full['http']['bytes'] - full['tcp']['bytes']:.0f} B "
+              f"more than TCP at the full level; {files.get('first_picture_extra_bytes')} B more "
+              f"before the first picture")
+res["stream_files"] = files
 
 def median_of(v):
     v = sorted(v)
