@@ -21,6 +21,7 @@
 #include "fuzz/fuzz_request.c"
 #include "fuzz/fuzz_seeds.h"
 #include "fuzz/fuzz_stream_client.c"
+#include "fuzz/fuzz_stream_file.c"
 #include "fuzz/fuzz_ws.c"
 
 /* Some kept inputs once made the library ask for many GB (one made Draco
@@ -56,6 +57,7 @@ static const target targets[] = {
     {"modelfile", mts_fuzz_modelfile},
     {"draco", mts_fuzz_draco},
     {"ws", mts_fuzz_ws},
+    {"stream_file", mts_fuzz_stream_file},
 };
 
 static const target *find_target(const char *name)
@@ -120,6 +122,27 @@ static void test_stream_seeds_end(mts_test *t)
 {
     mts_error err = {0};
     mts_result rc = mts_fuzz_make_seeds(NULL, 0, check_stream_seed, t, &err);
+    CHECKF(t, rc == MTS_OK, "%s", err.msg);
+}
+
+/* Every stream-file seed is a whole file: each of its stops is read to END,
+ * breaks and resumes included, or the fuzzer would start shallow. */
+static void check_stream_file_seed(void *user, const char *target_name, const char *name,
+                                   const uint8_t *data, size_t size)
+{
+    mts_test *t = user;
+    if (strcmp(target_name, "stream_file") != 0)
+        return;
+    int ends = 0, tried = 0;
+    mts_fuzz_stream_file_ends(data, size, &ends, &tried);
+    CHECKF(t, tried == 4 && ends == tried, "stream file seed %s: %d of %d stops ended", name,
+           ends, tried);
+}
+
+static void test_stream_file_seeds_end(mts_test *t)
+{
+    mts_error err = {0};
+    mts_result rc = mts_fuzz_make_seeds(NULL, 0, check_stream_file_seed, t, &err);
     CHECKF(t, rc == MTS_OK, "%s", err.msg);
 }
 
@@ -197,6 +220,7 @@ int main(void)
     limit_memory();
     RUN(&t, test_seeds);
     RUN(&t, test_stream_seeds_end);
+    RUN(&t, test_stream_file_seeds_end);
     RUN(&t, test_regressions);
     RUN(&t, test_corpus);
     return mts_test_end(&t);

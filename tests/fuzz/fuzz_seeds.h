@@ -12,9 +12,14 @@
  * full one, so the fuzzer starts from erase runs and capacities that the
  * full strips do not give.
  *
- * Targets: "stream_client", "request", "modelfile", "draco", "ws" (the
- * fuzz_*.c files say what their input is; three of them start with a mode
- * byte). */
+ * The stream-file seeds are whole stream files (mts_stream_file_write, as
+ * mts-build --stream writes them) of the torus in both forms and of the
+ * torus whose normals travel (and, for the regression test only, of cow's
+ * splits form), behind a mode byte and four stop bytes.
+ *
+ * Targets: "stream_client", "request", "modelfile", "draco", "ws",
+ * "stream_file" (the fuzz_*.c files say what their input is; four of them
+ * start with a mode byte). */
 #ifndef MTS_FUZZ_SEEDS_H
 #define MTS_FUZZ_SEEDS_H
 
@@ -28,6 +33,7 @@
 #include "fuzz_util.h"
 #include "modelfile.h"
 #include "stream.h"
+#include "stream_file.h"
 #include "wire.h"
 #include "ws.h"
 
@@ -156,6 +162,46 @@ static inline void mts_fuzz_resume_seeds(mts_fuzz_seeder *sd, const char *tag, c
     else
         mts_fuzz_emit_mode(sd, "stream_client", name, 0, b.data, b.size);
     mts_buf_free(&b);
+}
+
+/* A stream file of s behind a mode byte and four stop bytes (each stop
+ * byte: a kind in bits 0-1 -- level, triangles, fraction, full -- and a
+ * value in bits 2-7; fuzz_stream_file.c). */
+static inline void mts_fuzz_stream_file_seed(mts_fuzz_seeder *sd, const char *name,
+                                             const mts_stream *s, uint8_t mode,
+                                             const uint8_t stops[4])
+{
+    mts_buf b = {0};
+    mts_error err = {0};
+    mts_buf_u8(&b, mode);
+    mts_buf_put(&b, stops, 4);
+    if (mts_stream_file_write(s, &b, &err) != MTS_OK || b.failed)
+        sd->failed = 1;
+    else
+        sd->emit(sd->user, "stream_file", name, b.data, b.size);
+    mts_buf_free(&b);
+}
+
+/* Stream-file seeds of one stream: half the levels, then a triangle budget
+ * inside a batch, a fraction and the full level (each continued to the next);
+ * with variants, the same in pieces with a break and resume, with the CRCs
+ * as written, capped at the file's size, and by other stops. */
+static inline void mts_fuzz_stream_file_seeds(mts_fuzz_seeder *sd, const char *tag,
+                                              const mts_stream *s, int variants)
+{
+    static const uint8_t stops[4] = {31 << 2 | 0, 7 << 2 | 1, 20 << 2 | 2, 0 << 2 | 3};
+    static const uint8_t others[4] = {63 << 2 | 0, 0 << 2 | 0, 62 << 2 | 2, 2 << 2 | 1};
+    char name[96];
+    snprintf(name, sizeof name, "%s-file", tag);
+    mts_fuzz_stream_file_seed(sd, name, s, 0, stops);
+    if (!variants)
+        return;
+    snprintf(name, sizeof name, "%s-file-pieces-break", tag);
+    mts_fuzz_stream_file_seed(sd, name, s, 0x40 | 5 << 1, stops);
+    snprintf(name, sizeof name, "%s-file-crc-kept", tag);
+    mts_fuzz_stream_file_seed(sd, name, s, 1, stops);
+    snprintf(name, sizeof name, "%s-file-capped-other-stops", tag);
+    mts_fuzz_stream_file_seed(sd, name, s, 0x20 | 3 << 1, others);
 }
 
 static inline void mts_fuzz_request_seeds(mts_fuzz_seeder *sd, const mts_stream *s)
@@ -442,6 +488,13 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
         mts_buf_free(&b);
     }
 
+    /* stream_file: whole files of the torus in both forms and of the torus
+     * whose normals travel */
+    mts_fuzz_stream_file_seeds(&sd, "torus", &torus, 1);
+    if (torus.records_form)
+        mts_fuzz_stream_file_seeds(&sd, "torus-records", torus.records_form, 0);
+    mts_fuzz_stream_file_seeds(&sd, "small-normals", &normals, 0);
+
     /* request */
     mts_fuzz_request_seeds(&sd, &torus);
 
@@ -509,6 +562,10 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
                 sd.failed = 1;
             if ((d = mts_fuzz_base_draco(&cow, &dsize)) != NULL)
                 sd.emit(sd.user, "draco", "cow-base-edgebreaker", d, dsize);
+            /* the whole splits form as a file, for the regression test only:
+             * a stream file is the whole stream, too slow an input to mutate */
+            if (slow)
+                mts_fuzz_stream_file_seeds(&sd, "cow", &cow, 0);
             mts_stream_free(&cow);
         }
         if (slow)
