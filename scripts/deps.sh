@@ -18,6 +18,7 @@ packages=(
   clang libclang-rt-14-dev  # `make fuzz`: libFuzzer + ASan/UBSan runtimes (the -rt package is only recommended by clang)
   nginx libnginx-mod-stream  # the TCP balancer of tests/test_scaleout.c (docker/nginx-stream.conf)
   openssl                    # tests/test_https.c: a throwaway CA and the server certificate nginx terminates TLS with
+  curl                       # tests/test_https.c: the headers nginx sends with stream files
   yamllint                   # lints docker/compose.yaml and docker/k8s.yaml (tests/test_scaleout.c)
   python3-matplotlib     # `make bench`'s plots (bench/plot.py; it skips without)
   time                   # `make bench`: peak memory of mts-build and mkbalancedpm (bench/builder.sh)

@@ -216,6 +216,52 @@ static void test_tcp_through_tls(mts_test *t)
     CHECKF(t, r.status == 1 && strstr(r.out, "TLS"), "plain port: exit %d: %s", r.status, r.out);
 }
 
+/* What docker/nginx-tls.conf sends with a stream file: ranges, an ETag,
+ * CORS (and the preflight a Range request needs), the cache lifetime by
+ * name, and no guessed type. */
+static void test_headers(mts_test *t)
+{
+    char cmd[4000], out[8192], path[800];
+    snprintf(cmd, sizeof cmd, "cp %s/cow.mts %s/cow-0123456789abcdef.mts", E.www, E.www);
+    CHECK(t, sh(cmd));
+    struct {
+        const char *name, *method, *range;
+        const char *want[6];
+    } cases[] = {
+        {"cow.mts", "HEAD", "",
+         {"HTTP/2 200", "accept-ranges: bytes", "etag: \"", "cache-control: public, max-age=3600",
+          "access-control-allow-origin: *", "content-type: application/octet-stream"}},
+        {"cow-0123456789abcdef.mts", "GET", "-r 0-99",
+         {"HTTP/2 206", "cache-control: public, max-age=31536000, immutable",
+          "access-control-expose-headers: content-range", NULL}},
+        {"cow.mts", "OPTIONS", "",
+         {"HTTP/2 204", "access-control-allow-headers: range", "access-control-allow-origin: *",
+          NULL}},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        snprintf(path, sizeof path, "%s/headers.txt", E.dir);
+        snprintf(cmd, sizeof cmd,
+                 "curl -s --cacert %s/ca.pem %s %s -H 'Origin: https://elsewhere.example' "
+                 "-H 'Access-Control-Request-Headers: range' -o /dev/null -D - "
+                 "https://127.0.0.1:%d/%s | tr 'A-Z' 'a-z' | sed 's/^http/HTTP/'",
+                 E.dir, cases[i].range,
+                 !strcmp(cases[i].method, "HEAD") ? "-I" : !strcmp(cases[i].method, "OPTIONS")
+                                                            ? "-X OPTIONS"
+                                                            : "",
+                 E.front.https_port, cases[i].name);
+        CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
+        for (int k = 0; k < 6 && cases[i].want[k]; k++) {
+            char want[200];
+            snprintf(want, sizeof want, "%s", cases[i].want[k]);
+            if (strncmp(want, "HTTP", 4) != 0)
+                for (char *p = want; *p; p++)
+                    *p = (char)(*p >= 'A' && *p <= 'Z' ? *p - 'A' + 'a' : *p);
+            CHECKF(t, strstr(out, want) != NULL, "%s %s: no '%s' in:\n%s", cases[i].method,
+                   cases[i].name, want, out);
+        }
+    }
+}
+
 static void test_certificate_verified(mts_test *t)
 {
     char url[200];
@@ -491,6 +537,7 @@ int main(int argc, char **argv)
     RUN(&t, test_setup);
     if (E.up) {
         RUN(&t, test_stops_match_tcp);
+        RUN(&t, test_headers);
         RUN(&t, test_certificate_verified);
         RUN(&t, test_tcp_through_tls);
         RUN(&t, test_damaged_files);
