@@ -107,10 +107,11 @@ static inline int mts_cdp_call(mts_cdp *c, const char *method, const char *param
                                mts_buf *reply, double seconds);
 
 /* Headless Chromium on a free DevTools port, one blank page of width x
- * height CSS pixels, its DevTools WebSocket open. 1 when it is up within
- * `seconds`; the browser's log goes to log. */
-static inline int mts_cdp_start(mts_cdp *c, const char *tmp_dir, const char *log, int width,
-                                int height, double seconds)
+ * height CSS pixels, its DevTools WebSocket open, with up to 4 more
+ * command-line arguments (extra, NULL-ended; NULL for none). 1 when it is
+ * up within `seconds`; the browser's log goes to log. */
+static inline int mts_cdp_start_with(mts_cdp *c, const char *tmp_dir, const char *log, int width,
+                                     int height, double seconds, const char *const *extra)
 {
     memset(c, 0, sizeof *c);
     c->fd = -1;
@@ -120,10 +121,15 @@ static inline int mts_cdp_start(mts_cdp *c, const char *tmp_dir, const char *log
     snprintf(port_arg, sizeof port_arg, "--remote-debugging-port=%d", c->port);
     snprintf(size_arg, sizeof size_arg, "--window-size=%d,%d", width, height);
     snprintf(profile_arg, sizeof profile_arg, "--user-data-dir=%s", c->profile);
-    char *argv[] = {"chromium", "--headless", "--no-sandbox", "--use-angle=swiftshader",
-                    "--enable-unsafe-swiftshader", size_arg, "--hide-scrollbars",
-                    "--no-first-run", "--disable-gpu-vsync", "--mute-audio", port_arg,
-                    profile_arg, "about:blank", NULL};
+    char *argv[20] = {"chromium", "--headless", "--no-sandbox", "--use-angle=swiftshader",
+                      "--enable-unsafe-swiftshader", size_arg, "--hide-scrollbars",
+                      "--no-first-run", "--disable-gpu-vsync", "--mute-audio", port_arg,
+                      profile_arg};
+    int n = 12;
+    for (int i = 0; extra && extra[i] && i < 4; i++)
+        argv[n++] = (char *)extra[i];
+    argv[n++] = "about:blank";
+    argv[n] = NULL;
     c->pid = mts_test_spawn(argv, log);
     if (c->pid <= 0)
         return 0;
@@ -182,6 +188,12 @@ static inline int mts_cdp_start(mts_cdp *c, const char *tmp_dir, const char *log
          !strstr((const char *)reply.data, "\"error\"");
     mts_buf_free(&reply);
     return ok;
+}
+
+static inline int mts_cdp_start(mts_cdp *c, const char *tmp_dir, const char *log, int width,
+                                int height, double seconds)
+{
+    return mts_cdp_start_with(c, tmp_dir, log, width, height, seconds, NULL);
 }
 
 static inline void mts_cdp_stop(mts_cdp *c)

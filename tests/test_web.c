@@ -13,7 +13,16 @@
  *   - the level slider goes down and up through geomorphs, and the lower
  *     level's picture is mts-client's;
  *   - a server killed mid-stream shows an error on the page, not a frozen
- *     picture.
+ *     picture;
+ *   - the page reads stream files (?src=) cross-origin over https from
+ *     nginx running docker/nginx-tls.conf (a throwaway CA whose server key
+ *     Chromium is told to trust): cow and bunny00 to the full level, a
+ *     stop inside a batch and a low one, and a continuation to a higher
+ *     stop end at mts-client's level and checksum over TCP; nginx killed
+ *     mid-transfer and started again, the page resumes from the first
+ *     batch not held; a server that ignores Range is used, cut to the
+ *     range; a wrong Content-Range, a 404 and a damaged file are errors
+ *     the page shows by name.
  * build/web holds the page's files and nothing else (a web server hands
  * out all of it). Skips, saying why, without build/web (make web:
  * emscripten), node, chromium or nginx (fails instead with
@@ -23,12 +32,15 @@
 #include <limits.h>
 #include <signal.h>
 #include <stdint.h>
+#include <sys/prctl.h>
 
 #include "cdp.h"
 #include "test.h"
 #include "test_proc.h"
 
 static char bin_dir[512], tmp_dir[512], models_dir[600], web_dir[600], nginx[512];
+/* the stream files (mts-build --stream), served by the TLS front */
+static char www_dir[600];
 static int have_node, have_chromium, have_shared;
 
 /* A picture may differ from mts-client's where SwiftShader and llvmpipe
@@ -382,6 +394,328 @@ static void test_page_broken_connection(mts_test *t)
     server_stop(&sv);
 }
 
+/* ---- stream files (?src=) ------------------------------------------------- */
+
+/* A web server the page may read from (CORS) that answers wrongly, by path:
+ * /whole.mts a 200 with all of cow.mts whatever the range, /wrongrange.mts
+ * a 206 for other bytes than those asked for. One process per connection:
+ * Chromium opens connections it may never use. */
+static void hostile_serve(int lfd, const uint8_t *file, size_t size)
+{
+    signal(SIGCHLD, SIG_IGN);
+    for (;;) {
+        int fd = accept(lfd, NULL, NULL);
+        if (fd < 0)
+            continue;
+        pid_t pid = fork();
+        if (pid != 0) {
+            close(fd);
+            continue;
+        }
+        char req[4096];
+        size_t got = 0;
+        while (got < sizeof req - 1) {
+            ssize_t n = read(fd, req + got, sizeof req - 1 - got);
+            if (n <= 0)
+                break;
+            got += (size_t)n;
+            req[got] = 0;
+            if (strstr(req, "\r\n\r\n"))
+                break;
+        }
+        req[got] = 0;
+        unsigned long a = 0, b = size - 1;
+        const char *rg = strstr(req, "ange: bytes=");
+        if (rg)
+            sscanf(rg + 12, "%lu-%lu", &a, &b);
+        if (b >= size)
+            b = size - 1;
+        const char *cors = "Access-Control-Allow-Origin: *\r\n"
+                           "Access-Control-Expose-Headers: Content-Range, Content-Length\r\n";
+        char head[1024];
+        int hn;
+        const uint8_t *body = file;
+        size_t body_size = 0;
+        if (strncmp(req, "OPTIONS ", 8) == 0) {
+            hn = snprintf(head, sizeof head,
+                          "HTTP/1.1 204 No Content\r\n%sAccess-Control-Allow-Methods: GET\r\n"
+                          "Access-Control-Allow-Headers: Range\r\nConnection: close\r\n\r\n",
+                          cors);
+        } else if (strstr(req, "GET /whole")) {
+            body_size = size;
+            hn = snprintf(head, sizeof head,
+                          "HTTP/1.1 200 OK\r\n%sContent-Length: %zu\r\nConnection: close\r\n\r\n",
+                          cors, size);
+        } else {
+            unsigned long from = a + 7 <= b ? a + 7 : a;
+            body = file + from;
+            body_size = b - from + 1;
+            hn = snprintf(head, sizeof head,
+                          "HTTP/1.1 206 Partial Content\r\n%sContent-Range: bytes %lu-%lu/%zu\r\n"
+                          "Content-Length: %zu\r\nConnection: close\r\n\r\n",
+                          cors, from, b, size, body_size);
+        }
+        if (write(fd, head, (size_t)hn) == hn) {
+            for (size_t at = 0; at < body_size;) {
+                ssize_t w = write(fd, body + at, body_size - at);
+                if (w <= 0)
+                    break;
+                at += (size_t)w;
+            }
+        }
+        shutdown(fd, SHUT_WR);
+        char drain[256];
+        while (read(fd, drain, sizeof drain) > 0) {
+        }
+        _exit(0);
+    }
+}
+
+/* The page at page_query (after "?"), run until it completes or fails and,
+ * once complete, until the end is drawn (level at the stop, no geomorph
+ * under way); its state into state. 1 when it completed. */
+static int page_settled(mts_cdp *c, const server *sv, const char *page_query, double seconds,
+                        mts_buf *state)
+{
+    char url[900];
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?%.800s", sv->web_port, page_query);
+    if (!mts_cdp_navigate(c, url))
+        return 0;
+    return wait_phase(c, "complete error", seconds, state) &&
+           strstr((const char *)state->data, "\"phase\":\"complete\"");
+}
+
+/* After a stream completed: waits for its end to be drawn. */
+static int page_drawn(mts_cdp *c, mts_buf *state)
+{
+    double until = mts_cdp_now() + 20;
+    while (mts_cdp_now() < until) {
+        const char *st = (const char *)state->data;
+        if (mts_test_json_long(st, "level") == mts_test_json_long(st, "stop_level") &&
+            strstr(st, "\"morphing\":false"))
+            return 1;
+        mts_cdp_sleep_ms(50);
+        mts_cdp_eval(c, "JSON.stringify(window.mtsState)", state);
+    }
+    return 0;
+}
+
+/* The page's state ends at mts-client's level and checksum for the stop. */
+static int same_as_native(const server *sv, const char *model, const char *stop, long level,
+                          const char *st)
+{
+    char native[64], want[96];
+    native_checksum(sv, model, stop, native, sizeof native);
+    snprintf(want, sizeof want, "\"checksum\":\"%s\"", native);
+    return native[0] && strstr(st, want) && mts_test_json_long(st, "level") == level &&
+           mts_test_json_long(st, "stop_level") == level;
+}
+
+static void test_page_stream_file(mts_test *t)
+{
+    if (!have_chromium)
+        SKIP(t, "no chromium (scripts/deps.sh installs it): the page is not tested");
+    char out[8192];
+    if (access("/usr/lib/nginx/modules/ngx_stream_module.so", R_OK) != 0 ||
+        mts_test_run("command -v openssl", out, sizeof out) != 0) {
+        if (getenv("MTS_TEST_REQUIRE_WEB"))
+            CHECKF(t, 0, "nginx's stream module or openssl is missing (scripts/deps.sh)");
+        else
+            SKIP(t, "no nginx stream module or openssl: docker/nginx-tls.conf does not run");
+        return;
+    }
+    server sv;
+    CHECK(t, server_start(&sv, "file", NULL));
+    /* the stream files' own origin, over https with a throwaway CA */
+    mts_test_tls_front front;
+    memset(&front, 0, sizeof front);
+    snprintf(front.dir, sizeof front.dir, "%s/web_tls", tmp_dir);
+    snprintf(front.root, sizeof front.root, "%s", www_dir);
+    snprintf(front.nginx, sizeof front.nginx, "%s", nginx);
+    front.ws_upstream = sv.ws_port;
+    front.tcp_upstream = sv.port;
+    front.limit_rate = "set $r 0; if ($arg_rate) { set $r $arg_rate; } limit_rate $r;";
+    CHECKF(t, mts_test_tls_front_ca(&front, out, sizeof out), "openssl: %s", out);
+    CHECKF(t, mts_test_tls_front_start(&front) > 0, "nginx did not start (%s/nginx.log)",
+           front.dir);
+    /* Chromium trusts the server's key, by its SPKI's SHA-256, and nothing else */
+    char cmd[2000], spki[200], spki_arg[300];
+    snprintf(cmd, sizeof cmd,
+             "openssl x509 -in %s/cert.pem -pubkey -noout | openssl pkey -pubin -outform der | "
+             "openssl dgst -sha256 -binary | base64",
+             front.dir);
+    CHECK(t, mts_test_run(cmd, spki, sizeof spki) == 0 && spki[0]);
+    spki[strcspn(spki, "\n")] = 0;
+    snprintf(spki_arg, sizeof spki_arg, "--ignore-certificate-errors-spki-list=%s", spki);
+    /* the damaged copy: a byte of the last batches flipped */
+    char path[800];
+    snprintf(path, sizeof path, "%s/cow.mts", www_dir);
+    static uint8_t file[1 << 20];
+    FILE *f = fopen(path, "rb");
+    size_t size = f ? fread(file, 1, sizeof file, f) : 0;
+    if (f)
+        fclose(f);
+    CHECK(t, size > 400);
+    snprintf(path, sizeof path, "%s/damaged.mts", www_dir);
+    f = fopen(path, "wb");
+    file[size - 300] ^= 0x55;
+    CHECK(t, f && fwrite(file, 1, size, f) == size && fclose(f) == 0);
+    file[size - 300] ^= 0x55;
+    int hport;
+    int lfd = mts_test_listen_any(&hport);
+    CHECK(t, lfd >= 0);
+    if (t->case_failed) {
+        mts_test_tls_front_stop(&front, 0);
+        server_stop(&sv);
+        return;
+    }
+    pid_t hostile = fork();
+    if (hostile == 0) {
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
+        hostile_serve(lfd, file, size);
+        _exit(0);
+    }
+    close(lfd);
+
+    mts_cdp c;
+    char log[700];
+    const char *extra[] = {spki_arg, NULL};
+    snprintf(log, sizeof log, "%s/web_chromium_file.log", tmp_dir);
+    int up = mts_cdp_start_with(&c, tmp_dir, log, 512, 512, 30, extra);
+    CHECKF(t, up, "chromium did not start (see %s)", log);
+    char https[100], q[700];
+    snprintf(https, sizeof https, "https://127.0.0.1:%d", front.https_port);
+    mts_buf state = {0}, ok = {0};
+    const char *st = "";
+
+    /* the full level, cross-origin over https; its picture is mts-client's */
+    snprintf(q, sizeof q, "src=%s/cow.mts&bare=1", https);
+    int done = up && page_settled(&c, &sv, q, 60, &state) && page_drawn(&c, &state);
+    st = state.data ? (const char *)state.data : "";
+    CHECKF(t, done && same_as_native(&sv, "cow", "", 2875, st), "cow full: %s", st);
+    double share = done ? picture_share(&sv, &c, "cow", "", "cow_file") : -1;
+    CHECKF(t, share >= 0 && share <= PIXEL_SHARE, "cow from the file: %.4f", share);
+    long full_bytes = mts_test_json_long(st, "bytes");
+    CHECKF(t, full_bytes > 0 && (size_t)full_bytes <= size, "cow full: %ld bytes of %zu",
+           full_bytes, size);
+
+    /* a low stop, and a stop inside a batch continued to a higher one:
+     * the continuation is one request, from the first batch not held */
+    snprintf(q, sizeof q, "src=%s/cow.mts&bare=1&level=10", https);
+    done = up && page_settled(&c, &sv, q, 60, &state) && page_drawn(&c, &state);
+    st = state.data ? (const char *)state.data : "";
+    CHECKF(t, done && same_as_native(&sv, "cow", "--level 10", 10, st), "cow to 10: %s", st);
+    snprintf(q, sizeof q, "src=%s/cow.mts&bare=1&level=1000", https);
+    done = up && page_settled(&c, &sv, q, 60, &state) && page_drawn(&c, &state);
+    st = state.data ? (const char *)state.data : "";
+    CHECKF(t, done && same_as_native(&sv, "cow", "--level 1000", 1000, st), "cow to 1000: %s",
+           st);
+    long bytes_1000 = mts_test_json_long(st, "bytes"), requests = mts_test_json_long(st, "requests");
+    const char *more = "(() => { document.getElementById('stop').value = '2000'; "
+                       "document.getElementById('more').click(); return 'ok'; })()";
+    const char *at_2000[] = {"\"phase\":\"complete\"", "\"level\":2000,", "\"morphing\":false",
+                             NULL};
+    done = done && mts_cdp_eval(&c, more, &ok) && wait_state(&c, at_2000, 30, &state);
+    st = state.data ? (const char *)state.data : "";
+    CHECKF(t, done && same_as_native(&sv, "cow", "--level 2000", 2000, st) &&
+                  mts_test_json_long(st, "requests") == requests + 1 &&
+                  mts_test_json_long(st, "first_batch") > 0 &&
+                  mts_test_json_long(st, "bytes") + bytes_1000 < full_bytes * 2,
+           "cow continued from 1000 (%ld bytes, %ld requests) to 2000: %s", bytes_1000,
+           requests, st);
+    fprintf(stderr, "  cow from the file: %ld bytes to the full level; %ld to level 1000, "
+                    "%ld more to 2000\n",
+            full_bytes, bytes_1000, mts_test_json_long(st, "bytes") - bytes_1000);
+
+    /* bunny00 over the file and over the WebSocket: the same end */
+    if (have_shared) {
+        snprintf(q, sizeof q, "src=%s/bunny00.mts&bare=1", https);
+        done = up && page_settled(&c, &sv, q, 120, &state) && page_drawn(&c, &state);
+        st = state.data ? (const char *)state.data : "";
+        long levels = mts_test_json_long(st, "levels");
+        CHECKF(t, done && levels > 0 && same_as_native(&sv, "bunny00", "", levels, st),
+               "bunny00 full: %s", st);
+        long file_bytes = mts_test_json_long(st, "bytes");
+        char file_ms[32], ws_ms[32];
+        mts_test_json(st, "ms_final", file_ms, sizeof file_ms);
+        done = up && page_settled(&c, &sv, "model=bunny00&bare=1", 120, &state);
+        st = state.data ? (const char *)state.data : "";
+        mts_test_json(st, "ms_final", ws_ms, sizeof ws_ms);
+        fprintf(stderr, "  bunny00 to the full level: %ld bytes in %s ms from the file over "
+                        "https; %ld bytes in %s ms over the WebSocket\n",
+                file_bytes, file_ms, mts_test_json_long(st, "bytes"), ws_ms);
+    }
+
+    /* nginx killed mid-transfer and started again: the page asks for the
+     * batches it does not hold, and ends where TCP does */
+    const char *model = have_shared ? "bunny00" : "cow";
+    snprintf(q, sizeof q, "src=%s/%s.mts%%3Frate%%3D%s&bare=1", https, model,
+             have_shared ? "100k" : "10k");
+    char url[900];
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?%s", sv.web_port, q);
+    const char *streaming[] = {"\"phase\":\"streaming\"", "\"batches\":", NULL};
+    done = up && mts_cdp_navigate(&c, url) && wait_state(&c, streaming, 30, &state);
+    double until = mts_cdp_now() + 10;
+    while (done && mts_cdp_now() < until &&
+           mts_test_json_long((const char *)state.data, "batches") < 2) {
+        mts_cdp_sleep_ms(20);
+        mts_cdp_eval(&c, "JSON.stringify(window.mtsState)", &state);
+    }
+    long held = done ? mts_test_json_long((const char *)state.data, "batches") : -1;
+    mts_test_tls_front_stop(&front, 1); /* as a crash: every connection cut at once */
+    mts_cdp_sleep_ms(600);
+    CHECK(t, mts_test_tls_front_start(&front) > 0);
+    done = done && wait_phase(&c, "complete error", 60, &state) && page_drawn(&c, &state);
+    st = state.data ? (const char *)state.data : "";
+    long levels = mts_test_json_long(st, "levels");
+    CHECKF(t, done && held >= 2 && levels > 0 && same_as_native(&sv, model, "", levels, st) &&
+                  mts_test_json_long(st, "reconnects") >= 1 &&
+                  mts_test_json_long(st, "first_batch") >= held,
+           "%s resumed after nginx restarted (%ld batches held at the cut): %s", model, held, st);
+    fprintf(stderr, "  %s resumed from batch %ld after %ld failed tries: %ld bytes in all\n", model,
+            mts_test_json_long(st, "first_batch"), mts_test_json_long(st, "reconnects"),
+            mts_test_json_long(st, "bytes"));
+
+    /* a server that ignores Range: used, cut to the range */
+    snprintf(q, sizeof q, "src=http://127.0.0.1:%d/whole.mts&bare=1&level=1000", hport);
+    done = up && page_settled(&c, &sv, q, 60, &state) && page_drawn(&c, &state);
+    st = state.data ? (const char *)state.data : "";
+    CHECKF(t, done && same_as_native(&sv, "cow", "--level 1000", 1000, st),
+           "a server that ignores Range: %s", st);
+
+    /* errors, by name, on the page */
+    struct {
+        const char *src, *says;
+    } bad[] = {
+        {"http://127.0.0.1:%d/wrongrange.mts", "Content-Range"},
+        {"https://127.0.0.1:%d/nothing.mts", "404"},
+        {"https://127.0.0.1:%d/damaged.mts", "checksum"},
+    };
+    for (size_t i = 0; up && i < sizeof bad / sizeof bad[0]; i++) {
+        char s[300];
+        snprintf(s, sizeof s, bad[i].src, i == 0 ? hport : front.https_port);
+        snprintf(q, sizeof q, "src=%s&bare=1", s);
+        done = page_settled(&c, &sv, q, 30, &state);
+        st = state.data ? (const char *)state.data : "";
+        mts_buf shown = {0};
+        int on_page = mts_cdp_eval(&c, "document.getElementById('error').hidden ? '' : "
+                                       "document.getElementById('error').textContent",
+                                   &shown) &&
+                      shown.data && strstr((const char *)shown.data, bad[i].says);
+        CHECKF(t, !done && strstr(st, "\"phase\":\"error\"") && on_page, "%s: %s (shown: %s)", s,
+               st, shown.data ? (const char *)shown.data : "");
+        fprintf(stderr, "  %s: %s\n", s, shown.data ? (const char *)shown.data : "");
+        mts_buf_free(&shown);
+    }
+    mts_buf_free(&ok);
+    mts_buf_free(&state);
+    mts_cdp_stop(&c);
+    kill(hostile, SIGKILL);
+    waitpid(hostile, NULL, 0);
+    mts_test_tls_front_stop(&front, 0);
+    CHECK(t, server_stop(&sv) == 0);
+}
+
 static int have(const char *cmd)
 {
     char out[256];
@@ -396,6 +730,7 @@ int main(int argc, char **argv)
     mts_test_bin_dir(argv[0], bin_dir, sizeof bin_dir);
     snprintf(tmp_dir, sizeof tmp_dir, "%s", mts_test_tmpdir());
     snprintf(models_dir, sizeof models_dir, "%s/web_models", tmp_dir);
+    snprintf(www_dir, sizeof www_dir, "%s/web_www", tmp_dir);
     const char *wd = getenv("MTS_WEB_DIR");
     /* nginx's root: an absolute path (a relative one is nginx's prefix's) */
     char real[PATH_MAX];
@@ -415,7 +750,7 @@ int main(int argc, char **argv)
         if (required)
             t.failed = 1;
         else
-            t.skipped = 5;
+            t.skipped = 6;
         return mts_test_end(&t);
     }
     have_node = have("node --version");
@@ -429,17 +764,18 @@ int main(int argc, char **argv)
     }
     if (!have_nginx) {
         printf("  SKIP: no nginx (scripts/deps.sh installs it): it serves the page\n");
-        t.skipped = 5;
+        t.skipped = 6;
         return mts_test_end(&t);
     }
     char m[600];
     have_shared = mts_test_model("bunny00.off", m, sizeof m) != NULL &&
                   mts_test_model("fandisk_large.off", m, sizeof m) != NULL;
     /* the models, built once */
-    char cmd[4000], out[8192];
+    char cmd[6000], out[8192];
     snprintf(cmd, sizeof cmd,
-             "mkdir -p %s && %s/mts-build tests/data/cow.off -o %s/cow.mtsm --quiet", models_dir,
-             bin_dir, models_dir);
+             "mkdir -p %s %s && %s/mts-build tests/data/cow.off -o %s/cow.mtsm --stream "
+             "%s/cow.mts --quiet",
+             models_dir, www_dir, bin_dir, models_dir, www_dir);
     if (mts_test_run(cmd, out, sizeof out) != 0) {
         fprintf(stderr, "cannot build cow: %s\n", out);
         return 1;
@@ -449,9 +785,9 @@ int main(int argc, char **argv)
         mts_test_model("bunny00.off", bunny, sizeof bunny);
         mts_test_model("fandisk_large.off", fandisk, sizeof fandisk);
         snprintf(cmd, sizeof cmd,
-                 "%s/mts-build %s -o %s/bunny00.mtsm --quiet && "
+                 "%s/mts-build %s -o %s/bunny00.mtsm --stream %s/bunny00.mts --quiet && "
                  "%s/mts-build %s -o %s/fandisk_large.mtsm --quiet",
-                 bin_dir, bunny, models_dir, bin_dir, fandisk, models_dir);
+                 bin_dir, bunny, models_dir, www_dir, bin_dir, fandisk, models_dir);
         if (mts_test_run(cmd, out, sizeof out) != 0) {
             fprintf(stderr, "cannot build the shared models: %s\n", out);
             return 1;
@@ -462,5 +798,6 @@ int main(int argc, char **argv)
     RUN(&t, test_page);
     RUN(&t, test_page_slider_morph);
     RUN(&t, test_page_broken_connection);
+    RUN(&t, test_page_stream_file);
     return mts_test_end(&t);
 }

@@ -1,5 +1,6 @@
 // The page's glue around the C decoder (web/mts_web.h, compiled to
-// WebAssembly): WebSocket bytes in, WebGL2 draws out, the controls. The
+// WebAssembly): WebSocket bytes, or a stream file's ranges fetched over
+// HTTP(S) (?src=URL), in; WebGL2 draws out; the controls. The
 // decoding, the levels, the strip packing, the camera and the strip colours
 // are the C's; this file moves bytes and calls GL.
 'use strict';
@@ -22,12 +23,20 @@
     server_checksum: '', ms_connect: 0, ms_base: 0, ms_first_frame: 0, ms_final: 0, decode_ms: 0,
     frames: 0, fps: 0, draw_ms_total: 0, draw_ms_max: 0, frames_streaming: 0,
     morphing: false, morph_ms: 0, models: [],
+    requests: 0, reconnects: 0, first_batch: 0,
   };
   window.mtsState = state;
   const publish = () => { $('state').textContent = JSON.stringify(state); };
 
   // The web server that hands out the page proxies the stream at /stream
   // (web/nginx.conf); over https that is wss://, as a secure page requires.
+  // A stream file (mts-build --stream) from any web server that answers
+  // Range requests: this page's, or another origin's that sends CORS
+  // headers (docker/nginx-tls.conf's .mts location). No WebSocket then.
+  const src = params.get('src');
+  // a cut range is asked for again from the first batch not held, after
+  // waits that double from 250 ms up to 4 s, this many times in a row
+  const retries = params.get('retries') !== null ? Number(params.get('retries')) : 8;
   const serverUrl = params.get('server') ||
       ((location.protocol === 'https:' ? 'wss://' : 'ws://') + (location.host || '127.0.0.1:7448') +
        '/stream');
@@ -35,6 +44,7 @@
   let M = null;        // the WebAssembly module
   let w = 0;           // its mts_web*
   let ws = null;
+  let file = null;     // the stream file's conversation (?src=)
   let gl = null, prog = null, vbo = null, nbo = null, mbo = null, ibo = null;
   let morphSerial = -1; // the morph range whose from-places mbo holds
   let uploadedVertices = 0, vertexCapacity = 0, indexCount = 0, packedLevel = -1;
@@ -225,6 +235,8 @@
   function hud() {
     const lv = $('level');
     lv.max = String(state.received);
+    // a stream file's next stop: the full level unless one is typed
+    if (src && $('stop').value === '0' && state.levels) $('stop').value = String(state.levels);
     if ($('follow').checked) lv.value = String(state.received);
     $('hud').textContent =
       `level     ${state.level} / ${state.levels} (received ${state.received})\n` +
@@ -244,9 +256,9 @@
   // coming; decoded as they come, a burst of batches holds the first picture
   // back until the browser forces a frame (~100 ms of bunny00 here). The
   // close is taken once the queue is empty: nothing received is dropped.
-  function connect(onOpen, onBytes, onClose, paced) {
-    const sock = new WebSocket(serverUrl);
-    sock.binaryType = 'arraybuffer';
+  // The bytes of one conversation on their way to the decoder: feed copies
+  // them into the module's memory and hands them to onBytes; end frees that.
+  function inboxOf(onBytes, onClose) {
     const c = {buf: 0, cap: 0, queue: [], closed: null, onBytes, onClose};
     c.feed = (data) => {
       if (data.length > c.cap) {
@@ -258,6 +270,23 @@
       c.onBytes(c.buf, data.length);
     };
     c.end = (ev) => { if (c.buf) M._free(c.buf); c.buf = 0; c.onClose(ev); };
+    return c;
+  }
+
+  // The paced stream's queue goes with it when another starts.
+  function dropInbox() {
+    if (!inbox) return;
+    inbox.queue.length = 0;
+    inbox.closed = null;
+    if (inbox.buf) M._free(inbox.buf);
+    inbox.buf = inbox.cap = 0;
+    inbox = null;
+  }
+
+  function connect(onOpen, onBytes, onClose, paced) {
+    const sock = new WebSocket(serverUrl);
+    sock.binaryType = 'arraybuffer';
+    const c = inboxOf(onBytes, onClose);
     sock.onopen = () => onOpen(sock);
     sock.onmessage = (ev) => {
       if (paced) c.queue.push(new Uint8Array(ev.data));
@@ -313,8 +342,11 @@
     });
   }
 
-  function stream(name) {
+  // A new decoder and a clean slate for a stream of `name`.
+  function restart(name) {
     if (ws) { ws.onclose = null; ws.close(); }
+    if (file) file.abort.abort();
+    file = null;
     if (w) M._mts_web_destroy(w);
     w = M._mts_web_create();
     M._mts_web_set_morph_ms(w, morphMs);
@@ -324,10 +356,34 @@
                           batches: 0, bytes: 0, checksum: '', server_checksum: '', ms_connect: 0, ms_base: 0,
                           ms_first_frame: 0, ms_final: 0, decode_ms: 0, frames: 0,
                           draw_ms_total: 0, draw_ms_max: 0, frames_streaming: 0,
-                          morphing: false, morph_ms: morphMs});
+                          morphing: false, morph_ms: morphMs, requests: 0, reconnects: 0,
+                          first_batch: 0});
     $('error').hidden = true;
     uploadedVertices = vertexCapacity = indexCount = 0;
     packedLevel = -1;
+  }
+
+  // What the decoder says after bytes were taken (or the stream ended).
+  function progress() {
+    state.received = M._mts_web_received_level(w);
+    state.stop_level = M._mts_web_stop_level(w);
+    state.levels = M._mts_web_level_count(w);
+    state.vertices = M._mts_web_vertices(w);
+    state.batches = M._mts_web_batches(w);
+    if (!state.ms_base && M._mts_web_state(w) >= 2) state.ms_base = performance.now() - t0;
+    if (M._mts_web_state(w) === 3) {
+      state.phase = 'complete';
+      state.ms_final = performance.now() - t0;
+      state.frames_streaming = state.frames; // drawn while it came
+      state.checksum = M.UTF8ToString(M._mts_web_checksum(w));
+      state.server_checksum = M.UTF8ToString(M._mts_web_server_checksum(w));
+    }
+    dirty = true;
+    publish();
+  }
+
+  function stream(name) {
+    restart(name);
     const stopLevel = params.get('level');
     t0 = performance.now();
     const mine = w;
@@ -337,13 +393,7 @@
                                    0);
     M._free(nameBuf);
     const helloBytes = M.HEAPU8.slice(hello, hello + M._mts_web_out_size(w));
-    if (inbox) { // the last stream's queue goes with it
-      inbox.queue.length = 0;
-      inbox.closed = null;
-      if (inbox.buf) M._free(inbox.buf);
-      inbox.buf = inbox.cap = 0;
-      inbox = null;
-    }
+    dropInbox();
     ws = connect((sock) => {
       state.ms_connect = performance.now() - t0;
       state.phase = 'streaming';
@@ -356,21 +406,7 @@
       state.decode_ms += performance.now() - d0;
       state.bytes += n;
       if (rc !== 0) return fail(M.UTF8ToString(M._mts_web_error(w)));
-      state.received = M._mts_web_received_level(w);
-      state.stop_level = M._mts_web_stop_level(w);
-      state.levels = M._mts_web_level_count(w);
-      state.vertices = M._mts_web_vertices(w);
-      state.batches = M._mts_web_batches(w);
-      if (!state.ms_base && M._mts_web_state(w) >= 2) state.ms_base = performance.now() - t0;
-      if (M._mts_web_state(w) === 3) {
-        state.phase = 'complete';
-        state.ms_final = performance.now() - t0;
-        state.frames_streaming = state.frames; // drawn while it came
-        state.checksum = M.UTF8ToString(M._mts_web_checksum(w));
-        state.server_checksum = M.UTF8ToString(M._mts_web_server_checksum(w));
-      }
-      dirty = true;
-      publish();
+      progress();
     }, (ev) => {
       if (w !== mine) return;
       if (state.phase !== 'complete' && state.phase !== 'error')
@@ -378,6 +414,227 @@
              (ev.reason ? ` (${ev.reason})` : '') + '; the picture stops there');
     }, true);
   }
+
+  // ---- a stream file over HTTP(S) (?src=URL; web/mts_web.h) ----------------
+  // The native client's conversation (client/webfile.c): the file's first
+  // 4 KB (its prefix and, for most models, the start of BASE), the rest of
+  // the prefix when it is longer, then one ranged GET from BASE -- or, for a
+  // resume or a continuation, from the first batch not held -- to the end
+  // of the stop's last batch, decoded as it arrives. The C plans, decodes
+  // and verifies; this moves the bytes.
+  const FIRST_REQUEST = 4096; // MTS_SFILE_FIRST_REQUEST
+
+  // An HTTP failure; `again` when a new request may cure it (a cut, a
+  // server down or a 5xx), as the native client's MTS_ERR_IO.
+  function httpError(text, again) {
+    const e = new Error(text);
+    e.again = again;
+    return e;
+  }
+
+  function decoderError() {
+    return httpError(`${src}: ${M.UTF8ToString(M._mts_web_error(w))}`, false);
+  }
+
+  // The stream is over: no byte more is fetched for it.
+  function fileFail(f, text) {
+    f.abort.abort();
+    fail(text);
+  }
+
+  // bytes into the module's memory for one call
+  function withBytes(data, fn) {
+    const p = M._malloc(Math.max(data.length, 1));
+    M.HEAPU8.set(data, p);
+    try { return fn(p, data.length); } finally { M._free(p); }
+  }
+
+  // One GET of bytes [from, to) of the file (upTo: the file may end
+  // sooner), the body handed to onChunk piece by piece as it arrives, cut
+  // to the range: from a server that ignored Range (200, the whole file)
+  // the bytes before `from` are skipped and the transfer stopped at `to`.
+  // A 206 must say it holds exactly the bytes asked for.
+  async function getRange(f, from, to, upTo, onChunk) {
+    let res;
+    state.requests++;
+    try {
+      res = await fetch(src, {headers: {Range: `bytes=${from}-${to - 1}`},
+                              signal: f.abort.signal});
+    } catch (e) {
+      throw httpError(`${src}: ${e.message || e}`, true);
+    }
+    if (!state.ms_connect) state.ms_connect = performance.now() - t0;
+    let skip = 0;
+    if (res.status === 206) {
+      const cr = res.headers.get('Content-Range');
+      if (!cr)
+        throw httpError(`${src}: a 206 without Content-Range (a server of another origin ` +
+                        'must expose it: Access-Control-Expose-Headers)', false);
+      const m = /^\s*bytes\s+(\d+)-(\d+)\/(\d+|\*)\s*$/i.exec(cr);
+      const size = M._mts_web_file_size(w);
+      if (!m || Number(m[1]) !== from || Number(m[2]) < from ||
+          (upTo ? Number(m[2]) > to - 1 : Number(m[2]) !== to - 1) ||
+          (size && m[3] !== '*' && Number(m[3]) !== size))
+        throw httpError(`${src}: the wrong range: asked for bytes ${from}-${to - 1}, ` +
+                        `got Content-Range: ${cr}`, false);
+    } else if (res.status === 200) {
+      skip = from;
+    } else {
+      throw httpError(`${src}: HTTP ${res.status}${res.statusText ? ' ' + res.statusText : ''}`,
+                      res.status >= 500 || res.status === 408 || res.status === 429);
+    }
+    if (!res.body) throw httpError(`${src}: the response has no body`, false);
+    const reader = res.body.getReader();
+    const want = to - from;
+    let got = 0;
+    try {
+      while (got < want) {
+        const {done, value} = await reader.read();
+        if (done) break;
+        state.bytes += value.length;
+        let chunk = value;
+        if (skip) {
+          const n = Math.min(skip, chunk.length);
+          chunk = chunk.subarray(n);
+          skip -= n;
+        }
+        if (chunk.length > want - got) chunk = chunk.subarray(0, want - got);
+        if (chunk.length) {
+          got += chunk.length;
+          onChunk(chunk);
+        }
+      }
+    } catch (e) {
+      if (f.abort.signal.aborted) throw e;
+      throw httpError(`${src}: the transfer broke after ${got} of ${want} bytes ` +
+                      `(${e.message || e})`, true);
+    }
+    if (got >= want) reader.cancel().catch(() => {}); // the rest of a 200's file
+    if (got < want && !upTo)
+      throw httpError(`${src}: the range ended early, after ${got} of ${want} bytes`, true);
+    return got;
+  }
+
+  // The prefix, read once and kept (f.pre: the file's first bytes, the
+  // start of BASE among them), and the index parsed from it.
+  async function filePrefix(f) {
+    const parts = [];
+    let have = 0;
+    const take = (chunk) => { parts.push(chunk); have += chunk.length; };
+    const joined = () => {
+      const all = new Uint8Array(have);
+      let at = 0;
+      for (const p of parts) { all.set(p, at); at += p.length; }
+      return all;
+    };
+    await getRange(f, 0, FIRST_REQUEST, true, take);
+    let pre = joined();
+    const need = withBytes(pre, (p, n) => M._mts_web_file_prefix_size(w, p, n));
+    if (need < 0) throw decoderError();
+    if (need > have) {
+      await getRange(f, have, need, false, take);
+      pre = joined();
+    }
+    if (withBytes(pre, (p, n) => M._mts_web_file_index(w, p, n)) !== 0) throw decoderError();
+    f.pre = pre;
+  }
+
+  // Plans f's stop from the first batch not held and fetches its range;
+  // the bytes are decoded from the paced queue, as the WebSocket's.
+  function fileRange(f) {
+    const mine = w;
+    state.first_batch = M._mts_web_file_resume_point(w); // the range starts there
+    if (M._mts_web_file_plan(w, f.kind, f.value) !== 0 || M._mts_web_file_begin(w) !== 0)
+      return fileFail(f, decoderError().message);
+    progress();
+    const from = M._mts_web_file_from(w), to = M._mts_web_file_to(w);
+    const c = inboxOf((p, n) => {
+      if (w !== mine || file !== f || state.phase === 'error') return;
+      const d0 = performance.now();
+      const rc = M._mts_web_file_feed(w, p, n);
+      state.decode_ms += performance.now() - d0;
+      if (rc !== 0) return fileFail(f, decoderError().message);
+      f.tries = 0; // bytes came: a later cut starts counting again
+      progress();
+    }, (ev) => {
+      if (w !== mine || file !== f || state.phase === 'error') return;
+      if (ev.error) return fileRetry(f, ev.error);
+      if (!M._mts_web_file_done(w))
+        return fileRetry(f, httpError(`${src}: the range ended early`, true));
+      if (M._mts_web_file_end(w) !== 0) return fileFail(f, decoderError().message);
+      progress();
+    });
+    dropInbox();
+    inbox = c;
+    let next = from;
+    if (f.pre && f.pre.length > from) { // what came with the prefix
+      next = Math.min(f.pre.length, to);
+      c.queue.push(f.pre.subarray(from, next));
+    }
+    if (next >= to) {
+      c.closed = {};
+      return;
+    }
+    getRange(f, next, to, false, (chunk) => c.queue.push(chunk))
+        .then(() => { c.closed = {}; }, (e) => { c.closed = {error: e}; });
+  }
+
+  // One step of the conversation: the prefix when it is not in yet, then
+  // the range.
+  async function fileStep(f) {
+    try {
+      if (!f.pre) await filePrefix(f);
+    } catch (e) {
+      return fileRetry(f, e);
+    }
+    if (file !== f) return;
+    state.phase = 'streaming';
+    fileRange(f);
+  }
+
+  // After a failure: once everything that came is decoded, a new request
+  // from the first batch not held, when one may help.
+  function fileRetry(f, e) {
+    if (file !== f || f.abort.signal.aborted || state.phase === 'error') return;
+    if (!e.again || M._mts_web_file_resume_point(w) < 0 || f.tries >= retries)
+      return fileFail(f, e.again ? `${e.message}; gave up after ${f.tries} tries, at level ` +
+                            `${state.received} of ${state.stop_level || '?'}` : e.message);
+    f.tries++;
+    state.reconnects++;
+    state.phase = 'reconnecting';
+    publish();
+    setTimeout(() => { if (file === f) fileStep(f); }, Math.min(4000, 250 * 2 ** (f.tries - 1)));
+  }
+
+  function fileStream() {
+    restart(src.replace(/[?#].*$/, '').split('/').pop() || src);
+    const stopLevel = params.get('level');
+    t0 = performance.now();
+    dropInbox();
+    file = {abort: new AbortController(), pre: null, kind: stopLevel !== null ? 1 : 0,
+            value: Number(stopLevel || 0), tries: 0};
+    publish();
+    fileStep(file);
+  }
+
+  // On to a higher stop once the last is in: one range, from the first
+  // batch not held. false when there is nothing to continue.
+  function fileContinue(level) {
+    const f = file;
+    if (!f || state.phase !== 'complete' || !(level > state.stop_level) ||
+        state.stop_level >= state.levels)
+      return false;
+    f.kind = level >= state.levels ? 0 : 1;
+    f.value = level >= state.levels ? 0 : level;
+    f.tries = 0;
+    state.phase = 'streaming';
+    state.checksum = state.server_checksum = '';
+    state.ms_final = 0;
+    t0 = performance.now();
+    fileRange(f);
+    return true;
+  }
+  window.mtsContinue = fileContinue;
 
   // ---- controls --------------------------------------------------------------
   function controls() {
@@ -399,8 +656,18 @@
     $('level').addEventListener('input', () => { $('follow').checked = false; dirty = true; });
     $('follow').addEventListener('change', () => { dirty = true; });
     $('strips').addEventListener('change', () => { dirty = true; });
-    $('model').addEventListener('change', () => stream($('model').value));
-    $('reload').addEventListener('click', () => stream($('model').value));
+    if (src) {
+      const o = document.createElement('option');
+      o.textContent = src;
+      $('model').appendChild(o);
+      $('model').disabled = true;
+      $('more-row').hidden = false;
+      $('more').addEventListener('click', () => fileContinue(Number($('stop').value)));
+      $('reload').addEventListener('click', () => fileStream());
+    } else {
+      $('model').addEventListener('change', () => stream($('model').value));
+      $('reload').addEventListener('click', () => stream($('model').value));
+    }
     if (params.get('strips') === '1') $('strips').checked = true;
     if (params.get('level') !== null) $('follow').checked = true;
     window.addEventListener('resize', () => { dirty = true; });
@@ -422,6 +689,7 @@
     requestAnimationFrame(draw);
     // a hidden page gets no animation frames: the stream is decoded anyway
     setInterval(() => { if (performance.now() - lastPump > 200) pump(performance.now() + 50); }, 100);
+    if (src) return fileStream();
     list(() => {
       const want = params.get('model') || (state.models[0] && state.models[0].name);
       if (!want) return fail(`no models listed by ${serverUrl}`);

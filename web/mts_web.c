@@ -1,6 +1,7 @@
 /* The browser's decoder (mts_web.h): the native stream client, fed from
- * JavaScript, and a follower (client/follow.h, the native view's) whose
- * packed level the page draws. */
+ * JavaScript (WebSocket messages, or the ranges of a stream file through
+ * protocol/stream_file.c's reader), and a follower (client/follow.h, the
+ * native view's) whose packed level the page draws. */
 #include "mts_web.h"
 
 #include <stdio.h>
@@ -18,7 +19,16 @@
 #include "camera.h"
 #include "follow.h"
 #include "stream.h"
+#include "stream_file.h"
 #include "wire.h"
+
+/* The largest stream file the page reads, as mts-client's default cap: a
+ * header that claims more is refused before anything is allocated. */
+#define MTS_WEB_FILE_MAX_BYTES ((uint64_t)1 << 30)
+/* A range's bytes go to the stream client in pieces of at most this, its
+ * frames taken between them: the client holds only so much untaken
+ * (mts_stream_client_feed), whatever size of chunk a browser hands over. */
+#define MTS_WEB_FILE_PIECE ((size_t)1 << 20)
 
 struct mts_web {
     mts_stream_client client;
@@ -35,6 +45,13 @@ struct mts_web {
     mts_camera_view camera;
     float style[11];
     float bbox[6];
+    /* a stream file: its index, kept from one range to the next (a resume
+     * or a continuation asks only for the batches not held), the plan of
+     * the range under way and the reader that keeps the checks */
+    mts_stream_file_index file_idx;
+    int have_file_idx, have_file_plan, file_begun;
+    mts_stream_file_plan file_plan;
+    mts_stream_file_reader file_reader;
 };
 
 MTS_WEB_API mts_web *mts_web_create(void)
@@ -54,6 +71,8 @@ MTS_WEB_API void mts_web_destroy(mts_web *w)
     if (w->have_follow)
         mts_follow_free(&w->follow);
     mts_stream_client_free(&w->client);
+    mts_stream_file_reader_free(&w->file_reader);
+    mts_stream_file_index_free(&w->file_idx);
     mts_buf_free(&w->out);
     mts_buf_free(&w->models);
     free(w);
@@ -104,6 +123,48 @@ static mts_result fail(mts_web *w, mts_result rc)
     return rc;
 }
 
+/* What an event of the client changes in what the page reads. */
+static mts_result on_event(mts_web *w, mts_stream_event ev)
+{
+    const mts_stream_client *c = &w->client;
+    if (ev == MTS_EV_INFO) {
+        w->state = 1;
+        memcpy(w->bbox, c->info.bbox_min, 12);
+        memcpy(w->bbox + 3, c->info.bbox_max, 12);
+    } else if (ev == MTS_EV_BASE) {
+        w->state = 2;
+    } else if (ev == MTS_EV_RESUMED) {
+        /* a resumed or continued conversation: the stream goes on from what
+         * is held */
+        w->state = c->have_lod ? 2 : 1;
+    } else if (ev == MTS_EV_END) {
+        w->state = 3;
+        snprintf(w->checksum, sizeof w->checksum, "%016llx", (unsigned long long)c->checksum);
+        snprintf(w->server_checksum, sizeof w->server_checksum, "%016llx",
+                 (unsigned long long)c->end_checksum);
+    } else if (ev == MTS_EV_MODELS) {
+        w->state = 4;
+    } else if (ev == MTS_EV_ERROR) {
+        mts_error_set(&w->err, MTS_ERR_FORMAT, "the server says: %s", c->error_text);
+        return fail(w, MTS_ERR_FORMAT);
+    }
+    return MTS_OK;
+}
+
+/* Takes every whole frame the client holds. */
+static mts_result take_events(mts_web *w)
+{
+    mts_stream_event ev;
+    int got;
+    mts_result rc;
+    while ((got = mts_stream_client_next(&w->client, &ev, &w->err)) == 1)
+        if ((rc = on_event(w, ev)) != MTS_OK)
+            return rc;
+    if (got < 0)
+        return fail(w, w->err.code ? w->err.code : MTS_ERR_FORMAT);
+    return MTS_OK;
+}
+
 MTS_WEB_API mts_result mts_web_feed(mts_web *w, const uint8_t *data, size_t size)
 {
     if (w->failed)
@@ -113,31 +174,146 @@ MTS_WEB_API mts_result mts_web_feed(mts_web *w, const uint8_t *data, size_t size
     mts_result rc = mts_stream_client_feed(&w->client, data, size, &w->err);
     if (rc != MTS_OK)
         return fail(w, rc);
-    mts_stream_event ev;
-    int got;
-    while ((got = mts_stream_client_next(&w->client, &ev, &w->err)) == 1) {
-        if (ev == MTS_EV_INFO) {
-            w->state = 1;
-            memcpy(w->bbox, w->client.info.bbox_min, 12);
-            memcpy(w->bbox + 3, w->client.info.bbox_max, 12);
-        } else if (ev == MTS_EV_BASE) {
-            w->state = 2;
-        } else if (ev == MTS_EV_END) {
-            w->state = 3;
-            snprintf(w->checksum, sizeof w->checksum, "%016llx",
-                     (unsigned long long)w->client.checksum);
-            snprintf(w->server_checksum, sizeof w->server_checksum, "%016llx",
-                     (unsigned long long)w->client.end_checksum);
-        } else if (ev == MTS_EV_MODELS) {
-            w->state = 4;
-        } else if (ev == MTS_EV_ERROR) {
-            mts_error_set(&w->err, MTS_ERR_FORMAT, "the server says: %s", w->client.error_text);
-            return fail(w, MTS_ERR_FORMAT);
-        }
+    return take_events(w);
+}
+
+/* ---- stream files ---------------------------------------------------------- */
+
+static mts_result failed_before(mts_web *w)
+{
+    return w->err.code ? w->err.code : MTS_ERR_FORMAT;
+}
+
+MTS_WEB_API double mts_web_file_prefix_size(mts_web *w, const uint8_t *data, size_t size)
+{
+    uint64_t prefix = 0;
+    if (w->failed)
+        return -1;
+    if (mts_stream_file_prefix_size(data, size, MTS_WEB_FILE_MAX_BYTES, &prefix, &w->err) !=
+        MTS_OK) {
+        fail(w, w->err.code);
+        return -1;
     }
-    if (got < 0)
-        return fail(w, w->err.code ? w->err.code : MTS_ERR_FORMAT);
+    return (double)prefix;
+}
+
+MTS_WEB_API mts_result mts_web_file_index(mts_web *w, const uint8_t *data, size_t size)
+{
+    if (w->failed)
+        return failed_before(w);
+    mts_stream_file_index_free(&w->file_idx);
+    w->have_file_idx = 0;
+    mts_result rc =
+        mts_stream_file_index_parse(data, size, MTS_WEB_FILE_MAX_BYTES, &w->file_idx, &w->err);
+    if (rc != MTS_OK)
+        return fail(w, rc);
+    w->have_file_idx = 1;
     return MTS_OK;
+}
+
+MTS_WEB_API double mts_web_file_size(const mts_web *w)
+{
+    return w->have_file_idx ? (double)w->file_idx.file_size : 0;
+}
+
+MTS_WEB_API int mts_web_file_resume_point(const mts_web *w)
+{
+    const mts_stream_client *c = &w->client;
+    if (w->failed || c->lod.broken)
+        return -1;
+    return c->have_lod ? (int)c->batches : 0;
+}
+
+MTS_WEB_API mts_result mts_web_file_plan(mts_web *w, uint32_t stop_kind, uint32_t stop_value)
+{
+    if (w->failed)
+        return failed_before(w);
+    if (!w->have_file_idx) {
+        mts_error_set(&w->err, MTS_ERR_ARG, "stream file: no index to plan from");
+        return fail(w, MTS_ERR_ARG);
+    }
+    int first = mts_web_file_resume_point(w);
+    mts_result rc = mts_stream_file_plan_stop(&w->file_idx, (uint8_t)stop_kind, stop_value,
+                                              first > 0 ? (uint32_t)first : 0, &w->file_plan,
+                                              &w->err);
+    if (rc != MTS_OK)
+        return fail(w, rc);
+    w->have_file_plan = 1;
+    return MTS_OK;
+}
+
+MTS_WEB_API double mts_web_file_from(const mts_web *w)
+{
+    return w->have_file_plan ? (double)w->file_plan.from : 0;
+}
+
+MTS_WEB_API double mts_web_file_to(const mts_web *w)
+{
+    return w->have_file_plan ? (double)w->file_plan.to : 0;
+}
+
+MTS_WEB_API mts_result mts_web_file_begin(mts_web *w)
+{
+    if (w->failed)
+        return failed_before(w);
+    if (!w->have_file_plan) {
+        mts_error_set(&w->err, MTS_ERR_ARG, "stream file: no plan to begin");
+        return fail(w, MTS_ERR_ARG);
+    }
+    mts_stream_client *c = &w->client;
+    mts_result rc = MTS_OK;
+    if (w->file_begun && w->state == 3) {
+        /* a higher stop after the last ended: the batches held stay */
+        uint32_t batch;
+        uint64_t id;
+        rc = mts_stream_client_continue(c, &batch, &id, &w->err);
+        w->checksum[0] = w->server_checksum[0] = 0;
+    } else if (w->file_begun) {
+        /* the last range broke: its frame cut short is dropped, and it
+         * comes again whole at the start of this one */
+        rc = mts_stream_client_reconnected(c, &w->err);
+    }
+    if (rc == MTS_OK)
+        rc = mts_stream_file_reader_begin(&w->file_reader, &w->file_idx, &w->file_plan, c,
+                                          &w->err);
+    if (rc != MTS_OK)
+        return fail(w, rc);
+    w->file_begun = 1;
+    return take_events(w);
+}
+
+MTS_WEB_API mts_result mts_web_file_feed(mts_web *w, const uint8_t *data, size_t size)
+{
+    if (w->failed)
+        return failed_before(w);
+    while (size > 0) {
+        size_t n = size < MTS_WEB_FILE_PIECE ? size : MTS_WEB_FILE_PIECE;
+        mts_result rc =
+            mts_stream_file_reader_feed(&w->file_reader, &w->client, data, n, &w->err);
+        if (rc != MTS_OK)
+            return fail(w, rc);
+        if ((rc = take_events(w)) != MTS_OK)
+            return rc;
+        data += n;
+        size -= n;
+    }
+    return MTS_OK;
+}
+
+MTS_WEB_API int mts_web_file_done(const mts_web *w)
+{
+    return w->file_begun && mts_stream_file_reader_done(&w->file_reader);
+}
+
+MTS_WEB_API mts_result mts_web_file_end(mts_web *w)
+{
+    if (w->failed)
+        return failed_before(w);
+    mts_stream_event ev;
+    mts_result rc = mts_stream_file_reader_end(&w->file_reader, &w->client, &ev, &w->err);
+    if (rc != MTS_OK)
+        return fail(w, rc);
+    return on_event(w, ev);
 }
 
 MTS_WEB_API const char *mts_web_error(const mts_web *w)

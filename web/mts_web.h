@@ -4,6 +4,10 @@
  * messages in, HELLO and LIST out) and draws what mts_web_pack gives it;
  * everything else is the C the native client runs.
  *
+ * A stream file (protocol/stream_file.h) is read the same way: the page
+ * fetches byte ranges of it with HTTP Range requests and hands them to
+ * the mts_web_file_* calls, which feed the same stream client.
+ *
  * A view runtime of its own (as client/view.c's own_runtime) lets the page
  * show any level received while the stream goes on; mts_web_pack lays the
  * shown level's strips out as one joined strip (mts_strips_pack, the native
@@ -37,6 +41,49 @@ size_t mts_web_out_size(const mts_web *w);
  * that ended the stream (a server's ERROR frame too): nothing more is
  * taken after one. */
 mts_result mts_web_feed(mts_web *w, const uint8_t *data, size_t size);
+
+/* ---- a stream file (PROTOCOL.md, "Stream files") -------------------------
+ * The conversation the native client has (client/webfile.c), the fetching
+ * left to the page:
+ *   1. fetch the file's first MTS_SFILE_FIRST_REQUEST (4096) bytes;
+ *      mts_web_file_prefix_size says how many its prefix takes: fetch the
+ *      rest of those when it is more, then mts_web_file_index;
+ *   2. mts_web_file_plan for a stop, then mts_web_file_begin; fetch
+ *      [mts_web_file_from, mts_web_file_to) and hand the bytes, in order,
+ *      to mts_web_file_feed as they arrive (those of the prefix's request
+ *      that fall in the range first); a server that ignored the range
+ *      (a 200 with the whole file) is cut to it by the page: bytes past the
+ *      range are refused;
+ *   3. once mts_web_file_done: mts_web_file_end verifies the stop against
+ *      the file's checks and ends the stream as END does (state 3).
+ * A range that broke (a cut, a server down), or a higher stop once the
+ * last ended, is step 2 again: the plan starts at the first batch not held
+ * (mts_web_file_resume_point) and begin readies the client for it, the
+ * index and the checks already read kept. Offsets are doubles: exact up to
+ * 2^53, and what JavaScript's numbers hold. Errors are fatal to the
+ * stream, as mts_web_feed's, and mts_web_error says what. */
+
+/* From the file's first bytes (at least its 32-byte header): the size of
+ * its prefix (header, MODEL_INFO, table); -1 when it is not a stream file
+ * this reads, or is over 1 GiB. */
+double mts_web_file_prefix_size(mts_web *w, const uint8_t *data, size_t size);
+/* Parses the index from the file's first bytes (at least the prefix). */
+mts_result mts_web_file_index(mts_web *w, const uint8_t *data, size_t size);
+double mts_web_file_size(const mts_web *w); /* the file's, as its header says */
+/* The first batch not held (0: from BASE, a fresh start); -1 when nothing
+ * can resume (the stream failed). */
+int mts_web_file_resume_point(const mts_web *w);
+/* Plans a stop (stop_kind/stop_value as HELLO's) from the resume point:
+ * the bytes to fetch are [mts_web_file_from, mts_web_file_to). */
+mts_result mts_web_file_plan(mts_web *w, uint32_t stop_kind, uint32_t stop_value);
+double mts_web_file_from(const mts_web *w);
+double mts_web_file_to(const mts_web *w);
+/* Starts the planned range: a fresh stream, a resume after a broken range
+ * or, once the last ended, a continuation to the higher stop. */
+mts_result mts_web_file_begin(mts_web *w);
+mts_result mts_web_file_feed(mts_web *w, const uint8_t *data, size_t size);
+int mts_web_file_done(const mts_web *w); /* 1 once every byte of the range came */
+mts_result mts_web_file_end(mts_web *w);
 
 /* ---- what came ----------------------------------------------------------- */
 const char *mts_web_error(const mts_web *w);   /* "" while all is well */
