@@ -451,6 +451,15 @@ mts_result mts_stream_file_reader_end(mts_stream_file_reader *r, mts_stream_clie
     }
     if ((rc = triangles_at(c, level, &triangles, err)) != MTS_OK)
         return rc;
+    /* The plan took the last batch because the table said its first split
+     * fits the budget; the checks vouch for the mesh, not for the table's
+     * counts, so a table that lied shows here. */
+    if (p->by_triangles && p->batches > 0 && triangles > p->max_triangles)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "stream file: the table's triangle counts disagree with the mesh "
+                             "(level %u has %llu triangles, over the %llu asked for)",
+                             level, (unsigned long long)triangles,
+                             (unsigned long long)p->max_triangles);
     c->stop_level = level;
     c->info.stop_level = level;
     c->info.stop_triangles = (uint32_t)triangles;

@@ -387,6 +387,31 @@ static void test_damage_named(mts_test *t)
     CHECK(t, mts_stream_file_reader_end(&r, &c, &ev, &err) != MTS_OK && ev == MTS_EV_NONE);
     mts_stream_file_reader_free(&r);
     mts_stream_client_free(&c);
+
+    /* A table whose counts lie (its CRC right: whoever wrote the file
+     * wrote both) says batch 3's first split fits a budget it does not: the
+     * checks vouch for the mesh, and the mesh shows the lie. */
+    const uint32_t lv = s.batch_first[3] + 1;
+    const uint64_t real = s.model.level_triangles[lv];
+    CHECK(t, real - s.model.level_triangles[lv - 1] >= 2);
+    s.model.level_triangles[lv] = real - 1;
+    mts_buf lying = {0};
+    CHECK(t, mts_stream_file_write(&s, &lying, &err) == MTS_OK);
+    s.model.level_triangles[lv] = real;
+    mts_stream_file_index lidx;
+    CHECK(t, mts_stream_file_index_parse(lying.data, lying.size, 0, &lidx, &err) == MTS_OK);
+    mts_result rc = read_stop(&lying, &lidx, MTS_STOP_TRIANGLES, (uint32_t)(real - 1), 1, &c,
+                              NULL, &err);
+    CHECKF(t, rc == MTS_ERR_FORMAT && strstr(err.msg, "disagree with the mesh"),
+           "a lying table: %s", rc == MTS_OK ? "accepted" : err.msg);
+    mts_stream_client_free(&c);
+    mts_stream_file_index_free(&lidx);
+    mts_buf_free(&lying);
+    /* the same budget from the honest file ends below it */
+    CHECK(t, read_stop(&file, &idx, MTS_STOP_TRIANGLES, (uint32_t)(real - 1), 1, &c, NULL,
+                       &err) == MTS_OK &&
+                 c.info.stop_triangles <= real - 1);
+    mts_stream_client_free(&c);
     free(copy);
     mts_stream_file_index_free(&idx);
     mts_buf_free(&file);
