@@ -646,6 +646,25 @@ static void test_page_stream_file(mts_test *t)
                 file_bytes, file_ms, mts_test_json_long(st, "bytes"), ws_ms);
     }
 
+    /* the page itself from the same nginx over https, reading the file
+     * beside it (same origin, a relative src): what a deployment of
+     * docker/nginx-tls.conf serves */
+    {
+        const char *same = have_shared ? "bunny00" : "cow";
+        snprintf(cmd, sizeof cmd, "cp -r %s/. %s/", web_dir, www_dir);
+        CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
+        char page[300];
+        snprintf(page, sizeof page, "%s/?src=%s.mts&bare=1", https, same);
+        done = up && mts_cdp_navigate(&c, page) &&
+               wait_phase(&c, "complete error", 120, &state) &&
+               strstr((const char *)state.data, "\"phase\":\"complete\"") &&
+               page_drawn(&c, &state);
+        st = state.data ? (const char *)state.data : "";
+        long levels = mts_test_json_long(st, "levels");
+        CHECKF(t, done && levels > 0 && same_as_native(&sv, same, "", levels, st),
+               "the page over https, %s beside it: %s", same, st);
+    }
+
     /* nginx killed mid-transfer and started again: the page asks for the
      * batches it does not hold, and ends where TCP does */
     const char *model = have_shared ? "bunny00" : "cow";
@@ -675,6 +694,31 @@ static void test_page_stream_file(mts_test *t)
     fprintf(stderr, "  %s resumed from batch %ld after %ld failed tries: %ld bytes in all\n", model,
             mts_test_json_long(st, "first_batch"), mts_test_json_long(st, "reconnects"),
             mts_test_json_long(st, "bytes"));
+
+    /* the file rebuilt while the page was cut off: its resume asks with
+     * If-Range and is refused by name, never fed bytes of two files */
+    snprintf(cmd, sizeof cmd, "cp %s/cow.mts %s/changing.mts", www_dir, www_dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?src=%s/changing.mts%%3Frate%%3D4k&bare=1",
+             sv.web_port, https);
+    done = up && mts_cdp_navigate(&c, url) && wait_state(&c, streaming, 30, &state);
+    until = mts_cdp_now() + 10;
+    while (done && mts_cdp_now() < until &&
+           mts_test_json_long((const char *)state.data, "batches") < 2) {
+        mts_cdp_sleep_ms(20);
+        mts_cdp_eval(&c, "JSON.stringify(window.mtsState)", &state);
+    }
+    mts_test_tls_front_stop(&front, 1);
+    snprintf(cmd, sizeof cmd,
+             "f=%s/changing.mts; printf 'XXXX' | dd of=$f bs=1 seek=$(($(stat -c %%s $f) - 100)) "
+             "conv=notrunc 2>/dev/null && touch -d '+1 minute' $f",
+             www_dir);
+    CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
+    CHECK(t, mts_test_tls_front_start(&front) > 0);
+    done = done && wait_phase(&c, "complete error", 60, &state);
+    st = state.data ? (const char *)state.data : "";
+    CHECKF(t, done && strstr(st, "\"phase\":\"error\"") && strstr(st, "changed on the server"),
+           "a file rebuilt during a cut: %s", st);
 
     /* a server that ignores Range: used, cut to the range */
     snprintf(q, sizeof q, "src=http://127.0.0.1:%d/whole.mts&bare=1&level=1000", hport);

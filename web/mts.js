@@ -458,12 +458,26 @@
     let res;
     state.requests++;
     try {
-      res = await fetch(src, {headers: {Range: `bytes=${from}-${to - 1}`},
-                              signal: f.abort.signal});
+      // every range after the first is of the same file: If-Range with the
+      // first answer's strong ETag makes a server whose file was rebuilt
+      // answer 200, which the check below refuses
+      const headers = {Range: `bytes=${from}-${to - 1}`};
+      if (f.etag) headers['If-Range'] = f.etag;
+      res = await fetch(src, {headers, signal: f.abort.signal});
     } catch (e) {
       throw httpError(`${src}: ${e.message || e}`, true);
     }
     if (!state.ms_connect) state.ms_connect = performance.now() - t0;
+    if (res.status === 200 || res.status === 206) {
+      const tag = res.headers.get('ETag');
+      const strong = tag && tag.startsWith('"') ? tag : null;
+      if (f.etag === undefined) {
+        f.etag = strong; // null: the server shows none (or only a weak one)
+      } else if (f.etag && strong !== f.etag) {
+        throw httpError(`${src}: the file changed on the server since its first bytes were ` +
+                        `read (ETag ${f.etag}, now ${tag || 'none'}): start again`, false);
+      }
+    }
     let skip = 0;
     if (res.status === 206) {
       const cr = res.headers.get('Content-Range');
