@@ -36,7 +36,8 @@ CXXFLAGS += -std=c++17 $(OPT) $(FP) -DNDEBUG -Wall -Werror -Wno-maybe-uninitiali
 #                                                     uses common, protocol
 #   server/    mts-server                      uses common, protocol, builder
 #   client/    mts-client, its renderer and window          uses common, protocol
-#   stress/    mts-stress, many simulated clients           uses common, protocol
+#   stress/    mts-stress, many simulated clients  uses common, protocol, and
+#              client/webfile.c (the stream-file conversation) for URLs
 #   web/       the page's decoder (WebAssembly)     uses common, protocol, client
 #   tests/, bench/: the public headers of every layer
 INC_common   := -Icommon
@@ -44,7 +45,7 @@ INC_protocol := -Icommon -Iprotocol
 INC_builder  := -Icommon -Iprotocol -Ibuilder
 INC_server   := -Icommon -Iprotocol -Ibuilder -Iserver
 INC_client   := -Icommon -Iprotocol -Iclient
-INC_stress   := -Icommon -Iprotocol -Istress
+INC_stress   := -Icommon -Iprotocol -Iclient -Istress
 INC_web      := -Icommon -Iprotocol -Iclient -Iweb
 INC_all      := -Icommon -Iprotocol -Ibuilder -Iserver -Iclient -Istress
 LAYERS   := common protocol builder server client stress

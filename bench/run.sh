@@ -10,7 +10,8 @@
 # client, MTS_BENCH_BUILDER=0 the builder at scale (MTS_BENCH_HUGE=0 its 6M
 # mesh); MTS_BENCH_APPLYING_CLIENTS (default 1000) sets the applying
 # mts-stress clients, MTS_BENCH_FILES=0 the stream files on nginx
-# (bench/files.sh). Exit status 1 when a requested
+# (bench/files.sh), MTS_BENCH_STRESS_FILES=0 the applying mts-stress clients
+# of a stream file on nginx beside mts-server's (bench/stress_files.sh). Exit status 1 when a requested
 # figure could not be measured; absent tools and models are skipped, with a
 # reason, and do not fail the run.
 set -uo pipefail
@@ -76,6 +77,14 @@ if [ "${MTS_BENCH_FILES:-1}" = 0 ]; then
   printf '{"skipped": "MTS_BENCH_FILES=0"}\n' >"$out/files.json"
 else
   bench/files.sh "$out" || status=1
+fi
+
+# --- many applying clients of a stream file on nginx, and of mts-server -------
+rm -f "$out/stress_files.json"
+if [ "${MTS_BENCH_STRESS_FILES:-1}" = 0 ]; then
+  printf '{"skipped": "MTS_BENCH_STRESS_FILES=0"}\n' >"$out/stress_files.json"
+else
+  bench/stress_files.sh "$out" || status=1
 fi
 
 # seconds since some epoch, with microseconds (bash 5)
@@ -451,6 +460,35 @@ else:
               f"more than TCP at the full level; {files.get('first_picture_extra_bytes')} B more "
               f"before the first picture")
 res["stream_files"] = files
+
+sf = {}
+try:
+    with open(os.path.join(out, "stress_files.json")) as f:
+        sf = json.load(f)
+except (OSError, ValueError):
+    sf = {"skipped": "bench/stress_files.sh wrote nothing"}
+if "skipped" in sf:
+    print(f"\nMany clients of a stream file: skipped: {sf['skipped']}")
+else:
+    print(f"\nMany clients of a stream file: {sf['clients']} applying mts-stress clients "
+          f"(--verify) of {sf['model']} ({sf['file_bytes']} B file) from nginx over http and "
+          f"https (HTTP/2, each client its own connection) beside mts-server over TCP, same "
+          f"run, loopback; median of {sf['runs_per_way']} run(s)")
+    print(f"{'way':<6} {'server':<11} {'wall s':>7} {'clients/s':>9} {'failed':>6} "
+          f"{'p99 ms':>8} {'stress CPU s':>12} {'stress RSS MB':>13} {'srv CPU s':>9} end")
+    print("-" * 100)
+    for way in ("tcp", "http", "https"):
+        r = sf["ways"].get(way, {})
+        if "wall_s" not in r:
+            print(f"{way:<6} {r.get('error', '?')}")
+            continue
+        rss = r["stress_max_rss_kb"] / 1024 if r.get("stress_max_rss_kb") else 0
+        print(f"{way:<6} {r['server']:<11} {r['wall_s']:>7.2f} {r['clients_per_s']:>9.1f} "
+              f"{r['failed']:>6} {r['p99_ms_final']:>8.0f} {r['stress_cpu_s']:>12.2f} "
+              f"{rss:>13.1f} {r['server_cpu_s']:>9.2f} level {r['level']} {r['checksum']}")
+    print(f"  every way ended at {'the same' if sf['same_end'] else 'DIFFERENT'} level and "
+          f"checksum; the clients' decoding, not the servers, bounds clients/s here")
+res["stress_files"] = sf
 
 def median_of(v):
     v = sorted(v)

@@ -260,3 +260,8 @@ int mts_webfile_http_version(const mts_webfile *wf)
 {
     return mts_http_last(wf->http).http_version;
 }
+
+mts_http_info mts_webfile_http_last(const mts_webfile *wf)
+{
+    return mts_http_last(wf->http);
+}

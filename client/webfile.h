@@ -61,5 +61,8 @@ uint64_t mts_webfile_bytes(const mts_webfile *wf);
 const mts_stream_file_index *mts_webfile_index(const mts_webfile *wf);
 /* The HTTP version of the last response (1, 2 or 3). */
 int mts_webfile_http_version(const mts_webfile *wf);
+/* What the last response said and how its transfer ended (http.h), for a
+ * caller that counts failures by kind. */
+mts_http_info mts_webfile_http_last(const mts_webfile *wf);
 
 #endif

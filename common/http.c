@@ -6,13 +6,24 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "clock.h"
 #include "fetch.h"
 #include "fileio.h"
 
 #define DEFAULT_MAX_BYTES ((uint64_t)1 << 30)
 
-struct mts_http {
+struct mts_http_pool {
     CURLM *multi;
+    mts_loop *loop;
+    struct pool_sock **socks; /* by descriptor, made on first use, kept until the pool goes */
+    size_t nsocks;
+    double due; /* when libcurl's timer is due (mts_clock_seconds); < 0: not set */
+};
+
+struct mts_http {
+    CURLM *multi; /* its own, or NULL in a pool */
+    mts_http_pool *pool;
+    CURLSH *share; /* in a pool: its own connection cache */
     CURL *easy;
     char *url;
     char shown[256];
@@ -279,6 +290,9 @@ static size_t on_body(char *data, size_t size, size_t count, void *user)
          CURLE_OK)
 #endif
 
+static int pooled_setup(mts_http *h);
+static CURLM *multi_of(const mts_http *h);
+
 mts_result mts_http_create(mts_http **out, const char *url, const mts_http_options *opts,
                            mts_error *err)
 {
@@ -287,7 +301,9 @@ mts_result mts_http_create(mts_http **out, const char *url, const mts_http_optio
     if (rc != MTS_OK)
         return rc;
     mts_http *h = calloc(1, sizeof *h);
-    if (!h || !(h->url = strdup(url)) || !(h->multi = curl_multi_init()) ||
+    if (h && opts && opts->pool)
+        h->pool = opts->pool;
+    if (!h || !(h->url = strdup(url)) || !(h->pool || (h->multi = curl_multi_init())) ||
         !(h->easy = curl_easy_init())) {
         mts_http_free(h);
         return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for an HTTP transfer");
@@ -329,6 +345,8 @@ mts_result mts_http_create(mts_http **out, const char *url, const mts_http_optio
               curl_easy_setopt(e, CURLOPT_WRITEDATA, h) == CURLE_OK;
     if (set && h->o.cacert)
         set = curl_easy_setopt(e, CURLOPT_CAINFO, h->o.cacert) == CURLE_OK;
+    if (set && h->pool)
+        set = pooled_setup(h);
     if (!set) {
         /* never go on with a handle that might allow more than asked */
         mts_error_set(err, MTS_ERR_INTERNAL, "%s: libcurl refused an option: %s", h->shown,
@@ -343,7 +361,7 @@ mts_result mts_http_create(mts_http **out, const char *url, const mts_http_optio
 void mts_http_cancel(mts_http *h)
 {
     if (h && h->active) {
-        curl_multi_remove_handle(h->multi, h->easy);
+        curl_multi_remove_handle(multi_of(h), h->easy);
         h->active = 0;
         h->code = CURLE_ABORTED_BY_CALLBACK;
         h->stopped = 1;
@@ -359,6 +377,8 @@ void mts_http_free(mts_http *h)
         curl_easy_cleanup(h->easy);
     if (h->multi)
         curl_multi_cleanup(h->multi);
+    if (h->share)
+        curl_share_cleanup(h->share); /* after the handle: it closes the connections */
     curl_slist_free_all(h->if_range);
     free(h->url);
     free(h);
@@ -395,10 +415,12 @@ mts_result mts_http_get(mts_http *h, uint64_t from, uint64_t to, int flags, mts_
             return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for a header", h->shown);
     }
     if (curl_easy_setopt(h->easy, CURLOPT_RANGE, range) != CURLE_OK ||
-        curl_multi_add_handle(h->multi, h->easy) != CURLM_OK)
+        curl_multi_add_handle(multi_of(h), h->easy) != CURLM_OK)
         return mts_error_set(err, MTS_ERR_INTERNAL, "%s: libcurl could not start a transfer",
                              h->shown);
     h->active = 1;
+    if (h->pool)
+        return MTS_OK; /* libcurl's timer asks the pool's loop to start it */
     int running;
     curl_multi_perform(h->multi, &running);
     return MTS_OK;
@@ -423,6 +445,8 @@ int mts_http_poll(mts_http *h, int timeout_ms)
     /* a transfer can end inside the perform of mts_http_get or of the last
      * poll: waiting on the sockets first would then sleep the whole timeout
      * on a connection that has nothing more to say */
+    if (h->pool)
+        return h->active; /* the pool's loop moves it, and ends it */
     harvest(h);
     if (!h->active)
         return 0;
@@ -515,6 +539,11 @@ mts_http_info mts_http_last(const mts_http *h)
     i.status = h->status;
     i.body_bytes = h->body;
     i.whole_file = h->whole_file;
+    i.timed_out = h->code == CURLE_OPERATION_TIMEDOUT;
+    i.no_connection = h->code == CURLE_COULDNT_CONNECT || h->code == CURLE_COULDNT_RESOLVE_HOST ||
+                      h->code == CURLE_SSL_CONNECT_ERROR ||
+                      h->code == CURLE_PEER_FAILED_VERIFICATION ||
+                      h->code == CURLE_SSL_CACERT_BADFILE;
     i.file_size = h->have_range ? h->range_total
                   : h->whole_file && h->content_length >= 0 ? (uint64_t)h->content_length
                   : h->range_unsatisfied ? h->range_total
@@ -528,4 +557,176 @@ mts_http_info mts_http_last(const mts_http *h)
 const char *mts_http_url(const mts_http *h)
 {
     return h->shown;
+}
+
+/* ---- the pool (http.h): one multi handle on an mts_loop ----------------- */
+
+/* A descriptor libcurl asked the loop to watch. Records are made per
+ * descriptor number and kept until the pool is freed: the loop may still
+ * hold an event for one whose socket was closed during its round. */
+typedef struct pool_sock {
+    mts_loop_io io;
+    int watched;
+} pool_sock;
+
+static CURLM *multi_of(const mts_http *h)
+{
+    return h->pool ? h->pool->multi : h->multi;
+}
+
+/* A pooled handle: a connection cache of its own, so that it is one user
+ * with its own connection rather than one of many sharing the multi
+ * handle's; found from libcurl's messages by its private pointer. */
+static int pooled_setup(mts_http *h)
+{
+    if (!(h->share = curl_share_init()))
+        return 0;
+    return curl_share_setopt(h->share, CURLSHOPT_SHARE, CURL_LOCK_DATA_CONNECT) == CURLSHE_OK &&
+           curl_easy_setopt(h->easy, CURLOPT_SHARE, h->share) == CURLE_OK &&
+           curl_easy_setopt(h->easy, CURLOPT_PRIVATE, (char *)h) == CURLE_OK;
+}
+
+/* The transfers libcurl finished: each handle is told, from here, outside
+ * libcurl, so that it may start its next range at once. */
+static void pool_harvest(mts_http_pool *p)
+{
+    CURLMsg *m;
+    int left;
+    while ((m = curl_multi_info_read(p->multi, &left)) != NULL) {
+        if (m->msg != CURLMSG_DONE)
+            continue;
+        char *priv = NULL;
+        curl_easy_getinfo(m->easy_handle, CURLINFO_PRIVATE, &priv);
+        mts_http *h = (mts_http *)(void *)priv;
+        const CURLcode code = m->data.result;
+        curl_multi_remove_handle(p->multi, m->easy_handle); /* m is not read after this */
+        if (!h || !h->active)
+            continue;
+        h->code = code;
+        h->active = 0;
+        if (h->o.on_end)
+            h->o.on_end(h->o.end_user, h);
+    }
+}
+
+static void pool_on_socket(mts_loop *loop, mts_loop_io *io, unsigned events)
+{
+    (void)loop;
+    mts_http_pool *p = io->user;
+    pool_sock *ps = (pool_sock *)(void *)io; /* io is its first member */
+    if (!ps->watched)
+        return; /* closed earlier in this round */
+    int what = (events & MTS_LOOP_IN ? CURL_CSELECT_IN : 0) |
+               (events & MTS_LOOP_OUT ? CURL_CSELECT_OUT : 0) |
+               (events & MTS_LOOP_ERR ? CURL_CSELECT_ERR : 0);
+    int running;
+    curl_multi_socket_action(p->multi, io->fd, what, &running);
+    pool_harvest(p);
+}
+
+/* libcurl says what to watch a socket for. A watch the kernel refuses
+ * leaves the transfer to libcurl's own timeouts, which then fail it. */
+static int pool_socket_fn(CURL *easy, curl_socket_t s, int what, void *user, void *sockp)
+{
+    (void)easy;
+    mts_http_pool *p = user;
+    if (s < 0)
+        return 0;
+    if ((size_t)s >= p->nsocks) {
+        if (what == CURL_POLL_REMOVE)
+            return 0;
+        size_t n = p->nsocks ? p->nsocks : 64;
+        while (n <= (size_t)s)
+            n *= 2;
+        pool_sock **grown = realloc(p->socks, n * sizeof *grown);
+        if (!grown)
+            return -1;
+        memset(grown + p->nsocks, 0, (n - p->nsocks) * sizeof *grown);
+        p->socks = grown;
+        p->nsocks = n;
+    }
+    pool_sock *ps = p->socks[s];
+    if (what == CURL_POLL_REMOVE) {
+        if (ps && ps->watched) {
+            mts_loop_unwatch(p->loop, &ps->io);
+            ps->watched = 0;
+        }
+        return 0;
+    }
+    if (!ps && !(ps = p->socks[s] = calloc(1, sizeof *ps)))
+        return -1;
+    const unsigned ev = (what & CURL_POLL_IN ? MTS_LOOP_IN : 0) |
+                        (what & CURL_POLL_OUT ? MTS_LOOP_OUT : 0);
+    if (sockp && ps->watched)
+        return mts_loop_set(p->loop, &ps->io, ev) == 0 ? 0 : -1;
+    /* a socket new to libcurl (no pointer assigned yet): its number may
+     * have been watched for an earlier socket that was closed without a
+     * word (which took it off epoll), so it is watched afresh */
+    if (ps->watched)
+        mts_loop_unwatch(p->loop, &ps->io);
+    ps->watched = mts_loop_watch(p->loop, &ps->io, s, ev, pool_on_socket, p) == 0;
+    if (ps->watched)
+        curl_multi_assign(p->multi, s, ps);
+    return ps->watched ? 0 : -1;
+}
+
+static int pool_timer_fn(CURLM *multi, long timeout_ms, void *user)
+{
+    (void)multi;
+    mts_http_pool *p = user;
+    p->due = timeout_ms < 0 ? -1 : mts_clock_seconds() + (double)timeout_ms / 1e3;
+    return 0;
+}
+
+mts_result mts_http_pool_create(mts_http_pool **out, mts_loop *loop, mts_error *err)
+{
+    *out = NULL;
+    mts_http_pool *p = calloc(1, sizeof *p);
+    if (!p || !(p->multi = curl_multi_init())) {
+        free(p);
+        return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for an HTTP pool");
+    }
+    p->loop = loop;
+    p->due = -1;
+    if (curl_multi_setopt(p->multi, CURLMOPT_SOCKETFUNCTION, pool_socket_fn) != CURLM_OK ||
+        curl_multi_setopt(p->multi, CURLMOPT_SOCKETDATA, p) != CURLM_OK ||
+        curl_multi_setopt(p->multi, CURLMOPT_TIMERFUNCTION, pool_timer_fn) != CURLM_OK ||
+        curl_multi_setopt(p->multi, CURLMOPT_TIMERDATA, p) != CURLM_OK) {
+        mts_http_pool_free(p);
+        return mts_error_set(err, MTS_ERR_INTERNAL, "libcurl refused the pool's callbacks");
+    }
+    *out = p;
+    return MTS_OK;
+}
+
+void mts_http_pool_free(mts_http_pool *p)
+{
+    if (!p)
+        return;
+    curl_multi_cleanup(p->multi);
+    for (size_t i = 0; i < p->nsocks; i++) {
+        if (p->socks[i] && p->socks[i]->watched)
+            mts_loop_unwatch(p->loop, &p->socks[i]->io);
+        free(p->socks[i]);
+    }
+    free(p->socks);
+    free(p);
+}
+
+int mts_http_pool_tick(mts_http_pool *p)
+{
+    if (p->due < 0)
+        return -1;
+    double now = mts_clock_seconds();
+    if (now >= p->due) {
+        p->due = -1;
+        int running;
+        curl_multi_socket_action(p->multi, CURL_SOCKET_TIMEOUT, 0, &running);
+        pool_harvest(p);
+        if (p->due < 0)
+            return -1;
+        now = mts_clock_seconds();
+    }
+    double ms = (p->due - now) * 1e3;
+    return ms <= 0 ? 0 : (int)ms + 1;
 }

@@ -30,6 +30,10 @@
 #include <stdint.h>
 
 #include "error.h"
+#include "loop.h"
+
+typedef struct mts_http mts_http;
+typedef struct mts_http_pool mts_http_pool;
 
 /* Zero-initialised means the defaults. */
 typedef struct mts_http_options {
@@ -39,13 +43,17 @@ typedef struct mts_http_options {
     double max_time;          /* seconds a range may take; 0: no limit here */
     uint32_t max_redirects;   /* 0: 5 */
     uint64_t max_bytes;       /* the file's size cap; 0: 1 GiB */
+    /* NULL: the handle has a multi handle of its own, moved by mts_http_poll.
+     * Else the pool's (see mts_http_pool below), and on_end(end_user, http)
+     * is called from the pool's loop each time a range ends. */
+    mts_http_pool *pool;
+    void (*on_end)(void *end_user, mts_http *http);
+    void *end_user;
 } mts_http_options;
 
 /* A piece of the range: its offset in the file. Returning non-zero stops
  * the transfer (mts_http_result then gives MTS_ERR_ARG, "stopped"). */
 typedef int (*mts_http_on_data)(void *user, uint64_t offset, const uint8_t *data, size_t size);
-
-typedef struct mts_http mts_http;
 
 /* Checks the URL (http or https only; no I/O yet). */
 mts_result mts_http_create(mts_http **http, const char *url, const mts_http_options *opts,
@@ -61,7 +69,8 @@ mts_result mts_http_get(mts_http *http, uint64_t from, uint64_t to, int flags,
 
 /* Waits at most timeout_ms (-1: until something happens) and moves the
  * transfer on; the callback runs from here. 1: still going; 0: it ended
- * (mts_http_result says how). */
+ * (mts_http_result says how). A pooled handle is moved by its pool's loop:
+ * this only says whether its range is still going, never waits. */
 int mts_http_poll(mts_http *http, int timeout_ms);
 
 /* After poll returned 0: MTS_OK when every byte of the range came, else an
@@ -80,10 +89,42 @@ typedef struct mts_http_info {
     uint64_t body_bytes;
     int http_version;
     int whole_file; /* the server ignored the range */
+    /* how the last transfer ended, for callers that count failures by
+     * kind: no byte or no connection in time; no connection at all (refused,
+     * unreachable, no TLS handshake) */
+    int timed_out, no_connection;
 } mts_http_info;
 mts_http_info mts_http_last(const mts_http *http);
 
 /* The URL as it may be shown (no password). */
 const char *mts_http_url(const mts_http *http);
+
+/* ---- many transfers on one event loop ----------------------------------
+ *
+ * A pool is one libcurl multi handle whose sockets and timer are watched by
+ * an mts_loop (common/loop.h): a thousand handles on one thread cost one
+ * epoll, not a thousand multi handles each polled. libcurl multi handles
+ * are not shared between threads: one pool a loop, one loop a thread.
+ *
+ * Each handle in a pool still has connections of its own: its own
+ * connection cache (a libcurl share of its own), so the ranges of one
+ * handle reuse its keep-alive connection (and HTTP/2 where offered), and
+ * no two handles ever share a connection or multiplex over one -- a pool of
+ * simulated users loads a server as that many users do. What they do share
+ * is the multi handle's DNS cache and the CA store libcurl caches per multi
+ * handle (not per connection, so a thousand TLS handshakes do not parse the
+ * CA file a thousand times).
+ *
+ * The loop's owner calls mts_http_pool_tick before each round (libcurl's
+ * timeouts, retries and connection timers are run from it) and sleeps at
+ * most what it returns. A handle's on_end runs from the tick or from a
+ * socket's event, never from inside libcurl: it may start the handle's
+ * next range, or free it. Free the pool after every handle in it. */
+mts_result mts_http_pool_create(mts_http_pool **pool, mts_loop *loop, mts_error *err);
+void mts_http_pool_free(mts_http_pool *pool);
+
+/* Runs libcurl's timer when it is due; the milliseconds until it is due
+ * next, or -1 when none is set. */
+int mts_http_pool_tick(mts_http_pool *pool);
 
 #endif

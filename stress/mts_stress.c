@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "fetch.h"
 #include "stress.h"
 
 static void usage(FILE *f)
@@ -18,6 +19,9 @@ static void usage(FILE *f)
           "                   --continue-fraction F [--continue-share S]]\n"
           "                  [--connect-timeout S] [--io-timeout S] [--json] [--quiet]\n"
           "       mts-stress HOST:PORT --http PATH --clients N ...   (a static file server)\n"
+          "       mts-stress http[s]://HOST/NAME.mts --clients N [--cacert FILE]\n"
+          "                  [--max-file-bytes N] [the stops, --continue-*, --concurrency,\n"
+          "                   --ramp, --threads, --appliers, timeouts, --verify, --json]\n"
           "\n"
           "Runs N simulated clients against an mts-server (default 127.0.0.1:7447) from\n"
           "one process, each speaking the whole protocol, and reports how they fared:\n"
@@ -47,11 +51,21 @@ static void usage(FILE *f)
           "                       8 a thread); bounds memory, not the work\n"
           "  --http PATH          not mtstream: GET PATH over HTTP/1.0 from each client, to\n"
           "                       measure a web server (nginx) on the same bytes\n"
+          "  URL                  a stream file (PROTOCOL.md, \"Stream files\") on any web\n"
+          "                       server: each client reads it as mts-client does (its\n"
+          "                       prefix, then one range to its stop, checked against the\n"
+          "                       file's checksums) and applies it, over connections of\n"
+          "                       its own (no two clients share or multiplex one)\n"
+          "  --cacert FILE        for an https URL: trust the CAs in FILE (PEM)\n"
+          "  --max-file-bytes N   for a URL: refuse a file over N bytes (K, M, G; default 1G)\n"
           "  --connect-timeout S  default 10 (a full listen queue costs SYN retries)\n"
           "  --io-timeout S       give up on a client after S s without a byte (default 30)\n"
           "  --json               one line of JSON with the figures\n"
           "  -q, --quiet          no live line, no summary\n"
           "  -h, --help           this help\n"
+          "\n"
+          "A URL's clients always apply (no --no-apply, --records or --http: the file\n"
+          "holds one form, and its bytes are the web server's to send).\n"
           "\n"
           "Each client holds a socket; N or C above the open-file limit is raised to the\n"
           "hard limit. An applying client holds its stream's bytes until it is decoded,\n"
@@ -99,6 +113,8 @@ int main(int argc, char **argv)
     mts_stress_options so = {0};
     const char *pos[2];
     int npos = 0, json = 0, quiet = 0, stops = 0, stop;
+    const char *cacert = NULL;
+    uint64_t max_file_bytes = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -151,6 +167,20 @@ int main(int argc, char **argv)
             }
             so.http_path = v;
             i++;
+        } else if (!strcmp(a, "--cacert")) {
+            if (!v) {
+                fprintf(stderr, "mts-stress: --cacert needs a PEM file\n");
+                return CLI_EXIT_USAGE;
+            }
+            cacert = v;
+            i++;
+        } else if (!strcmp(a, "--max-file-bytes")) {
+            if (!v || !cli_parse_bytes(v, &max_file_bytes) || max_file_bytes == 0) {
+                fprintf(stderr, "mts-stress: --max-file-bytes needs a size in bytes above 0 "
+                                "(512M, 4G)\n");
+                return CLI_EXIT_USAGE;
+            }
+            i++;
         } else if (!strcmp(a, "--ramp") || !strcmp(a, "--connect-timeout") ||
                    !strcmp(a, "--io-timeout")) {
             double s;
@@ -177,6 +207,23 @@ int main(int argc, char **argv)
             return CLI_EXIT_USAGE;
         }
     }
+    const int url = npos >= 1 && mts_fetch_is_url(pos[0]);
+    if (url) {
+        /* what a file cannot do is said, not ignored */
+        const char *no = npos > 1            ? "a model name (the URL names the file)"
+                         : so.no_apply       ? "--no-apply (a stream file's clients apply)"
+                         : so.hello.flags    ? "--records (the file holds the form it was built in)"
+                         : so.http_path      ? "--http (the URL is what is fetched)"
+                                             : NULL;
+        if (no) {
+            fprintf(stderr, "mts-stress: a stream file's URL takes no %s\n", no);
+            return CLI_EXIT_USAGE;
+        }
+    } else if (cacert || max_file_bytes) {
+        fprintf(stderr, "mts-stress: --cacert and --max-file-bytes are for a stream file's "
+                        "URL (http[s]://HOST/NAME.mts)\n");
+        return CLI_EXIT_USAGE;
+    }
     if (so.http_path && npos == 1) /* no model: the path names what to fetch */
         pos[npos++] = "http";
     if (npos == 0) {
@@ -193,13 +240,25 @@ int main(int argc, char **argv)
         return CLI_EXIT_USAGE;
     }
     const char *model = pos[npos - 1];
-    if (!mts_wire_valid_name(model, strlen(model))) {
+    char shown[256] = "";
+    mts_error err = {0};
+    if (url) {
+        so.url = pos[0];
+        so.cacert = cacert;
+        so.max_file_bytes = max_file_bytes;
+        mts_fetch_display_url(so.url, shown, sizeof shown);
+        model = shown;
+        if (mts_fetch_global_init(&err) != MTS_OK) {
+            fprintf(stderr, "mts-stress: %s\n", err.msg);
+            return CLI_EXIT_FAIL;
+        }
+    } else if (!mts_wire_valid_name(model, strlen(model))) {
         fprintf(stderr, "mts-stress: '%s' is not a model name ([A-Za-z0-9._-], 1..64)\n", model);
         return CLI_EXIT_USAGE;
     }
     snprintf(so.hello.model, sizeof so.hello.model, "%s", model);
     char host[256] = "127.0.0.1", port[16] = "7447";
-    if (npos == 2 && !cli_parse_server(pos[0], host, sizeof host, port, sizeof port)) {
+    if (!url && npos == 2 && !cli_parse_server(pos[0], host, sizeof host, port, sizeof port)) {
         fprintf(stderr, "mts-stress: bad address %s (HOST[:PORT])\n", pos[0]);
         return CLI_EXIT_USAGE;
     }
@@ -213,20 +272,24 @@ int main(int argc, char **argv)
         so.on_progress = live;
 
     mts_stress_report r;
-    mts_error err = {0};
     double cpu0 = cpu_seconds();
     mts_result rc = mts_stress_run(&so, &r, &err);
     double cpu = cpu_seconds() - cpu0;
     if (so.on_progress)
         fputs("\r\033[K", stderr);
+    if (url)
+        mts_fetch_global_cleanup();
     if (rc != MTS_OK) {
         fprintf(stderr, "mts-stress: %s\n", err.msg);
-        return CLI_EXIT_FAIL;
+        return rc == MTS_ERR_ARG ? CLI_EXIT_USAGE : CLI_EXIT_FAIL;
     }
     if (json) {
         cli_json j;
         cli_json_begin(&j, stdout);
-        cli_json_str(&j, "model", model);
+        if (url)
+            cli_json_str(&j, "url", shown);
+        else
+            cli_json_str(&j, "model", model);
         cli_json_u64(&j, "clients", r.clients);
         cli_json_u64(&j, "succeeded", r.succeeded);
         cli_json_u64(&j, "failed", r.failed);
@@ -241,6 +304,23 @@ int main(int argc, char **argv)
         cli_json_u64(&j, "bytes", r.bytes);
         cli_json_u64(&j, "batches", r.batches);
         cli_json_u64(&j, "continuations", r.continuations);
+        /* where the clients ended (the first's; those that continued
+         * apart), and how many ended elsewhere */
+        static const char *end_key[2][3] = {{"level", "triangles", "checksum"},
+                                        {"continued_level", "continued_triangles",
+                                         "continued_checksum"}};
+        for (int k = 0; k < 2; k++) {
+            const struct mts_stress_end *e = &r.end[k];
+            if (!e->ended)
+                continue;
+            char hex[17];
+            snprintf(hex, sizeof hex, "%016llx", (unsigned long long)e->checksum);
+            cli_json_u64(&j, end_key[k][0], e->level);
+            cli_json_u64(&j, end_key[k][1], e->triangles);
+            cli_json_str(&j, end_key[k][2], hex);
+        }
+        if (r.end[0].ended || r.end[1].ended)
+            cli_json_u64(&j, "ended_elsewhere", r.end[0].disagree + r.end[1].disagree);
         cli_json_num(&j, "seconds", r.seconds, 3);
         cli_json_num(&j, "mb_per_s", r.mb_per_s, 2);
         cli_json_num(&j, "batches_per_s", r.batches_per_s, 1);
@@ -255,16 +335,32 @@ int main(int argc, char **argv)
             cli_json_num(&j, key, r.ms_final[k], 2);
         }
         cli_json_num(&j, "cpu_s", cpu, 3);
+        /* the process's peak resident memory: what N clients cost here */
+        struct rusage ru;
+        getrusage(RUSAGE_SELF, &ru);
+        cli_json_u64(&j, "max_rss_kb", (uint64_t)ru.ru_maxrss);
         cli_json_end(&j);
     }
     if (!quiet && !json) {
-        printf("%u clients of %s at %s:%s%s: %u succeeded, %u failed in %.2f s\n", r.clients,
-               model, host, port, so.no_apply ? " (not applied)" : "", r.succeeded, r.failed,
-               r.seconds);
+        if (url)
+            printf("%u clients of %s: %u succeeded, %u failed in %.2f s\n", r.clients, shown,
+                   r.succeeded, r.failed, r.seconds);
+        else
+            printf("%u clients of %s at %s:%s%s: %u succeeded, %u failed in %.2f s\n",
+                   r.clients, model, host, port, so.no_apply ? " (not applied)" : "",
+                   r.succeeded, r.failed, r.seconds);
         printf("  %.1f MB, %.1f MB/s, %.0f batches/s; this process used %.2f s of CPU\n",
                (double)r.bytes / 1e6, r.mb_per_s, r.batches_per_s, cpu);
         if (r.continuations)
             printf("  %u clients continued past their first stop\n", r.continuations);
+        for (int k = 0; k < 2; k++) {
+            const struct mts_stress_end *e = &r.end[k];
+            if (e->ended)
+                printf("  %u %s at level %u, %llu triangles, checksum %016llx%s\n", e->ended,
+                       k ? "continued and ended" : "ended", e->level,
+                       (unsigned long long)e->triangles, (unsigned long long)e->checksum,
+                       e->disagree ? " (some ended elsewhere!)" : "");
+        }
         if (r.succeeded)
             printf("  ms to base   p50 %.1f  p90 %.1f  p99 %.1f  max %.1f\n"
                    "  ms to final  p50 %.1f  p90 %.1f  p99 %.1f  max %.1f\n",
@@ -278,5 +374,6 @@ int main(int argc, char **argv)
                         mts_stress_failure_name((mts_stress_failure)k), r.first_error[k]);
         }
     }
-    return r.failed ? CLI_EXIT_FAIL : CLI_EXIT_OK;
+    /* clients that asked for one stop and ended at two are a failure too */
+    return r.failed || r.end[0].disagree || r.end[1].disagree ? CLI_EXIT_FAIL : CLI_EXIT_OK;
 }

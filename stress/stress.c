@@ -20,9 +20,12 @@
 
 #include "clock.h"
 #include "crc32c.h"
+#include "fetch.h"
+#include "http.h"
 #include "loop.h"
 #include "net.h"
 #include "stream.h"
+#include "webfile.h"
 
 #define HTTP_HEAD_MAX 1024
 
@@ -58,10 +61,16 @@ typedef struct sclient {
     /* continuing (options.continue_kind): the second conversation's HELLO */
     uint8_t *hello2;
     uint32_t hello2_size;
+    /* a stream file (options.url): its conversation, on the shard's pool;
+     * bytes_in follows mts_webfile_bytes, eof says the stop's range is in */
+    mts_webfile *wf;
+    struct stress *owner; /* for the pool's on_end */
+    uint8_t continued;
 } sclient;
 
 typedef struct stress {
     const mts_stress_options *o;
+    mts_http_pool *pool; /* options.url: the shard's clients' transfers */
     mts_stress_report *rep;
     struct addrinfo *addr;
     mts_loop loop;
@@ -105,6 +114,11 @@ static void sc_release(stress *s, sclient *c)
     c->skim_keep = NULL;
     free(c->hello2);
     c->hello2 = NULL;
+    if (c->wf) {
+        mts_webfile_free(c->wf); /* its transfer and its connections with it */
+        c->wf = NULL;
+        s->connected--;
+    }
     if (c->decoder) {
         mts_stream_client_free(c->decoder);
         free(c->decoder);
@@ -129,9 +143,32 @@ static void sc_fail(stress *s, sclient *c, mts_stress_failure why, const char *f
     sc_release(s, c);
 }
 
+/* Where an applying client ended, against the first client's end. */
+static void sc_record_end(stress *s, sclient *c)
+{
+    struct mts_stress_end *r = &s->rep->end[c->hello2 || c->continued];
+    const mts_stream_client *d = c->decoder;
+    uint32_t level = d->have_lod ? d->lod.level : 0;
+    uint64_t triangles = 0;
+    if (d->have_lod) {
+        mts_strip_stats ss;
+        mts_lod_strip_stats(&d->lod, &ss);
+        triangles = ss.triangles;
+    }
+    if (!r->ended++) {
+        r->level = level;
+        r->triangles = triangles;
+        r->checksum = d->checksum;
+    } else if (r->level != level || r->triangles != triangles || r->checksum != d->checksum) {
+        r->disagree++;
+    }
+}
+
 static void sc_succeed(stress *s, sclient *c, double now)
 {
     mts_stress_report *r = s->rep;
+    if (c->decoder)
+        sc_record_end(s, c);
     s->ms_base[r->succeeded] = c->ms_base;
     s->ms_final[r->succeeded] = (float)((now - c->t_start) * 1e3);
     r->succeeded++;
@@ -139,12 +176,18 @@ static void sc_succeed(stress *s, sclient *c, double now)
 }
 
 static void sc_connect(stress *s, sclient *c);
+static int sc_decoder(stress *s, sclient *c);
+static void sc_web_start(stress *s, sclient *c);
 
 static void sc_start(stress *s, sclient *c, double now)
 {
     s->rep->started++;
     s->rep->active++;
     c->t_start = c->t_last = now;
+    if (s->o->url) {
+        sc_web_start(s, c);
+        return;
+    }
     if (s->o->http_path) {
         c->http_head = malloc(HTTP_HEAD_MAX + 1);
         if (!c->http_head) {
@@ -404,13 +447,104 @@ static int sc_skim(stress *s, sclient *c, const uint8_t *p, size_t n)
     return 1;
 }
 
+/* ---- a stream file (options.url) ---------------------------------------- */
+
+/* A conversation's failure, by kind: what the transfer said (no
+ * connection, a timeout, a 5xx), else what the bytes were. */
+static void sc_web_fail(stress *s, sclient *c, mts_result rc, const mts_error *err)
+{
+    const mts_http_info hi = mts_webfile_http_last(c->wf);
+    mts_stress_failure why = MTS_STRESS_PROTOCOL;
+    if (rc == MTS_ERR_NOMEM)
+        why = MTS_STRESS_LOCAL;
+    else if (rc == MTS_ERR_CHECKSUM)
+        why = MTS_STRESS_VERIFY;
+    else if (hi.no_connection)
+        why = MTS_STRESS_CONNECT;
+    else if (hi.timed_out)
+        why = MTS_STRESS_TIMEOUT;
+    else if (hi.status == 503 || hi.status == 429)
+        why = MTS_STRESS_BUSY;
+    else if (hi.status >= 400)
+        why = MTS_STRESS_SERVER;
+    else if (rc == MTS_ERR_IO)
+        why = MTS_STRESS_CLOSED;
+    sc_fail(s, c, why, "%s", err->msg);
+}
+
+static void sc_web_bytes(stress *s, sclient *c)
+{
+    const uint64_t b = mts_webfile_bytes(c->wf);
+    s->rep->bytes += b - c->bytes_in;
+    c->bytes_in = b;
+}
+
+/* A range ended, or a conversation began: the next range is asked for, or
+ * every byte of the stop is in (applied, then ended by sc_apply), or the
+ * conversation failed. */
+static void sc_web_step(stress *s, sclient *c)
+{
+    sc_web_bytes(s, c);
+    c->t_last = mts_clock_seconds();
+    if (mts_webfile_poll(c->wf, c->decoder, 0))
+        return; /* a range under way */
+    mts_error err = {0};
+    mts_result rc = mts_webfile_result(c->wf, &err);
+    if (rc != MTS_OK)
+        sc_web_fail(s, c, rc, &err);
+    else
+        c->eof = 1;
+}
+
+/* The pool's word that one of c's ranges ended (from the shard's loop). */
+static void sc_web_end(void *user, mts_http *http)
+{
+    (void)http;
+    sclient *c = user;
+    if (c->state != SC_DONE && c->wf)
+        sc_web_step(c->owner, c);
+}
+
+/* A client of a stream file: its own mts_webfile (its own connections) on
+ * the shard's pool, towards the hello's stop; the prefix is its own first
+ * request, as a real client's is. */
+static void sc_web_start(stress *s, sclient *c)
+{
+    const mts_stress_options *o = s->o;
+    if (!sc_decoder(s, c))
+        return;
+    mts_http_options ho = {0};
+    ho.cacert = o->cacert;
+    ho.connect_timeout = o->connect_timeout;
+    ho.io_timeout = o->io_timeout;
+    ho.max_bytes = o->max_file_bytes;
+    ho.pool = s->pool;
+    ho.on_end = sc_web_end;
+    ho.end_user = c;
+    c->owner = s;
+    mts_error err = {0};
+    mts_result rc = mts_webfile_create(&c->wf, o->url, &ho, &err);
+    if (rc != MTS_OK) {
+        sc_fail(s, c, MTS_STRESS_LOCAL, "%s", err.msg);
+        return;
+    }
+    s->connected++; /* counted as a socket is: released with the webfile */
+    c->state = SC_READING;
+    rc = mts_webfile_begin(c->wf, c->decoder, o->hello.stop_kind, o->hello.stop_value, &err);
+    if (rc != MTS_OK) {
+        sc_web_fail(s, c, rc, &err);
+        return;
+    }
+    sc_web_step(s, c);
+}
+
 /* After END: a client chosen to ask for more connects again and continues
  * to options.continue_kind/value from the batches it holds. 1 when it does
  * (or failed trying, released), 0 when it is done. */
 static int sc_continues(stress *s, sclient *c)
 {
     const mts_stress_options *o = s->o;
-    if (!o->continue_kind || c->hello2)
+    if (!o->continue_kind || c->hello2 || c->continued)
         return 0; /* no continuation asked, or this was it */
     double share = o->continue_share > 0 && o->continue_share < 1 ? o->continue_share : 1;
     uint64_t i = (uint64_t)(c - s->c);
@@ -421,6 +555,20 @@ static int sc_continues(stress *s, sclient *c)
     mts_error err = {0};
     if (mts_stream_client_continue(c->decoder, &batch, &id, &err) != MTS_OK) {
         sc_fail(s, c, MTS_STRESS_LOCAL, "continue: %s", err.msg);
+        return 1;
+    }
+    if (c->wf) {
+        /* the index is held: one range, from the first batch not held, on
+         * the client's own connection when the server kept it open */
+        c->continued = 1;
+        c->eof = 0;
+        s->rep->continuations++;
+        mts_result rc = mts_webfile_begin(c->wf, c->decoder, o->continue_kind,
+                                          o->continue_value, &err);
+        if (rc != MTS_OK)
+            sc_web_fail(s, c, rc, &err);
+        else
+            sc_web_step(s, c);
         return 1;
     }
     mts_wire_hello h = o->hello;
@@ -477,6 +625,8 @@ static int sc_apply(stress *s, sclient *c, double deadline)
 {
     if (!sc_decoder(s, c))
         return 0;
+    if (c->wf)
+        sc_web_bytes(s, c);
     mts_error err = {0};
     mts_stream_event ev;
     int next, done = 0;
@@ -505,6 +655,26 @@ static int sc_apply(stress *s, sclient *c, double deadline)
         sc_fail(s, c, why, "%s", err.msg);
         return 0;
     }
+    if (c->wf) {
+        if (!c->eof)
+            return 1; /* the range is still coming */
+        /* every frame of the stop is applied: the file's checks stand in
+         * for END's */
+        mts_stream_event ev = MTS_EV_NONE;
+        mts_result rc = mts_webfile_end(c->wf, c->decoder, &ev, &err);
+        if (rc != MTS_OK || ev != MTS_EV_END) {
+            sc_fail(s, c,
+                    rc == MTS_ERR_CHECKSUM ? MTS_STRESS_VERIFY
+                    : rc == MTS_ERR_NOMEM  ? MTS_STRESS_LOCAL
+                                           : MTS_STRESS_PROTOCOL,
+                    "%s", rc != MTS_OK ? err.msg : "the stream file's range ended without END");
+            return 0;
+        }
+        if (sc_continues(s, c))
+            return 0;
+        sc_succeed(s, c, mts_clock_seconds());
+        return 0;
+    }
     if (c->eof) {
         sc_fail(s, c, MTS_STRESS_CLOSED, "closed before END (after %llu bytes)",
                 (unsigned long long)c->bytes_in);
@@ -529,8 +699,8 @@ static int apply_round(stress *s, uint32_t started, double budget)
         if (c->state == SC_DONE || c->state == SC_WAITING)
             continue;
         busy++;
-        if (c->bytes_in == 0 && !c->eof)
-            continue;
+        if (!c->wf && c->bytes_in == 0 && !c->eof)
+            continue; /* (a stream file's bytes are in its decoder: it is asked) */
         double share = (deadline - mts_clock_seconds()) / (double)(s->max_appliers - busy + 1);
         if (share <= 0)
             return 1;
@@ -736,6 +906,12 @@ static int shard_tick(mts_loop *loop, void *user, double now)
     }
     /* decoding left that needs no bytes: do not sleep on the sockets */
     int timeout_ms = h->pending ? 0 : 100;
+    if (sp->pool) {
+        /* libcurl's timer, last: the clients just started are due at once */
+        int ms = mts_http_pool_tick(sp->pool);
+        if (ms >= 0 && ms < timeout_ms)
+            timeout_ms = ms;
+    }
     if (h->next < n && sp->connected < conc && h->ramp > 0) {
         double due = sp->t0 +
                      h->ramp * (double)(h->next * h->count + h->index) / (double)(n * h->count) -
@@ -771,6 +947,23 @@ static void report_add(mts_stress_report *to, const mts_stress_report *r)
     to->batches += r->batches;
     to->splits += r->splits;
     to->continuations += r->continuations;
+    for (int k = 0; k < 2; k++) {
+        /* every client's end against the first's: a shard whose first ended
+         * elsewhere counts all its clients */
+        const struct mts_stress_end *e = &r->end[k];
+        struct mts_stress_end *t = &to->end[k];
+        if (!e->ended)
+            continue;
+        if (!t->ended) {
+            *t = *e;
+            continue;
+        }
+        t->disagree += t->level != e->level || t->triangles != e->triangles ||
+                               t->checksum != e->checksum
+                           ? e->ended
+                           : e->disagree;
+        t->ended += e->ended;
+    }
     if (r->seconds > to->seconds)
         to->seconds = r->seconds;
 }
@@ -812,13 +1005,34 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
     }
 
     const char *host = o->host ? o->host : "127.0.0.1", *port = o->port ? o->port : "7447";
-    if ((rc = mts_net_resolve(host, port, 0, &addr, NULL, err)) != MTS_OK) {
+    if (o->url) {
+        if (o->no_apply || o->http_path || (o->hello.flags & MTS_HELLO_RECORDS)) {
+            rc = mts_error_set(err, MTS_ERR_ARG,
+                               "a stream file's clients apply what they read, in the file's "
+                               "form: no no_apply, http_path or records");
+            goto done;
+        }
+        /* the URL and the CA file, checked once here rather than failing
+         * every client (a handle costs no I/O until its first range) */
+        mts_http_options ho = {0};
+        ho.cacert = o->cacert;
+        mts_http *probe = NULL;
+        if ((rc = mts_http_create(&probe, o->url, &ho, err)) != MTS_OK) {
+            if (err)
+                err->code = MTS_ERR_ARG;
+            rc = MTS_ERR_ARG;
+            goto done;
+        }
+        mts_http_free(probe);
+    } else if ((rc = mts_net_resolve(host, port, 0, &addr, NULL, err)) != MTS_OK) {
         rc = MTS_ERR_ARG; /* the address given does not resolve: bad usage */
         if (err)
             err->code = MTS_ERR_ARG;
         goto done;
     }
-    if (o->http_path) {
+    if (o->url) {
+        /* no HELLO: each client's requests are its webfile's */
+    } else if (o->http_path) {
         /* HTTP/1.0: one response per connection, ended by the server's close */
         char req[1200];
         int len = snprintf(req, sizeof req, "GET /%s HTTP/1.0\r\nHost: %s\r\n\r\n",
@@ -836,7 +1050,7 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
         }
         mts_wire_put_hello(&hello, &h);
     }
-    if (hello.failed) {
+    if (!o->url && hello.failed) {
         rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
         goto done;
     }
@@ -871,6 +1085,10 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
             goto done;
         }
         if ((rc = mts_loop_init(&sp->loop, err)) != MTS_OK) {
+            made++;
+            goto done;
+        }
+        if (o->url && (rc = mts_http_pool_create(&sp->pool, &sp->loop, err)) != MTS_OK) {
             made++;
             goto done;
         }
@@ -944,6 +1162,7 @@ done:
                 }
             }
         }
+        mts_http_pool_free(sp->pool); /* after its clients' handles */
         mts_loop_close(&sp->loop);
         free(sp->c);
         free(sp->ms_final);

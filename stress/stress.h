@@ -47,6 +47,17 @@ typedef struct mts_stress_report {
     double ms_base[4];  /* p50, p90, p99, max: connect started -> base mesh in */
     double ms_final[4]; /* connect started -> END checked */
     double mb_per_s, batches_per_s;
+    /* Where the applying clients that succeeded ended: [0] those that
+     * stopped at the hello's stop, [1] those that continued past it. Each
+     * holds the first one's level, triangles and mesh checksum (END's), and
+     * how many ended elsewhere -- they all asked for the same stop, so 0
+     * unless a server or file is wrong in a way no CRC caught. */
+    struct mts_stress_end {
+        uint32_t ended; /* clients with an end recorded */
+        uint32_t level;
+        uint64_t triangles, checksum;
+        uint32_t disagree;
+    } end[2];
 } mts_stress_report;
 
 /* Zero-initialised means the defaults. */
@@ -76,6 +87,18 @@ typedef struct mts_stress_options {
      * connection) and count the body, so a static file server (nginx) can be
      * measured by the same clients on the same bytes. NULL: mtstream. */
     const char *http_path;
+    /* A stream file (PROTOCOL.md, "Stream files") at an http:// or https://
+     * URL: each client reads it as mts-client does (client/webfile.h: the
+     * prefix, then one range to its stop, END's check from the file's
+     * checks), applying, over connections of its own -- every client is
+     * its own user: its own keep-alive connection (or HTTP/2 connection),
+     * never one shared or multiplexed with another client's. The clients
+     * of a thread share one libcurl multi handle on the thread's loop
+     * (http.h, mts_http_pool). NULL: mtstream over TCP to host:port.
+     * The program calls mts_fetch_global_init() (fetch.h) first. */
+    const char *url;
+    const char *cacert;      /* with url: the CAs to trust instead of the system's */
+    uint64_t max_file_bytes; /* with url: the file's size cap; 0: http.h's */
     double connect_timeout; /* 0: 10 s (a full listen queue costs SYN retries) */
     double io_timeout;      /* 0: 30 s without a byte */
     double progress_interval; /* seconds between on_progress calls; 0: 0.5 */
@@ -84,7 +107,8 @@ typedef struct mts_stress_options {
 } mts_stress_options;
 
 /* Runs every client to its end. Returns an error only when the run itself
- * cannot go on (bad options, the host does not resolve, epoll fails); client
+ * cannot go on (bad options, the host does not resolve, a URL that is not
+ * http or https, a CA file that cannot be read, epoll fails); client
  * failures are counted in the report, which is filled either way. */
 mts_result mts_stress_run(const mts_stress_options *opts, mts_stress_report *report,
                           mts_error *err);
