@@ -256,7 +256,8 @@ int main(int argc, char **argv)
         fprintf(stderr, "mts-stress: '%s' is not a model name ([A-Za-z0-9._-], 1..64)\n", model);
         return CLI_EXIT_USAGE;
     }
-    snprintf(so.hello.model, sizeof so.hello.model, "%s", model);
+    /* a file is named by its URL; the name is only shown */
+    snprintf(so.hello.model, sizeof so.hello.model, "%.64s", model);
     char host[256] = "127.0.0.1", port[16] = "7447";
     if (!url && npos == 2 && !cli_parse_server(pos[0], host, sizeof host, port, sizeof port)) {
         fprintf(stderr, "mts-stress: bad address %s (HOST[:PORT])\n", pos[0]);
