@@ -4,12 +4,29 @@
 # any ready .mtsm there. A model newer than its source is left as it is; when
 # two sources give the same NAME, the first folder listed wins.
 #
+# With $STREAMS_OUT set, each model's stream file (mts-build --stream) is
+# written there too as NAME.mts, for a web server to serve (compose.yaml's
+# `tls` service); also only when older than its model.
+#
 # compose.yaml's one-shot `models` service and the Kubernetes init container
 # run it, so that the mts-server replicas only ever read the models folder:
 # one writer, before any server starts.
 set -eu
 out="${MODELS_OUT:-/models}"
+streams="${STREAMS_OUT:-}"
 mkdir -p "$out"
+[ -z "$streams" ] || mkdir -p "$streams"
+# NAME.mts from NAME.mtsm, when missing or older than the model
+stream_file() {
+  [ -n "$streams" ] || return 0
+  s="$streams/$1.mts"
+  if [ -e "$s" ] && [ -z "$(find "$2" -newer "$s")" ]; then
+    return 0
+  fi
+  # written beside, then renamed: a web server never serves half a file
+  mts-build "$2" --stream "$s.tmp.$$.mts" --quiet && mv -f "$s.tmp.$$.mts" "$s"
+  echo "mts-build-models: $1: $s"
+}
 seen=" "
 built=0
 for dir in "$@"; do
@@ -31,6 +48,7 @@ for dir in "$@"; do
     # (find -newer: POSIX sh has no -nt)
     if [ -e "$dest" ] && [ -z "$(find "$f" -newer "$dest")" ]; then
       echo "mts-build-models: $name: up to date"
+      stream_file "$name" "$dest"
       continue
     fi
     if [ "$ext" = mtsm ]; then
@@ -40,6 +58,7 @@ for dir in "$@"; do
       mts-build "$f" -o "$dest" --quiet
     fi
     echo "mts-build-models: $name: $dest"
+    stream_file "$name" "$dest"
     built=$((built + 1))
   done
 done
