@@ -205,6 +205,16 @@ demo-web: deps
 	@$(MAKE) --no-print-directory programs web
 	@scripts/demo-web.sh
 
+# docker/'s files run under podman (scripts/deploy-test.sh): base images by
+# debootstrap where absent, both images built, compose up, 1,000 clients
+# through the lb, a restarted replica, a stop with streams in flight, k8s.yaml
+# played; a table, non-zero on any failure (docker/README.md). Not part of
+# `make test`; CI runs it after.
+.PHONY: deploy-test
+deploy-test: deps
+	@$(MAKE) --no-print-directory programs
+	@MTS_DEPLOY_BIN=$(BUILD)/bin scripts/deploy-test.sh
+
 install: programs
 	install -d $(DESTDIR)$(PREFIX)/bin
 	install -m 755 $(PROGRAMS) $(DESTDIR)$(PREFIX)/bin/
