@@ -29,7 +29,11 @@
 # the topology up after a failure, to look at it).
 set -uo pipefail
 cd "$(dirname "$0")/.."
-root=$PWD
+# rootful podman (as ../shared/containers.md ran it) and debootstrap need root
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "deploy-test: needs root (or sudo)" >&2; exit 1; }
+  exec sudo --preserve-env=MTS_DEPLOY_BIN,MTS_DEPLOY_PROJECT,MTS_DEPLOY_PORT_BASE,MTS_DEPLOY_KEEP,CONTAINERS_CONF "$0" "$@"
+fi
 t_start=$(date +%s.%N)
 
 BIN=${MTS_DEPLOY_BIN:-build/bin}

@@ -20,6 +20,9 @@ packages=(
   openssl                    # tests/test_https.c: a throwaway CA and the server certificate nginx terminates TLS with
   curl                       # tests/test_https.c: the headers nginx sends with stream files
   yamllint                   # lints docker/compose.yaml and docker/k8s.yaml (tests/test_scaleout.c)
+  podman runc podman-compose catatonit  # `make deploy-test`: docker/'s images, compose file and k8s.yaml run (scripts/deploy-test.sh); catatonit: kube play's pause image
+  golang-github-containernetworking-plugin-dnsname  # podman's CNI networks: containers find each other by service name
+  debootstrap            # `make deploy-test`: the Debian base images, made from the mirror (no registry needed)
   python3-matplotlib     # `make bench`'s plots (bench/plot.py; it skips without)
   time                   # `make bench`: peak memory of mts-build and mkbalancedpm (bench/builder.sh)
   emscripten             # `make web`: the decoder in WebAssembly for the browser client
