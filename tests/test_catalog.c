@@ -28,6 +28,7 @@
 #include "mesh.h"
 #include "modelfile.h"
 #include "test.h"
+#include "test_proc.h"
 
 static char work[1024];  /* scratch directory of this run */
 static char cow_src[] = "tests/data/cow.off";
@@ -861,16 +862,7 @@ static pid_t canned_start(const char *response, size_t response_len, int *port_o
         if (c < 0)
             continue;
         char req[4096];
-        size_t got = 0;
-        while (got < sizeof req - 1) {
-            ssize_t n = read(c, req + got, sizeof req - 1 - got);
-            if (n <= 0)
-                break;
-            got += (size_t)n;
-            req[got] = 0;
-            if (strstr(req, "\r\n\r\n"))
-                break;
-        }
+        mts_test_read_request(c, req, sizeof req);
         if (response) {
             size_t off = 0;
             while (off < response_len) {

@@ -52,23 +52,15 @@ static int sh(const char *cmd)
  * or a failure says what is missing). */
 static void setup(mts_test *t)
 {
-    const int required = getenv("MTS_TEST_REQUIRE_NGINX") != NULL;
-    if (!mts_test_find_nginx(E.front.nginx, sizeof E.front.nginx) ||
-        access("/usr/lib/nginx/modules/ngx_stream_module.so", R_OK) != 0) {
-        if (required)
-            CHECKF(t, 0, "nginx or its stream module is not installed (scripts/deps.sh)");
+    const char *missing = mts_test_tls_front_missing(E.front.nginx, sizeof E.front.nginx);
+    if (missing) {
+        if (getenv("MTS_TEST_REQUIRE_NGINX"))
+            CHECKF(t, 0, "%s (scripts/deps.sh installs it)", missing);
         else
-            SKIP(t, "nginx or its stream module is not installed (scripts/deps.sh installs them)");
+            SKIP(t, "%s (scripts/deps.sh installs it)", missing);
         return;
     }
     char out[256];
-    if (mts_test_run("command -v openssl", out, sizeof out) != 0) {
-        if (required)
-            CHECKF(t, 0, "openssl is not installed (scripts/deps.sh)");
-        else
-            SKIP(t, "openssl is not installed");
-        return;
-    }
     snprintf(E.dir, sizeof E.dir, "%s/https.%d", mts_test_tmpdir(), (int)getpid());
     snprintf(E.www, sizeof E.www, "%s/www", E.dir);
     snprintf(E.models, sizeof E.models, "%s/models", E.dir);
@@ -420,17 +412,7 @@ static void hostile_serve(int lfd, const uint8_t *file, size_t size)
         if (fd < 0)
             continue;
         char req[4096];
-        size_t got = 0;
-        while (got < sizeof req - 1) {
-            ssize_t n = read(fd, req + got, sizeof req - 1 - got);
-            if (n <= 0)
-                break;
-            got += (size_t)n;
-            req[got] = 0;
-            if (strstr(req, "\r\n\r\n"))
-                break;
-        }
-        req[got] = 0;
+        mts_test_read_request(fd, req, sizeof req);
         unsigned long a = 0, b = 0;
         const char *rg = strstr(req, "Range: bytes=");
         if (rg)

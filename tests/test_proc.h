@@ -327,6 +327,20 @@ typedef struct mts_test_tls_front {
     pid_t pid;
 } mts_test_tls_front;
 
+/* NULL when the TLS front can run here (nginx, written into nginx, with
+ * its stream module, and openssl), else what is missing. */
+static inline const char *mts_test_tls_front_missing(char *nginx, size_t size)
+{
+    char out[256];
+    if (!mts_test_find_nginx(nginx, size))
+        return "nginx is not installed";
+    if (access("/usr/lib/nginx/modules/ngx_stream_module.so", R_OK) != 0)
+        return "nginx's stream module is not installed";
+    if (mts_test_run("command -v openssl", out, sizeof out) != 0)
+        return "openssl is not installed";
+    return NULL;
+}
+
 /* The CA (ca.pem, ca.key) and nginx's certificate (cert.pem, key.pem) for
  * 127.0.0.1 and localhost, made by openssl in f->dir. 1 on success; else
  * out says what openssl said. */
@@ -410,6 +424,24 @@ static inline void mts_test_tls_front_stop(mts_test_tls_front *f, int crash)
         waitpid(f->pid, NULL, 0);
     }
     f->pid = -1;
+}
+
+/* An HTTP request's head from fd, NUL-terminated into req (size at least
+ * 2): read until the blank line, the peer's end, or req is full. For the
+ * tests' small hostile web servers. */
+static inline void mts_test_read_request(int fd, char *req, size_t size)
+{
+    size_t got = 0;
+    req[0] = 0;
+    while (got < size - 1) {
+        ssize_t n = read(fd, req + got, size - 1 - got);
+        if (n <= 0)
+            break;
+        got += (size_t)n;
+        req[got] = 0;
+        if (strstr(req, "\r\n\r\n"))
+            break;
+    }
 }
 
 /* The first size-1 bytes of a file, NUL-terminated ("" when unreadable). */

@@ -413,17 +413,7 @@ static void hostile_serve(int lfd, const uint8_t *file, size_t size)
             continue;
         }
         char req[4096];
-        size_t got = 0;
-        while (got < sizeof req - 1) {
-            ssize_t n = read(fd, req + got, sizeof req - 1 - got);
-            if (n <= 0)
-                break;
-            got += (size_t)n;
-            req[got] = 0;
-            if (strstr(req, "\r\n\r\n"))
-                break;
-        }
-        req[got] = 0;
+        mts_test_read_request(fd, req, sizeof req);
         unsigned long a = 0, b = size - 1;
         const char *rg = strstr(req, "ange: bytes=");
         if (rg)
@@ -515,13 +505,13 @@ static void test_page_stream_file(mts_test *t)
 {
     if (!have_chromium)
         SKIP(t, "no chromium (scripts/deps.sh installs it): the page is not tested");
-    char out[8192];
-    if (access("/usr/lib/nginx/modules/ngx_stream_module.so", R_OK) != 0 ||
-        mts_test_run("command -v openssl", out, sizeof out) != 0) {
+    char out[8192], found[512];
+    const char *missing = mts_test_tls_front_missing(found, sizeof found);
+    if (missing) {
         if (getenv("MTS_TEST_REQUIRE_WEB"))
-            CHECKF(t, 0, "nginx's stream module or openssl is missing (scripts/deps.sh)");
+            CHECKF(t, 0, "%s (scripts/deps.sh installs it)", missing);
         else
-            SKIP(t, "no nginx stream module or openssl: docker/nginx-tls.conf does not run");
+            SKIP(t, "%s: docker/nginx-tls.conf does not run", missing);
         return;
     }
     server sv;
