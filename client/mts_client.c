@@ -456,6 +456,8 @@ static void print_summary(const client_options *o, const mts_stream_client *c,
             }
         }
         mts_client_run_json(&j, c, st, rn);
+        if (o->so.file && mts_webfile_http_version(o->so.file) > 0)
+            cli_json_u64(&j, "http_version", (uint64_t)mts_webfile_http_version(o->so.file));
         if (res->verified >= 0)
             cli_json_bool(&j, "verified", res->verified);
         if (rc != MTS_OK)

@@ -164,6 +164,12 @@ static void test_stops_match_tcp(mts_test *t)
             /* the file's header, table and checks, less END: a few per cent
              * of a small stream, under one of bunny00's; a stop whose bytes
              * end inside the first request reads that request's 4 KB */
+            /* HTTP/2 where the server offers it: nginx does over TLS (ALPN) */
+            CHECKF(t, mts_test_json_long(b.out, "http_version") == 1 &&
+                          mts_test_json_long(c.out, "http_version") == 2,
+                   "%s %s: HTTP versions %ld (http) and %ld (https)", models[m], stops[i],
+                   mts_test_json_long(b.out, "http_version"),
+                   mts_test_json_long(c.out, "http_version"));
             CHECKF(t, b.bytes == c.bytes && b.bytes > a.bytes &&
                           (b.bytes - a.bytes < 1400 || (b.bytes == 4096 && a.bytes < 4096)),
                    "%s %s: TCP %ld bytes, http %ld, https %ld", models[m], stops[i], a.bytes,
