@@ -21,63 +21,23 @@ skip() {
   echo "bench: stream files skipped: $1" >&2
   exit 0
 }
+. bench/tls_front.sh
 [ -f "$shared/models/bunny00.off" ] || skip "$shared/models/bunny00.off not found"
-nginx=$(command -v nginx || echo /usr/sbin/nginx)
-[ -x "$nginx" ] || skip "nginx is not installed (scripts/deps.sh)"
-[ -f /usr/lib/nginx/modules/ngx_stream_module.so ] || skip "nginx's stream module is not installed"
-command -v openssl >/dev/null || skip "openssl is not installed"
+missing=$(tls_front_missing) && skip "$missing"
 
 dir="$out/files"
 rm -rf "$dir"
-mkdir -p "$dir/www" "$dir/models" "$dir/nginx"
+mkdir -p "$dir/www" "$dir/models"
 build/bin/mts-build "$shared/models/bunny00.off" -o "$dir/models/bunny00.mtsm" \
   --stream "$dir/www/bunny00.mts" --json --quiet >"$dir/build.json" || skip "mts-build failed"
+tls_front_ca "$dir" || skip "openssl could not make a certificate"
 
-# a throwaway CA and a certificate for 127.0.0.1, as a private deployment has
-(cd "$dir" &&
-  openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -keyout ca.key \
-    -out ca.pem -days 2 -subj '/CN=mtstream bench CA' &&
-  openssl req -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -keyout key.pem -out srv.csr \
-    -subj /CN=127.0.0.1 &&
-  printf 'subjectAltName=IP:127.0.0.1\n' >ext.cnf &&
-  openssl x509 -req -in srv.csr -CA ca.pem -CAkey ca.key -CAcreateserial -out cert.pem -days 2 \
-    -extfile ext.cnf) >"$dir/openssl.log" 2>&1 || skip "openssl could not make a certificate"
-
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
-wait_port() {
-  for _ in $(seq 1 200); do
-    python3 -c "import socket,sys; socket.create_connection(('127.0.0.1',$1),1)" 2>/dev/null && return 0
-    sleep 0.05
-  done
-  return 1
-}
 tcp=$(free_port) http=$(free_port) https=$(free_port) tls=$(free_port)
 build/bin/mts-server --models "$dir/models" --listen "127.0.0.1:$tcp" --quiet 2>"$dir/server.log" &
 server=$!
-# the marked lines of the shipped configuration, replaced; nothing else
-python3 - docker/nginx-tls.conf "$dir/nginx.conf" <<PY
-import sys
-lines = {
-    "@HTTP_LISTEN@": "listen 127.0.0.1:$http;",
-    "@HTTPS_LISTEN@": "listen 127.0.0.1:$https ssl http2;",
-    "@CERT@": "ssl_certificate $dir/cert.pem;",
-    "@KEY@": "ssl_certificate_key $dir/key.pem;",
-    "@STREAM_CERT@": "ssl_certificate $dir/cert.pem;",
-    "@STREAM_KEY@": "ssl_certificate_key $dir/key.pem;",
-    "@ROOT@": "root $dir/www;",
-    "@WS_UPSTREAM@": "server 127.0.0.1:9;",
-    "@TCP_UPSTREAM@": "server 127.0.0.1:$tcp;",
-    "@TLS_LISTEN@": "listen 127.0.0.1:$tls ssl;",
-    "@LIMIT_RATE@": "limit_rate 0;",
-}
-with open(sys.argv[1]) as f, open(sys.argv[2], "w") as o:
-    for line in f:
-        mark = next((m for m in lines if m in line and not line.lstrip().startswith("#")), None)
-        o.write(lines[mark] + "\n" if mark else line)
-PY
-"$nginx" -e stderr -p "$dir/nginx/" -c "$dir/nginx.conf" -g "master_process off; pid nginx.pid;" \
-  >/dev/null 2>"$dir/nginx.log" &
-front=$!
+tls_front_conf "$dir" "$dir/www" "$http" "$https" "$tls" "$tcp"
+tls_front_start "$dir"
+front=$TLS_FRONT_PID
 stop() {
   kill -TERM "$front" "$server" 2>/dev/null
   wait "$front" "$server" 2>/dev/null

@@ -35,74 +35,28 @@ skip() {
 mesh="$shared/models/$model.off"
 [ "$model" = cow ] && [ ! -f "$mesh" ] && mesh=tests/data/cow.off
 [ -f "$mesh" ] || skip "$mesh not found"
-nginx=$(command -v nginx || echo /usr/sbin/nginx)
-[ -x "$nginx" ] || skip "nginx is not installed (scripts/deps.sh)"
-[ -f /usr/lib/nginx/modules/ngx_stream_module.so ] || skip "nginx's stream module is not installed"
-command -v openssl >/dev/null || skip "openssl is not installed"
+. bench/tls_front.sh
+missing=$(tls_front_missing) && skip "$missing"
 ulimit -n "$(ulimit -Hn)" 2>/dev/null
 [ "$(ulimit -n)" -ge $((clients + 200)) ] ||
   skip "open-file limit $(ulimit -n) is below the $((clients + 200)) that $clients clients need"
 
 dir="$out/stress_files"
 rm -rf "$dir"
-mkdir -p "$dir/www" "$dir/models" "$dir/nginx"
+mkdir -p "$dir/www" "$dir/models"
 $bin/mts-build "$mesh" -o "$dir/models/$model.mtsm" --stream "$dir/www/$model.mts" \
   --quiet || skip "mts-build failed"
 
-# a throwaway CA and a certificate for 127.0.0.1, as a private deployment has
-(cd "$dir" &&
-  openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -keyout ca.key \
-    -out ca.pem -days 2 -subj '/CN=mtstream bench CA' &&
-  openssl req -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -keyout key.pem -out srv.csr \
-    -subj /CN=127.0.0.1 &&
-  printf 'subjectAltName=IP:127.0.0.1\n' >ext.cnf &&
-  openssl x509 -req -in srv.csr -CA ca.pem -CAkey ca.key -CAcreateserial -out cert.pem -days 2 \
-    -extfile ext.cnf) >"$dir/openssl.log" 2>&1 || skip "openssl could not make a certificate"
+tls_front_ca "$dir" || skip "openssl could not make a certificate"
 
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
-wait_port() {
-  for _ in $(seq 1 200); do
-    python3 -c "import socket,sys; socket.create_connection(('127.0.0.1',$1),1)" 2>/dev/null && return 0
-    sleep 0.05
-  done
-  return 1
-}
 cpu_s() { awk -v hz="$(getconf CLK_TCK)" '{ printf "%.3f", ($14 + $15) / hz }' "/proc/$1/stat"; }
 
 tcp=$(free_port) http=$(free_port) https=$(free_port) tls=$(free_port)
 $bin/mts-server --models "$dir/models" --listen "127.0.0.1:$tcp" --quiet 2>"$dir/server.log" &
 server=$!
-# the marked lines of the shipped configuration, replaced; and the access
-# log off (a thousand lines a run is the disk's work, not the server's)
-python3 - docker/nginx-tls.conf "$dir/nginx.conf" <<PY
-import sys
-lines = {
-    "@HTTP_LISTEN@": "listen 127.0.0.1:$http;",
-    "@HTTPS_LISTEN@": "listen 127.0.0.1:$https ssl http2;",
-    "@CERT@": "ssl_certificate $dir/cert.pem;",
-    "@KEY@": "ssl_certificate_key $dir/key.pem;",
-    "@STREAM_CERT@": "ssl_certificate $dir/cert.pem;",
-    "@STREAM_KEY@": "ssl_certificate_key $dir/key.pem;",
-    "@ROOT@": "root $dir/www;",
-    "@WS_UPSTREAM@": "server 127.0.0.1:9;",
-    "@TCP_UPSTREAM@": "server 127.0.0.1:$tcp;",
-    "@TLS_LISTEN@": "listen 127.0.0.1:$tls ssl;",
-    "@LIMIT_RATE@": "limit_rate 0;",
-}
-with open(sys.argv[1]) as f, open(sys.argv[2], "w") as o:
-    for line in f:
-        mark = next((m for m in lines if m in line and not line.lstrip().startswith("#")), None)
-        if mark:
-            o.write(lines[mark] + "\n")
-        elif "access_log" in line and not line.lstrip().startswith("#"):
-            o.write("    access_log off;\n")
-        else:
-            o.write(line)
-PY
-# one process (master_process off): its CPU is all of nginx's
-"$nginx" -e stderr -p "$dir/nginx/" -c "$dir/nginx.conf" -g "master_process off; pid nginx.pid;" \
-  >/dev/null 2>"$dir/nginx.log" &
-front=$!
+tls_front_conf "$dir" "$dir/www" "$http" "$https" "$tls" "$tcp" quiet
+tls_front_start "$dir"
+front=$TLS_FRONT_PID
 stop() {
   kill -TERM "$front" "$server" 2>/dev/null
   wait "$front" "$server" 2>/dev/null
