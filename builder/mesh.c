@@ -223,6 +223,24 @@ static mts_result clean(mts__mesh_raw *raw, mts_mesh *mesh, mts_mesh_stats *st, 
         st->nonmanifold_faces = refused;
         n = kept;
     }
+    if (n == 0 && st->file_faces == 0) {
+        /* the file has no surface at all: say so, rather than that cleaning
+         * left nothing of it */
+        if (raw->obj_points || raw->obj_lines)
+            r = mts_error_set(err, MTS_ERR_FORMAT,
+                              "%s: no triangles: the file has %u vertices, %u points ('p') and "
+                              "%u lines ('l') but no faces (points and lines are not a surface)",
+                              name, st->file_vertices, raw->obj_points, raw->obj_lines);
+        else if (st->file_vertices)
+            r = mts_error_set(err, MTS_ERR_FORMAT,
+                              "%s: no triangles: the file has %u vertices but no faces (a point "
+                              "cloud, not a surface)",
+                              name, st->file_vertices);
+        else
+            r = mts_error_set(err, MTS_ERR_FORMAT,
+                              "%s: no triangles: the file has no faces and no vertices", name);
+        goto done;
+    }
     if (n == 0) {
         r = mts_error_set(err, MTS_ERR_FORMAT,
                           "%s: no triangles left after cleaning (%u faces read: %u degenerate, "
@@ -331,8 +349,16 @@ static mts_mesh_format format_from_name(const char *name)
     return MTS_MESH_AUTO;
 }
 
-static mts_result unknown_format(const char *name, mts_error *err)
+static mts_result unknown_format(const char *name, const char *data, size_t size,
+                                 mts_error *err)
 {
+    /* UTF-16 text hides every keyword the sniffer looks for */
+    const char *wide = mts__mesh_wide_text(data, size);
+    if (wide)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: unknown mesh format: the file is %s, and mesh files are read "
+                             "as ASCII (or UTF-8) text or binary",
+                             name, wide);
     return mts_error_set(err, MTS_ERR_FORMAT,
                          "%s: unknown mesh format (not OFF, OBJ, PLY or STL by name or content)",
                          name);
@@ -368,7 +394,7 @@ mts_result mts_mesh_load_memory(const char *name, const void *data, size_t size,
     if (format == MTS_MESH_AUTO)
         format = mts__mesh_sniff(data, size);
     if (format == MTS_MESH_AUTO)
-        return unknown_format(name, err);
+        return unknown_format(name, data, size, err);
 
     mts__mesh_raw raw = {0};
     raw.name = name;
@@ -428,7 +454,7 @@ mts_result mts_mesh_load(const char *path, const mts_mesh_options *opts, mts_mes
         if (o.format == MTS_MESH_AUTO)
             o.format = mts__mesh_sniff_head(data, head, file_size);
         if (o.format == MTS_MESH_AUTO) {
-            r = unknown_format(path, err);
+            r = unknown_format(path, data, head, err);
             goto done;
         }
         if ((r = mts__mesh_check_head(o.format, path, data, head, file_size, &size, err)) !=

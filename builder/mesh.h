@@ -49,6 +49,11 @@ typedef struct mts_mesh_stats {
     uint32_t unreferenced_vertices;  /* dropped */
     uint32_t welded_vertices;        /* STL corners merged into shared vertices */
     int normals_from_file;           /* 1 when the file's normals were used */
+    /* Header lines that are no keyword of the format, skipped so that a
+     * file real tools read is read here too (Blender 2.47 wrote PLY headers
+     * with "Created by ..." lacking "comment"); the caller warns. */
+    uint32_t skipped_header_lines;
+    uint32_t first_skipped_header_line; /* its 1-based line number, when there is one */
 } mts_mesh_stats;
 
 /* The default size cap of a mesh file (mts_mesh_options.max_bytes). */

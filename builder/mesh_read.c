@@ -340,6 +340,83 @@ static size_t bom_length(const char *data, size_t size)
     return size >= 3 && memcmp(data, "\xEF\xBB\xBF", 3) == 0 ? 3 : 0;
 }
 
+/* What the bytes of a file that should be text are instead. Windows
+ * editors save "Unicode" text as UTF-16 (box_UTF16BE.obj in assimp's test
+ * models), whose NUL high bytes a text reader would otherwise take for
+ * binary junk, or skip as unknown lines and then find no faces: the user
+ * is told what the file is, so that saving it as UTF-8 is the obvious fix. */
+enum text_kind { TEXT_PLAIN, TEXT_UTF16LE, TEXT_UTF16BE, TEXT_UTF32LE, TEXT_UTF32BE, TEXT_BINARY };
+
+static int text_kind_of(const char *data, size_t size, size_t *nul_at)
+{
+    const unsigned char *b = (const unsigned char *)data;
+    *nul_at = 0;
+    /* byte order marks; UTF-32's little-endian one starts with UTF-16's */
+    if (size >= 4 && memcmp(b, "\xFF\xFE\0\0", 4) == 0)
+        return TEXT_UTF32LE;
+    if (size >= 4 && memcmp(b, "\0\0\xFE\xFF", 4) == 0)
+        return TEXT_UTF32BE;
+    if (size >= 2 && b[0] == 0xFF && b[1] == 0xFE)
+        return TEXT_UTF16LE;
+    if (size >= 2 && b[0] == 0xFE && b[1] == 0xFF)
+        return TEXT_UTF16BE;
+    /* no mark: mostly-ASCII UTF-16 has a NUL in (nearly) every other byte
+     * and none in between, since no character is U+0000; binary data and
+     * zero padding have NULs at both parities */
+    size_t pairs = (size < 512 ? size : 512) / 2, nul[2] = {0, 0};
+    for (size_t i = 0; i < pairs * 2; i++)
+        nul[i & 1] += b[i] == 0;
+    if (pairs >= 2 && nul[1] == 0 && nul[0] * 4 >= pairs * 3)
+        return TEXT_UTF16BE;
+    if (pairs >= 2 && nul[0] == 0 && nul[1] * 4 >= pairs * 3)
+        return TEXT_UTF16LE;
+    const char *nul_byte = memchr(data, 0, size);
+    if (nul_byte) {
+        *nul_at = (size_t)(nul_byte - data);
+        return TEXT_BINARY;
+    }
+    return TEXT_PLAIN;
+}
+
+static const char *text_kind_name(int kind)
+{
+    switch (kind) {
+    case TEXT_UTF16LE: return "UTF-16 (little-endian)";
+    case TEXT_UTF16BE: return "UTF-16 (big-endian)";
+    case TEXT_UTF32LE: return "UTF-32 (little-endian)";
+    case TEXT_UTF32BE: return "UTF-32 (big-endian)";
+    default: return NULL;
+    }
+}
+
+const char *mts__mesh_wide_text(const char *data, size_t size)
+{
+    size_t nul_at;
+    return text_kind_name(text_kind_of(data, size, &nul_at));
+}
+
+/* Refuses data that should be text and is not, saying what it is: `article`
+ * names the format ("an OBJ"), `ascii` what the reader takes ("ASCII OBJ"),
+ * `tail` what else was missing ("" or " (and no 'ply' magic)"). MTS_OK when
+ * the data is plain text. */
+static mts_result text_refuse(const char *name, const char *data, size_t size,
+                              const char *article, const char *ascii, const char *tail,
+                              mts_error *err)
+{
+    size_t nul_at;
+    int kind = text_kind_of(data, size, &nul_at);
+    if (kind == TEXT_PLAIN)
+        return MTS_OK;
+    if (kind == TEXT_BINARY)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: not %s file: the file is binary (byte %zu is a NUL byte), not "
+                             "%s%s",
+                             name, article, nul_at, ascii, tail);
+    return mts_error_set(err, MTS_ERR_FORMAT,
+                         "%s: the file is %s, not %s: save it as UTF-8 or ASCII", name,
+                         text_kind_name(kind), ascii);
+}
+
 static inline int text_eof(const text *t) { return t->p >= t->end; }
 static inline int text_eol(const text *t) { return t->p >= t->end || *t->p == '\n'; }
 
@@ -448,14 +525,22 @@ static size_t off_keyword(const char *w, size_t n, off_flags *fl)
 /* The first word of an OFF file: a keyword, or (in some collections, such
  * as ModelNet) a keyword with the vertex count glued to it, "OFF1234 5678
  * 0"; anything else after OFF is not OFF. *k is the keyword's length. */
-static mts_result off_check_keyword(const char *name, const char *w, size_t wn, off_flags *fl,
-                                    size_t *k, mts_error *err)
+static mts_result off_check_keyword(const char *name, const char *data, size_t size,
+                                    const char *w, size_t wn, off_flags *fl, size_t *k,
+                                    mts_error *err)
 {
     *k = off_keyword(w, wn, fl);
-    if (*k == 0 || (*k < wn && (unsigned)(w[*k] - '0') >= 10))
+    if (*k == 0 || (*k < wn && (unsigned)(w[*k] - '0') >= 10)) {
+        /* binary OFF starts with the keyword line too: without it, UTF-16
+         * or binary data is named as what it is */
+        mts_result r = text_refuse(name, data, size, "an OFF", "ASCII OFF",
+                                   " (ASCII and binary OFF start with the OFF keyword)", err);
+        if (r != MTS_OK)
+            return r;
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "%s: not an OFF file (the first word is not OFF or a variant of it)",
                              name);
+    }
     return MTS_OK;
 }
 
@@ -481,8 +566,9 @@ static mts_result off_count(text *t, const char *what, uint32_t *out, mts_error 
         return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: negative %s count %lld",
                              t->name, (unsigned long long)t->line, what, (long long)v);
     if (v > (int64_t)MTS__MESH_MAX_COUNT)
-        return mts_error_set(err, MTS_ERR_LIMIT, "%s: line %llu: %lld %s is over the limit of %u",
-                             t->name, (unsigned long long)t->line, (long long)v, what,
+        return mts_error_set(err, MTS_ERR_LIMIT,
+                             "%s: line %llu: a %s count of %lld is over the limit of %u",
+                             t->name, (unsigned long long)t->line, what, (long long)v,
                              MTS__MESH_MAX_COUNT);
     *out = (uint32_t)v;
     return MTS_OK;
@@ -741,7 +827,7 @@ mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size,
     size_t wn = text_word(&t, &w);
     off_flags fl;
     size_t k;
-    mts_result r0 = off_check_keyword(t.name, w, wn, &fl, &k, err);
+    mts_result r0 = off_check_keyword(t.name, data, size, w, wn, &fl, &k, err);
     if (r0 != MTS_OK)
         return r0;
     const int normals = fl.normals;
@@ -908,16 +994,12 @@ static mts_result obj_range(const text *t, const char *what, int64_t idx, uint32
 }
 
 /* OBJ has no magic, and its reader skips the lines it does not know, so
- * without this a file of anything would be read to its end for nothing: an
- * OBJ file is text, and a NUL byte says this one is not. */
+ * without this a file of anything would be read to its end for nothing
+ * (and UTF-16 text would end in "no triangles"): an OBJ file is text, and a
+ * NUL byte says this one is not. */
 static mts_result obj_check_text(const char *name, const char *data, size_t size, mts_error *err)
 {
-    const char *nul = memchr(data, 0, size);
-    if (nul)
-        return mts_error_set(err, MTS_ERR_FORMAT,
-                             "%s: not an OBJ file (byte %zu is a NUL byte: binary data, not text)",
-                             name, (size_t)(nul - data));
-    return MTS_OK;
+    return text_refuse(name, data, size, "an OBJ", "ASCII OBJ", "", err);
 }
 
 mts_result mts__mesh_read_obj(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
@@ -1021,9 +1103,13 @@ mts_result mts__mesh_read_obj(mts__mesh_raw *raw, const char *data, size_t size,
             }
             if ((r = fan_end(raw, &poly, err)) != MTS_OK)
                 goto done;
+        } else if (word_is(w, wn, "p") || word_is(w, wn, "l")) {
+            /* no surface, but named if nothing else is there */
+            uint32_t *n = w[0] == 'p' ? &raw->obj_points : &raw->obj_lines;
+            *n += *n < UINT32_MAX;
         }
-        /* anything else (vt values, g, o, s, usemtl, mtllib, l, p, comments)
-         * does not shape the surface */
+        /* anything else (vt values, g, o, s, usemtl, mtllib, comments) does
+         * not shape the surface */
         text_next_line(&t);
     }
     st->file_vertices = raw->vertex_count;
@@ -1071,6 +1157,9 @@ typedef struct ply {
     /* the data cursor: text for ASCII, bytes otherwise */
     text t;
     const unsigned char *p, *end;
+    const char *data; /* the whole file, for the messages of one that is not PLY */
+    size_t size;
+    const char *body; /* where the data starts, after end_header */
 } ply;
 
 static int ply_type_of(const char *w, size_t n)
@@ -1106,6 +1195,16 @@ static const char *ply_item(const ply_elem *e, uint32_t i, char *buf, size_t siz
     return buf;
 }
 
+/* A file without the magic: UTF-16 or binary data is named as such (a
+ * binary PLY's header is text too). */
+static mts_result ply_no_magic(const char *name, const char *data, size_t size, mts_error *err)
+{
+    mts_result r = text_refuse(name, data, size, "a PLY", "ASCII PLY", " (and no 'ply' magic)", err);
+    if (r != MTS_OK)
+        return r;
+    return mts_error_set(err, MTS_ERR_FORMAT, "%s: not a PLY file (no 'ply' magic)", name);
+}
+
 /* Reads the header up to and including the end_header line. */
 static mts_result ply_header(ply *P, mts__mesh_raw *raw, mts_error *err)
 {
@@ -1114,7 +1213,7 @@ static mts_result ply_header(ply *P, mts__mesh_raw *raw, mts_error *err)
     const char *w;
     size_t wn = text_word(t, &w);
     if (!word_is(w, wn, "ply"))
-        return mts_error_set(err, MTS_ERR_FORMAT, "%s: not a PLY file (no 'ply' magic)", name);
+        return ply_no_magic(name, P->data, P->size, err);
     text_next_line(t);
     int have_format = 0;
     ply_elem *cur = NULL;
@@ -1220,8 +1319,16 @@ static mts_result ply_header(ply *P, mts__mesh_raw *raw, mts_error *err)
             P->props[P->prop_count++] = prop;
             cur->props++;
         } else {
-            return mts_error_set(err, MTS_ERR_FORMAT, "%s: line %llu: unknown PLY header line",
-                                 name, (unsigned long long)t->line);
+            /* Not a PLY keyword. Blender 2.47 wrote "Created by Blender3D
+             * ..." without "comment" (Wuson.ply in assimp's test models),
+             * and assimp and MeshLab read such files: skipped like a
+             * comment, and counted so that the caller can warn. A line that
+             * mattered (a misspelt element) shows up as missing data next. */
+            mts_mesh_stats *st = raw->stats;
+            if (st->skipped_header_lines == 0)
+                st->first_skipped_header_line =
+                    t->line > UINT32_MAX ? UINT32_MAX : (uint32_t)t->line;
+            st->skipped_header_lines += st->skipped_header_lines < UINT32_MAX;
         }
         text_next_line(t);
     }
@@ -1348,6 +1455,13 @@ static mts_result ply_value_error(const ply *P, const ply_elem *e, uint32_t i, i
                                   const char *name, mts_error *err)
 {
     char what[64];
+    /* a binary body under a header that says ascii (a hand-edited header,
+     * or a tool that wrote the wrong word) is named, not taken for a bad
+     * value or a cut file */
+    if (P->format == PLY_ASCII && memchr(P->body, 0, (size_t)(P->data + P->size - P->body)))
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: line %llu: %s: the header says ascii, but the data is binary",
+                             name, (unsigned long long)P->t.line, ply_item(e, i, what, sizeof what));
     if (status == 1)
         return mts_error_set(err, MTS_ERR_FORMAT, "%s: truncated: expected %u %s, file ends after %u",
                              name, e->count, ply_noun(e, what, sizeof what), i);
@@ -1367,9 +1481,12 @@ mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size,
     if (!P)
         return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory", name);
     P->t = (text){data, data + size, 1, 0, name};
+    P->data = data;
+    P->size = size;
     mts_result r = ply_header(P, raw, err);
     if (r != MTS_OK)
         goto done;
+    P->body = P->t.p;
 
     ply_elem *vert = NULL, *face = NULL;
     int has_xyz[3] = {0, 0, 0}, has_n[3] = {0, 0, 0}, has_indices = 0;
@@ -1576,10 +1693,18 @@ static mts_result stl_weld(mts__mesh_raw *raw, mts_error *err)
 
 /* A binary STL's facet count (at byte 80), checked against the limit and
  * against the size of the file (which head, 84 bytes or more, starts). */
-static mts_result stl_binary_count(const char *name, const unsigned char *head, uint64_t size,
-                                   uint32_t *count, mts_error *err)
+static mts_result stl_binary_count(const char *name, const unsigned char *head, size_t head_size,
+                                   uint64_t size, uint32_t *count, mts_error *err)
 {
     *count = le32(head + 80);
+    /* a file that does not start with "solid" is taken for binary; UTF-16
+     * text (ASCII STL saved as "Unicode") is told apart before its
+     * characters are read as a facet count */
+    const char *wide = mts__mesh_wide_text((const char *)head, head_size);
+    if (wide && 84 + (uint64_t)*count * 50 != size)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: the file is %s, not ASCII STL: save it as UTF-8 or ASCII", name,
+                             wide);
     if (*count > MTS__MESH_MAX_COUNT / 3)
         return mts_error_set(err, MTS_ERR_LIMIT, "%s: %u facets is over the limit of %u", name,
                              *count, MTS__MESH_MAX_COUNT / 3);
@@ -1593,13 +1718,18 @@ static mts_result stl_binary_count(const char *name, const unsigned char *head, 
 
 static mts_result stl_binary(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
 {
+    const char *wide = size < 84 ? mts__mesh_wide_text(data, size) : NULL;
+    if (wide)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "%s: the file is %s, not ASCII STL: save it as UTF-8 or ASCII",
+                             raw->name, wide);
     if (size < 84)
         return mts_error_set(err, MTS_ERR_FORMAT,
                              "%s: truncated: a binary STL needs 84 header bytes, the file has %zu",
                              raw->name, size);
     const unsigned char *b = (const unsigned char *)data;
     uint32_t count;
-    mts_result r = stl_binary_count(raw->name, b, size, &count, err);
+    mts_result r = stl_binary_count(raw->name, b, size, size, &count, err);
     if (r != MTS_OK)
         return r;
     if ((r = raw_reserve_vertices(raw, (uint64_t)count * 3, 0, err)) != MTS_OK ||
@@ -1827,7 +1957,7 @@ mts_result mts__mesh_check_head(mts_mesh_format format, const char *name, const 
             return MTS_OK;
         off_flags fl;
         size_t k;
-        return off_check_keyword(name, w, wn, &fl, &k, err);
+        return off_check_keyword(name, head, head_size, w, wn, &fl, &k, err);
     }
     case MTS_MESH_PLY: {
         text t = {head, head + head_size, 1, 0, name};
@@ -1835,7 +1965,7 @@ mts_result mts__mesh_check_head(mts_mesh_format format, const char *name, const 
         size_t wn = text_word(&t, &w);
         if ((text_eof(&t) && wn <= 3) || word_is(w, wn, "ply"))
             return MTS_OK;
-        return mts_error_set(err, MTS_ERR_FORMAT, "%s: not a PLY file (no 'ply' magic)", name);
+        return ply_no_magic(name, head, head_size, err);
     }
     case MTS_MESH_STL: {
         /* stl_is_binary with the file's size: ASCII when it starts with
@@ -1852,7 +1982,7 @@ mts_result mts__mesh_check_head(mts_mesh_format format, const char *name, const 
         if (head_size < 84)
             return MTS_OK;
         uint32_t count;
-        mts_result r = stl_binary_count(name, b, file_size, &count, err);
+        mts_result r = stl_binary_count(name, b, head_size, file_size, &count, err);
         if (r == MTS_OK)
             *read_size = 84 + (uint64_t)count * 50; /* what follows the facets is never read */
         return r;

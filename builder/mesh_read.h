@@ -29,8 +29,10 @@ typedef struct mts__mesh_raw {
     uint32_t triangle_capacity;
     uint32_t *triangles;     /* 3 per triangle, indices < vertex_count */
     mts_mesh_stats *stats;   /* the parser fills format, file_*, polygons_triangulated,
-                              * welded_vertices, and counts polygons of < 3 corners in
-                              * degenerate_faces */
+                              * welded_vertices, skipped_header_lines, and counts
+                              * polygons of < 3 corners in degenerate_faces */
+    uint32_t obj_points, obj_lines; /* OBJ 'p' and 'l' elements, which have no surface:
+                                     * a file of only those is refused as such */
 } mts__mesh_raw;
 
 void mts__mesh_raw_free(mts__mesh_raw *raw);
@@ -42,6 +44,11 @@ mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size,
 mts_result mts__mesh_read_obj(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
 mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
 mts_result mts__mesh_read_stl(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
+
+/* "UTF-16 (big-endian)" and the like when data (the start of a file) is
+ * UTF-16 or UTF-32 text, by its byte order mark or its NUL high bytes;
+ * NULL otherwise. For messages: no reader takes such text. */
+const char *mts__mesh_wide_text(const char *data, size_t size);
 
 /* The format the content looks like, or MTS_MESH_AUTO when none fits. Only
  * the first 64 KiB are looked at. */

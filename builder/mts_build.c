@@ -335,6 +335,15 @@ int main(int argc, char **argv)
     stage_memory_update(&sm, "load", 0);
     if (mts_mesh_load(input, &mo, &mesh, &ms, &err) != MTS_OK)
         goto fail;
+    /* the loader read past lines it did not know; the user should know
+     * which, in case one of them mattered (on stderr, --quiet or not, so
+     * that --json's stdout stays one line) */
+    if (ms.skipped_header_lines)
+        fprintf(stderr, "mts-build: warning: %s: skipped %u header line%s that %s no %s "
+                        "keyword (line %u%s)\n",
+                input, ms.skipped_header_lines, ms.skipped_header_lines == 1 ? "" : "s",
+                ms.skipped_header_lines == 1 ? "is" : "are", mts_mesh_format_name(ms.format),
+                ms.first_skipped_header_line, ms.skipped_header_lines == 1 ? "" : " first");
     double t1 = cli_now();
     mts_build_options bo = {0};
     bo.base_vertices = base_vertices;
@@ -419,6 +428,7 @@ int main(int argc, char **argv)
         cli_json_u64(&j, "duplicate_faces", ms.duplicate_faces);
         cli_json_u64(&j, "nonmanifold_faces", ms.nonmanifold_faces);
         cli_json_u64(&j, "unreferenced_vertices", ms.unreferenced_vertices);
+        cli_json_u64(&j, "header_lines", ms.skipped_header_lines);
         cli_json_object_end(&j);
         cli_json_object_begin(&j, "seconds");
         cli_json_num(&j, "load", t1 - t0, 4);

@@ -27,6 +27,7 @@ packages=(
   time                   # `make bench`: peak memory of mts-build and mkbalancedpm (bench/builder.sh)
   emscripten             # `make web`: the decoder in WebAssembly for the browser client
   chromium               # tests/test_web.c: the page in headless Chromium
+  assimp-testmodels      # tests/test_assimp_models.c: real OFF/OBJ/PLY/STL files (exporters' quirks, UTF-16, broken ones) built or refused by name
 )
 
 missing=()

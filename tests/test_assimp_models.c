@@ -1,0 +1,265 @@
+/* Real files: every OFF, OBJ, PLY and STL file of Debian's assimp-testmodels
+ * (the files assimp's own tests read: exporters' quirks, UTF-16 text, point
+ * clouds, broken files) either builds into a model that verifies, through
+ * the library calls mts-build makes, or is refused with a message that
+ * names the problem. The files expected to be refused are listed below with
+ * the words their message must contain; every other file must build, so a
+ * reader that starts refusing a real file fails here.
+ *
+ * The files are looked for in $MTS_ASSIMP_MODELS, else where the package
+ * puts them (/usr/share/assimp/models). Without them the test skips, saying
+ * so, unless MTS_TEST_REQUIRE_ASSIMP is set (CI: deps.sh installs the
+ * package), where a skip is a failure. */
+#define _XOPEN_SOURCE 700 /* nftw */
+#include <ftw.h>
+#include <stdint.h>
+#include <strings.h>
+
+#include "build.h"
+#include "clock.h"
+#include "mesh.h"
+#include "test.h"
+#include "test_proc.h"
+#include "verify.h"
+
+#define DEFAULT_DIR "/usr/share/assimp/models"
+/* Files over this are skipped (with a line saying so) to keep the test to
+ * seconds under ASan; the package's largest mesh file is 2.1 MB. */
+#define MAX_FILE_BYTES ((long long)8 << 20)
+#define MAX_FILES 256
+
+/* Refused, by path under the models folder, and what the message must say. */
+static const struct {
+    const char *path, *reason;
+} refused[] = {
+    {"OBJ/box_UTF16BE.obj", "the file is UTF-16 (big-endian), not ASCII OBJ"},
+    /* "3.1+e2" and the like: not numbers (assimp's lenient atof reads 3.1) */
+    {"OBJ/number_formats.obj", "line 11: bad number"},
+    {"OBJ/point_cloud.obj", "no triangles: the file has 3 vertices but no faces (a point cloud"},
+    {"OBJ/testline.obj", "6 lines ('l') but no faces"},
+    {"OBJ/testpoints.obj", "6 points ('p') and 0 lines ('l') but no faces"},
+    {"OFF/invalid.off", "line 7: face 1: vertex index 20 out of range (3 vertices)"},
+    /* a list of indices in the vertex element, no face element */
+    {"PLY/issue623.ply", "no triangles: the PLY file has no face element with vertex_indices"},
+    {"PLY/points.ply", "no triangles: the PLY file has no face element with vertex_indices"},
+    {"PLY/pond.0.ply", "no triangles: the PLY file has no face element with vertex_indices"},
+    {"invalid/OutOfMemory.off", "a vertex count of 353535235358 is over the limit"},
+    {"invalid/empty.obj", "empty file"},
+    {"invalid/empty.off", "empty file"},
+    {"invalid/empty.ply", "empty file"},
+    {"invalid/malformed.obj", "line 23: vertex index 12 out of range (8 defined)"},
+};
+
+/* Built, with header lines skipped (and counted for mts-build's warning). */
+static const struct {
+    const char *path;
+    uint32_t lines, first;
+} skipped_lines[] = {
+    {"PLY/Wuson.ply", 1, 3}, /* Blender 2.47: "Created by Blender3D 247 ..." */
+};
+
+static char bin_dir[512];
+static char *files[MAX_FILES];
+static size_t file_count;
+static int too_many;
+
+static int has_mesh_ext(const char *path)
+{
+    const char *dot = strrchr(path, '.');
+    if (!dot || strchr(dot, '/'))
+        return 0;
+    return !strcasecmp(dot, ".obj") || !strcasecmp(dot, ".ply") || !strcasecmp(dot, ".off") ||
+           !strcasecmp(dot, ".stl");
+}
+
+static int collect(const char *path, const struct stat *sb, int type, struct FTW *ftw)
+{
+    (void)sb;
+    (void)ftw;
+    if (type != FTW_F || !has_mesh_ext(path))
+        return 0;
+    if (file_count == MAX_FILES) {
+        too_many = 1;
+        return 0;
+    }
+    files[file_count++] = strdup(path);
+    return 0;
+}
+
+static int by_name(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+static const char *refusal_reason(const char *rel)
+{
+    for (size_t i = 0; i < sizeof refused / sizeof refused[0]; i++)
+        if (!strcmp(refused[i].path, rel))
+            return refused[i].reason;
+    return NULL;
+}
+
+/* Loads, builds and verifies one file as mts-build would; 0 with the model's
+ * size in *vertices / *triangles, else the error in err. */
+static mts_result build_one(const char *path, mts_mesh_stats *st, uint32_t *vertices,
+                            uint32_t *triangles, mts_error *err)
+{
+    mts_mesh mesh = {0};
+    mts_model model = {0};
+    mts_build_report rep;
+    mts_result r = mts_mesh_load(path, NULL, &mesh, st, err);
+    if (r != MTS_OK)
+        return r;
+    mts_build_options bo = {0};
+    bo.threads = 1; /* two cores shared by the whole test run */
+    r = mts_build_model(&mesh, path, &bo, &model, &rep, err);
+    if (r == MTS_OK) {
+        mts_verify_options vo = {0}; /* every level: these models are small */
+        mts_verify_report vr;
+        r = mts_verify_model(&model, &vo, &vr, err);
+        if (r == MTS_OK)
+            r = mts_verify_growth(&model, &vr, err);
+        *vertices = model.vertex_count;
+        *triangles = model.level_triangles[model.level_count];
+    }
+    mts_model_free(&model);
+    mts_mesh_free(&mesh);
+    return r;
+}
+
+/* The models folder, or NULL after skipping (or failing, where the files
+ * are required) with the reason. */
+static const char *models_dir(mts_test *t)
+{
+    const char *dir = getenv("MTS_ASSIMP_MODELS");
+    if (!dir || !*dir)
+        dir = DEFAULT_DIR;
+    struct stat ds;
+    if (stat(dir, &ds) == 0 && S_ISDIR(ds.st_mode))
+        return dir;
+    CHECKF(t, !getenv("MTS_TEST_REQUIRE_ASSIMP"),
+           "MTS_TEST_REQUIRE_ASSIMP is set and there is no %s (apt-get install "
+           "assimp-testmodels; scripts/deps.sh does)", dir);
+    if (!t->case_failed) {
+        fprintf(stderr, "  SKIP %s: no %s: apt-get install assimp-testmodels (scripts/deps.sh), "
+                        "or set MTS_ASSIMP_MODELS\n", t->case_name, dir);
+        t->case_skipped = 1;
+    }
+    return NULL;
+}
+
+static void test_assimp_models(mts_test *t)
+{
+    const char *dir = models_dir(t);
+    if (!dir)
+        return;
+    CHECKF(t, nftw(dir, collect, 16, FTW_PHYS) == 0, "cannot walk %s", dir);
+    CHECKF(t, !too_many, "more than %d mesh files under %s", MAX_FILES, dir);
+    CHECKF(t, file_count > 0, "no .obj .ply .off .stl file under %s", dir);
+    qsort(files, file_count, sizeof *files, by_name);
+
+    double t0 = mts_clock_seconds();
+    size_t dir_len = strlen(dir);
+    unsigned built = 0, refused_ok = 0, skipped = 0;
+    for (size_t i = 0; i < file_count; i++) {
+        const char *path = files[i];
+        const char *rel = path + dir_len + (path[dir_len] == '/');
+        struct stat fs;
+        if (stat(path, &fs) == 0 && (long long)fs.st_size > MAX_FILE_BYTES) {
+            printf("  skipped %s: %lld bytes, over the test's %lld\n", rel,
+                   (long long)fs.st_size, MAX_FILE_BYTES);
+            skipped++;
+            continue;
+        }
+        const char *reason = refusal_reason(rel);
+        mts_mesh_stats st = {0};
+        mts_error err = {0};
+        uint32_t nv = 0, nt = 0;
+        double f0 = mts_clock_seconds();
+        mts_result r = build_one(path, &st, &nv, &nt, &err);
+        double secs = mts_clock_seconds() - f0;
+        if (r == MTS_OK) {
+            printf("  built   %-40s %6u vertices %6u triangles %5.2f s\n", rel, nv, nt, secs);
+            CHECKF(t, !reason, "%s built, but is listed as refused (\"%s\")", rel, reason);
+            built++;
+        } else {
+            printf("  refused %-40s %s\n", rel, err.msg);
+            CHECKF(t, reason, "%s is refused and should build: %s", rel, err.msg);
+            CHECKF(t, r != MTS_ERR_INVARIANT && r != MTS_ERR_NOMEM,
+                   "%s: the model did not verify or memory ran out: %s", rel, err.msg);
+            /* the message names the file and the problem, never the bare
+             * "0 faces read" of a file that had none */
+            CHECKF(t, strstr(err.msg, path) != NULL, "%s: the message lacks the path: %s", rel,
+                   err.msg);
+            CHECKF(t, !strstr(err.msg, "(0 faces read"), "%s: %s", rel, err.msg);
+            CHECKF(t, !reason || strstr(err.msg, reason), "%s: '%s' lacks '%s'", rel, err.msg,
+                   reason ? reason : "");
+            refused_ok += reason && strstr(err.msg, reason);
+        }
+        uint32_t want_lines = 0, want_first = 0;
+        for (size_t k = 0; k < sizeof skipped_lines / sizeof skipped_lines[0]; k++)
+            if (!strcmp(skipped_lines[k].path, rel)) {
+                want_lines = skipped_lines[k].lines;
+                want_first = skipped_lines[k].first;
+            }
+        if (r == MTS_OK || want_lines)
+            CHECKF(t, st.skipped_header_lines == want_lines &&
+                          (!want_lines || st.first_skipped_header_line == want_first),
+                   "%s: %u header lines skipped (the first at %u), expected %u (at %u)", rel,
+                   st.skipped_header_lines, st.first_skipped_header_line, want_lines,
+                   want_first);
+    }
+    /* a newer package may drop or rename a listed file: said, not failed */
+    for (size_t k = 0; k < sizeof refused / sizeof refused[0]; k++) {
+        int found = 0;
+        for (size_t i = 0; i < file_count && !found; i++)
+            found = !strcmp(files[i] + dir_len + (files[i][dir_len] == '/'), refused[k].path);
+        if (!found)
+            printf("  note: %s (listed as refused) is not in %s\n", refused[k].path, dir);
+    }
+    printf("  %zu files: %u built, %u refused as listed, %u skipped, %.1f s\n", file_count,
+           built, refused_ok, skipped, mts_clock_seconds() - t0);
+    for (size_t i = 0; i < file_count; i++)
+        free(files[i]);
+}
+
+/* What mts-build shows of it: the warning of a skipped header line (on
+ * stderr, with --json's one line on stdout) and a refusal's message. */
+static void test_mts_build(mts_test *t)
+{
+    const char *dir = models_dir(t);
+    if (!dir)
+        return;
+    char cmd[2048], out[8192], model[600];
+    snprintf(model, sizeof model, "%s/mts_test_assimp_wuson.mtsm", mts_test_tmpdir());
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s/PLY/Wuson.ply -o %s --json --threads 1", bin_dir,
+             dir, model);
+    int rc = mts_test_run(cmd, out, sizeof out);
+    CHECKF(t, rc == 0, "%s: exit %d: %s", cmd, rc, out);
+    char want[800];
+    snprintf(want, sizeof want, "mts-build: warning: %s/PLY/Wuson.ply: skipped 1 header line that "
+                                "is no PLY keyword (line 3)\n", dir);
+    CHECKF(t, strstr(out, want), "%s: %s", cmd, out);
+    CHECKF(t, strstr(out, "\"header_lines\":1"), "%s: %s", cmd, out);
+    snprintf(cmd, sizeof cmd, "%s/mts-inspect %s --verify --sample 32", bin_dir, model);
+    rc = mts_test_run(cmd, out, sizeof out);
+    CHECKF(t, rc == 0, "%s: exit %d: %s", cmd, rc, out);
+    remove(model);
+
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s/OBJ/box_UTF16BE.obj -o %s", bin_dir, dir, model);
+    rc = mts_test_run(cmd, out, sizeof out);
+    CHECKF(t, rc == 1 && strstr(out, "box_UTF16BE.obj: the file is UTF-16 (big-endian), not ASCII "
+                                     "OBJ: save it as UTF-8 or ASCII"),
+           "%s: exit %d: %s", cmd, rc, out);
+    remove(model);
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    mts_test_bin_dir(argv[0], bin_dir, sizeof bin_dir);
+    mts_test t = {0};
+    RUN(&t, test_assimp_models);
+    RUN(&t, test_mts_build);
+    return mts_test_end(&t);
+}
