@@ -145,6 +145,11 @@ $(BUILD)/bin/mts-bench-apply: $(BUILD)/obj/bench/mts_bench_apply.o $(LIB)
 	@mkdir -p $(dir $@)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
+# where the splits form's apply time goes, by key interval (docs/threads.md)
+$(BUILD)/bin/mts-bench-phases: $(BUILD)/obj/bench/mts_bench_phases.o $(LIB)
+	@mkdir -p $(dir $@)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
 # the browser client's figures (bench/web.sh): drives Chromium with tests/cdp.h
 $(BUILD)/bin/mts-bench-web: $(BUILD)/obj/bench/mts_bench_web.o $(LIB)
 	@mkdir -p $(dir $@)
