@@ -38,15 +38,6 @@ static void sleep_ms(int ms)
     nanosleep(&ts, NULL);
 }
 
-static int sh(const char *cmd)
-{
-    char out[4096];
-    int rc = mts_test_run(cmd, out, sizeof out);
-    if (rc != 0)
-        fprintf(stderr, "  `%s` failed: %s\n", cmd, out);
-    return rc == 0;
-}
-
 /* The CA, the server's certificate for 127.0.0.1, the models and their
  * stream files, mts-server and nginx; E.up once all are there (else a SKIP
  * or a failure says what is missing). */
@@ -77,12 +68,12 @@ static void setup(mts_test *t)
     snprintf(cmd, sizeof cmd,
              "%s/mts-build tests/data/cow.off -o %s/cow.mtsm --stream %s/cow.mts -q", E.bin,
              E.models, E.www);
-    CHECK(t, sh(cmd));
+    CHECK(t, mts_test_sh(cmd));
     char bunny[1024];
     if (mts_test_model("bunny00.off", bunny, sizeof bunny)) {
         snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s/bunny00.mtsm --stream %s/bunny00.mts -q",
                  E.bin, bunny, E.models, E.www);
-        E.have_bunny = sh(cmd);
+        E.have_bunny = mts_test_sh(cmd);
         CHECK(t, E.have_bunny);
     }
     if (t->case_failed)
@@ -221,7 +212,7 @@ static void test_headers(mts_test *t)
 {
     char cmd[4000], out[8192], path[800];
     snprintf(cmd, sizeof cmd, "cp %s/cow.mts %s/cow-0123456789abcdef.mts", E.www, E.www);
-    CHECK(t, sh(cmd));
+    CHECK(t, mts_test_sh(cmd));
     struct {
         const char *name, *method, *range;
         const char *want[6];
@@ -317,7 +308,7 @@ static void test_file_changed_between_ranges(mts_test *t)
     snprintf(src, sizeof src, "%s/cow.mts", E.www);
     snprintf(dst, sizeof dst, "%s/changing.mts", E.www);
     snprintf(cmd, sizeof cmd, "cp %s %s", src, dst);
-    CHECK(t, sh(cmd));
+    CHECK(t, mts_test_sh(cmd));
     snprintf(cmd, sizeof cmd,
              "%s/mts-client 'http://127.0.0.1:%d/changing.mts?rate=3k' --no-render --json "
              "--resume --retries 40 --timeout 5 > %s/changed.json 2>%s/changed.log",
@@ -335,7 +326,7 @@ static void test_file_changed_between_ranges(mts_test *t)
              "printf 'XXXX' | dd of=%s bs=1 seek=$(($(stat -c %%s %s) - 100)) conv=notrunc "
              "2>/dev/null && touch -d '+1 minute' %s",
              dst, dst, dst);
-    CHECK(t, sh(cmd));
+    CHECK(t, mts_test_sh(cmd));
     CHECKF(t, mts_test_tls_front_start(&E.front) > 0, "nginx did not start again");
     int st = 0;
     waitpid(pid, &st, 0);

@@ -327,6 +327,17 @@ typedef struct mts_test_tls_front {
     pid_t pid;
 } mts_test_tls_front;
 
+/* Runs a shell command; 1 when it exited 0, else it and what it printed
+ * go to stderr and 0. */
+static inline int mts_test_sh(const char *cmd)
+{
+    char out[4096];
+    int rc = mts_test_run(cmd, out, sizeof out);
+    if (rc != 0)
+        fprintf(stderr, "  `%s` failed: %s\n", cmd, out);
+    return rc == 0;
+}
+
 /* NULL when the TLS front can run here (nginx, written into nginx, with
  * its stream module, and openssl), else what is missing. */
 static inline const char *mts_test_tls_front_missing(char *nginx, size_t size)

@@ -26,15 +26,6 @@ typedef struct env {
 
 static env E;
 
-static int sh(const char *cmd)
-{
-    char out[4096];
-    int rc = mts_test_run(cmd, out, sizeof out);
-    if (rc != 0)
-        fprintf(stderr, "  `%s` failed: %s\n", cmd, out);
-    return rc == 0;
-}
-
 static void test_setup(mts_test *t)
 {
     const char *missing = mts_test_tls_front_missing(E.front.nginx, sizeof E.front.nginx);
@@ -59,7 +50,7 @@ static void test_setup(mts_test *t)
     snprintf(cmd, sizeof cmd,
              "%s/mts-build tests/data/cow.off -o %s/cow.mtsm --stream %s/cow.mts -q", E.bin,
              E.models, E.www);
-    CHECK(t, sh(cmd));
+    CHECK(t, mts_test_sh(cmd));
     if (t->case_failed)
         return;
     char log[800];
