@@ -59,16 +59,21 @@ PKGS     := draco egl glesv2 libpng libcurl x11
 ifeq ($(filter deps clean test bench demo demo-serve fuzz fuzz-long,$(MAKECMDGOALS)),)
 MISSING_PKGS := $(shell command -v pkg-config >/dev/null || echo pkg-config; \
                   for p in $(PKGS); do pkg-config --exists $$p 2>/dev/null || echo $$p; done; \
-                  [ -f /usr/include/OpenMesh/Core/Mesh/TriMeshT.hh ] || echo OpenMesh)
+                  [ -f /usr/include/OpenMesh/Core/Mesh/TriMeshT.hh ] || echo OpenMesh; \
+                  [ -f /usr/include/tiny_gltf.h ] || echo tinygltf)
 ifneq ($(strip $(MISSING_PKGS)),)
-$(error missing: $(strip $(MISSING_PKGS)). Run `make deps` (scripts/deps.sh installs the Debian packages: libdraco-dev, libegl-dev libgles-dev, libpng-dev, libcurl4-openssl-dev, libx11-dev, libopenmesh-dev, pkg-config))
+$(error missing: $(strip $(MISSING_PKGS)). Run `make deps` (scripts/deps.sh installs the Debian packages: libdraco-dev, libegl-dev libgles-dev, libpng-dev, libcurl4-openssl-dev, libx11-dev, libopenmesh-dev, libtinygltf-dev, pkg-config))
 endif
 endif
 PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
 CFLAGS   += $(filter-out -I/usr/include/draco%,$(PKG_CFLAGS))
 LDFLAGS  += $(filter -fsanitize=%,$(OPT)) -pthread -Wl,--as-needed
-LDLIBS   += $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
+# -ltinygltf before $(PKG_LIBS): Debian's libdraco exports the symbols of
+# its own bundled (older) tinygltf, and the first library that defines a
+# symbol wins; linked after draco, gltf_read.cpp would call draco's copy
+# with this header's layouts and corrupt memory.
+LDLIBS   += -ltinygltf $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
 
 # Library modules; a file named mts_*.c holds a program's main().
 LIB_C    := $(filter-out $(foreach l,$(LAYERS),$(l)/mts_%.c),$(wildcard $(foreach l,$(LAYERS),$(l)/*.c)))
@@ -317,7 +322,7 @@ FUZZ_LIB_OBJ  := $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(filter-out common/cli.c co
 $(foreach l,$(FUZZ_LAYERS),$(eval $(FUZZ_DIR)/obj/$(l)/%.o: FUZZ_INC := $(INC_$(l))))
 $(FUZZ_DIR)/obj/tests/%.o: FUZZ_INC := $(INC_all)
 FUZZ_BINS     := $(patsubst %,$(FUZZ_DIR)/bin/fuzz_%,$(FUZZ_NAMES))
-FUZZ_LDLIBS   := -Wl,--as-needed $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
+FUZZ_LDLIBS   := -Wl,--as-needed -ltinygltf $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
 
 .PHONY: fuzz fuzz-long fuzz-build
 

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "fileio.h"
+#include "gltf_read.h"
 #include "manifold.h"
 #include "mesh_read.h"
 
@@ -30,6 +31,7 @@ const char *mts_mesh_format_name(mts_mesh_format format)
     case MTS_MESH_OBJ: return "OBJ";
     case MTS_MESH_PLY: return "PLY";
     case MTS_MESH_STL: return "STL";
+    case MTS_MESH_GLTF: return "glTF";
     }
     return "unknown";
 }
@@ -338,7 +340,7 @@ static mts_mesh_format format_from_name(const char *name)
         const char *ext;
         mts_mesh_format format;
     } exts[] = {{"off", MTS_MESH_OFF}, {"obj", MTS_MESH_OBJ}, {"ply", MTS_MESH_PLY},
-                {"stl", MTS_MESH_STL}};
+                {"stl", MTS_MESH_STL}, {"gltf", MTS_MESH_GLTF}, {"glb", MTS_MESH_GLTF}};
     for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++) {
         const char *a = dot + 1, *b = exts[i].ext;
         while (*a && *b && (*a | 0x20) == *b) /* ASCII case folding; the exts are lower case */
@@ -360,13 +362,34 @@ static mts_result unknown_format(const char *name, const char *data, size_t size
                              "as ASCII (or UTF-8) text or binary",
                              name, wide);
     return mts_error_set(err, MTS_ERR_FORMAT,
-                         "%s: unknown mesh format (not OFF, OBJ, PLY or STL by name or content)",
+                         "%s: unknown mesh format (not OFF, OBJ, PLY, STL or glTF by name or content)",
                          name);
 }
 
-mts_result mts_mesh_load_memory(const char *name, const void *data, size_t size,
-                                const mts_mesh_options *opts, mts_mesh *mesh,
-                                mts_mesh_stats *stats, mts_error *err)
+/* glTF through the C++ shim: its flattened mesh becomes the raw mesh the
+ * other parsers fill. dir: where external buffers may be read, or NULL. */
+static mts_result read_gltf(mts__mesh_raw *raw, const char *data, size_t size, const char *dir,
+                            uint64_t cap, mts_error *err)
+{
+    mts_gltf_mesh g;
+    mts_result r = mts_gltf_read(raw->name, data, size, dir, cap, &g, err);
+    if (r != MTS_OK)
+        return r;
+    raw->positions = g.positions;
+    raw->triangles = g.triangles;
+    raw->vertex_count = raw->vertex_capacity = g.vertex_count;
+    raw->triangle_count = raw->triangle_capacity = g.triangle_count;
+    raw->obj_points = g.point_primitives;
+    raw->obj_lines = g.line_primitives;
+    raw->stats->file_vertices = g.vertex_count;
+    raw->stats->file_faces = g.triangle_count;
+    raw->stats->skipped_primitives = g.point_primitives + g.line_primitives;
+    return MTS_OK;
+}
+
+static mts_result load_memory(const char *name, const void *data, size_t size,
+                              const mts_mesh_options *opts, const char *dir, mts_mesh *mesh,
+                              mts_mesh_stats *stats, mts_error *err)
 {
     mts_mesh_stats local;
     mts_mesh_stats *st = stats ? stats : &local;
@@ -379,7 +402,7 @@ mts_result mts_mesh_load_memory(const char *name, const void *data, size_t size,
     if (!data && size > 0)
         return mts_error_set(err, MTS_ERR_ARG, "%s: no data", name);
     mts_mesh_format format = opts ? opts->format : MTS_MESH_AUTO;
-    if ((unsigned)format > MTS_MESH_STL)
+    if ((unsigned)format > MTS_MESH_GLTF)
         return mts_error_set(err, MTS_ERR_ARG, "%s: unknown mesh format option %d", name,
                              (int)format);
     if (size == 0)
@@ -404,6 +427,7 @@ mts_result mts_mesh_load_memory(const char *name, const void *data, size_t size,
     case MTS_MESH_OFF: r = mts__mesh_read_off(&raw, data, size, err); break;
     case MTS_MESH_OBJ: r = mts__mesh_read_obj(&raw, data, size, err); break;
     case MTS_MESH_PLY: r = mts__mesh_read_ply(&raw, data, size, err); break;
+    case MTS_MESH_GLTF: r = read_gltf(&raw, data, size, dir, cap, err); break;
     default: r = mts__mesh_read_stl(&raw, data, size, err); break;
     }
     st->format = format;
@@ -413,6 +437,13 @@ mts_result mts_mesh_load_memory(const char *name, const void *data, size_t size,
         mts_mesh_free(mesh);
     mts__mesh_raw_free(&raw);
     return r;
+}
+
+mts_result mts_mesh_load_memory(const char *name, const void *data, size_t size,
+                                const mts_mesh_options *opts, mts_mesh *mesh,
+                                mts_mesh_stats *stats, mts_error *err)
+{
+    return load_memory(name, data, size, opts, NULL, mesh, stats, err);
 }
 
 mts_result mts_mesh_load(const char *path, const mts_mesh_options *opts, mts_mesh *mesh,
@@ -425,7 +456,7 @@ mts_result mts_mesh_load(const char *path, const mts_mesh_options *opts, mts_mes
     if (!path || !mesh)
         return mts_error_set(err, MTS_ERR_ARG, "mts_mesh_load: no %s", path ? "mesh" : "path");
     mts_mesh_options o = opts ? *opts : (mts_mesh_options){0};
-    if ((unsigned)o.format > MTS_MESH_STL)
+    if ((unsigned)o.format > MTS_MESH_GLTF)
         return mts_error_set(err, MTS_ERR_ARG, "%s: unknown mesh format option %d", path,
                              (int)o.format);
     uint64_t cap = o.max_bytes ? o.max_bytes : MTS_MESH_DEFAULT_MAX_BYTES;
@@ -475,7 +506,26 @@ mts_result mts_mesh_load(const char *path, const mts_mesh_options *opts, mts_mes
     }
     close(fd);
     fd = -1;
-    r = mts_mesh_load_memory(path, data, (size_t)size, &o, mesh, stats, err);
+    if (o.format == MTS_MESH_GLTF) {
+        /* external buffers are read from the model's own folder only */
+        const char *slash = strrchr(path, '/');
+        char *dir = NULL;
+        if (slash) {
+            dir = malloc((size_t)(slash - path) + 2);
+            if (!dir) {
+                r = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory", path);
+                goto done;
+            }
+            memcpy(dir, path, (size_t)(slash - path));
+            dir[slash - path] = 0;
+            if (slash == path)
+                strcpy(dir, "/");
+        }
+        r = load_memory(path, data, (size_t)size, &o, dir ? dir : ".", mesh, stats, err);
+        free(dir);
+    } else {
+        r = mts_mesh_load_memory(path, data, (size_t)size, &o, mesh, stats, err);
+    }
 done:
     if (fd >= 0)
         close(fd);

@@ -1,4 +1,4 @@
-/* An indexed triangle mesh read from OFF, OBJ, PLY (ASCII and binary) or STL
+/* An indexed triangle mesh read from OFF, OBJ, PLY (ASCII and binary), STL or glTF 2.0
  * (ASCII and binary), cleaned so that the builder can trust it:
  *   - polygons are fan-triangulated;
  *   - faces with a repeated index or zero area are dropped (counted);
@@ -34,7 +34,8 @@ typedef enum mts_mesh_format {
     MTS_MESH_OFF,
     MTS_MESH_OBJ,
     MTS_MESH_PLY,
-    MTS_MESH_STL
+    MTS_MESH_STL,
+    MTS_MESH_GLTF /* glTF 2.0: .gltf (JSON) and .glb (binary), see gltf_read.h */
 } mts_mesh_format;
 
 /* What loading found and fixed, for the user's report. */
@@ -54,6 +55,8 @@ typedef struct mts_mesh_stats {
      * with "Created by ..." lacking "comment"); the caller warns. */
     uint32_t skipped_header_lines;
     uint32_t first_skipped_header_line; /* its 1-based line number, when there is one */
+    /* glTF POINTS and LINES primitives: no surface, skipped */
+    uint32_t skipped_primitives;
 } mts_mesh_stats;
 
 /* The default size cap of a mesh file (mts_mesh_options.max_bytes). */

@@ -1903,6 +1903,10 @@ mts_mesh_format mts__mesh_sniff(const char *data, size_t size)
 
 mts_mesh_format mts__mesh_sniff_head(const char *data, size_t size, uint64_t file_size)
 {
+    /* GLB: its magic, version 2 and its length the file's */
+    if (size >= 12 && memcmp(data, "glTF", 4) == 0 &&
+        le32((const unsigned char *)data + 8) == file_size)
+        return MTS_MESH_GLTF;
     /* binary STL first: its 80-byte header may say anything, even "solid" */
     if (size >= 84 && 84 + (uint64_t)le32((const unsigned char *)data + 80) * 50 == file_size)
         return MTS_MESH_STL;

@@ -21,7 +21,7 @@ static void usage(FILE *f)
           "                 [--reorder-window W] [--threads N] [--max-mesh-bytes N]\n"
           "                 [--json] [--quiet]\n"
           "\n"
-          "Builds a multiresolution triangle-strip model from a mesh (OFF, OBJ, PLY, STL):\n"
+          "Builds a multiresolution triangle-strip model from a mesh (OFF, OBJ, PLY, STL, glTF/GLB):\n"
           "strips at full resolution, a quadric edge-collapse sequence down to a base mesh,\n"
           "and per-collapse strip records, written to a .mtsm model file.\n"
           "\n"

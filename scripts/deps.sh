@@ -9,6 +9,7 @@ packages=(
   libopenmesh-dev        # mesh topology and the quadric decimater
   libopenmesh-apps       # OpenMesh-commandlineSubdivider for the 1M-triangle bench mesh
   libdraco-dev           # base-mesh compression
+  libtinygltf-dev        # glTF 2.0 / GLB input (builder/gltf_read.cpp; a compiled library, no JSON or image headers needed)
   libcurl4-openssl-dev   # models from http(s) URLs
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri  # headless EGL rendering
   libx11-dev             # mts-client --window: the X11 window EGL draws on
@@ -27,7 +28,7 @@ packages=(
   time                   # `make bench`: peak memory of mts-build and mkbalancedpm (bench/builder.sh)
   emscripten             # `make web`: the decoder in WebAssembly for the browser client
   chromium               # tests/test_web.c: the page in headless Chromium
-  assimp-testmodels      # tests/test_assimp_models.c: real OFF/OBJ/PLY/STL files (exporters' quirks, UTF-16, broken ones) built or refused by name
+  assimp-testmodels      # tests/test_assimp_models.c: real OFF/OBJ/PLY/STL/glTF/GLB files (exporters' quirks, UTF-16, broken ones) built or refused by name
 )
 
 missing=()

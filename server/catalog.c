@@ -90,7 +90,8 @@ static int is_model_ext(const char *ext)
 static int is_mesh_ext(const char *ext)
 {
     return ext && (mts_ascii_ieq(ext, "off") || mts_ascii_ieq(ext, "obj") || mts_ascii_ieq(ext, "ply") ||
-                   mts_ascii_ieq(ext, "stl"));
+                   mts_ascii_ieq(ext, "stl") || mts_ascii_ieq(ext, "gltf") ||
+                   mts_ascii_ieq(ext, "glb"));
 }
 
 static uint64_t fnv1a64(const char *s)

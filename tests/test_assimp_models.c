@@ -1,4 +1,4 @@
-/* Real files: every OFF, OBJ, PLY and STL file of Debian's assimp-testmodels
+/* Real files: every OFF, OBJ, PLY, STL, glTF and GLB file of Debian's assimp-testmodels
  * (the files assimp's own tests read: exporters' quirks, UTF-16 text, point
  * clouds, broken files) either builds into a model that verifies, through
  * the library calls mts-build makes, or is refused with a message that
@@ -48,6 +48,37 @@ static const struct {
     {"invalid/empty.off", "empty file"},
     {"invalid/empty.ply", "empty file"},
     {"invalid/malformed.obj", "line 23: vertex index 12 out of range (8 defined)"},
+    /* glTF 2.0: the invalid files assimp's tests name, and files of no surface */
+    {"glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb",
+     "mesh 0 primitive 0: position 0 is not a finite number (infinite or NaN)"},
+    {"glTF2/IncorrectVertexArrays/Cube.gltf",
+     "mesh 1 primitive 0: a TRIANGLES primitive of 35 vertices, not a multiple of 3"},
+    {"glTF2/IndexOutOfRange/AllIndicesOutOfRange.gltf",
+     "mesh 0 primitive 0: index 0 is 65535, out of range (24 vertices)"},
+    {"glTF2/IndexOutOfRange/IndexOutOfRange.gltf",
+     "mesh 0 primitive 0: index 0 is 255, out of range (24 vertices)"},
+    {"glTF2/MissingBin/BoxTextured.gltf", "an external buffer file the model names is missing"},
+    /* its "scene" of the wrong type is ignored; its buffer is missing too */
+    {"glTF2/SchemaFailures/sceneWrongType.gltf",
+     "an external buffer file the model names is missing"},
+    {"glTF2/RecursiveNodes/RecursiveNodes.gltf",
+     "node 0 is its own ancestor (the node hierarchy has a cycle)"},
+    {"glTF2/TestNoRootNode/NoScene.gltf", "no triangles: the scene has no triangle primitives"},
+    {"glTF2/TestNoRootNode/SceneWithoutNodes.gltf",
+     "no triangles: the scene has no triangle primitives"},
+    {"glTF2/wrongTypes/badArray.gltf", "no triangles: the scene has no triangle primitives"},
+    {"glTF2/draco/2CylinderEngine.gltf", "KHR_draco_mesh_compression is not read yet"},
+#define GEN_MODE "glTF2/glTF-Asset-Generator/Mesh_PrimitiveMode/Mesh_PrimitiveMode_"
+#define POINTS_ONLY "no triangles: the scene has 1 point and 0 line primitives but no triangle"
+#define LINES_ONLY "no triangles: the scene has 0 point and 1 line primitives but no triangle"
+    {GEN_MODE "00.gltf", POINTS_ONLY},
+    {GEN_MODE "01.gltf", LINES_ONLY},
+    {GEN_MODE "02.gltf", LINES_ONLY},
+    {GEN_MODE "03.gltf", LINES_ONLY},
+    {GEN_MODE "07.gltf", POINTS_ONLY},
+    {GEN_MODE "08.gltf", LINES_ONLY},
+    {GEN_MODE "09.gltf", LINES_ONLY},
+    {GEN_MODE "10.gltf", LINES_ONLY},
 };
 
 /* Built, with header lines skipped (and counted for mts-build's warning). */
@@ -69,7 +100,7 @@ static int has_mesh_ext(const char *path)
     if (!dot || strchr(dot, '/'))
         return 0;
     return !strcasecmp(dot, ".obj") || !strcasecmp(dot, ".ply") || !strcasecmp(dot, ".off") ||
-           !strcasecmp(dot, ".stl");
+           !strcasecmp(dot, ".stl") || !strcasecmp(dot, ".gltf") || !strcasecmp(dot, ".glb");
 }
 
 static int collect(const char *path, const struct stat *sb, int type, struct FTW *ftw)
@@ -91,8 +122,19 @@ static int by_name(const void *a, const void *b)
     return strcmp(*(char *const *)a, *(char *const *)b);
 }
 
+/* Refused, every file under a folder. */
+static const struct {
+    const char *prefix;
+    const char *reason;
+} refused_under[] = {
+    {"glTF/", "glTF 1.0 is not supported"}, /* assimp's glTF (1.0) folder */
+};
+
 static const char *refusal_reason(const char *rel)
 {
+    for (size_t i = 0; i < sizeof refused_under / sizeof refused_under[0]; i++)
+        if (!strncmp(refused_under[i].prefix, rel, strlen(refused_under[i].prefix)))
+            return refused_under[i].reason;
     for (size_t i = 0; i < sizeof refused / sizeof refused[0]; i++)
         if (!strcmp(refused[i].path, rel))
             return refused[i].reason;
@@ -155,7 +197,7 @@ static void test_assimp_models(mts_test *t)
         return;
     CHECKF(t, nftw(dir, collect, 16, FTW_PHYS) == 0, "cannot walk %s", dir);
     CHECKF(t, !too_many, "more than %d mesh files under %s", MAX_FILES, dir);
-    CHECKF(t, file_count > 0, "no .obj .ply .off .stl file under %s", dir);
+    CHECKF(t, file_count > 0, "no .obj .ply .off .stl .gltf .glb file under %s", dir);
     qsort(files, file_count, sizeof *files, by_name);
 
     double t0 = mts_clock_seconds();
@@ -254,6 +296,68 @@ static void test_mts_build(mts_test *t)
     remove(model);
 }
 
+/* A glTF of one TRIANGLE_STRIP of 4 vertices, its buffer at `uri`, under a
+ * node translated by (10, 0, 0). */
+static int gltf_text(char *out, size_t size, const char *uri)
+{
+    return snprintf(out, size,
+                    "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+                    "\"nodes\":[{\"mesh\":0,\"translation\":[10,0,0]}],"
+                    "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"mode\":5},"
+                    "{\"attributes\":{\"POSITION\":0},\"mode\":1}]}],"
+                    "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":4,"
+                    "\"type\":\"VEC3\"}],"
+                    "\"bufferViews\":[{\"buffer\":0,\"byteLength\":48}],"
+                    "\"buffers\":[{\"byteLength\":48,\"uri\":\"%s\"}]}",
+                    uri);
+}
+
+/* Synthetic glTF: a data: URI read in place (strip to triangles, the node's
+ * translation applied, the LINES primitive skipped and counted); external
+ * buffers refused outside the model's folder and for a model from memory. */
+static void test_gltf_uris(mts_test *t)
+{
+    char text[2048], path[600];
+    gltf_text(text, sizeof text,
+              "data:application/octet-stream;base64,"
+              "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAACAPwAAgD8AAAAA");
+    mts_mesh mesh;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result r = mts_mesh_load_memory("strip.gltf", text, strlen(text), NULL, &mesh, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK) {
+        CHECKF(t, mesh.triangle_count == 2 && mesh.vertex_count == 4 &&
+                      st.format == MTS_MESH_GLTF && st.skipped_primitives == 1,
+               "%u triangles, %u vertices, %u primitives skipped", mesh.triangle_count,
+               mesh.vertex_count, st.skipped_primitives);
+        float xmin = 1e9f;
+        for (uint32_t v = 0; v < mesh.vertex_count; v++)
+            xmin = mesh.positions[v * 3] < xmin ? mesh.positions[v * 3] : xmin;
+        CHECKF(t, xmin == 10.0f, "the node's translation was not applied: x from %g", xmin);
+        mts_mesh_free(&mesh);
+    }
+    /* external buffers: never from memory, never outside the folder */
+    gltf_text(text, sizeof text, "strip.bin");
+    r = mts_mesh_load_memory("strip.gltf", text, strlen(text), NULL, &mesh, &st, &err);
+    CHECKF(t, r != MTS_OK && strstr(err.msg, "not a local file"), "%s", err.msg);
+    static const char *const bad[] = {"../strip.bin", "/etc/passwd", "sub/strip.bin",
+                                      "file:///etc/passwd"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        gltf_text(text, sizeof text, bad[i]);
+        snprintf(path, sizeof path, "%s/mts_test_gltf_uri.gltf", mts_test_tmpdir());
+        FILE *f = fopen(path, "wb");
+        CHECKF(t, f && fwrite(text, 1, strlen(text), f) == strlen(text), "cannot write %s", path);
+        if (f)
+            fclose(f);
+        r = mts_mesh_load(path, NULL, &mesh, &st, &err);
+        CHECKF(t, r != MTS_OK && strstr(err.msg, "'/', '..' or a scheme is refused") &&
+                      !strstr(err.msg, bad[i]),
+               "%s: %s", bad[i], err.msg);
+        remove(path);
+    }
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -261,5 +365,6 @@ int main(int argc, char **argv)
     mts_test t = {0};
     RUN(&t, test_assimp_models);
     RUN(&t, test_mts_build);
+    RUN(&t, test_gltf_uris);
     return mts_test_end(&t);
 }
