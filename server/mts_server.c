@@ -198,10 +198,13 @@ static void *prepare_main(void *arg)
                         "encoded in %.2f s\n",
                         e->name, e->model.vertex_count, e->model.level_count, st->size,
                         t1 - t0);
-            if (!p->no_records && !stop_requested) {
+            if (p->no_records || stop_requested) {
+                mts_server_model_publish_records(&p->models[i], NULL);
+            } else {
                 if (mts_stream_add_records_form(st, &err) != MTS_OK) {
                     fprintf(stderr, "mts-server: %s: no records form (%s); splits form only\n",
                             e->name, err.msg);
+                    mts_server_model_publish_records(&p->models[i], NULL);
                 } else {
                     mts_server_model_publish_records(&p->models[i], st->records_form);
                     if (!p->quiet)

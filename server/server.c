@@ -164,6 +164,7 @@ void mts_server_model_init_preparing(mts_server_model *m, const char *name,
     m->levels = model->level_count;
     atomic_init(&m->stream, NULL);
     atomic_init(&m->records, NULL);
+    atomic_init(&m->records_settled, 0);
     atomic_init(&m->failed, 0);
 }
 
@@ -172,11 +173,13 @@ void mts_server_model_init_ready(mts_server_model *m, const mts_stream *stream)
     mts_server_model_init_preparing(m, stream->name, &stream->model);
     atomic_init(&m->stream, stream);
     atomic_init(&m->records, stream->records_form);
+    atomic_init(&m->records_settled, 1);
 }
 
 void mts_server_model_publish_records(mts_server_model *m, const mts_stream *records_form)
 {
     atomic_store_explicit(&m->records, records_form, memory_order_release);
+    atomic_store_explicit(&m->records_settled, 1, memory_order_release);
 }
 
 void mts_server_model_publish(mts_server_model *m, const mts_stream *stream)
@@ -445,12 +448,17 @@ static void conn_serve(mts_server *s, mts__conn *c, double now)
         }
         return;
     }
-    s->waiting--;
     if (h->flags & MTS_HELLO_RECORDS) { /* the form it asked for, where this server has it */
+        /* settled is read first: once it reads 1, records holds the last word */
+        const int settled = atomic_load_explicit(&m->records_settled, memory_order_acquire);
         const mts_stream *r = atomic_load_explicit(&m->records, memory_order_acquire);
         if (r)
             st = r;
+        else if (!settled && h->resume_batch > 0 && h->stream_id != st->stream_id &&
+                 now - c->started <= s->opts.prepare_wait)
+            return; /* resuming the records form, which is still being encoded */
     }
+    s->waiting--;
     if (h->resume_batch > 0 && h->stream_id != st->stream_id) {
         conn_refuse(c, MTS_WERR_STALE, "the model changed since; start over", "error: stale");
         return;

@@ -67,6 +67,7 @@ typedef struct mts_server_model {
     _Atomic(const mts_stream *) records;  /* its records form, may come later: a
                                              client asking for it before gets the
                                              splits form, as from a server without */
+    atomic_int records_settled;           /* 1: records holds all it ever will */
     atomic_int failed;                    /* 1: it never will be; why says why */
     char why[200];
 } mts_server_model;
@@ -79,6 +80,9 @@ void mts_server_model_init_ready(mts_server_model *m, const mts_stream *stream);
 /* From the preparing thread: the stream is ready (it must then outlive the
  * servers), or it failed (why is copied). */
 void mts_server_model_publish(mts_server_model *m, const mts_stream *stream);
+/* The records form is ready, or (NULL) none will come. A client resuming a
+ * records-form stream waits for it (up to prepare_wait) until then: the splits
+ * form, with another stream_id, would send it back to the start. */
 void mts_server_model_publish_records(mts_server_model *m, const mts_stream *records_form);
 void mts_server_model_fail(mts_server_model *m, const char *why);
 

@@ -724,6 +724,126 @@ static void test_models_being_prepared(mts_test *t)
     mts_model_free(&m);
 }
 
+typedef struct records_publisher {
+    mts_server_model *m;
+    const mts_stream *records; /* NULL: none will come */
+    double delay;
+} records_publisher;
+
+static void *publish_records_later(void *arg)
+{
+    records_publisher *p = arg;
+    struct timespec d = {(time_t)p->delay, (long)((p->delay - (time_t)p->delay) * 1e9)};
+    nanosleep(&d, NULL);
+    mts_server_model_publish_records(p->m, p->records);
+    return NULL;
+}
+
+/* mts-server publishes a model's splits form first and its records form when
+ * that is encoded. A client that resumes the records form (a server killed
+ * and restarted under it) waits for it: the splits form, another stream, would
+ * send it back to the start. A fresh request for records takes the splits
+ * form at once; where no records form comes, the resume is stale. */
+static void test_records_form_published_later(mts_test *t)
+{
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_model m;
+    mts_stream st;
+    mts_stream_options so = {0};
+    so.with_records = 1;
+    CHECK(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK);
+    CHECK(t, mts_build_model(&mesh, "cow", NULL, &m, NULL, &err) == MTS_OK);
+    mts_mesh_free(&mesh);
+    CHECK(t, mts_stream_build(&m, "cow", &so, &st, &err) == MTS_OK);
+    const mts_stream *r = st.records_form;
+    CHECK(t, r != NULL && st.batch_count > 6);
+    if (!r || st.batch_count <= 6) {
+        mts_stream_free(&st);
+        mts_model_free(&m);
+        return;
+    }
+    mts_server_model table[2];
+    mts_server_model_init_preparing(&table[0], "cow", &m);
+    mts_server_model_init_preparing(&table[1], "none", &m);
+    mts_server_model_publish(&table[0], &st);
+    mts_server_model_publish(&table[1], &st);
+    mts_server_options o = {0};
+    o.listen = "127.0.0.1:0";
+    o.prepare_wait = 5;
+    mts_server *server = NULL;
+    CHECKF(t, mts_server_create_models(&o, table, 2, &server, &err) == MTS_OK, "%s", err.msg);
+    if (!server)
+        return;
+    int port = mts_server_port(server);
+    pid_t pid = fork();
+    if (pid == 0) {
+        signal(SIGTERM, on_term);
+        records_publisher p[2] = {{&table[0], r, 1.0}, {&table[1], NULL, 1.0}};
+        pthread_t th[2];
+        for (int i = 0; i < 2; i++)
+            pthread_create(&th[i], NULL, publish_records_later, &p[i]);
+        mts_result rc = mts_server_run(server, &stop_flag, &err);
+        for (int i = 0; i < 2; i++)
+            pthread_join(th[i], NULL);
+        mts_server_free(server);
+        _exit(rc == MTS_OK ? 0 : 3);
+    }
+    mts_server_free(server);
+
+    /* a fresh request for records, before they are ready: the splits form */
+    mts_stream_client a;
+    mts_buf ra = {0};
+    fetch(t, port, MTS_HELLO_RECORDS, &a, &ra);
+    CHECK(t, !a.records && a.info.stream_id == st.stream_id);
+    CHECK(t, a.lod.level == m.level_count && a.checksum == st.level_checksum[m.level_count]);
+    mts_stream_client_free(&a);
+
+    /* resumes of the records form at batch 5, asked for at once: cow's waits
+     * for its records form and goes on in it; none's is stale once the server
+     * knows that no records form will come */
+    const char *models[2] = {"cow", "none"};
+    for (int i = 0; i < 2; i++) {
+        mts_wire_hello h = {0};
+        h.major = MTS_WIRE_MAJOR;
+        h.minor = MTS_WIRE_MINOR;
+        snprintf(h.model, sizeof h.model, "%s", models[i]);
+        h.resume_batch = 5;
+        h.stream_id = r->stream_id;
+        h.flags = MTS_HELLO_RECORDS;
+        mts_buf hb = {0}, rep = {0};
+        mts_wire_put_hello(&hb, &h);
+        CHECK(t, exchange(port, hb.data, hb.size, &rep, 10));
+        if (i == 0) {
+            mts_wire_model_info mi;
+            CHECKF(t, rep.size > 5 && rep.data[4] == MTS_MSG_MODEL_INFO, "cow: code %u",
+                   error_code_of(&rep));
+            size_t n = rep.size > 5 ? (size_t)(rep.data[0] | rep.data[1] << 8 |
+                                               rep.data[2] << 16 | (size_t)rep.data[3] << 24)
+                                    : 0;
+            CHECKF(t, n >= 1 && n + 4 <= rep.size &&
+                          mts_wire_parse_model_info(rep.data + 5, n - 1, &mi, &err) == MTS_OK &&
+                          mi.stream_id == r->stream_id && (mi.flags & MTS_INFO_RECORDS),
+                   "cow: not resumed in the records form: %s", err.msg);
+            /* from batch 5 on: no BASE, no batch sent twice */
+            CHECKF(t, rep.size < r->size - r->batch_offset[5] + 4096, "resumed reply %zu bytes",
+                   rep.size);
+        } else {
+            CHECKF(t, error_code_of(&rep) == MTS_WERR_STALE, "none: code %u",
+                   error_code_of(&rep));
+        }
+        mts_buf_free(&hb);
+        mts_buf_free(&rep);
+    }
+    kill(pid, SIGTERM);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    CHECKF(t, WIFEXITED(status) && WEXITSTATUS(status) == 0, "server exit status %d", status);
+    mts_buf_free(&ra);
+    mts_stream_free(&st);
+    mts_model_free(&m);
+}
+
 int main(void)
 {
     signal(SIGPIPE, SIG_IGN);
@@ -736,5 +856,6 @@ int main(void)
     RUN(&t, test_records_form_on_request);
     RUN(&t, test_records_request_without_records_form);
     RUN(&t, test_models_being_prepared);
+    RUN(&t, test_records_form_published_later);
     return mts_test_end(&t);
 }
