@@ -42,6 +42,7 @@ void mts_mesh_free(mts_mesh *mesh)
         return;
     free(mesh->positions);
     free(mesh->normals);
+    free(mesh->colors);
     free(mesh->triangles);
     *mesh = (mts_mesh){0};
 }

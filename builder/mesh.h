@@ -23,6 +23,8 @@ typedef struct mts_mesh {
     float *positions;    /* 3 per vertex */
     float *normals;      /* 3 per vertex, unit length (or zero for a vertex of zero-area faces only) */
     uint32_t *triangles; /* 3 per triangle, counter-clockwise seen from outside */
+    uint8_t *colors;     /* 3 per vertex (8-bit sRGB red, green, blue), or NULL: the file
+                            has none (or the caller dropped them) */
     /* 1 when the normals came from the file (the mesh's own shading), 0 when
      * mts_mesh_compute_normals made them: a stream need not carry those,
      * since a client can shade the faces it has (docs/PROTOCOL.md). */

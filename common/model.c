@@ -13,6 +13,7 @@ void mts_model_free(mts_model *m)
     free(m->capacity);
     free(m->positions);
     free(m->normals);
+    free(m->colors);
     free(m->parents);
     mts_strips_free(&m->full);
     mts_strips_free(&m->base);

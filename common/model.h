@@ -43,6 +43,8 @@
 /* The normals are the source mesh's own; without this flag they were
  * computed from its faces, and a stream leaves them out. */
 #define MTS_MODEL_NORMALS_GIVEN 1u
+/* The source mesh had a colour per vertex: colors holds them. */
+#define MTS_MODEL_COLORS 2u
 
 typedef struct mts_model {
     uint32_t vertex_count;      /* full level */
@@ -57,6 +59,8 @@ typedef struct mts_model {
 
     float *positions; /* 3 per vertex, stream order */
     float *normals;   /* 3 per vertex, stream order */
+    uint8_t *colors;  /* 3 per vertex (8-bit sRGB red, green, blue), stream order, with
+                         MTS_MODEL_COLORS; else NULL */
     float bbox_min[3], bbox_max[3];
     uint32_t flags; /* MTS_MODEL_* */
 
