@@ -105,6 +105,10 @@ static inline uint32_t mts_wire_batch_splits(const mts_wire_model_info *mi, uint
 /* MODEL_INFO flags: the batches are in the records form (PROTOCOL.md,
  * "Records form"): each split's record travels, so the client derives none. */
 #define MTS_INFO_RECORDS 2u
+/* MODEL_INFO flags: the stream carries a colour per vertex (3 bytes, 8-bit
+ * sRGB); a stream client holds them in c->model.colors, grown with the
+ * vertices that arrived (vertex_room), and MTS_MODEL_COLORS in c->model.flags. */
+#define MTS_INFO_COLORS 4u
 #define MTS_INFO_KNOWN_FLAGS (MTS_INFO_NORMALS | MTS_INFO_RECORDS)
 
 /* HELLO flags: the client would rather have the records form (many more
