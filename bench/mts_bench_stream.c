@@ -125,7 +125,8 @@ static int full_renderer(mts_render_context *ctx, const mts_model *m, uint32_t s
     mts_render_layout layout;
     mts_render_layout_from_lod(lod, &layout);
     if (mts_renderer_create(ctx, &ro, &layout, r, err) == MTS_OK &&
-        mts_render_append_vertices(*r, 0, m->vertex_count, m->positions, m->normals, err) ==
+        mts_render_append_vertices(*r, 0, m->vertex_count, m->positions, m->normals,
+                                   m->colors, err) ==
             MTS_OK)
         return 1;
     mts_renderer_destroy(*r);

@@ -163,7 +163,7 @@ void mts_camera_default_style(mts_render_style *s)
     s->wire_color[2] = 0.12f;
 }
 
-/* ---- shaders (compiled twice by render.c, MORPH 0 and 1) -------------- */
+/* ---- shaders (compiled with MORPH 0 and 1, and COLORS 0 or 1) --------- */
 
 const char mts_camera_vertex_glsl[] =
     "layout(location = 0) in vec3 a_position;\n"
@@ -172,26 +172,46 @@ const char mts_camera_vertex_glsl[] =
     "uniform mat3 u_normal;\n"
     "out vec3 v_normal;\n"
     "out vec3 v_view;\n" /* rotated into view space: slopes for flat shading */
+    "#if COLORS\n"
+    "layout(location = 4) in vec4 a_color;\n" /* 8-bit sRGB values, normalized */
+    "out vec3 v_color;\n"
+    "#endif\n"
     "#if MORPH\n"
     "layout(location = 2) in vec3 a_from_position;\n"
     "layout(location = 3) in vec3 a_from_normal;\n"
+    "#if COLORS\n"
+    "layout(location = 5) in vec4 a_from_color;\n"
+    "#endif\n"
     "uniform uvec2 u_morph;\n" /* the vertex ids morphing: [x, y) */
     "uniform float u_morph_t;\n"
     "#endif\n"
     "void main() {\n"
     "    vec3 p = a_position, n = a_normal;\n"
+    "#if COLORS\n"
+    "    vec3 c = a_color.rgb;\n"
+    "#endif\n"
     "#if MORPH\n"
     "    uint id = uint(gl_VertexID);\n" /* the index fetched */
     "    if (id >= u_morph.x && id < u_morph.y) {\n"
     "        p = mix(a_from_position, a_position, u_morph_t);\n"
     "        n = mix(a_from_normal, a_normal, u_morph_t);\n"
+    "#if COLORS\n"
+    "        c = mix(a_from_color.rgb, a_color.rgb, u_morph_t);\n"
+    "#endif\n"
     "    }\n"
+    "#endif\n"
+    "#if COLORS\n"
+    "    v_color = c;\n"
     "#endif\n"
     "    v_normal = u_normal * n;\n"
     "    v_view = u_normal * p;\n"
     "    gl_Position = u_mvp * vec4(p, 1.0);\n"
     "}\n";
 
+/* The albedo times the light, in the framebuffer's values as they are: the
+ * grey and the vertex colours are both taken as the 8-bit sRGB values they
+ * are written as, not converted to linear light and back (camera.h says
+ * why). */
 const char mts_camera_fragment_glsl[] =
     "precision highp float;\n"
     "in vec3 v_normal;\n"
@@ -200,6 +220,10 @@ const char mts_camera_fragment_glsl[] =
     "uniform vec3 u_color;\n"
     "uniform vec3 u_light;\n" /* unit, towards the light, view space */
     "uniform float u_ambient;\n"
+    "#if COLORS\n"
+    "in vec3 v_color;\n"
+    "uniform bool u_vertex_color;\n" /* 0: u_color (by strip, the wireframe's edges) */
+    "#endif\n"
     "out vec4 o_color;\n"
     "void main() {\n"
     /* screen x and y slopes of a face span its plane; their cross product
@@ -209,5 +233,10 @@ const char mts_camera_fragment_glsl[] =
     "    float len = length(n);\n"
     /* a zero normal (a vertex of zero-area faces only) gets half light */
     "    float d = len > 1e-12 ? max(dot(n / len, u_light), 0.0) : 0.5;\n"
-    "    o_color = vec4(u_color * (u_ambient + (1.0 - u_ambient) * d), 1.0);\n"
+    "    vec3 albedo = u_color;\n"
+    "#if COLORS\n"
+    "    if (u_vertex_color)\n"
+    "        albedo = v_color;\n"
+    "#endif\n"
+    "    o_color = vec4(albedo * (u_ambient + (1.0 - u_ambient) * d), 1.0);\n"
     "}\n";

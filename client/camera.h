@@ -48,12 +48,26 @@ typedef struct mts_render_style {
  * 0.25, culling on, no wireframe (dark edges when turned on), smooth. */
 void mts_camera_default_style(mts_render_style *s);
 
-/* The shaders' GLSL ES 3.00 bodies, to follow "#version 300 es" and a
- * "#define MORPH 0" or 1 line. Attributes: 0 position, 1 normal (2, 3 the
- * morph's from-position and from-normal). Uniforms: u_mvp, u_normal (the
- * camera's matrices), u_color, u_light (mts_camera_light), u_ambient,
- * u_flat (shade by face slopes, for streams without normals), and with
- * MORPH u_morph (the vertex ids morphing, [x, y)) and u_morph_t. */
+/* The shaders' GLSL ES 3.00 bodies, to follow "#version 300 es", a
+ * "#define MORPH 0" or 1 line and a "#define COLORS 0" or 1 line (both
+ * defined: GLSL ES has no 0 for an undefined name). Attributes: 0 position,
+ * 1 normal (2, 3 the morph's from-position and from-normal), with COLORS 4
+ * the vertex's colour (and 5 its morph's from-colour), RGBA8 normalized.
+ * Uniforms: u_mvp, u_normal (the camera's matrices), u_color, u_light
+ * (mts_camera_light), u_ambient, u_flat (shade by face slopes, for streams
+ * without normals), with MORPH u_morph (the vertex ids morphing, [x, y))
+ * and u_morph_t, with COLORS u_vertex_color (1: the vertex colour is the
+ * albedo; 0: u_color is, for colour by strip and the wireframe's edges).
+ *
+ * Shading treats colours as they are stored: the grey (u_color) and a
+ * vertex colour (8-bit sRGB) are multiplied by the Lambert-plus-ambient
+ * factor and written to an RGBA8 framebuffer that does no sRGB encoding,
+ * so a fully lit vertex shows its file's bytes, a colour equal to the grey
+ * draws the grey's picture, and the page (a WebGL2 canvas, also unencoded)
+ * draws the same values. Converting to linear light for the product and
+ * back would brighten every shadow and change every existing picture, the
+ * grey's included; colours between vertices are interpolated in the same
+ * stored values, as most mesh viewers do. */
 extern const char mts_camera_vertex_glsl[];
 extern const char mts_camera_fragment_glsl[];
 

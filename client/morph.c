@@ -9,8 +9,10 @@ void mts_morph_free(mts_morph *mo)
     if (!mo)
         return;
     free(mo->from);
+    free(mo->from_colors);
     free(mo->ids);
     mo->from = NULL;
+    mo->from_colors = NULL;
     mo->ids = NULL;
     mo->cap = 0;
     mo->active = 0;
@@ -20,20 +22,26 @@ void mts_morph_free(mts_morph *mo)
 /* The morph of vertex ids first .. first+count-1 towards (or from) the level
  * whose vertices end at first: each starts from its nearest ancestor below
  * first (a parent precedes its child in stream order, so walking up is one
- * look-up into the ids already resolved). */
+ * look-up into the ids already resolved), in that ancestor's place, normal
+ * and colour. */
 static mts_result begin(mts_morph *mo, const mts_model *m, uint32_t first, uint32_t count,
                         mts_error *err)
 {
-    if (count > mo->cap) {
-        float *f = realloc(mo->from, (size_t)count * 6 * sizeof *f);
+    const uint8_t *colors = m->flags & MTS_MODEL_COLORS ? m->colors : NULL;
+    if (count > mo->cap || (colors && !mo->from_colors)) {
+        uint32_t cap = count > mo->cap ? count : mo->cap;
+        float *f = realloc(mo->from, (size_t)cap * 6 * sizeof *f);
         if (f)
             mo->from = f;
-        uint32_t *ids = realloc(mo->ids, (size_t)count * sizeof *ids);
+        uint32_t *ids = realloc(mo->ids, (size_t)cap * sizeof *ids);
         if (ids)
             mo->ids = ids;
-        if (!f || !ids)
+        uint8_t *c = mo->from_colors;
+        if (colors && (c = realloc(mo->from_colors, (size_t)cap * 3)) != NULL)
+            mo->from_colors = c;
+        if (!f || !ids || (colors && !c))
             return mts_error_set(err, MTS_ERR_NOMEM, "morph: %u vertices", count);
-        mo->cap = count;
+        mo->cap = cap;
     }
     const uint32_t nb = m->base_vertex_count;
     for (uint32_t i = 0; i < count; i++) {
@@ -42,6 +50,8 @@ static mts_result begin(mts_morph *mo, const mts_model *m, uint32_t first, uint3
         mo->ids[i] = a;
         memcpy(mo->from + 3 * (size_t)i, m->positions + 3 * (size_t)a, 12);
         memcpy(mo->from + 3 * ((size_t)count + i), m->normals + 3 * (size_t)a, 12);
+        if (colors)
+            memcpy(mo->from_colors + 3 * (size_t)i, colors + 3 * (size_t)a, 3);
     }
     mo->first = first;
     mo->count = count;

@@ -3,8 +3,8 @@
  *
  * Going up, the level is set at once and the vertices it adds are drawn
  * first at their ancestors' places (the nearest ancestor present at the old
- * level: the position and normal that vertex had there, so the first frame
- * is the old level's surface) and slide to their own over ms; going down,
+ * level: the position, normal and colour that vertex had there, so the
+ * first frame is the old level's surface in its colours) and slide to their own over ms; going down,
  * they slide back and the level drops when they arrive. Vertices of one
  * level range are contiguous ids (stream order), so a renderer morphs them
  * by one id range [first, first + count), the from-attributes of that range
@@ -28,6 +28,8 @@ typedef struct mts_morph {
     float t;                /* how far it is, 0..1 (towards the higher level) */
     uint32_t first, count;  /* the vertex ids morphing (count 0: none) */
     float *from;            /* 6 floats a vertex of the range: positions, then normals */
+    uint8_t *from_colors;   /* 3 bytes a vertex of the range (the ancestors' r, g, b)
+                               where the model has colours (MTS_MODEL_COLORS); else NULL */
     /* internal */
     int down;
     uint32_t target; /* going down: the level set when the morph ends */
@@ -40,8 +42,8 @@ void mts_morph_free(mts_morph *mo);
 
 /* Moves lod towards target at now_ms (a monotonic clock): sets t, and the
  * level where a morph ends or starts. *range_changed (may be NULL) is set
- * to 1 when first, count or from changed (the renderer's from-attributes
- * to upload again), else 0. */
+ * to 1 when first, count or from (and from_colors) changed (the renderer's
+ * from-attributes to upload again), else 0. */
 mts_result mts_morph_move(mts_morph *mo, mts_lod *lod, const mts_model *m, uint32_t target,
                           double now_ms, int *range_changed, mts_error *err);
 

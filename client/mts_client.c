@@ -23,12 +23,14 @@ static void usage(FILE *f)
           "                  [--cacert FILE] [--max-file-bytes N]\n"
           "       mts-client HOST:PORT MODEL --tls [--cacert FILE] [the same options]\n"
           "                  [--png FILE] [--png-levels L1,L2,...] [--size WxH] [--color-strips]\n"
+          "                  [--no-colors]\n"
           "                  [--verify] [--model-file M.mtsm] [--no-render] [--records]\n"
           "                  [--resume] [--retries N] [--connect-timeout S] [--timeout S]\n"
           "                  [--max-time S] [--lod-policy P [--fps N] [--distance D]]\n"
           "                  [--json] [--quiet]\n"
           "       mts-client [HOST[:PORT]] MODEL --window [--size WxH] [--script FILE]\n"
-          "                  [--color-strips] [--level L | ...] [--lod-policy P] [--resume]\n"
+          "                  [--color-strips] [--no-colors] [--level L | ...] [--lod-policy P]\n"
+          "                  [--resume]\n"
           "                  [--morph-ms MS] [--json]\n"
           "       mts-client [HOST[:PORT]] --list\n"
           "\n"
@@ -47,6 +49,8 @@ static void usage(FILE *f)
           "                      (MODEL_L<level>.png without --png)\n"
           "  --size WxH          frame size (default 512x512)\n"
           "  --color-strips      each strip in its own colour\n"
+          "  --no-colors         grey even where the model has vertex colours (drawn by\n"
+          "                      default; --json's colors says whether they were)\n"
           "  --lod-policy P      the level drawn at the end: received (default: all that\n"
           "                      came), distance or area (from the camera: the stream is\n"
           "                      asked to stop at their level), budget (the largest\n"
@@ -197,6 +201,8 @@ static int parse_args(int argc, char **argv, client_options *o)
             i++;
         } else if (!strcmp(a, "--color-strips")) {
             rn->ro.style.color_by_strip = 1;
+        } else if (!strcmp(a, "--no-colors")) {
+            rn->no_colors = 1;
         } else if (!strcmp(a, "--lod-policy")) {
             if (!v || !mts_lod_policy_parse(v, &rn->po.kind)) {
                 fprintf(stderr, "mts-client: --lod-policy needs received, distance, area or "

@@ -258,7 +258,7 @@ static int win_on_event(void *user, mts_stream_event ev, mts_stream_client *c)
     if (ev == MTS_EV_BASE && !rn->have_view) {
         /* the budget policy reads frame times: those need a finished frame */
         rn->ro.timed = wn->po->kind == MTS_LOD_POLICY_BUDGET;
-        mts_view_options vo = {1, rn->morph_ms >= 0 ? rn->morph_ms : WIN_MORPH_MS};
+        mts_view_options vo = {1, rn->morph_ms >= 0 ? rn->morph_ms : WIN_MORPH_MS, 0};
         if (!mts_client_run_make_view(rn, c, &vo))
             return 1;
         mts_view_set_wireframe(&rn->view, rn->ro.style.wireframe);

@@ -45,14 +45,22 @@ struct mts_renderer {
     struct render_program {
         GLuint id;
         GLint u_mvp, u_normal, u_color, u_light, u_ambient, u_flat, u_morph, u_morph_t;
+        GLint u_vertex_color;
     } prog[2];
     GLuint vao, vbo, ibo, fbo, color_rb, depth_rb;
+    /* layout.colors: the programs are built with COLORS 1 and the colours
+     * (RGBA8, 4 bytes a vertex, by vertex id) have a buffer of their own,
+     * so a model without them keeps the buffer, attributes and shader it
+     * always had */
+    int colors;
+    GLuint color_vbo;
     GLuint wire_ibo; /* style.wireframe: GL_LINES over the triangles' edges */
     uint64_t wire_count;
     /* geomorphs: where vertices morph_first .. morph_end-1 come from
      * (positions for every vertex id, then normals), made at the first
      * mts_render_set_morph */
     GLuint morph_vbo;
+    GLuint morph_color_vbo; /* with colours: the from-colours, RGBA8 by vertex id */
     uint32_t morph_first, morph_end;
     float morph_t;
 
@@ -142,9 +150,11 @@ void mts_render_eye(const mts_renderer *r, float eye[3], float dir[3])
 static mts_result build_program(mts_renderer *r, int morph, mts_error *err)
 {
     struct render_program *pg = &r->prog[morph];
-    const char *head[2] = {"#version 300 es\n", morph ? "#define MORPH 1\n" : "#define MORPH 0\n"};
-    const char *vs[3] = {head[0], head[1], mts_camera_vertex_glsl}, *fs[3] = {head[0], head[1], mts_camera_fragment_glsl};
-    mts_result rc = mts_glprog_build("render", vs, 3, fs, 3, &pg->id, err);
+    const char *head[3] = {"#version 300 es\n", morph ? "#define MORPH 1\n" : "#define MORPH 0\n",
+                           r->colors ? "#define COLORS 1\n" : "#define COLORS 0\n"};
+    const char *vs[4] = {head[0], head[1], head[2], mts_camera_vertex_glsl},
+               *fs[4] = {head[0], head[1], head[2], mts_camera_fragment_glsl};
+    mts_result rc = mts_glprog_build("render", vs, 4, fs, 4, &pg->id, err);
     if (rc != MTS_OK)
         return rc;
     pg->u_mvp = glGetUniformLocation(pg->id, "u_mvp");
@@ -155,6 +165,7 @@ static mts_result build_program(mts_renderer *r, int morph, mts_error *err)
     pg->u_flat = glGetUniformLocation(pg->id, "u_flat");
     pg->u_morph = glGetUniformLocation(pg->id, "u_morph");
     pg->u_morph_t = glGetUniformLocation(pg->id, "u_morph_t");
+    pg->u_vertex_color = glGetUniformLocation(pg->id, "u_vertex_color");
     return gl_check(err, "building the shader program");
 }
 
@@ -171,8 +182,9 @@ void mts_renderer_destroy(mts_renderer *r)
             glDeleteFramebuffers(1, &r->fbo);
         GLuint rbs[2] = {r->color_rb, r->depth_rb};
         glDeleteRenderbuffers(2, rbs);
-        GLuint bufs[5] = {r->vbo, r->ibo, r->wire_ibo, r->packed_ibo, r->morph_vbo};
-        glDeleteBuffers(5, bufs);
+        GLuint bufs[7] = {r->vbo,       r->ibo,       r->wire_ibo,       r->packed_ibo,
+                          r->morph_vbo, r->color_vbo, r->morph_color_vbo};
+        glDeleteBuffers(7, bufs);
         if (r->vao)
             glDeleteVertexArrays(1, &r->vao);
         for (int i = 0; i < 2; i++)
@@ -231,7 +243,8 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
         return mts_error_set(err, MTS_ERR_LIMIT,
                              "render: %llu indices in the strip buffer, at most %d",
                              (unsigned long long)index_limit, INT32_MAX);
-    if ((uint64_t)layout->vertex_capacity * 24u > (uint64_t)PTRDIFF_MAX ||
+    const uint64_t vertex_size = layout->colors ? 28u : 24u;
+    if ((uint64_t)layout->vertex_capacity * vertex_size > (uint64_t)PTRDIFF_MAX ||
         index_limit * 4u > (uint64_t)PTRDIFF_MAX)
         return mts_error_set(err, MTS_ERR_LIMIT, "render: buffers of %llu + %llu bytes",
                              (unsigned long long)layout->vertex_capacity * 24u,
@@ -249,6 +262,7 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
     r->opts = *opts;
     r->vertex_capacity = vertex_capacity;
     r->vertex_limit = layout->vertex_capacity;
+    r->colors = layout->colors != 0;
     r->index_limit = index_limit;
     r->strip_count = layout->strip_count;
     r->index_count = index_count;
@@ -304,7 +318,16 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(index_count ? index_count * 4u : 4u), NULL,
                  GL_DYNAMIC_DRAW);
     r->slots_stale = 1; /* all restarts, once a slot-reading mode draws */
+    if (r->colors) {
+        glGenBuffers(1, &r->color_vbo);
+        glBindBuffer(GL_ARRAY_BUFFER, r->color_vbo);
+        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((uint64_t)vertex_capacity * 4u), NULL,
+                     GL_DYNAMIC_DRAW);
+        glEnableVertexAttribArray(4);
+        glVertexAttribPointer(4, 4, GL_UNSIGNED_BYTE, GL_TRUE, 0, (const void *)0);
+    }
     glBindVertexArray(0);
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
     rc = gl_check(err, "creating the buffers");
     if (rc != MTS_OK)
         goto fail;
@@ -348,7 +371,8 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
     update_camera(r);
     r->stats.width = opts->width;
     r->stats.height = opts->height;
-    r->stats.vertex_buffer_bytes = vbytes;
+    r->stats.vertex_buffer_bytes = vbytes + (r->colors ? (uint64_t)vertex_capacity * 4u : 0);
+    r->stats.colors = r->colors;
     r->stats.index_buffer_bytes = index_count * 4u;
     r->stats.multi_draw_available = r->multi_draw != NULL;
     *out = r;
@@ -409,6 +433,18 @@ static mts_result grow_vertices(mts_renderer *r, uint32_t need, mts_error *err)
                               (const void *)(uintptr_t)(cap * 12u));
         r->stats.vertex_buffer_bytes += (cap - old_cap) * 16u;
     }
+    if (r->color_vbo) {
+        r->color_vbo = grown_buffer(r->color_vbo, cap * 4u, used * 4u, 0, 0, 0);
+        glBindBuffer(GL_ARRAY_BUFFER, r->color_vbo);
+        glVertexAttribPointer(4, 4, GL_UNSIGNED_BYTE, GL_TRUE, 0, (const void *)0);
+        r->stats.vertex_buffer_bytes += (cap - old_cap) * 4u;
+    }
+    if (r->morph_color_vbo) {
+        r->morph_color_vbo = grown_buffer(r->morph_color_vbo, cap * 4u, used * 4u, 0, 0, 0);
+        glBindBuffer(GL_ARRAY_BUFFER, r->morph_color_vbo);
+        glVertexAttribPointer(5, 4, GL_UNSIGNED_BYTE, GL_TRUE, 0, (const void *)0);
+        r->stats.vertex_buffer_bytes += (cap - old_cap) * 4u;
+    }
     glBindVertexArray(0);
     glBindBuffer(GL_ARRAY_BUFFER, 0);
     r->vertex_capacity = (uint32_t)cap;
@@ -445,12 +481,38 @@ static mts_result grow_indices(mts_renderer *r, uint64_t need, mts_error *err)
     return gl_check(err, "growing the strip buffer");
 }
 
+/* count colours of 3 bytes (the model's) as RGBA8 with alpha 255 into the
+ * buffer bound to GL_ARRAY_BUFFER, from vertex `first` (4 bytes each);
+ * MTS_ERR_NOMEM when the staging cannot be had. */
+static mts_result upload_colors(uint32_t first, uint32_t count, const uint8_t *rgb,
+                                mts_error *err)
+{
+    uint8_t *rgba = malloc((size_t)count * 4u);
+    if (!rgba)
+        return mts_error_set(err, MTS_ERR_NOMEM, "render: colours of %u vertices", count);
+    for (size_t i = 0; i < count; i++) {
+        rgba[4 * i] = rgb[3 * i];
+        rgba[4 * i + 1] = rgb[3 * i + 1];
+        rgba[4 * i + 2] = rgb[3 * i + 2];
+        rgba[4 * i + 3] = 255;
+    }
+    glBufferSubData(GL_ARRAY_BUFFER, (GLintptr)((uint64_t)first * 4u),
+                    (GLsizeiptr)((uint64_t)count * 4u), rgba);
+    free(rgba);
+    return MTS_OK;
+}
+
 mts_result mts_render_append_vertices(mts_renderer *r, uint32_t first, uint32_t count,
                                       const float *positions, const float *normals,
-                                      mts_error *err)
+                                      const uint8_t *colors, mts_error *err)
 {
     if (!r || (count && (!positions || !normals)))
         return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to append_vertices");
+    if (count && r->colors && !colors)
+        return mts_error_set(err, MTS_ERR_ARG,
+                             "render: vertices %u..%llu appended without the colours the "
+                             "layout said they have",
+                             first, (unsigned long long)first + count - 1);
     if (first > r->stats.vertices)
         return mts_error_set(err, MTS_ERR_RANGE,
                              "render: vertices from %u appended, but only %u are there "
@@ -474,21 +536,27 @@ mts_result mts_render_append_vertices(mts_renderer *r, uint32_t first, uint32_t 
     glBufferSubData(GL_ARRAY_BUFFER,
                     (GLintptr)((uint64_t)r->vertex_capacity * 12u + (uint64_t)first * 12u),
                     (GLsizeiptr)((uint64_t)count * 12u), normals);
+    if (r->colors) {
+        glBindBuffer(GL_ARRAY_BUFFER, r->color_vbo);
+        rc = upload_colors(first, count, colors, err);
+    }
     glBindBuffer(GL_ARRAY_BUFFER, 0);
+    if (rc != MTS_OK)
+        return rc;
     rc = gl_check(err, "uploading vertices");
     if (rc != MTS_OK)
         return rc;
     if (first + count > r->stats.vertices)
         r->stats.vertices = first + count;
-    r->stats.vertex_bytes_uploaded += (uint64_t)count * 24u;
+    r->stats.vertex_bytes_uploaded += (uint64_t)count * (r->colors ? 28u : 24u);
     return MTS_OK;
 }
 
 mts_result mts_render_set_morph(mts_renderer *r, uint32_t first, uint32_t count,
                                 const float *from_positions, const float *from_normals,
-                                mts_error *err)
+                                const uint8_t *from_colors, mts_error *err)
 {
-    if (!r || (count && (!from_positions || !from_normals)))
+    if (!r || (count && (!from_positions || !from_normals || (r->colors && !from_colors))))
         return mts_error_set(err, MTS_ERR_ARG, "render: NULL argument to set_morph");
     if ((uint64_t)first + count > r->vertex_capacity)
         return mts_error_set(err, MTS_ERR_RANGE,
@@ -538,17 +606,34 @@ mts_result mts_render_set_morph(mts_renderer *r, uint32_t first, uint32_t count,
                     (GLsizeiptr)((uint64_t)count * 12u), from_positions);
     glBufferSubData(GL_ARRAY_BUFFER, (GLintptr)(half + (uint64_t)first * 4u),
                     (GLsizeiptr)((uint64_t)count * 4u), packed);
-    glBindBuffer(GL_ARRAY_BUFFER, 0);
     free(packed);
-    rc = gl_check(err, "uploading a morph's sources");
+    if (r->colors) {
+        if (!r->morph_color_vbo) {
+            glGenBuffers(1, &r->morph_color_vbo);
+            glBindBuffer(GL_ARRAY_BUFFER, r->morph_color_vbo);
+            glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((uint64_t)r->vertex_capacity * 4u), NULL,
+                         GL_DYNAMIC_DRAW);
+            glBindVertexArray(r->vao);
+            glEnableVertexAttribArray(5);
+            glVertexAttribPointer(5, 4, GL_UNSIGNED_BYTE, GL_TRUE, 0, (const void *)0);
+            glBindVertexArray(0);
+            r->stats.vertex_buffer_bytes += (uint64_t)r->vertex_capacity * 4u;
+        }
+        glBindBuffer(GL_ARRAY_BUFFER, r->morph_color_vbo);
+        rc = upload_colors(first, count, from_colors, err);
+    }
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
+    if (rc == MTS_OK)
+        rc = gl_check(err, "uploading a morph's sources");
     if (rc != MTS_OK) {
         r->morph_first = r->morph_end = 0;
         return rc;
     }
     r->morph_first = first;
     r->morph_end = first + count;
-    r->stats.vertex_bytes_uploaded += (uint64_t)count * 16u;
-    r->stats.morph_bytes_uploaded += (uint64_t)count * 16u;
+    const uint64_t size = r->colors ? 20u : 16u;
+    r->stats.vertex_bytes_uploaded += (uint64_t)count * size;
+    r->stats.morph_bytes_uploaded += (uint64_t)count * size;
     return MTS_OK;
 }
 
@@ -868,6 +953,8 @@ mts_result mts__render_frame_begin(mts_renderer *r, int wireframe, int slots,
     glUniform1f(pg->u_ambient, clampf(st->ambient, 0.0f, 1.0f));
     glUniform3fv(pg->u_color, 1, st->color);
     glUniform1i(pg->u_flat, st->flat_shading != 0);
+    if (r->colors) /* colour by strip draws each strip in its own */
+        glUniform1i(pg->u_vertex_color, !st->color_by_strip);
     if (morph) {
         glUniform2ui(pg->u_morph, r->morph_first, r->morph_end);
         glUniform1f(pg->u_morph_t, r->morph_t);
@@ -935,6 +1022,8 @@ mts_result mts__render_frame_end(mts_renderer *r, const mts__render_frame *f, ui
         glDepthFunc(GL_LEQUAL);
         glUniform1f(pg->u_ambient, 1.0f); /* flat: the edge colour as it is */
         glUniform3fv(pg->u_color, 1, st->wire_color);
+        if (r->colors)
+            glUniform1i(pg->u_vertex_color, 0);
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->wire_ibo);
         glDrawElements(GL_LINES, (GLsizei)r->wire_count, GL_UNSIGNED_INT, (const void *)0);
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);

@@ -22,6 +22,13 @@
  *     positions (3 floats) for all vertices, then normals (3 floats) for all
  *     vertices. It is filled by appending ranges, since a streaming client
  *     only ever appends vertices (stream order).
+ *   - Where the layout says the model has colours (layout.colors), a second
+ *     vertex buffer of 4 bytes a vertex: the colour as normalized RGBA8
+ *     (8-bit sRGB red, green, blue as the model holds them, alpha 255: the
+ *     4-byte stride every vertex fetch takes without conversion), appended
+ *     with the positions. A model without colours has no such buffer, no
+ *     such attribute and the program it always had: its bytes, uploads and
+ *     draw are what they were.
  *   - One index buffer (GL_UNSIGNED_INT) holding every strip at a fixed place:
  *     strip s owns cap_s + 1 indices, cap_s being its length at the full
  *     level (the runtime's slot size). The strip's indices come first; the
@@ -76,7 +83,11 @@
  * colour in a uniform: slower, for inspection only.
  *
  * Shading: Lambert from a directional light above-left of the camera plus
- * ambient, per-vertex normals, back-face culling of clockwise triangles
+ * ambient, per-vertex normals, the albedo the style's colour or, with
+ * layout.colors, the vertex colour (interpolated across each triangle; both
+ * taken as the sRGB values they are, unconverted: camera.h says why; colour
+ * by strip and the wireframe's edges keep their uniform colours), back-face
+ * culling of clockwise triangles
  * (counter-clockwise is front, as the strips' winding rule gives), depth test.
  * A winding error therefore shows as a hole.
  *
@@ -112,9 +123,11 @@ typedef struct mts_render_layout {
     float bbox_min[3], bbox_max[3]; /* what the camera frames */
     uint32_t room; /* indices the slots may come to (they grow as a stream
                       announces them): 0 = slot[strip_count] */
+    int colors;    /* a colour a vertex comes with the positions (see the top) */
 } mts_render_layout;
 
-/* The layout a runtime's model needs (its vertex count, bbox and slots). */
+/* The layout a runtime's model needs (its vertex count, bbox and slots, and
+ * colours where the model has them: MTS_MODEL_COLORS). */
 void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *layout);
 
 
@@ -151,12 +164,14 @@ mts_result mts_renderer_create(mts_render_context *ctx, const mts_render_options
 void mts_renderer_destroy(mts_renderer *r);
 
 /* Uploads vertices first .. first+count-1 (3 floats each in positions and
- * normals). Appending: first may not be beyond the vertices already there (a
- * range may be sent again, as after a resumed stream) and first+count may not
- * pass vertex_capacity (MTS_ERR_RANGE). */
+ * normals; with layout.colors 3 bytes each in colors, 8-bit sRGB r, g, b as
+ * mts_model.colors holds them, MTS_ERR_ARG when NULL; without, colors is
+ * not read and may be NULL). Appending: first may not be beyond the
+ * vertices already there (a range may be sent again, as after a resumed
+ * stream) and first+count may not pass vertex_capacity (MTS_ERR_RANGE). */
 mts_result mts_render_append_vertices(mts_renderer *r, uint32_t first, uint32_t count,
                                       const float *positions, const float *normals,
-                                      mts_error *err);
+                                      const uint8_t *colors, mts_error *err);
 uint32_t mts_render_vertex_count(const mts_renderer *r);
 
 /* Sets strip s to the given indices (length <= its capacity; every index below
@@ -201,17 +216,19 @@ mts_result mts_render_present(mts_renderer *r, mts_error *err);
 mts_result mts_render_resize(mts_renderer *r, uint32_t width, uint32_t height, mts_error *err);
 
 /* Geomorphs: vertices first .. first+count-1 are drawn at
- * mix(from, their own, t) -- positions and normals -- where from is given
- * here (3 floats a vertex each, the same count), t by
- * mts_render_set_morph_t (0 until then). One range at a time: a new call
- * replaces it; count 0 turns morphing off. The vertex shader picks the range
- * by gl_VertexID (the index fetched), so strips and the packed buffer are
- * untouched: a morph costs one upload of its range's 16 bytes a vertex
- * (positions as given, normals in 10 bits a component), then a uniform a
- * frame. The buffer for it is made at the first call. */
+ * mix(from, their own, t) -- positions and normals, and colours with
+ * layout.colors -- where from is given here (3 floats a vertex each, the
+ * same count; from_colors 3 bytes a vertex, required with layout.colors,
+ * else not read), t by mts_render_set_morph_t (0 until then). One range at
+ * a time: a new call replaces it; count 0 turns morphing off. The vertex
+ * shader picks the range by gl_VertexID (the index fetched), so strips and
+ * the packed buffer are untouched: a morph costs one upload of its range's
+ * 16 bytes a vertex (positions as given, normals in 10 bits a component;
+ * 20 with colours, RGBA8), then a uniform a frame. The buffers for it are
+ * made at the first call. */
 mts_result mts_render_set_morph(mts_renderer *r, uint32_t first, uint32_t count,
                                 const float *from_positions, const float *from_normals,
-                                mts_error *err);
+                                const uint8_t *from_colors, mts_error *err);
 void mts_render_set_morph_t(mts_renderer *r, float t);
 
 /* Rebuilds the wireframe's edges from the runtime's current strips: three
@@ -239,6 +256,7 @@ typedef struct mts_render_stats {
                                * index_bytes_uploaded too) */
     uint64_t packed_bytes;    /* the packed buffer now */
     uint64_t morph_bytes_uploaded; /* geomorph sources (in vertex_bytes_uploaded too) */
+    int colors;               /* layout.colors: 28 bytes a vertex instead of 24 */
     /* the last mts_render_update_strips */
     uint32_t last_update_strips; /* strips it covered (all of them for a full upload) */
     uint64_t last_update_bytes;

@@ -56,6 +56,7 @@ void mts_render_layout_from_lod(const mts_lod *lod, mts_render_layout *l)
     l->room = lod->room;
     memcpy(l->bbox_min, lod->model->bbox_min, sizeof l->bbox_min);
     memcpy(l->bbox_max, lod->model->bbox_max, sizeof l->bbox_max);
+    l->colors = (lod->model->flags & MTS_MODEL_COLORS) != 0;
 }
 
 mts_result mts__render_check_layout(const mts_render_layout *l, mts_error *err)

@@ -78,12 +78,12 @@ static int level_pngs(mts_client_run *rn, mts_stream_client *c, int final)
 int mts_client_run_warm_up(mts_client_run *rn)
 {
     const uint32_t slot[2] = {0, 3};
-    mts_render_layout layout = {3, 1, slot, {0, 0, 0}, {1, 1, 1}, 0};
+    mts_render_layout layout = {3, 1, slot, {0, 0, 0}, {1, 1, 1}, 0, 0};
     mts_renderer *r = NULL;
     const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, nor[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
     const uint32_t tri[3] = {0, 1, 2};
     int ok = mts_renderer_create(rn->ctx, &rn->ro, &layout, &r, &rn->err) == MTS_OK &&
-             mts_render_append_vertices(r, 0, 3, pos, nor, &rn->err) == MTS_OK &&
+             mts_render_append_vertices(r, 0, 3, pos, nor, NULL, &rn->err) == MTS_OK &&
              mts_render_set_strip(r, 0, tri, 3, &rn->err) == MTS_OK &&
              mts_render_draw(r, &rn->err) == MTS_OK;
     mts_renderer_destroy(r);
@@ -176,8 +176,12 @@ int mts_client_run_make_view(mts_client_run *rn, mts_stream_client *c,
 {
     /* a stream without normals is shaded from the faces each level has */
     rn->ro.style.flat_shading = !(c->info.flags & MTS_INFO_NORMALS);
+    mts_view_options o = {0};
+    if (vo)
+        o = *vo;
+    o.no_colors = o.no_colors || rn->no_colors;
     mts_follow_source src = mts_follow_source_of_stream(c);
-    if (mts_view_create(&rn->view, rn->ctx, &rn->ro, &src, vo, &rn->err) != MTS_OK) {
+    if (mts_view_create(&rn->view, rn->ctx, &rn->ro, &src, &o, &rn->err) != MTS_OK) {
         rn->failed = 1;
         return 0;
     }
@@ -369,7 +373,7 @@ static void json_uploads(cli_json *j, const mts_renderer *r)
     mts_render_get_stats(r, &rs);
     cli_json_u64(j, "gl_upload_bytes", rs.vertex_bytes_uploaded + rs.index_bytes_uploaded);
     cli_json_u64(j, "gl_final_bytes",
-                 (uint64_t)rs.vertices * 24u +
+                 (uint64_t)rs.vertices * (rs.colors ? 28u : 24u) +
                      (rs.packed_bytes ? rs.packed_bytes : rs.last_draw_index_bytes));
     if (rs.morph_bytes_uploaded)
         cli_json_u64(j, "gl_morph_bytes", rs.morph_bytes_uploaded);
@@ -396,6 +400,9 @@ void mts_client_run_json(cli_json *j, const mts_stream_client *c, const mts_sess
         snprintf(hex, sizeof hex, "%016llx", (unsigned long long)c->checksum);
         cli_json_str(j, "checksum", hex);
     }
+    cli_json_bool(j, "colors", rn->have_view ? rn->view.colors
+                                             : (c->model.flags & MTS_MODEL_COLORS) && c->model.colors &&
+                                                   !rn->no_colors);
     cli_json_u64(j, "reconnects", st->reconnects);
     cli_json_num(j, "ms_connect", st->ms_connect, 3);
     cli_json_num(j, "ms_base", st->ms_base, 3);

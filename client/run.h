@@ -33,6 +33,7 @@ typedef struct mts_client_run {
     double distance;      /* --distance: the camera at this times the framing distance */
     int verify;           /* --verify */
     const char *model_file; /* --model-file: what --verify compares with */
+    int no_colors;        /* --no-colors: grey where the stream has colours */
     /* the run's */
     uint32_t next_png;    /* index into png_levels */
     mts_render_context *ctx;
@@ -66,7 +67,8 @@ int mts_client_run_policy_stop(mts_session_options *so, const mts_client_run *rn
 
 /* The view of c's model at its base mesh (rn->view, rn->have_view) with
  * the run's options; vo NULL for the view's defaults. Flat shading where the
- * stream has no normals. 0 on failure (rn->err, rn->failed). */
+ * stream has no normals; the stream's colours unless --no-colors. 0 on
+ * failure (rn->err, rn->failed). */
 int mts_client_run_make_view(mts_client_run *rn, mts_stream_client *c,
                              const mts_view_options *vo);
 
@@ -104,8 +106,10 @@ void mts_client_run_json_head(cli_json *j, const mts_client_run *rn,
                               const mts_stream_client *c, int complete, uint64_t bytes);
 
 /* The --json keys both runs write after those of their own: the triangles,
- * the checksum (once END came), reconnects, the session's times, the render
- * time, and what went to GL over the run beside the final buffers. */
+ * the checksum (once END came), whether the model's colours were drawn
+ * (colors: the stream carried them and --no-colors did not turn them off),
+ * reconnects, the session's times, the render time, and what went to GL
+ * over the run beside the final buffers. */
 void mts_client_run_json(cli_json *j, const mts_stream_client *c, const mts_session_stats *st,
                          const mts_client_run *rn);
 

@@ -21,8 +21,12 @@ mts_result mts_view_create(mts_view *v, mts_render_context *ctx, const mts_rende
         return rc;
     mts_render_layout layout;
     mts_render_layout_from_lod(src->lod, &layout);
+    if (opts && opts->no_colors)
+        layout.colors = 0;
     if ((rc = mts_renderer_create(ctx, ro, &layout, &v->renderer, err)) != MTS_OK)
         mts_view_free(v);
+    else
+        v->colors = layout.colors;
     return rc;
 }
 
@@ -52,16 +56,21 @@ mts_result mts_view_sync(mts_view *v, const mts_follow_source *src, uint32_t lev
     /* the vertices go up first: the strips and the morph's range use them */
     if (ch.vertex_count) {
         const mts_model *m = src->model;
+        /* a model that says it has colours and holds none is refused by
+         * the renderer rather than drawn from an unfilled buffer */
+        const uint8_t *colors =
+            v->colors && m->colors ? m->colors + 3 * (size_t)ch.vertex_first : NULL;
         mts_result vrc = mts_render_append_vertices(
             v->renderer, ch.vertex_first, ch.vertex_count,
             m->positions + 3 * (size_t)ch.vertex_first, m->normals + 3 * (size_t)ch.vertex_first,
-            err);
+            colors, err);
         if (vrc != MTS_OK)
             return vrc;
     }
     if (ch.morph_range && rc == MTS_OK)
         rc = mts_render_set_morph(v->renderer, f->morph.first, f->morph.count, f->morph.from,
-                                  f->morph.from + 3 * (size_t)f->morph.count, err);
+                                  f->morph.from + 3 * (size_t)f->morph.count,
+                                  v->colors ? f->morph.from_colors : NULL, err);
     mts_render_set_morph_t(v->renderer, f->morph.t);
     if (rc != MTS_OK || !ch.strips)
         return rc;

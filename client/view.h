@@ -25,17 +25,21 @@
 typedef struct mts_view_options {
     int own_runtime; /* follow.h's; 0 draws the source's runtime */
     double morph_ms; /* geomorph time; 0 (the default): levels change at once */
+    int no_colors;   /* grey even where the model has colours */
 } mts_view_options;
 
 typedef struct mts_view {
     mts_renderer *renderer;
     mts_follow follow; /* .lod the runtime drawn, .shown its figures, .morph */
     int wireframe;
+    int colors; /* the renderer draws the model's colours (MTS_MODEL_COLORS) */
 } mts_view;
 
 /* Creates the renderer for the source's model (mts_render_layout_from_lod
- * of src->lod) on ctx with ro, and the follower (mts_follow_init). The view
- * struct is the caller's; zero it or let this fill it. */
+ * of src->lod: with the model's colours where it has them and
+ * opts->no_colors does not say otherwise) on ctx with ro, and the follower
+ * (mts_follow_init). The view struct is the caller's; zero it or let this
+ * fill it. */
 mts_result mts_view_create(mts_view *v, mts_render_context *ctx, const mts_render_options *ro,
                            const mts_follow_source *src, const mts_view_options *opts,
                            mts_error *err);

@@ -139,7 +139,7 @@ static void test_follow_view_and_page_agree(mts_test *t)
     memset(&ro, 0, sizeof ro);
     ro.width = ro.height = 128;
     mts_view v;
-    mts_view_options vo = {1, 0};
+    mts_view_options vo = {1, 0, 0};
     mts_follow_source src = mts_follow_source_of_stream(&c);
     if (!w || !c.have_lod || mts_view_create(&v, g_ctx, &ro, &src, &vo, &err) != MTS_OK) {
         CHECKF(t, 0, "view: %s", err.msg);

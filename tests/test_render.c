@@ -130,9 +130,12 @@ static mts_renderer *renderer_for(mts_test *t, mts_lod *lod, const mts_render_op
         return NULL;
     const mts_model *m = lod->model;
     uint32_t nb = m->base_vertex_count;
-    CHECK(t, mts_render_append_vertices(r, 0, nb, m->positions, m->normals, &err) == MTS_OK);
+    /* the model's colours where it has them (the layout says so then) */
+    CHECK(t, mts_render_append_vertices(r, 0, nb, m->positions, m->normals, m->colors, &err) ==
+                 MTS_OK);
     CHECK(t, mts_render_append_vertices(r, nb, m->vertex_count - nb, m->positions + 3u * nb,
-                                        m->normals + 3u * nb, &err) == MTS_OK);
+                                        m->normals + 3u * nb,
+                                        m->colors ? m->colors + 3u * nb : NULL, &err) == MTS_OK);
     CHECK(t, mts_render_vertex_count(r) == m->vertex_count);
     rc = mts_render_update_strips(r, lod, &err);
     CHECKF(t, rc == MTS_OK, "update: %s", err.msg);
@@ -166,7 +169,7 @@ static mts_renderer *renderer_for_triangles(mts_test *t, const mts_render_option
     if (rc != MTS_OK)
         return NULL;
     CHECK(t, mts_render_append_vertices(r, 0, g_mesh.vertex_count, g_mesh.positions,
-                                        g_mesh.normals, &err) == MTS_OK);
+                                        g_mesh.normals, NULL, &err) == MTS_OK);
     for (uint32_t i = 0; i < count && !t->case_failed; i++) {
         uint32_t tri[3] = {tris[3 * i], tris[3 * i + 1], tris[3 * i + 2]};
         if (flip) {
@@ -400,7 +403,7 @@ static void test_flat_shading(mts_test *t)
     mts_render_set_style(r, &flat.style);
     if (!draw_and_read(t, r, &f[1], "cow_flat"))
         goto done;
-    CHECK(t, mts_render_append_vertices(r, 0, g_mesh.vertex_count, g_mesh.positions, zero,
+    CHECK(t, mts_render_append_vertices(r, 0, g_mesh.vertex_count, g_mesh.positions, zero, NULL,
                                         &err) == MTS_OK);
     if (!draw_and_read(t, r, &f[2], NULL))
         goto done;
@@ -464,7 +467,7 @@ static void test_restart_runs_draw_nothing(mts_test *t)
     if (!tight)
         goto done;
     CHECK(t, mts_render_append_vertices(tight, 0, g_cow.vertex_count, g_cow.positions,
-                                        g_cow.normals, &err) == MTS_OK);
+                                        g_cow.normals, NULL, &err) == MTS_OK);
     for (uint32_t s = 0; s < g_cow.strip_count; s++) {
         uint32_t len;
         const uint32_t *idx = mts_lod_strip(&c.lod, s, &len);
@@ -683,7 +686,7 @@ static void test_all_modes_same_picture(mts_test *t)
     if (!ok || !r[1] || !list || t->case_failed)
         goto done;
     CHECK(t, mts_render_append_vertices(r[1], 0, g_cow.vertex_count, g_cow.positions,
-                                        g_cow.normals, &err) == MTS_OK);
+                                        g_cow.normals, NULL, &err) == MTS_OK);
     for (uint32_t s = 0; s < c.lod.strip_count; s++) { /* renderer_for cleared the changes */
         uint32_t len;
         const uint32_t *str = mts_lod_strip(&c.lod, s, &len);
@@ -875,16 +878,16 @@ static void test_errors(mts_test *t)
         goto done;
     uint32_t nb = g_cow.base_vertex_count;
     /* a gap, then past the capacity */
-    CHECK(t, mts_render_append_vertices(r, 1, 1, g_cow.positions, g_cow.normals, &err) ==
+    CHECK(t, mts_render_append_vertices(r, 1, 1, g_cow.positions, g_cow.normals, NULL, &err) ==
                  MTS_ERR_RANGE);
     CHECK(t, mts_render_append_vertices(r, 0, g_cow.vertex_count + 1, g_cow.positions,
-                                        g_cow.normals, &err) == MTS_ERR_RANGE);
+                                        g_cow.normals, NULL, &err) == MTS_ERR_RANGE);
     CHECK(t, mts_render_vertex_count(r) == 0);
-    CHECK(t, mts_render_append_vertices(r, 0, nb, g_cow.positions, g_cow.normals, &err) ==
+    CHECK(t, mts_render_append_vertices(r, 0, nb, g_cow.positions, g_cow.normals, NULL, &err) ==
                  MTS_OK);
     /* sending a range again is fine */
     CHECK(t, mts_render_append_vertices(r, nb / 2, nb - nb / 2, g_cow.positions + 3 * (nb / 2),
-                                        g_cow.normals + 3 * (nb / 2), &err) == MTS_OK);
+                                        g_cow.normals + 3 * (nb / 2), NULL, &err) == MTS_OK);
     CHECK(t, mts_render_vertex_count(r) == nb);
 
     CHECKF(t, mts_render_update_strips(r, &lod, &err) == MTS_OK, "%s", err.msg);
@@ -900,7 +903,7 @@ static void test_errors(mts_test *t)
     CHECK(t, st.index_bytes_uploaded == 0 && st.strip_uploads == 0);
     /* once the vertices are there it goes through */
     CHECK(t, mts_render_append_vertices(r, nb, 10, g_cow.positions + 3 * nb,
-                                        g_cow.normals + 3 * nb, &err) == MTS_OK);
+                                        g_cow.normals + 3 * nb, NULL, &err) == MTS_OK);
     CHECKF(t, mts_render_update_strips(r, &lod, &err) == MTS_OK, "%s", err.msg);
 
     uint32_t idx[4] = {0, 1, 2, nb + 10};

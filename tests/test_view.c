@@ -82,7 +82,7 @@ static int reference_frame(mts_test *t, uint32_t level, frame *f)
     int ok = mts_lod_set_level(&lod, level, &err) == MTS_OK &&
              mts_renderer_create(g_ctx, &o, &layout, &r, &err) == MTS_OK &&
              mts_render_append_vertices(r, 0, g_cow.vertex_count, g_cow.positions,
-                                        g_cow.normals, &err) == MTS_OK &&
+                                        g_cow.normals, NULL, &err) == MTS_OK &&
              mts_render_update_strips(r, &lod, &err) == MTS_OK &&
              mts_render_draw(r, &err) == MTS_OK && mts_render_read_rgba(r, f->px, &err) == MTS_OK;
     CHECKF(t, ok, "reference at level %u: %s", level, err.msg);
@@ -107,7 +107,7 @@ static void test_view_levels(mts_test *t)
     for (int own = 0; own < 2; own++) {
         mts_view v;
         const mts_follow *vf = &v.follow; /* the level drawn, its figures, the morph */
-        mts_view_options vo = {own, 0};
+        mts_view_options vo = {own, 0, 0};
         CHECKF(t, mts_view_create(&v, g_ctx, &o, &src, &vo, &err) == MTS_OK, "%s", err.msg);
         for (int i = 0; i < 4; i++) {
             uint32_t l = levels[i];
@@ -138,7 +138,7 @@ static void test_view_levels(mts_test *t)
     }
     /* geomorphs need a runtime of the view's own */
     mts_view v;
-    mts_view_options bad = {0, 100};
+    mts_view_options bad = {0, 100, 0};
     CHECK(t, mts_view_create(&v, g_ctx, &o, &src, &bad, &err) == MTS_ERR_ARG);
     mts_lod_free(&src_lod);
 }
@@ -160,7 +160,7 @@ static void test_view_follows_growing_source(mts_test *t)
     options(&o);
     mts_view v;
     const mts_follow *vf = &v.follow; /* the level drawn, its figures, the morph */
-    mts_view_options vo = {1, 0};
+    mts_view_options vo = {1, 0, 0};
     CHECKF(t, mts_view_create(&v, g_ctx, &o, &src, &vo, &err) == MTS_OK, "%s", err.msg);
     for (uint32_t step = 0; step <= 4; step++) {
         uint32_t have = n * step / 4;
@@ -204,7 +204,7 @@ static void test_view_morph(mts_test *t)
     options(&o);
     mts_view v;
     const mts_follow *vf = &v.follow; /* the level drawn, its figures, the morph */
-    mts_view_options vo = {1, 100};
+    mts_view_options vo = {1, 100, 0};
     CHECKF(t, mts_view_create(&v, g_ctx, &o, &src, &vo, &err) == MTS_OK, "%s", err.msg);
     /* base -> a, to its end */
     CHECK(t, mts_view_sync(&v, &src, a, 0, &err) == MTS_OK && vf->morph.active &&

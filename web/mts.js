@@ -78,7 +78,7 @@
     // as the native renderer: a plain program, and one that morphs a range
     prog = [0, 1].map((morph) => {
       const p = gl.createProgram();
-      const head = `#version 300 es\n#define MORPH ${morph}\n`;
+      const head = `#version 300 es\n#define MORPH ${morph}\n#define COLORS 0\n`;
       gl.attachShader(p, sh(gl.VERTEX_SHADER, head + M.UTF8ToString(M._mts_web_shader(0))));
       gl.attachShader(p, sh(gl.FRAGMENT_SHADER, head + M.UTF8ToString(M._mts_web_shader(1))));
       gl.linkProgram(p);
