@@ -212,6 +212,10 @@ class Reader {
     uint64_t cap;
     std::vector<float> pos;
     std::vector<uint32_t> tri;
+    /* 3 per vertex, sRGB, NaN for a primitive without COLOR_0 */
+    std::vector<float> col;
+    bool any_color = false, alpha = false;
+    uint32_t translucent = 0;
     uint32_t primitives = 0, points = 0, lines = 0;
 
     void node(int index, const Mat &parent, std::vector<char> &on_path, int depth);
@@ -219,7 +223,10 @@ class Reader {
   private:
     const unsigned char *view_bytes(int view, size_t offset, size_t count, size_t elem,
                                     size_t stride_given, size_t *stride, const char *what);
+    std::vector<float> read_floats(const tinygltf::Accessor &a, size_t comps, size_t cs,
+                                   bool normalized, const char *what, const std::string &where);
     void read_positions(int acc, const Mat &m, const std::string &where);
+    void read_colors(int acc, size_t nv, const std::string &where);
     void read_indices(int acc, uint32_t vertices, std::vector<uint32_t> &out,
                       const std::string &where);
     void primitive(const tinygltf::Primitive &p, const Mat &m, const std::string &where);
@@ -316,41 +323,73 @@ uint32_t to_index(const unsigned char *p, size_t size)
     return v;
 }
 
+/* glTF's linear-light colour component as the sRGB value an 8-bit colour
+ * stores (IEC 61966-2-1); out-of-range results are clamped by the loader. */
+float linear_to_srgb(float c)
+{
+    return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+}
+
 } // namespace
 
-void Reader::read_positions(int acc, const Mat &m, const std::string &where)
+/* COLOR_0 (VEC3 or VEC4 of float, or normalized unsigned byte or short):
+ * linear, so converted to sRGB; alpha is dropped and counted. */
+void Reader::read_colors(int acc, size_t nv, const std::string &where)
+{
+    const tinygltf::Accessor &a = model.accessors[(size_t)acc]; /* checked by the caller */
+    if (a.type != TINYGLTF_TYPE_VEC3 && a.type != TINYGLTF_TYPE_VEC4)
+        fail(MTS_ERR_FORMAT, where + ": COLOR_0 is not a VEC3 or VEC4 accessor");
+    if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT &&
+        a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+        a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT)
+        fail(MTS_ERR_FORMAT, where + ": COLOR_0 has an unsupported component type " +
+                                 std::to_string(a.componentType));
+    const size_t comps = a.type == TINYGLTF_TYPE_VEC4 ? 4 : 3;
+    /* integer colours are normalized by the spec, whatever the flag says */
+    std::vector<float> v =
+        read_floats(a, comps, component_size(a.componentType), true, "COLOR_0", where);
+    if (v.size() != nv * comps)
+        fail(MTS_ERR_FORMAT, where + ": COLOR_0 count differs from POSITION's");
+    for (size_t i = 0; i < nv; i++) {
+        const float *c = v.data() + i * comps;
+        for (size_t k = 0; k < comps; k++)
+            if (!std::isfinite(c[k]))
+                fail(MTS_ERR_FORMAT, where + ": COLOR_0 of vertex " + std::to_string(i) +
+                                         " is not a finite number (infinite or NaN)");
+        for (int k = 0; k < 3; k++)
+            col.push_back(linear_to_srgb(c[k]));
+        if (comps == 4) {
+            alpha = true;
+            translucent += c[3] < 1.0f && translucent < UINT32_MAX;
+        }
+    }
+    any_color = true;
+}
+
+/* The values of accessor a, comps per element, as floats (normalized
+ * integers mapped to 0..1 or -1..1), sparse values applied; every offset
+ * and count checked. */
+std::vector<float> Reader::read_floats(const tinygltf::Accessor &a, size_t comps, size_t cs,
+                                       bool normalized, const char *what,
+                                       const std::string &where)
 {
     const char *w = where.c_str();
-    if (acc < 0 || (size_t)acc >= model.accessors.size())
-        fail(MTS_ERR_RANGE, where + ": POSITION accessor " + std::to_string(acc) +
-                                " out of range (" + std::to_string(model.accessors.size()) +
-                                " defined)");
-    const tinygltf::Accessor &a = model.accessors[(size_t)acc];
-    if (a.type != TINYGLTF_TYPE_VEC3)
-        fail(MTS_ERR_FORMAT, where + ": POSITION is not a VEC3 accessor");
-    size_t cs = component_size(a.componentType);
-    if (!cs || a.componentType == TINYGLTF_COMPONENT_TYPE_INT ||
-        a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
-        fail(MTS_ERR_FORMAT, where + ": POSITION has an unsupported component type " +
-                                 std::to_string(a.componentType));
-    if (a.count > MTS__MESH_MAX_COUNT)
-        fail(MTS_ERR_LIMIT, where + ": POSITION count over the limit");
     std::vector<float> v;
     if (a.bufferView >= 0) {
         size_t stride;
         const unsigned char *p =
-            view_bytes(a.bufferView, a.byteOffset, a.count, 3 * cs,
+            view_bytes(a.bufferView, a.byteOffset, a.count, comps * cs,
                        model.bufferViews[(size_t)a.bufferView].byteStride, &stride, w);
-        v.resize(a.count * 3);
+        v.resize(a.count * comps);
         for (size_t i = 0; i < a.count; i++)
-            for (int c = 0; c < 3; c++)
-                v[i * 3 + c] = to_float(p + i * stride + c * cs, a.componentType, a.normalized);
+            for (size_t c = 0; c < comps; c++)
+                v[i * comps + c] = to_float(p + i * stride + c * cs, a.componentType, normalized);
     } else {
         /* all zeros but for sparse values: bounded by the bytes that could
          * say anything about them */
-        if (!a.sparse.isSparse || a.count > (uint64_t)cap / 12)
-            fail(MTS_ERR_FORMAT, where + ": POSITION accessor has no buffer view");
-        v.assign(a.count * 3, 0.0f);
+        if (!a.sparse.isSparse || a.count > (uint64_t)cap / (4 * comps))
+            fail(MTS_ERR_FORMAT, where + ": " + what + " accessor has no buffer view");
+        v.assign(a.count * comps, 0.0f);
     }
     if (a.sparse.isSparse) {
         if (a.sparse.count < 0 || (size_t)a.sparse.count > a.count)
@@ -370,7 +409,7 @@ void Reader::read_positions(int acc, const Mat &m, const std::string &where)
                                              (size_t)a.sparse.indices.byteOffset, n, is, 0,
                                              &istride, w);
         const unsigned char *vp = view_bytes(a.sparse.values.bufferView,
-                                             (size_t)a.sparse.values.byteOffset, n, 3 * cs, 0,
+                                             (size_t)a.sparse.values.byteOffset, n, comps * cs, 0,
                                              &vstride, w);
         for (size_t k = 0; k < n; k++) {
             uint32_t i = to_index(ip + k * istride, is);
@@ -378,11 +417,31 @@ void Reader::read_positions(int acc, const Mat &m, const std::string &where)
                 fail(MTS_ERR_RANGE, where + ": sparse index " + std::to_string(i) +
                                         " out of range (" + std::to_string(a.count) +
                                         " elements)");
-            for (int c = 0; c < 3; c++)
-                v[(size_t)i * 3 + c] =
-                    to_float(vp + k * vstride + c * cs, a.componentType, a.normalized);
+            for (size_t c = 0; c < comps; c++)
+                v[(size_t)i * comps + c] =
+                    to_float(vp + k * vstride + c * cs, a.componentType, normalized);
         }
     }
+    return v;
+}
+
+void Reader::read_positions(int acc, const Mat &m, const std::string &where)
+{
+    if (acc < 0 || (size_t)acc >= model.accessors.size())
+        fail(MTS_ERR_RANGE, where + ": POSITION accessor " + std::to_string(acc) +
+                                " out of range (" + std::to_string(model.accessors.size()) +
+                                " defined)");
+    const tinygltf::Accessor &a = model.accessors[(size_t)acc];
+    if (a.type != TINYGLTF_TYPE_VEC3)
+        fail(MTS_ERR_FORMAT, where + ": POSITION is not a VEC3 accessor");
+    size_t cs = component_size(a.componentType);
+    if (!cs || a.componentType == TINYGLTF_COMPONENT_TYPE_INT ||
+        a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        fail(MTS_ERR_FORMAT, where + ": POSITION has an unsupported component type " +
+                                 std::to_string(a.componentType));
+    if (a.count > MTS__MESH_MAX_COUNT)
+        fail(MTS_ERR_LIMIT, where + ": POSITION count over the limit");
+    std::vector<float> v = read_floats(a, 3, cs, a.normalized, "POSITION", where);
     for (size_t i = 0; i < a.count; i++) {
         double x = v[i * 3], y = v[i * 3 + 1], z = v[i * 3 + 2];
         if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
@@ -473,6 +532,11 @@ void Reader::primitive(const tinygltf::Primitive &p, const Mat &m, const std::st
         fail(MTS_ERR_LIMIT, where + ": the flattened mesh grows over the size cap (" +
                                 std::to_string(cap) + " bytes, --max-mesh-bytes)");
     read_positions(pacc, m, where);
+    auto ci = p.attributes.find("COLOR_0");
+    if (ci != p.attributes.end())
+        read_colors(ci->second, nv, where);
+    else
+        col.insert(col.end(), nv * 3, std::nanf(""));
     std::vector<uint32_t> idx;
     if (p.indices >= 0) {
         read_indices(p.indices, (uint32_t)nv, idx, where);
@@ -587,6 +651,7 @@ extern "C" void mts_gltf_mesh_free(mts_gltf_mesh *m)
         return;
     free(m->positions);
     free(m->triangles);
+    free(m->colors);
     *m = mts_gltf_mesh{};
 }
 
@@ -704,6 +769,16 @@ extern "C" mts_result mts_gltf_read(const char *name, const void *data, size_t s
         }
         memcpy(out->positions, R.pos.data(), R.pos.size() * sizeof(float));
         memcpy(out->triangles, R.tri.data(), R.tri.size() * sizeof(uint32_t));
+        if (R.any_color) {
+            out->colors = static_cast<float *>(malloc(R.col.size() * sizeof(float)));
+            if (!out->colors) {
+                mts_gltf_mesh_free(out);
+                fail(MTS_ERR_NOMEM, "out of memory");
+            }
+            memcpy(out->colors, R.col.data(), R.col.size() * sizeof(float));
+            out->colors_alpha = R.alpha;
+            out->colors_translucent = R.translucent;
+        }
         out->primitives = R.primitives;
         out->point_primitives = R.points;
         out->line_primitives = R.lines;

@@ -5,7 +5,8 @@
  * The default scene's (else the first scene's, else every root node's)
  * meshes are flattened into one mesh in world space, each node's transform
  * (matrix, or translation * rotation * scale) applied. TRIANGLES,
- * TRIANGLE_STRIP and TRIANGLE_FAN primitives become triangles; POINTS and
+ * TRIANGLE_STRIP and TRIANGLE_FAN primitives become triangles, with
+ * their COLOR_0 when they have one; POINTS and
  * LINES primitives have no surface and are skipped and counted. Positions
  * are float or normalized integer VEC3; indices 8, 16 or 32-bit; sparse
  * accessors are applied. Every accessor, buffer view and index is checked
@@ -30,6 +31,12 @@ extern "C" {
  * mts_gltf_mesh_free), triangle indices < vertex_count. */
 typedef struct mts_gltf_mesh {
     float *positions;           /* 3 per vertex, world space */
+    /* 3 per vertex when some primitive has COLOR_0, else NULL: sRGB
+     * (converted from glTF's linear colours) nominally in 0..1, unclamped;
+     * NaN for the vertices of a primitive without COLOR_0 */
+    float *colors;
+    int colors_alpha;             /* some COLOR_0 was VEC4: alpha dropped */
+    uint32_t colors_translucent;  /* vertices whose alpha was below 1 */
     uint32_t vertex_count;
     uint32_t *triangles;        /* 3 per triangle */
     uint32_t triangle_count;

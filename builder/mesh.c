@@ -194,6 +194,50 @@ static mts_result drop_duplicates(uint32_t *tri, uint32_t *count, uint32_t *drop
     return MTS_OK;
 }
 
+/* The kept vertices' colours (raw's, NaN for none) as 8-bit sRGB in
+ * mesh->colors, when every kept vertex has one; a vertex the file left
+ * uncoloured has no right colour to draw, so a mix keeps none and says how
+ * many lacked one (colors_missing) for the caller to warn. Only kept
+ * vertices count: an unreferenced vertex without a colour harms nothing.
+ *
+ * Vertices are carried one for one: cleaning drops faces and unreferenced
+ * vertices but never merges two vertices (only STL's corners are welded,
+ * and STL has no colours). So two vertices at one position with different
+ * colours stay two, as two with different normals do: the colour seam the
+ * file draws is kept, at the price of the crack in connectivity the file
+ * already has there. Welding them would pick one colour and smear it
+ * across the seam, changing what the mesh looks like to mend a
+ * connectivity the file never had. */
+static mts_result take_colors(const float *col, uint32_t used, mts_mesh *mesh,
+                              mts_mesh_stats *st, const char *name, mts_error *err)
+{
+    uint32_t missing = 0;
+    for (size_t v = 0; v < used; v++)
+        missing += isnan(col[v * 3]);
+    if (missing == used)
+        return MTS_OK; /* no kept vertex has a colour: the mesh has none */
+    if (missing) {
+        st->colors_missing = missing;
+        return MTS_OK;
+    }
+    uint8_t *c = malloc((size_t)used * 3 + 1);
+    if (!c)
+        return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for colours", name);
+    uint32_t clamped = 0;
+    for (size_t k = 0; k < (size_t)used * 3; k++) {
+        float x = col[k];
+        if (x < 0.0f || x > 1.0f) {
+            clamped += clamped < UINT32_MAX;
+            x = x < 0.0f ? 0.0f : 1.0f;
+        }
+        c[k] = (uint8_t)lrintf(x * 255.0f);
+    }
+    st->colors_clamped = clamped;
+    st->colors_from_file = 1;
+    mesh->colors = c;
+    return MTS_OK;
+}
+
 /* Turns a parsed raw mesh into the cleaned mesh; takes over raw's arrays. */
 static mts_result clean(mts__mesh_raw *raw, mts_mesh *mesh, mts_mesh_stats *st, mts_error *err)
 {
@@ -264,7 +308,7 @@ static mts_result clean(mts__mesh_raw *raw, mts_mesh *mesh, mts_mesh_stats *st, 
     for (size_t i = 0; i < (size_t)n * 3; i++)
         remap[tri[i]] = 0;
     uint32_t used = 0;
-    float *pos = raw->positions, *nor = raw->normals;
+    float *pos = raw->positions, *nor = raw->normals, *col = raw->colors;
     for (uint32_t v = 0; v < nv; v++) {
         if (remap[v] == UINT32_MAX)
             continue;
@@ -272,8 +316,12 @@ static mts_result clean(mts__mesh_raw *raw, mts_mesh *mesh, mts_mesh_stats *st, 
         memmove(pos + (size_t)used * 3, pos + (size_t)v * 3, 3 * sizeof *pos);
         if (nor)
             memmove(nor + (size_t)used * 3, nor + (size_t)v * 3, 3 * sizeof *nor);
+        if (col)
+            memmove(col + (size_t)used * 3, col + (size_t)v * 3, 3 * sizeof *col);
         used++;
     }
+    if (col && (r = take_colors(col, used, mesh, st, name, err)) != MTS_OK)
+        goto done;
     for (size_t i = 0; i < (size_t)n * 3; i++)
         tri[i] = remap[tri[i]];
     st->unreferenced_vertices = nv - used;
@@ -378,6 +426,9 @@ static mts_result read_gltf(mts__mesh_raw *raw, const char *data, size_t size, c
         return r;
     raw->positions = g.positions;
     raw->triangles = g.triangles;
+    raw->colors = g.colors;
+    raw->stats->colors_alpha = g.colors_alpha;
+    raw->stats->colors_translucent = g.colors_translucent;
     raw->vertex_count = raw->vertex_capacity = g.vertex_count;
     raw->triangle_count = raw->triangle_capacity = g.triangle_count;
     raw->obj_points = g.point_primitives;
@@ -432,6 +483,13 @@ static mts_result load_memory(const char *name, const void *data, size_t size,
     default: r = mts__mesh_read_stl(&raw, data, size, err); break;
     }
     st->format = format;
+    if (opts && opts->no_colors) {
+        /* dropped before cleaning looks at them: nothing to count or warn of */
+        free(raw.colors);
+        raw.colors = NULL;
+        st->colors_alpha = 0;
+        st->colors_translucent = 0;
+    }
     if (r == MTS_OK)
         r = clean(&raw, mesh, st, err);
     if (r != MTS_OK)

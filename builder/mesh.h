@@ -7,7 +7,10 @@
  *   - vertices no kept face references are dropped and the rest renumbered
  *     in their original order;
  *   - normals come from the file when it has per-vertex normals, else they are
- *     area-weighted face normals.
+ *     area-weighted face normals;
+ *   - colours come from the file when every kept vertex has one, as 8-bit
+ *     sRGB (glTF's linear colours converted), out-of-range values clamped
+ *     and counted, alpha dropped; a non-finite colour is refused.
  * STL has no shared vertices, so identical positions are welded first. */
 #ifndef MTS_MESH_H
 #define MTS_MESH_H
@@ -59,6 +62,18 @@ typedef struct mts_mesh_stats {
     uint32_t first_skipped_header_line; /* its 1-based line number, when there is one */
     /* glTF POINTS and LINES primitives: no surface, skipped */
     uint32_t skipped_primitives;
+    /* Vertex colours (PLY red green blue [alpha], OBJ "v x y z r g b",
+     * COFF, glTF COLOR_0), stored as 8-bit sRGB in mesh.colors. */
+    int colors_from_file;          /* 1 when the mesh keeps the file's colours */
+    int colors_alpha;              /* 1 when they came with alpha, which is dropped:
+                                    * the model is drawn opaque */
+    uint32_t colors_translucent;   /* vertices whose dropped alpha was below opaque */
+    uint32_t colors_clamped;       /* colour components outside their range, clamped */
+    /* Kept vertices without a colour in a file where others have one (OBJ
+     * may mix "v x y z" and "v x y z r g b", glTF primitives with and
+     * without COLOR_0): the mesh then has no colours at all, since a
+     * vertex of no colour has no right one to draw; the caller warns. */
+    uint32_t colors_missing;
 } mts_mesh_stats;
 
 /* The default size cap of a mesh file (mts_mesh_options.max_bytes). */
@@ -68,6 +83,7 @@ typedef struct mts_mesh_stats {
 typedef struct mts_mesh_options {
     mts_mesh_format format; /* MTS_MESH_AUTO by default */
     uint64_t max_bytes;     /* a larger file or buffer is refused; 0: 4 GiB */
+    int no_colors;          /* 1: the file's vertex colours are not kept (nor counted) */
 } mts_mesh_options;
 
 /* Reads and cleans a mesh file. On failure the message names the file and the

@@ -23,9 +23,11 @@ void mts__mesh_raw_free(mts__mesh_raw *raw)
 {
     free(raw->positions);
     free(raw->normals);
+    free(raw->colors);
     free(raw->triangles);
     raw->positions = NULL;
     raw->normals = NULL;
+    raw->colors = NULL;
     raw->triangles = NULL;
     raw->vertex_count = raw->vertex_capacity = 0;
     raw->triangle_count = raw->triangle_capacity = 0;
@@ -66,11 +68,49 @@ static mts_result raw_reserve_vertices(mts__mesh_raw *raw, uint64_t need, int wi
                (size_t)(cap - raw->vertex_capacity) * 3 * sizeof *n);
         raw->normals = n;
     }
+    if (raw->colors) {
+        float *c = realloc(raw->colors, (size_t)cap * 3 * sizeof *c);
+        if (!c)
+            goto nomem;
+        for (size_t i = (size_t)raw->vertex_capacity * 3; i < (size_t)cap * 3; i++)
+            c[i] = NAN;
+        raw->colors = c;
+    }
     raw->vertex_capacity = (uint32_t)cap;
     return MTS_OK;
 nomem:
     return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for %llu vertices", raw->name,
                          (unsigned long long)cap);
+}
+
+/* Starts the colour array (every vertex so far without a colour, NaN);
+ * raw_reserve_vertices grows it from then on. */
+static mts_result raw_enable_colors(mts__mesh_raw *raw, mts_error *err)
+{
+    if (raw->colors)
+        return MTS_OK;
+    size_t cap = raw->vertex_capacity ? raw->vertex_capacity : 1;
+    raw->colors = malloc(cap * 3 * sizeof *raw->colors);
+    if (!raw->colors)
+        return mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory for colours", raw->name);
+    for (size_t i = 0; i < cap * 3; i++)
+        raw->colors[i] = NAN;
+    return MTS_OK;
+}
+
+/* Vertex i's colour from 3 values in 0..scale (1 for floats, 255 for
+ * bytes), and its alpha when there is one (a < 0: none). */
+static void raw_set_color(mts__mesh_raw *raw, uint32_t i, const double rgb[3], double alpha,
+                          double scale)
+{
+    float *c = raw->colors + (size_t)i * 3;
+    for (int k = 0; k < 3; k++)
+        c[k] = (float)(rgb[k] / scale);
+    if (alpha >= 0) {
+        mts_mesh_stats *st = raw->stats;
+        st->colors_alpha = 1;
+        st->colors_translucent += alpha < scale && st->colors_translucent < UINT32_MAX;
+    }
 }
 
 static mts_result raw_reserve_triangles(mts__mesh_raw *raw, uint64_t need, mts_error *err)
@@ -816,6 +856,93 @@ static mts_result off_binary(mts__mesh_raw *raw, const off_flags *fl, const unsi
     return MTS_OK;
 }
 
+/* A colour value at t->p (the caller has skipped blanks and checked there
+ * is one) of vertex i. Returns 1 with *out set, 0 at a token that is no
+ * number (the readers always ignored what follows a vertex, and still do:
+ * that vertex has no colour), and -1 with err set for a value written as
+ * a non-finite number ("nan", "inf", or one past a float's range), which
+ * is refused naming the vertex. */
+static int text_color_value(text *t, uint32_t i, float *out, mts_error *err)
+{
+    const char *s = t->p;
+    int r = mts__mesh_scan_float(&s, t->end, out);
+    if (r == 0 && token_ends(t, s)) {
+        t->p = s;
+        return 1;
+    }
+    s = t->p + (t->p < t->end && (*t->p == '+' || *t->p == '-'));
+    int nonfinite = r == -2;
+    if (t->end - s >= 3)
+        nonfinite |= ((s[0] | 0x20) == 'n' && (s[1] | 0x20) == 'a' && (s[2] | 0x20) == 'n') ||
+                     ((s[0] | 0x20) == 'i' && (s[1] | 0x20) == 'n' && (s[2] | 0x20) == 'f');
+    if (!nonfinite)
+        return 0;
+    mts_error_set(err, MTS_ERR_FORMAT,
+                  "%s: line %llu: vertex %u: a colour value is not a finite number", t->name,
+                  (unsigned long long)t->line, i);
+    return -1;
+}
+
+/* What the colours of an ASCII COFF file look like so far. Geomview's
+ * spec says 4 floats in 0..1; MeshLab, OpenMesh and most converters write
+ * integers in 0..255. The file decides, once all are read: integers of
+ * which some pass 1 are 0..255, anything else 0..1. */
+typedef struct off_color_scan {
+    int over_one;      /* some value > 1 */
+    int integral;      /* every value an integer */
+    uint32_t below_1;  /* alphas below 1 (translucent if the scale is 1) */
+    uint32_t below_255; /* and below 255 */
+} off_color_scan;
+
+/* The rest of vertex i's line after x y z [normal]: [r g b [a]] [s t].
+ * A vertex with anything else there (nothing, or one colour-map index,
+ * which needs a map OFF files do not carry) has no colour. */
+static mts_result off_vertex_color(text *t, mts__mesh_raw *raw, const off_flags *fl, uint32_t i,
+                                   off_color_scan *oc, mts_error *err)
+{
+    float x[8];
+    unsigned n = 0;
+    for (;;) {
+        text_blank(t);
+        if (text_eol(t) || n == 8)
+            break;
+        int got = text_color_value(t, i, &x[n], err);
+        if (got < 0)
+            return MTS_ERR_FORMAT;
+        if (got == 0)
+            return MTS_OK;
+        n++;
+    }
+    unsigned nc = fl->texcoords && n >= 2 ? n - 2 : n;
+    if (nc != 3 && nc != 4)
+        return MTS_OK;
+    mts_result r = raw_enable_colors(raw, err);
+    if (r != MTS_OK)
+        return r;
+    for (unsigned c = 0; c < nc; c++) {
+        oc->over_one |= x[c] > 1;
+        oc->integral &= x[c] == floorf(x[c]);
+    }
+    memcpy(raw->colors + (size_t)i * 3, x, 3 * sizeof *x);
+    if (nc == 4) {
+        raw->stats->colors_alpha = 1;
+        oc->below_1 += x[3] < 1;
+        oc->below_255 += x[3] < 255;
+    }
+    return MTS_OK;
+}
+
+static void off_colors_scale(mts__mesh_raw *raw, const off_color_scan *oc)
+{
+    if (!raw->colors)
+        return;
+    const int bytes = oc->over_one && oc->integral;
+    if (bytes)
+        for (size_t k = 0; k < (size_t)raw->vertex_count * 3; k++)
+            raw->colors[k] /= 255.0f; /* NaN stays NaN */
+    raw->stats->colors_translucent = bytes ? oc->below_255 : oc->below_1;
+}
+
 mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err)
 {
     text t = {data + bom_length(data, size), data + size, 1, 1, raw->name};
@@ -883,6 +1010,7 @@ mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size,
         return r;
 
     const unsigned values = normals ? 6 : 3;
+    off_color_scan oc = {0, 1, 0, 0};
     for (uint32_t i = 0; i < nv; i++) {
         text_space(&t);
         if (text_eof(&t))
@@ -905,9 +1033,13 @@ mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size,
         if (normals)
             memcpy(raw->normals + (size_t)i * 3, v + 3, 3 * sizeof *v);
         raw->vertex_count = i + 1;
-        text_next_line(&t); /* colours, texture coordinates */
+        if (fl.colors && (r = off_vertex_color(&t, raw, &fl, i, &oc, err)) != MTS_OK)
+            return r;
+        text_next_line(&t); /* texture coordinates */
     }
     st->file_vertices = nv;
+    if (fl.colors)
+        off_colors_scale(raw, &oc);
 
     for (uint32_t f = 0; f < nf; f++) {
         text_space(&t);
@@ -1024,6 +1156,32 @@ mts_result mts__mesh_read_obj(mts__mesh_raw *raw, const char *data, size_t size,
                 (r = obj_floats(&t, raw->positions + (size_t)i * 3, 3, "v", err)) != MTS_OK)
                 goto done;
             raw->vertex_count = i + 1;
+            /* after x y z: nothing, w (rational curves' weight, no colour),
+             * or the common extension r g b in 0..1 (MeshLab, ZBrush,
+             * Blender), which some write with a fourth, alpha */
+            float x[5];
+            unsigned n = 0;
+            for (;;) {
+                text_blank(&t);
+                if (text_eol(&t) || n == 5)
+                    break;
+                int got = text_color_value(&t, i, &x[n], err);
+                if (got < 0) {
+                    r = MTS_ERR_FORMAT;
+                    goto done;
+                }
+                if (got == 0) {
+                    n = 0;
+                    break;
+                }
+                n++;
+            }
+            if (n == 3 || n == 4) {
+                if ((r = raw_enable_colors(raw, err)) != MTS_OK)
+                    goto done;
+                const double rgb[3] = {x[0], x[1], x[2]};
+                raw_set_color(raw, i, rgb, n == 4 ? fmax(0.0, x[3]) : -1.0, 1.0);
+            }
         } else if (word_is(w, wn, "vn")) {
             if (vn_count == vn_capacity) {
                 if (vn_count >= MTS__MESH_MAX_COUNT) {
@@ -1128,7 +1286,21 @@ done:
 enum ply_type { PLY_NONE, PLY_I8, PLY_U8, PLY_I16, PLY_U16, PLY_I32, PLY_U32, PLY_F32, PLY_F64 };
 static const unsigned ply_size[] = {0, 1, 1, 2, 2, 4, 4, 4, 8};
 
-enum ply_role { ROLE_SKIP, ROLE_X, ROLE_Y, ROLE_Z, ROLE_NX, ROLE_NY, ROLE_NZ, ROLE_INDICES };
+enum ply_role {
+    ROLE_SKIP,
+    ROLE_X,
+    ROLE_Y,
+    ROLE_Z,
+    ROLE_NX,
+    ROLE_NY,
+    ROLE_NZ,
+    ROLE_INDICES,
+    ROLE_RED,
+    ROLE_GREEN,
+    ROLE_BLUE,
+    ROLE_ALPHA,
+    ROLE_COUNT
+};
 enum ply_kind { ELEM_OTHER, ELEM_VERTEX, ELEM_FACE };
 enum ply_format { PLY_ASCII, PLY_LE, PLY_BE };
 
@@ -1308,6 +1480,15 @@ static mts_result ply_header(ply *P, mts__mesh_raw *raw, mts_error *err)
                 for (int c = 0; c < 6; c++)
                     if (word_is(pn, pnn, coords[c]))
                         prop.role = (uint8_t)(ROLE_X + c);
+                /* the names MeshLab, Blender, Open3D and CloudCompare write
+                 * ("diffuse_" from some scanners' software) */
+                static const char *const colors[2][4] = {
+                    {"red", "green", "blue", "alpha"},
+                    {"diffuse_red", "diffuse_green", "diffuse_blue", "diffuse_alpha"}};
+                for (int n = 0; n < 2; n++)
+                    for (int c = 0; c < 4; c++)
+                        if (word_is(pn, pnn, colors[n][c]))
+                            prop.role = (uint8_t)(ROLE_RED + c);
             } else if (cur->kind == ELEM_FACE &&
                        (word_is(pn, pnn, "vertex_indices") || word_is(pn, pnn, "vertex_index"))) {
                 if (!is_list)
@@ -1489,7 +1670,9 @@ mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size,
     P->body = P->t.p;
 
     ply_elem *vert = NULL, *face = NULL;
-    int has_xyz[3] = {0, 0, 0}, has_n[3] = {0, 0, 0}, has_indices = 0;
+    int has_xyz[3] = {0, 0, 0}, has_n[3] = {0, 0, 0}, has_rgba[4] = {0, 0, 0, 0},
+        has_indices = 0;
+    double color_scale[4] = {1, 1, 1, 1};
     for (uint32_t e = 0; e < P->elem_count; e++) {
         ply_elem *el = &P->elems[e];
         uint64_t min = 0;
@@ -1504,7 +1687,17 @@ mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size,
                 has_xyz[pr->role - ROLE_X] = 1;
             else if (pr->role >= ROLE_NX && pr->role <= ROLE_NZ)
                 has_n[pr->role - ROLE_NX] = 1;
-            else if (pr->role == ROLE_INDICES)
+            else if (pr->role >= ROLE_RED && pr->role <= ROLE_ALPHA) {
+                /* 8-bit is what PLY writers use; ushort is 16-bit; floats
+                 * are 0..1 (assimp's float-color.ply, Open3D); other
+                 * integer types hold 0..255 where they are written at all */
+                has_rgba[pr->role - ROLE_RED] = 1;
+                color_scale[pr->role - ROLE_RED] = pr->type == PLY_U16   ? 65535.0
+                                                   : pr->type == PLY_F32 ||
+                                                           pr->type == PLY_F64
+                                                       ? 1.0
+                                                       : 255.0;
+            } else if (pr->role == ROLE_INDICES)
                 has_indices = 1;
         }
         el->min_bytes = min;
@@ -1524,7 +1717,10 @@ mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size,
         goto done;
     }
     int with_normals = has_n[0] && has_n[1] && has_n[2];
+    int with_colors = has_rgba[0] && has_rgba[1] && has_rgba[2];
     const uint32_t nv = vert->count;
+    if (with_colors && (r = raw_enable_colors(raw, err)) != MTS_OK)
+        goto done;
 
     if (P->format != PLY_ASCII) {
         P->p = (const unsigned char *)P->t.p;
@@ -1546,7 +1742,7 @@ mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size,
         if (el->props == 0)
             continue; /* nothing in the file to read, however many it claims */
         for (uint32_t i = 0; i < el->count; i++) {
-            float v[7] = {0, 0, 0, 0, 0, 0, 0};
+            float v[ROLE_COUNT] = {0};
             fan poly = {0, 0, 0};
             int status = 0;
             if (el->kind == ELEM_VERTEX &&
@@ -1604,6 +1800,15 @@ mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size,
                 memcpy(raw->positions + (size_t)i * 3, v + ROLE_X, 3 * sizeof *v);
                 if (with_normals)
                     memcpy(raw->normals + (size_t)i * 3, v + ROLE_NX, 3 * sizeof *v);
+                if (with_colors) {
+                    /* each channel by its own type's range (mesh.c clamps) */
+                    double rgb[3];
+                    for (int c = 0; c < 3; c++)
+                        rgb[c] = v[ROLE_RED + c] / color_scale[c];
+                    raw_set_color(raw, i, rgb,
+                                  has_rgba[3] ? fmax(0.0, v[ROLE_ALPHA] / color_scale[3]) : -1.0,
+                                  1.0);
+                }
             } else if (el->kind == ELEM_FACE) {
                 if ((r = fan_end(raw, &poly, err)) != MTS_OK)
                     goto done;

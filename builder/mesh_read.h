@@ -2,7 +2,7 @@
  * and what they hand to the cleaning pipeline. Not part of the public API.
  *
  * A parser reads the bytes of one file and fills an mts__mesh_raw: positions
- * (and normals when the file has per-vertex normals) plus the polygons already
+ * (and normals and colours when the file has them per vertex) plus the polygons already
  * fan-triangulated, winding kept, with every index checked against the vertex
  * count. Everything after that (degenerate, duplicate and non-manifold faces,
  * unreferenced vertices, normals) is mesh.c's job, the same for every format. */
@@ -25,6 +25,12 @@ typedef struct mts__mesh_raw {
     uint32_t vertex_capacity;
     float *positions;        /* 3 per vertex */
     float *normals;          /* 3 per vertex when the file has per-vertex normals, else NULL */
+    /* 3 per vertex once some vertex has a colour, else NULL: sRGB red,
+     * green, blue nominally in 0..1 but not yet clamped (mesh.c clamps and
+     * counts), NaN for a vertex the file gives no colour (a parser refuses
+     * a non-finite colour, so NaN means only that). Alpha is not kept: the
+     * parser counts it in stats (colors_alpha, colors_translucent). */
+    float *colors;
     uint32_t triangle_count;
     uint32_t triangle_capacity;
     uint32_t *triangles;     /* 3 per triangle, indices < vertex_count */

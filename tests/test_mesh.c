@@ -918,7 +918,7 @@ static void test_compute_normals(mts_test *t)
     /* a vertex of zero-area faces only keeps a zero normal */
     float pos[] = {0, 0, 0, 2, 0, 0, 0, 2, 0, 1, 0, 0};
     uint32_t tri[] = {0, 1, 2, 0, 1, 3};
-    mts_mesh m = {4, 2, pos, NULL, tri, 0};
+    mts_mesh m = {4, 2, pos, NULL, tri, NULL, 0};
     mts_mesh_compute_normals(&m);
     CHECK(t, m.normals != NULL);
     if (!m.normals)
@@ -1805,6 +1805,345 @@ static void test_scan_float(mts_test *t)
     }
 }
 
+/* ------------------------------------------------------------------------ */
+/* Vertex colours                                                           */
+
+static int color_is(const mts_mesh *m, uint32_t v, int r, int g, int b)
+{
+    const uint8_t *c = m->colors + 3 * (size_t)v;
+    return abs(c[0] - r) + abs(c[1] - g) + abs(c[2] - b) == 0;
+}
+
+/* The tetrahedron's colours, 8-bit sRGB, and as the files write them. */
+static const int tet_rgb[4][3] = {{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {128, 64, 32}};
+
+/* A tetrahedron PLY with colour channels of `type`, written in its range
+ * (0..255, 0..65535 or 0..1), with alpha when alpha_type >= 0. */
+static void tet_ply_colors(buf *b, int fmt, int type, int alpha_type, const double (*rgb)[3],
+                           const double *alpha)
+{
+    buf_printf(b, "ply\nformat %s 1.0\nelement vertex 4\n", ply_format[fmt]);
+    buf_printf(b, "property float x\nproperty float y\nproperty float z\n");
+    buf_printf(b, "property %s red\nproperty %s green\nproperty %s blue\n", type_name[type],
+               type_name[type], type_name[type]);
+    if (alpha_type >= 0)
+        buf_printf(b, "property %s alpha\n", type_name[alpha_type]);
+    buf_printf(b, "element face 4\nproperty list uchar int vertex_indices\nend_header\n");
+    for (int v = 0; v < 4; v++) {
+        for (int c = 0; c < 3; c++)
+            put_value(b, fmt, T_F32, tet_pos[v][c]);
+        for (int c = 0; c < 3; c++)
+            put_value(b, fmt, type, rgb[v][c]);
+        if (alpha_type >= 0)
+            put_value(b, fmt, alpha_type, alpha[v]);
+        put_end(b, fmt);
+    }
+    for (int f = 0; f < 4; f++) {
+        put_value(b, fmt, T_U8, 3);
+        for (int c = 0; c < 3; c++)
+            put_value(b, fmt, T_I32, tet_tri[f][c]);
+        put_end(b, fmt);
+    }
+}
+
+static void test_ply_colors(mts_test *t)
+{
+    for (int fmt = 0; fmt < 3; fmt++) {
+        /* uchar with alpha, the common form; one vertex translucent */
+        double rgb[4][3], alpha[4] = {255, 255, 100, 255};
+        for (int v = 0; v < 4; v++)
+            for (int c = 0; c < 3; c++)
+                rgb[v][c] = tet_rgb[v][c];
+        buf b = {0};
+        tet_ply_colors(&b, fmt, T_U8, T_U8, rgb, alpha);
+        mts_mesh m;
+        mts_mesh_stats st;
+        mts_error err = {0};
+        mts_result r = load_bytes("tet.ply", b.d, b.n, &m, &st, &err);
+        CHECKF(t, r == MTS_OK, "%s: %s", ply_format[fmt], err.msg);
+        if (r == MTS_OK) {
+            CHECK(t, m.colors != NULL && st.colors_from_file == 1);
+            for (int v = 0; m.colors && v < 4; v++)
+                CHECKF(t, color_is(&m, (uint32_t)v, tet_rgb[v][0], tet_rgb[v][1], tet_rgb[v][2]),
+                       "%s vertex %d", ply_format[fmt], v);
+            CHECK(t, st.colors_alpha == 1 && st.colors_translucent == 1);
+            CHECK(t, st.colors_clamped == 0 && st.colors_missing == 0);
+        }
+        mts_mesh_free(&m);
+        buf_free(&b);
+
+        /* ushort: 0..65535 */
+        for (int v = 0; v < 4; v++)
+            for (int c = 0; c < 3; c++)
+                rgb[v][c] = tet_rgb[v][c] * 257.0;
+        tet_ply_colors(&b, fmt, T_U16, -1, rgb, NULL);
+        r = load_bytes("tet.ply", b.d, b.n, &m, &st, &err);
+        CHECKF(t, r == MTS_OK, "%s: %s", ply_format[fmt], err.msg);
+        for (int v = 0; r == MTS_OK && m.colors && v < 4; v++)
+            CHECKF(t, color_is(&m, (uint32_t)v, tet_rgb[v][0], tet_rgb[v][1], tet_rgb[v][2]),
+                   "ushort %s vertex %d", ply_format[fmt], v);
+        CHECK(t, r != MTS_OK || (m.colors && st.colors_alpha == 0));
+        mts_mesh_free(&m);
+        buf_free(&b);
+
+        /* float and double in 0..1 (assimp's float-color.ply); two values
+         * out of range are clamped and counted */
+        for (int type = T_F32; type <= T_F64; type++) {
+            const double f[4][3] = {{1, 0, 0}, {0, 1, 0}, {-0.25, 0, 1.5}, {0.5, 0.25, 0.125}};
+            tet_ply_colors(&b, fmt, type, -1, f, NULL);
+            r = load_bytes("tet.ply", b.d, b.n, &m, &st, &err);
+            CHECKF(t, r == MTS_OK, "%s: %s", ply_format[fmt], err.msg);
+            if (r == MTS_OK && m.colors) {
+                CHECK(t, color_is(&m, 0, 255, 0, 0) && color_is(&m, 1, 0, 255, 0));
+                CHECK(t, color_is(&m, 2, 0, 0, 255));
+                CHECK(t, color_is(&m, 3, 128, 64, 32)); /* 127.5 -> 128, 63.75, 31.875 */
+                CHECK(t, st.colors_clamped == 2);
+            }
+            CHECK(t, r != MTS_OK || m.colors);
+            mts_mesh_free(&m);
+            buf_free(&b);
+        }
+    }
+    /* a non-finite colour is refused naming the vertex, in binary and ASCII */
+    {
+        const double f[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, NAN, 1}, {0, 0, 0}};
+        buf b = {0};
+        tet_ply_colors(&b, 1, T_F32, -1, f, NULL);
+        expect_error(t, "nan_color.ply", b.d, b.n, MTS_ERR_FORMAT, "vertex 2");
+        buf_free(&b);
+        tet_ply_colors(&b, 0, T_F32, -1, f, NULL);
+        expect_error(t, "nan_color_ascii.ply", b.d, b.n, MTS_ERR_FORMAT, "vertex 2");
+        buf_free(&b);
+    }
+    /* only red and green: not a colour */
+    {
+        const char *ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                          "property float y\nproperty float z\nproperty uchar red\n"
+                          "property uchar green\nelement face 1\n"
+                          "property list uchar int vertex_indices\nend_header\n"
+                          "0 0 0 1 2\n1 0 0 1 2\n0 1 0 1 2\n3 0 1 2\n";
+        mts_mesh m;
+        mts_mesh_stats st;
+        mts_error err = {0};
+        mts_result r = load_text("rg.ply", ply, &m, &st, &err);
+        CHECKF(t, r == MTS_OK, "%s", err.msg);
+        CHECK(t, m.colors == NULL && st.colors_from_file == 0);
+        mts_mesh_free(&m);
+    }
+}
+
+static void test_off_colors(mts_test *t)
+{
+    static const char *const files[] = {
+        /* MeshLab's and OpenMesh's: integers 0..255 with alpha */
+        "COFF\n4 4 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 128\n"
+        "0 0 1 128 64 32 255\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n",
+        /* Geomview's: floats 0..1, r g b a */
+        "COFF\n4 4 0\n0 0 0 1 0 0 1\n1 0 0 0 1 0 1\n0 1 0 0 0 1 0.5\n"
+        "0 0 1 0.5 0.25 0.125 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n",
+        /* three integers, no alpha, with normals (CNOFF) and a comment */
+        "CNOFF\n4 4 0\n0 0 0 -1 -1 -1 255 0 0\n1 0 0 1 0 0 0 255 0\n0 1 0 0 1 0 0 0 255 # c\n"
+        "0 0 1 0 0 1 128 64 32\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n",
+        /* with texture coordinates after the colour */
+        "STCOFF\n4 4 0\n0 0 0 1 0 0 1 0.5 0.5\n1 0 0 0 1 0 1 0 0\n0 1 0 0 0 1 1 1 1\n"
+        "0 0 1 0.5 0.25 0.125 1 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n",
+    };
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        mts_mesh m;
+        mts_mesh_stats st;
+        mts_error err = {0};
+        mts_result r = load_text("tet.off", files[i], &m, &st, &err);
+        CHECKF(t, r == MTS_OK, "file %zu: %s", i, err.msg);
+        CHECKF(t, r != MTS_OK || (m.colors && st.colors_from_file), "file %zu", i);
+        for (int v = 0; r == MTS_OK && m.colors && v < 4; v++)
+            CHECKF(t, color_is(&m, (uint32_t)v, tet_rgb[v][0], tet_rgb[v][1], tet_rgb[v][2]),
+                   "file %zu vertex %d: %d %d %d", i, v, m.colors[3 * v], m.colors[3 * v + 1],
+                   m.colors[3 * v + 2]);
+        CHECKF(t, st.colors_alpha == (i != 2) && st.colors_translucent == (i < 2),
+               "file %zu: alpha %d translucent %u", i, st.colors_alpha, st.colors_translucent);
+        mts_mesh_free(&m);
+    }
+    expect_text_error(t, "nan.off", "COFF\n3 1 0\n0 0 0 1 0 0 1\n1 0 0 nan 0 0 1\n0 1 0 1 0 0 1\n"
+                      "3 0 1 2\n", MTS_ERR_FORMAT, "vertex 1: a colour value is not a finite");
+    /* a colour-map index (one value) is no colour: a vertex without, beside
+     * others with, drops them all */
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result r = load_text("mixed.off", "COFF\n3 1 0\n0 0 0 1 0 0 1\n1 0 0 7\n0 1 0 1 0 0 1\n"
+                             "3 0 1 2\n", &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    CHECK(t, m.colors == NULL && st.colors_missing == 1 && st.colors_from_file == 0);
+    mts_mesh_free(&m);
+}
+
+static void test_obj_colors(mts_test *t)
+{
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    /* with an unreferenced vertex first, so that cleaning moves the colours */
+    mts_result r = load_text("tet.obj",
+                             "v 9 9 9 0.1 0.1 0.1\n"
+                             "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\n"
+                             "v 0 0 1 0.5 0.25 0.125 0.5\n"
+                             "f 2 4 3\nf 2 3 5\nf 2 5 4\nf 3 4 5\n",
+                             &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK) {
+        CHECK(t, m.vertex_count == 4 && st.unreferenced_vertices == 1);
+        CHECK(t, m.colors && st.colors_from_file == 1);
+        for (int v = 0; m.colors && v < 4; v++)
+            CHECKF(t, color_is(&m, (uint32_t)v, tet_rgb[v][0], tet_rgb[v][1], tet_rgb[v][2]),
+                   "vertex %d", v);
+        CHECK(t, st.colors_alpha == 1 && st.colors_translucent == 1);
+    }
+    mts_mesh_free(&m);
+
+    /* w is no colour; a file that mixes coloured and plain vertices keeps
+     * none and counts the plain ones (the unreferenced plain one not) */
+    r = load_text("mixed.obj",
+                  "v 9 9 9\nv 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0 1.0\nv 0 0 1 0.5 0.25 0.125\n"
+                  "f 2 4 3\nf 2 3 5\nf 2 5 4\nf 3 4 5\n",
+                  &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    CHECK(t, m.colors == NULL && st.colors_missing == 2 && st.colors_from_file == 0);
+    mts_mesh_free(&m);
+
+    /* without the unreferenced coloured one: all have colours but it */
+    r = load_text("unref.obj",
+                  "v 9 9 9\nv 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nv 0 0 1 0.5 0.25 0.125\n"
+                  "f 2 4 3\nf 2 3 5\nf 2 5 4\nf 3 4 5\n",
+                  &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    CHECK(t, m.colors != NULL && st.colors_missing == 0);
+    mts_mesh_free(&m);
+
+    /* dropped on request: nothing kept, nothing counted */
+    {
+        char path[512];
+        const char *obj = "v 0 0 0 1 0 0 0.5\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n";
+        CHECK(t, write_file("nocolor.obj", obj, strlen(obj), path, sizeof path) != NULL);
+        mts_mesh_options o = {.no_colors = 1};
+        r = mts_mesh_load(path, &o, &m, &st, &err);
+        remove(path);
+        CHECKF(t, r == MTS_OK, "%s", err.msg);
+        CHECK(t, m.colors == NULL && st.colors_from_file == 0 && st.colors_alpha == 0);
+        mts_mesh_free(&m);
+    }
+
+    expect_text_error(t, "inf.obj", "v 0 0 0 1 0 0\nv 1 0 0 0 inf 0\nv 0 1 0 0 0 1\nf 1 2 3\n",
+                      MTS_ERR_FORMAT, "vertex 1: a colour value is not a finite number");
+    expect_text_error(t, "big.obj", "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1e99\nf 1 2 3\n",
+                      MTS_ERR_FORMAT, "vertex 2: a colour value is not a finite number");
+}
+
+/* A GLB of the tetrahedron: POSITION, COLOR_0 of the given accessor type
+ * and component type (values in `color`, comps per vertex) and indices. */
+static void tet_glb(buf *out, const char *color_type, int ctype, int normalized,
+                    const void *color, size_t color_bytes)
+{
+    buf bin = {0};
+    for (int v = 0; v < 4; v++)
+        buf_put(&bin, tet_pos[v], 12);
+    size_t color_at = bin.n;
+    buf_put(&bin, color, color_bytes);
+    while (bin.n % 4)
+        buf_put(&bin, "", 1);
+    size_t index_at = bin.n;
+    for (int f = 0; f < 4; f++)
+        for (int c = 0; c < 3; c++) {
+            uint16_t i = (uint16_t)tet_tri[f][c];
+            buf_put(&bin, &i, 2);
+        }
+    buf json = {0};
+    buf_printf(&json,
+               "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+               "\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+               "{\"POSITION\":0,\"COLOR_0\":1},\"indices\":2}]}],");
+    buf_printf(&json,
+               "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":4,"
+               "\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,1]},"
+               "{\"bufferView\":1,\"componentType\":%d,\"normalized\":%s,\"count\":4,"
+               "\"type\":\"%s\"},"
+               "{\"bufferView\":2,\"componentType\":5123,\"count\":12,\"type\":\"SCALAR\"}],",
+               ctype, normalized ? "true" : "false", color_type);
+    buf_printf(&json,
+               "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":48},"
+               "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu},"
+               "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":24}],"
+               "\"buffers\":[{\"byteLength\":%zu}]}",
+               color_at, color_bytes, index_at, bin.n);
+    while (json.n % 4)
+        buf_put(&json, " ", 1);
+    while (bin.n % 4)
+        buf_put(&bin, "", 1);
+    uint32_t head[3] = {0x46546C67u, 2, (uint32_t)(12 + 8 + json.n + 8 + bin.n)};
+    buf_put(out, head, 12);
+    uint32_t ch[2] = {(uint32_t)json.n, 0x4E4F534Au};
+    buf_put(out, ch, 8);
+    buf_put(out, json.d, json.n);
+    uint32_t cb[2] = {(uint32_t)bin.n, 0x004E4942u};
+    buf_put(out, cb, 8);
+    buf_put(out, bin.d, bin.n);
+    buf_free(&json);
+    buf_free(&bin);
+}
+
+static void test_gltf_colors(mts_test *t)
+{
+    /* linear float VEC3: 0 and 1 stay, 0.5 is sRGB 0.7354 (188), 0.2 is
+     * 0.4845 (124), 0.05 is 0.2474 (63) */
+    const float lin[4][3] = {{1, 0, 0}, {0, 1, 0}, {0.5f, 0.2f, 0.05f}, {0, 0, 2}};
+    const int srgb[4][3] = {{255, 0, 0}, {0, 255, 0}, {188, 124, 63}, {0, 0, 255}};
+    buf b = {0};
+    tet_glb(&b, "VEC3", 5126, 0, lin, sizeof lin);
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result r = load_bytes("tet.glb", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    CHECK(t, r != MTS_OK || (m.colors && st.colors_from_file && st.format == MTS_MESH_GLTF));
+    for (int v = 0; r == MTS_OK && m.colors && v < 4; v++)
+        CHECKF(t, color_is(&m, (uint32_t)v, srgb[v][0], srgb[v][1], srgb[v][2]),
+               "float vertex %d: %d %d %d", v, m.colors[3 * v], m.colors[3 * v + 1],
+               m.colors[3 * v + 2]);
+    CHECK(t, st.colors_clamped == 1 && st.colors_alpha == 0);
+    mts_mesh_free(&m);
+    buf_free(&b);
+
+    /* normalized unsigned byte VEC4: 128/255 linear is sRGB 0.7367 (188),
+     * 51/255 is 0.4845 (124); alpha dropped and counted */
+    const uint8_t u8[4][4] = {{255, 0, 0, 255}, {0, 255, 0, 255}, {128, 51, 0, 255},
+                              {0, 0, 255, 10}};
+    const int srgb8[4][3] = {{255, 0, 0}, {0, 255, 0}, {188, 124, 0}, {0, 0, 255}};
+    tet_glb(&b, "VEC4", 5121, 1, u8, sizeof u8);
+    r = load_bytes("tet.glb", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    for (int v = 0; r == MTS_OK && m.colors && v < 4; v++)
+        CHECKF(t, color_is(&m, (uint32_t)v, srgb8[v][0], srgb8[v][1], srgb8[v][2]),
+               "ubyte vertex %d: %d %d %d", v, m.colors[3 * v], m.colors[3 * v + 1],
+               m.colors[3 * v + 2]);
+    CHECK(t, r != MTS_OK || m.colors);
+    CHECK(t, st.colors_alpha == 1 && st.colors_translucent == 1);
+    mts_mesh_free(&m);
+    buf_free(&b);
+
+    /* normalized unsigned short VEC3 */
+    const uint16_t u16[4][3] = {{65535, 0, 0}, {0, 65535, 0}, {0, 0, 65535}, {0, 0, 0}};
+    tet_glb(&b, "VEC3", 5123, 1, u16, sizeof u16);
+    r = load_bytes("tet.glb", b.d, b.n, &m, &st, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    CHECK(t, r != MTS_OK || (m.colors && color_is(&m, 2, 0, 0, 255) && color_is(&m, 3, 0, 0, 0)));
+    mts_mesh_free(&m);
+    buf_free(&b);
+
+    const float bad[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, INFINITY, 0}};
+    tet_glb(&b, "VEC3", 5126, 0, bad, sizeof bad);
+    expect_error(t, "inf.glb", b.d, b.n, MTS_ERR_FORMAT, "COLOR_0 of vertex 3 is not a finite");
+    buf_free(&b);
+}
+
 static void test_cow(mts_test *t)
 {
     mts_mesh m;
@@ -1870,6 +2209,10 @@ int main(void)
     RUN(&t, test_ply_cube);
     RUN(&t, test_ply_tet_types);
     RUN(&t, test_stl);
+    RUN(&t, test_ply_colors);
+    RUN(&t, test_off_colors);
+    RUN(&t, test_obj_colors);
+    RUN(&t, test_gltf_colors);
     RUN(&t, test_cleaning);
     RUN(&t, test_compute_normals);
     RUN(&t, test_error_files);
