@@ -8,6 +8,7 @@
  *
  * Where EGL cannot be initialised (no Mesa) every case that needs it skips,
  * naming the EGL error; with MTS_TEST_REQUIRE_EGL=1 (CI) it fails instead. */
+#include <math.h>
 #include <png.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -143,10 +144,13 @@ static mts_renderer *renderer_for(mts_test *t, mts_lod *lod, const mts_render_op
     return r;
 }
 
-/* A renderer drawing the given triangles, one 3-index strip each (with the
- * cow's bounding box, so the same camera). flip reverses each triangle. */
-static mts_renderer *renderer_for_triangles(mts_test *t, const mts_render_options *o,
-                                            const uint32_t *tris, uint32_t count, int flip)
+/* A renderer drawing the given triangles over the given vertices (colours
+ * NULL: none), one 3-index strip each, with the cow's bounding box, so the
+ * same camera. flip reverses each triangle. */
+static mts_renderer *renderer_for_triangles_of(mts_test *t, const mts_render_options *o,
+                                               uint32_t vertex_count, const float *positions,
+                                               const float *normals, const uint8_t *colors,
+                                               const uint32_t *tris, uint32_t count, int flip)
 {
     mts_error err = {0};
     uint32_t *slot = malloc(((size_t)count + 1) * sizeof *slot);
@@ -157,7 +161,8 @@ static mts_renderer *renderer_for_triangles(mts_test *t, const mts_render_option
     for (uint32_t i = 0; i <= count; i++)
         slot[i] = 3u * i;
     mts_render_layout layout = {0};
-    layout.vertex_capacity = g_mesh.vertex_count;
+    layout.vertex_capacity = vertex_count;
+    layout.colors = colors != NULL;
     layout.strip_count = count;
     layout.slot = slot;
     memcpy(layout.bbox_min, g_cow.bbox_min, sizeof layout.bbox_min);
@@ -168,8 +173,8 @@ static mts_renderer *renderer_for_triangles(mts_test *t, const mts_render_option
     CHECKF(t, rc == MTS_OK, "create: %s", err.msg);
     if (rc != MTS_OK)
         return NULL;
-    CHECK(t, mts_render_append_vertices(r, 0, g_mesh.vertex_count, g_mesh.positions,
-                                        g_mesh.normals, NULL, &err) == MTS_OK);
+    CHECK(t, mts_render_append_vertices(r, 0, vertex_count, positions, normals, colors, &err) ==
+                 MTS_OK);
     for (uint32_t i = 0; i < count && !t->case_failed; i++) {
         uint32_t tri[3] = {tris[3 * i], tris[3 * i + 1], tris[3 * i + 2]};
         if (flip) {
@@ -181,6 +186,14 @@ static mts_renderer *renderer_for_triangles(mts_test *t, const mts_render_option
         CHECKF(t, rc == MTS_OK, "triangle %u: %s", i, err.msg);
     }
     return r;
+}
+
+/* The source mesh's triangles, one 3-index strip each. */
+static mts_renderer *renderer_for_triangles(mts_test *t, const mts_render_options *o,
+                                            const uint32_t *tris, uint32_t count, int flip)
+{
+    return renderer_for_triangles_of(t, o, g_mesh.vertex_count, g_mesh.positions,
+                                     g_mesh.normals, NULL, tris, count, flip);
 }
 
 /* What most cases start from: the cow's runtime started `at` and moved to
@@ -977,6 +990,444 @@ static void test_png(mts_test *t)
     CHECK(t, mts_png_write_rgba(path, 3, 2, px, 1, &err) == MTS_ERR_IO);
 }
 
+/* ---- vertex colours --------------------------------------------------- */
+
+/* A colour from a position in the cow's box: red grows and blue falls along
+ * x, green along y, on the plane r + b = 295. Colours interpolate linearly
+ * across a triangle, so every fragment of an unlit draw (ambient 1) keeps
+ * r + b = 295 whatever the triangles are: a property of the picture that
+ * needs no reference drawing. */
+#define COLOR_RB 295
+static void color_of(const float p[3], uint8_t rgb[3])
+{
+    float u[3];
+    for (int k = 0; k < 3; k++) {
+        float e = g_cow.bbox_max[k] - g_cow.bbox_min[k];
+        u[k] = e > 0 ? (p[k] - g_cow.bbox_min[k]) / e : 0.5f;
+        u[k] = u[k] < 0 ? 0 : u[k] > 1 ? 1 : u[k];
+    }
+    int r = 40 + (int)lrintf(215 * u[0]);
+    rgb[0] = (uint8_t)r;
+    rgb[1] = (uint8_t)(60 + lrintf(120 * u[1]));
+    rgb[2] = (uint8_t)(COLOR_RB - r);
+}
+
+static uint8_t *colors_of(const float *positions, uint32_t n)
+{
+    uint8_t *c = malloc((size_t)n * 3 + 1);
+    if (c)
+        for (uint32_t i = 0; i < n; i++)
+            color_of(positions + 3 * (size_t)i, c + 3 * (size_t)i);
+    return c;
+}
+
+/* The cow with colours: g_cow's arrays (read only) and colours of its own. */
+static int colored_cow(mts_model *m)
+{
+    *m = g_cow;
+    m->colors = colors_of(g_cow.positions, g_cow.vertex_count);
+    m->flags |= MTS_MODEL_COLORS;
+    return m->colors != NULL;
+}
+
+/* The triangles of the runtime's current strips (swaps and collapsed
+ * windows dropped), each in the winding the strip gives it. */
+static uint32_t *level_triangles(const mts_lod *lod, uint32_t *count)
+{
+    uint64_t n = 0;
+    for (uint32_t s = 0; s < lod->strip_count; s++)
+        n += lod->length[s] >= 3 ? lod->length[s] - 2 : 0;
+    uint32_t *tris = malloc((size_t)(n ? n : 1) * 3 * sizeof *tris);
+    *count = 0;
+    if (!tris)
+        return NULL;
+    for (uint32_t s = 0; s < lod->strip_count; s++) {
+        uint32_t len;
+        const uint32_t *idx = mts_lod_strip(lod, s, &len);
+        for (uint32_t k = 0; k + 2 < len; k++) {
+            uint32_t a = idx[k], b = idx[k + 1], c = idx[k + 2];
+            if (a == b || b == c || a == c)
+                continue;
+            uint32_t *o = tris + 3 * (size_t)*count;
+            o[0] = k % 2 ? b : a; /* odd windows: (s[k+1], s[k], s[k+2]) */
+            o[1] = k % 2 ? a : b;
+            o[2] = c;
+            ++*count;
+        }
+    }
+    return tris;
+}
+
+/* Foreground pixels: how many, the largest |r + b - COLOR_RB| among them,
+ * and the mean of r - b over the left and the right third of the object's
+ * extent on screen (x from the cow's min to max: the camera's right is
+ * about +x, so red lies right, blue left). */
+typedef struct hue_stats {
+    uint32_t n;
+    int rb_off;
+    double left, right; /* mean r - b */
+    uint32_t saturated;
+} hue_stats;
+
+static hue_stats hue_of(const frame *f)
+{
+    hue_stats h = {0};
+    uint32_t x0 = SIDE, x1 = 0;
+    for (uint32_t i = 0; i < SIDE * SIDE; i++)
+        if (mts_test_pixel_differs(f->px + 4 * i, f->px, 2)) {
+            uint32_t x = i % SIDE;
+            x0 = x < x0 ? x : x0;
+            x1 = x > x1 ? x : x1;
+        }
+    double sl = 0, sr = 0;
+    uint32_t nl = 0, nr = 0;
+    for (uint32_t i = 0; i < SIDE * SIDE; i++) {
+        const uint8_t *p = f->px + 4 * i;
+        if (!mts_test_pixel_differs(p, f->px, 2))
+            continue;
+        h.n++;
+        int off = abs((int)p[0] + (int)p[2] - COLOR_RB);
+        h.rb_off = off > h.rb_off ? off : h.rb_off;
+        uint32_t x = i % SIDE;
+        if (3 * (x - x0) < x1 - x0) {
+            sl += (int)p[0] - (int)p[2];
+            nl++;
+        } else if (3 * (x1 - x) < x1 - x0) {
+            sr += (int)p[0] - (int)p[2];
+            nr++;
+        }
+    }
+    h.left = nl ? sl / nl : 0;
+    h.right = nr ? sr / nr : 0;
+    h.saturated = saturated(f);
+    return h;
+}
+
+/* The largest difference of a colour channel over the frame. */
+static int max_channel_diff(const frame *a, const frame *b)
+{
+    int m = 0;
+    for (uint32_t i = 0; i < SIDE * SIDE * 4; i++) {
+        if (i % 4 == 3)
+            continue;
+        int d = abs((int)a->px[i] - (int)b->px[i]);
+        m = d > m ? d : m;
+    }
+    return m;
+}
+
+/* The coloured cow drawn through its strips, at the full level and about
+ * 10%, matches the same triangles drawn one by one with the same colours
+ * (at the full level the source mesh's own triangles, coloured from their
+ * positions), within 8 levels a channel in under 0.1% of the pixels, as
+ * the grey comparison; unlit, every pixel keeps the colours' plane
+ * r + b = 295 (within 3, rounding), so the colours reach the screen as
+ * given; and against the grey picture the colours show: red right, blue
+ * left, most of the cow saturated, where the grey has neither. */
+static void test_colors_match_reference(mts_test *t)
+{
+    NEED_CONTEXT(t);
+    mts_error err = {0};
+    mts_model ccow;
+    mts_lod lod = {0};
+    int have_lod = 0;
+    mts_renderer *r = NULL, *ref = NULL, *grey = NULL;
+    uint8_t *mesh_colors = colors_of(g_mesh.positions, g_mesh.vertex_count);
+    uint32_t *tris = NULL;
+    frame *f = calloc(6, sizeof *f);
+    if (!colored_cow(&ccow) || !mesh_colors || !f) {
+        CHECK(t, 0);
+        goto done;
+    }
+    mts_render_options o;
+    options(&o);
+    CHECKF(t, mts_lod_init(&lod, &ccow, MTS_LOD_AT_FULL, &err) == MTS_OK, "%s", err.msg);
+    have_lod = !t->case_failed;
+    if (!have_lod || !(r = renderer_for(t, &lod, &o)))
+        goto done;
+    mts_render_stats st;
+    mts_render_get_stats(r, &st);
+    CHECKF(t, st.colors && st.vertex_bytes_uploaded == 28ull * g_cow.vertex_count,
+           "coloured: %llu vertex bytes for %u vertices",
+           (unsigned long long)st.vertex_bytes_uploaded, g_cow.vertex_count);
+    ref = renderer_for_triangles_of(t, &o, g_mesh.vertex_count, g_mesh.positions,
+                                    g_mesh.normals, mesh_colors, g_mesh.triangles,
+                                    g_mesh.triangle_count, 0);
+    if (!ref || !draw_and_read(t, r, &f[0], "cow_colors_full") ||
+        !draw_and_read(t, ref, &f[1], "cow_colors_mesh"))
+        goto done;
+    uint32_t d = pixels_differing(&f[0], &f[1], 8);
+    fprintf(stderr, "  colours, full level against the mesh's triangles: %u pixels over 8, "
+                    "largest difference %d\n", d, max_channel_diff(&f[0], &f[1]));
+    CHECKF(t, d < SIDE * SIDE / 1000, "full level: strips and mesh differ in %u pixels", d);
+
+    /* about 10%: the level's own triangles, one by one */
+    uint32_t coarse = mts_model_level_for_fraction(&g_cow, 0.1), nt = 0;
+    CHECK(t, mts_lod_set_level(&lod, coarse, &err) == MTS_OK);
+    CHECKF(t, mts_render_update_strips(r, &lod, &err) == MTS_OK, "%s", err.msg);
+    mts_lod_clear_changed(&lod);
+    tris = level_triangles(&lod, &nt);
+    mts_renderer_destroy(ref);
+    ref = tris ? renderer_for_triangles_of(t, &o, g_cow.vertex_count, g_cow.positions,
+                                           g_cow.normals, ccow.colors, tris, nt, 0)
+               : NULL;
+    if (!ref || !draw_and_read(t, r, &f[2], "cow_colors_10pct") ||
+        !draw_and_read(t, ref, &f[3], NULL))
+        goto done;
+    d = pixels_differing(&f[2], &f[3], 8);
+    fprintf(stderr, "  colours, level %u (%u triangles) against its triangles: %u pixels over "
+                    "8, largest difference %d\n", coarse, nt, d, max_channel_diff(&f[2], &f[3]));
+    CHECKF(t, d < SIDE * SIDE / 1000, "level %u: strips and triangles differ in %u pixels",
+           coarse, d);
+    CHECKF(t, pixels_differing(&f[0], &f[2], 8) > SIDE * SIDE / 200,
+           "the full and the coarse level look alike");
+
+    /* unlit: the colours as given, on their plane */
+    mts_render_options unlit = o;
+    unlit.style.ambient = 1;
+    mts_render_set_style(r, &unlit.style);
+    if (!draw_and_read(t, r, &f[4], "cow_colors_unlit"))
+        goto done;
+    hue_stats hu = hue_of(&f[4]);
+    fprintf(stderr, "  unlit: %u pixels, r + b off %d from %d at most\n", hu.n, hu.rb_off,
+            COLOR_RB);
+    CHECKF(t, hu.n > SIDE * SIDE / 10 && hu.rb_off <= 3,
+           "unlit colours off their plane by %d (%u pixels)", hu.rb_off, hu.n);
+    mts_render_set_style(r, &o.style);
+
+    /* against the grey: the same cow without colours */
+    CHECK(t, mts_lod_set_level(&lod, g_cow.level_count, &err) == MTS_OK);
+    mts_lod_clear_changed(&lod);
+    mts_lod plain;
+    if (mts_lod_init(&plain, &g_cow, MTS_LOD_AT_FULL, &err) != MTS_OK) {
+        CHECKF(t, 0, "%s", err.msg);
+        goto done;
+    }
+    grey = renderer_for(t, &plain, &o);
+    mts_lod_free(&plain);
+    if (!grey || !draw_and_read(t, grey, &f[5], NULL))
+        goto done;
+    hue_stats hc = hue_of(&f[0]), hg = hue_of(&f[5]);
+    fprintf(stderr, "  mean r - b, left third / right third: coloured %.1f / %.1f, grey %.1f / "
+                    "%.1f; saturated pixels: coloured %u, grey %u (of %u, %u)\n",
+            hc.left, hc.right, hg.left, hg.right, hc.saturated, hg.saturated, hc.n, hg.n);
+    CHECKF(t, hc.right - hc.left > 60 && hc.left < 0 && hc.right > 0,
+           "coloured: r - b %.1f left, %.1f right", hc.left, hc.right);
+    CHECKF(t, fabs(hg.right - hg.left) < 10, "grey: r - b %.1f left, %.1f right", hg.left,
+           hg.right);
+    CHECKF(t, hc.saturated > hc.n / 3 && hg.saturated < hg.n / 100,
+           "saturated: coloured %u of %u, grey %u of %u", hc.saturated, hc.n, hg.saturated,
+           hg.n);
+    CHECKF(t, hc.n + SIDE > hg.n && hg.n + SIDE > hc.n, "silhouettes: %u and %u pixels", hc.n,
+           hg.n);
+done:
+    mts_renderer_destroy(grey);
+    mts_renderer_destroy(ref);
+    mts_renderer_destroy(r);
+    if (have_lod)
+        mts_lod_free(&lod);
+    free(ccow.colors);
+    free(mesh_colors);
+    free(tris);
+    free(f);
+}
+
+/* The shading takes a colour as the grey is taken: every vertex in the
+ * grey's 8-bit values draws the grey's picture (within 1 a channel: the
+ * grey is not a whole number of 8-bit steps), lit and by strip; colour by
+ * strip and the wireframe's edges keep their own colours. */
+static void test_colors_shade_as_grey(mts_test *t)
+{
+    NEED_CONTEXT(t);
+    mts_error err = {0};
+    mts_model ccow = g_cow;
+    mts_lod lod;
+    mts_renderer *r = NULL, *grey = NULL;
+    frame *f = calloc(4, sizeof *f);
+    ccow.colors = malloc((size_t)g_cow.vertex_count * 3);
+    ccow.flags |= MTS_MODEL_COLORS;
+    mts_render_options o;
+    options(&o);
+    if (!f || !ccow.colors || mts_lod_init(&lod, &ccow, MTS_LOD_AT_FULL, &err) != MTS_OK) {
+        CHECK(t, 0);
+        free(f);
+        free(ccow.colors);
+        return;
+    }
+    for (uint32_t i = 0; i < g_cow.vertex_count; i++)
+        for (int k = 0; k < 3; k++)
+            ccow.colors[3 * (size_t)i + k] = (uint8_t)lrintf(o.style.color[k] * 255.0f);
+    mts_lod plain;
+    if (mts_lod_init(&plain, &g_cow, MTS_LOD_AT_FULL, &err) == MTS_OK) {
+        grey = renderer_for(t, &plain, &o);
+        mts_lod_free(&plain);
+    }
+    r = renderer_for(t, &lod, &o);
+    if (!r || !grey || !draw_and_read(t, r, &f[0], NULL) || !draw_and_read(t, grey, &f[1], NULL))
+        goto done;
+    int m = max_channel_diff(&f[0], &f[1]);
+    fprintf(stderr, "  colours equal to the grey: largest difference %d\n", m);
+    CHECKF(t, m <= 1, "colours of the grey's values differ from the grey by %d", m);
+    mts_render_options strips = o;
+    strips.style.color_by_strip = 1;
+    mts_render_set_style(r, &strips.style);
+    mts_render_set_style(grey, &strips.style);
+    if (!draw_and_read(t, r, &f[2], NULL) || !draw_and_read(t, grey, &f[3], NULL))
+        goto done;
+    CHECKF(t, pixels_differing(&f[2], &f[3], 0) == 0, "by strip: %u pixels differ",
+           pixels_differing(&f[2], &f[3], 0));
+    CHECK(t, saturated(&f[2]) > SIDE * SIDE / 20);
+done:
+    mts_renderer_destroy(grey);
+    mts_renderer_destroy(r);
+    mts_lod_free(&lod);
+    free(ccow.colors);
+    free(f);
+}
+
+/* What an uncoloured model sends to GL is what it always was -- 24 bytes a
+ * vertex, a 24-byte-a-vertex buffer, 16 bytes a morphing vertex -- and a
+ * coloured one adds 4 a vertex (and 4 a morphing vertex); colours are asked
+ * for where the layout says there are some. */
+static void test_colors_upload_bytes(mts_test *t)
+{
+    NEED_CONTEXT(t);
+    mts_error err = {0};
+    mts_render_options o;
+    options(&o);
+    mts_model ccow;
+    if (!colored_cow(&ccow)) {
+        CHECK(t, 0);
+        return;
+    }
+    const uint32_t n = g_cow.vertex_count, nb = g_cow.base_vertex_count;
+    const uint64_t cap = n < 65536 ? n : 65536; /* the buffer's first room */
+    const mts_model *models[2] = {&g_cow, &ccow};
+    for (int c = 0; c < 2; c++) {
+        mts_lod lod;
+        if (mts_lod_init(&lod, models[c], MTS_LOD_AT_FULL, &err) != MTS_OK) {
+            CHECKF(t, 0, "%s", err.msg);
+            continue;
+        }
+        mts_renderer *r = renderer_for(t, &lod, &o);
+        if (r) {
+            const uint64_t size = c ? 28 : 24;
+            mts_render_stats st;
+            mts_render_get_stats(r, &st);
+            CHECKF(t, st.colors == c && st.vertex_bytes_uploaded == size * n &&
+                          st.vertex_buffer_bytes == size * cap,
+                   "%s: %llu bytes uploaded, buffer %llu, for %u vertices",
+                   c ? "coloured" : "grey", (unsigned long long)st.vertex_bytes_uploaded,
+                   (unsigned long long)st.vertex_buffer_bytes, n);
+            CHECK(t, mts_render_set_morph(r, nb, 10, ccow.positions, ccow.normals, ccow.colors,
+                                          &err) == MTS_OK);
+            mts_render_get_stats(r, &st);
+            CHECKF(t, st.morph_bytes_uploaded == (c ? 20u : 16u) * 10u, "%s morph: %llu bytes",
+                   c ? "coloured" : "grey", (unsigned long long)st.morph_bytes_uploaded);
+            if (c) { /* the colours may not be left out */
+                CHECK(t, mts_render_append_vertices(r, 0, 1, ccow.positions, ccow.normals, NULL,
+                                                    &err) == MTS_ERR_ARG);
+                CHECK(t, mts_render_set_morph(r, nb, 1, ccow.positions, ccow.normals, NULL,
+                                              &err) == MTS_ERR_ARG);
+            }
+        }
+        mts_renderer_destroy(r);
+        mts_lod_free(&lod);
+    }
+    free(ccow.colors);
+}
+
+/* Geomorph colours on the GPU: base vertices blue, every split's vertex
+ * red, unlit. The morph from the base to the full level starts each new
+ * vertex at its ancestor in the base, blue: the first frame has no red; at
+ * t = 0.5 each morphing vertex is half red, half blue, so no pixel is
+ * redder than that, and many are about that; at t = 1 the reds are full. */
+static void test_colors_morph(mts_test *t)
+{
+    NEED_CONTEXT(t);
+    mts_error err = {0};
+    mts_model ccow = g_cow;
+    const uint32_t n = g_cow.vertex_count, nb = g_cow.base_vertex_count;
+    ccow.colors = malloc((size_t)n * 3);
+    ccow.flags |= MTS_MODEL_COLORS;
+    float *from = malloc((size_t)(n - nb) * 6 * sizeof *from);
+    uint8_t *from_colors = malloc((size_t)(n - nb) * 3);
+    frame *f = calloc(3, sizeof *f);
+    mts_lod lod;
+    int have_lod = 0;
+    mts_renderer *r = NULL;
+    if (!ccow.colors || !from || !from_colors || !f) {
+        CHECK(t, 0);
+        goto done;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        uint8_t *c = ccow.colors + 3 * (size_t)i;
+        c[0] = i < nb ? 0 : 255;
+        c[1] = 0;
+        c[2] = i < nb ? 255 : 0;
+    }
+    /* every new vertex from its nearest ancestor in the base, as morph.c does */
+    uint32_t *anc = malloc((size_t)(n - nb) * sizeof *anc);
+    if (!anc) {
+        CHECK(t, 0);
+        goto done;
+    }
+    for (uint32_t i = 0; i < n - nb; i++) {
+        uint32_t p = g_cow.parents[i];
+        anc[i] = p < nb ? p : anc[p - nb];
+        memcpy(from + 3 * (size_t)i, g_cow.positions + 3 * (size_t)anc[i], 12);
+        memcpy(from + 3 * ((size_t)(n - nb) + i), g_cow.normals + 3 * (size_t)anc[i], 12);
+        memcpy(from_colors + 3 * (size_t)i, ccow.colors + 3 * (size_t)anc[i], 3);
+    }
+    free(anc);
+    have_lod = mts_lod_init(&lod, &ccow, MTS_LOD_AT_FULL, &err) == MTS_OK;
+    CHECKF(t, have_lod, "%s", err.msg);
+    mts_render_options o;
+    options(&o);
+    o.style.ambient = 1;
+    if (!have_lod || !(r = renderer_for(t, &lod, &o)))
+        goto done;
+    CHECKF(t, mts_render_set_morph(r, nb, n - nb, from, from + 3 * (size_t)(n - nb), from_colors,
+                                   &err) == MTS_OK,
+           "%s", err.msg);
+    const float ts[3] = {0, 0.5f, 1};
+    int max_r[3] = {0}, max_b_off[3] = {0};
+    uint32_t near_half = 0, full_red = 0;
+    for (int k = 0; k < 3; k++) {
+        mts_render_set_morph_t(r, ts[k]);
+        if (!draw_and_read(t, r, &f[k], k == 1 ? "cow_colors_morph50" : NULL))
+            goto done;
+        for (uint32_t i = 0; i < SIDE * SIDE; i++) {
+            const uint8_t *p = f[k].px + 4 * i;
+            if (!mts_test_pixel_differs(p, f[k].px, 2))
+                continue;
+            max_r[k] = p[0] > max_r[k] ? p[0] : max_r[k];
+            int off = abs((int)p[0] + (int)p[2] - 255);
+            max_b_off[k] = off > max_b_off[k] ? off : max_b_off[k];
+            near_half += k == 1 && p[0] >= 100;
+            full_red += k == 2 && p[0] >= 200;
+        }
+    }
+    fprintf(stderr, "  morph colours: most red %d at t 0, %d at t 0.5 (%u pixels of 100 or "
+                    "more), %d at t 1 (%u of 200 or more); r + b off 255 by %d, %d, %d\n",
+            max_r[0], max_r[1], near_half, max_r[2], full_red, max_b_off[0], max_b_off[1],
+            max_b_off[2]);
+    CHECKF(t, max_r[0] <= 2, "t 0: red %d (the base is blue)", max_r[0]);
+    CHECKF(t, max_r[1] >= 120 && max_r[1] <= 131 && near_half > SIDE * SIDE / 50,
+           "t 0.5: red at most %d, %u pixels of 100 or more", max_r[1], near_half);
+    CHECKF(t, max_r[2] >= 250 && full_red > SIDE * SIDE / 50, "t 1: red at most %d", max_r[2]);
+    for (int k = 0; k < 3; k++)
+        CHECKF(t, max_b_off[k] <= 3, "t %.1f: r + b off 255 by %d", ts[k], max_b_off[k]);
+done:
+    mts_renderer_destroy(r);
+    if (have_lod)
+        mts_lod_free(&lod);
+    free(ccow.colors);
+    free(from);
+    free(from_colors);
+    free(f);
+}
+
 int main(void)
 {
     mts_test t = {0};
@@ -1003,6 +1454,10 @@ int main(void)
     RUN(&t, test_slots_announced_later);
     RUN(&t, test_camera);
     RUN(&t, test_errors);
+    RUN(&t, test_colors_match_reference);
+    RUN(&t, test_colors_shade_as_grey);
+    RUN(&t, test_colors_upload_bytes);
+    RUN(&t, test_colors_morph);
 
     if (g_ctx && mts_render_context_make_current(g_ctx, NULL) == MTS_OK)
         mts_drawmodes_free(&g_dm);
