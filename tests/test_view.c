@@ -275,6 +275,109 @@ static void test_view_morph(mts_test *t)
     mts_lod_free(&src_lod);
 }
 
+/* Geomorph colours through the view (morph.c's from-colours, the view's
+ * upload, the shader's mix), on a cow whose level-a vertices are blue and
+ * whose later ones are red, unlit: going up from a to b, each vertex a
+ * split adds starts in its nearest ancestor's colour (one present at a:
+ * blue) -- checked in the follower's from_colors against a walk up the
+ * parents -- so the first frame has no red; half-way every added vertex is
+ * half red (no pixel redder than 128 + rounding, many near it), at the end
+ * full red; coming down they fade back. With no_colors the same view draws
+ * grey and uploads no colour. */
+static void test_view_morph_colors(mts_test *t)
+{
+    NEED_CONTEXT(t);
+    mts_error err = {0};
+    const uint32_t n = g_cow.vertex_count, nb = g_cow.base_vertex_count;
+    const uint32_t a = g_cow.level_count / 20, b = g_cow.level_count;
+    mts_model ccow = g_cow;
+    ccow.colors = malloc((size_t)n * 3);
+    ccow.flags |= MTS_MODEL_COLORS;
+    if (!ccow.colors) {
+        CHECK(t, 0);
+        return;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        uint8_t red = i >= nb + a ? 255 : 0;
+        ccow.colors[3 * (size_t)i] = red;
+        ccow.colors[3 * (size_t)i + 1] = 0;
+        ccow.colors[3 * (size_t)i + 2] = (uint8_t)(255 - red);
+    }
+    mts_lod src_lod;
+    CHECK(t, mts_lod_init(&src_lod, &ccow, MTS_LOD_AT_FULL, &err) == MTS_OK);
+    mts_follow_source src = mts_follow_source_of_model(&src_lod, &ccow);
+    mts_render_options o;
+    options(&o);
+    o.style.ambient = 1;
+    for (int grey = 0; grey < 2; grey++) {
+        mts_view v;
+        const mts_follow *vf = &v.follow;
+        mts_view_options vo = {1, 100, grey};
+        CHECKF(t, mts_view_create(&v, g_ctx, &o, &src, &vo, &err) == MTS_OK, "%s", err.msg);
+        CHECK(t, v.colors == !grey);
+        CHECK(t, mts_view_sync(&v, &src, a, 0, &err) == MTS_OK);
+        CHECK(t, mts_view_sync(&v, &src, a, 1000, &err) == MTS_OK && !vf->morph.active);
+        CHECK(t, mts_view_sync(&v, &src, b, 2000, &err) == MTS_OK && vf->morph.active &&
+                     vf->morph.first == nb + a && vf->morph.count == b - a);
+        /* the from-colours: each vertex's ancestor present at level a */
+        uint32_t wrong = 0;
+        for (uint32_t i = 0; i < vf->morph.count && vf->morph.from_colors; i++) {
+            uint32_t anc = nb + a + i;
+            while (anc >= nb + a)
+                anc = g_cow.parents[anc - nb];
+            wrong += memcmp(vf->morph.from_colors + 3 * (size_t)i, ccow.colors + 3 * (size_t)anc,
+                            3) != 0;
+        }
+        CHECKF(t, vf->morph.from_colors && wrong == 0, "%u from-colours are not the ancestor's",
+               wrong);
+        const double at[4] = {2000, 2050, 3000, 0};
+        int max_r[3] = {0}, off[3] = {0};
+        uint32_t many[3] = {0};
+        for (int k = 0; k < 3; k++) {
+            if (k)
+                CHECK(t, mts_view_sync(&v, &src, b, at[k], &err) == MTS_OK);
+            frame f;
+            if (!view_frame(t, &v, &f))
+                break;
+            for (uint32_t i = 0; i < SIDE * SIDE; i++) {
+                const uint8_t *p = f.px + 4 * i;
+                if (!mts_test_pixel_differs(p, f.px, 2))
+                    continue;
+                max_r[k] = p[0] > max_r[k] ? p[0] : max_r[k];
+                int d = abs((int)p[0] + (int)p[2] - 255);
+                off[k] = d > off[k] ? d : off[k];
+                many[k] += p[0] >= (k == 1 ? 100 : 200);
+            }
+        }
+        if (!grey) {
+            fprintf(stderr, "  view morph colours %u -> %u: most red %d, %d (%u pixels of 100 or "
+                            "more), %d; r + b off 255 by %d %d %d\n",
+                    a, b, max_r[0], max_r[1], many[1], max_r[2], off[0], off[1], off[2]);
+            CHECKF(t, max_r[0] <= 2, "first frame: red %d", max_r[0]);
+            CHECKF(t, max_r[1] >= 110 && max_r[1] <= 131 && many[1] > SIDE * SIDE / 100,
+                   "half-way: red at most %d, %u pixels of 100 or more", max_r[1], many[1]);
+            CHECKF(t, max_r[2] >= 250 && many[2] > SIDE * SIDE / 100, "the end: red %d",
+                   max_r[2]);
+            CHECKF(t, off[0] <= 3 && off[1] <= 3 && off[2] <= 3, "off the colours' line by %d %d %d",
+                   off[0], off[1], off[2]);
+        } else {
+            /* the grey, unlit: 0.85 0.82 0.76 everywhere */
+            CHECKF(t, max_r[0] == max_r[1] && max_r[1] == max_r[2] && max_r[0] >= 216 &&
+                          max_r[0] <= 218,
+                   "no_colors: red %d %d %d", max_r[0], max_r[1], max_r[2]);
+        }
+        mts_render_stats rs;
+        mts_render_get_stats(v.renderer, &rs);
+        CHECKF(t, rs.colors == !grey && rs.vertex_bytes_uploaded ==
+                                            (grey ? 24ull : 28ull) * n + rs.morph_bytes_uploaded,
+               "%s: %llu vertex bytes", grey ? "grey" : "colours",
+               (unsigned long long)rs.vertex_bytes_uploaded);
+        mts_view_free(&v);
+    }
+    mts_lod_free(&src_lod);
+    free(ccow.colors);
+}
+
 int main(void)
 {
     mts_test t = {0};
@@ -292,6 +395,7 @@ int main(void)
     RUN(&t, test_view_levels);
     RUN(&t, test_view_follows_growing_source);
     RUN(&t, test_view_morph);
+    RUN(&t, test_view_morph_colors);
     mts_render_context_destroy(g_ctx);
     if (g_cow_ok)
         mts_model_free(&g_cow);
