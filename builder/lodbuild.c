@@ -531,6 +531,12 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
         goto nomem;
     memcpy(model->capacity, fig.capacity, (size_t)fig.slot_count * 4);
     model->flags = mesh->normals_given ? MTS_MODEL_NORMALS_GIVEN : 0;
+    if (mesh->colors) {
+        model->colors = malloc((size_t)nv * 3 + 1);
+        if (!model->colors)
+            goto nomem;
+        model->flags |= MTS_MODEL_COLORS;
+    }
     for (int a = 0; a < 3; a++) {
         model->bbox_min[a] = nv ? mesh->positions[a] : 0;
         model->bbox_max[a] = nv ? mesh->positions[a] : 0;
@@ -538,6 +544,10 @@ mts_result mts_lodbuild(const mts_mesh *mesh, const mts_strips *strips,
     for (uint32_t v = 0; v < nv; v++) {
         memcpy(model->positions + 3 * (size_t)new_id[v], mesh->positions + 3 * (size_t)v, 12);
         memcpy(model->normals + 3 * (size_t)new_id[v], mesh->normals + 3 * (size_t)v, 12);
+        /* a collapse keeps one of its two vertices where it was, so each
+         * vertex's colour is the source vertex's at every level */
+        if (model->colors)
+            memcpy(model->colors + 3 * (size_t)new_id[v], mesh->colors + 3 * (size_t)v, 3);
         for (int a = 0; a < 3; a++) {
             float x = mesh->positions[3 * (size_t)v + a];
             if (x < model->bbox_min[a])

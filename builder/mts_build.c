@@ -19,13 +19,16 @@ static void usage(FILE *f)
           "                 [--base-vertices N] [--tunnel-length K]\n"
           "                 [--strip-effort E] [--max-strip M] [--key-ratio R]\n"
           "                 [--reorder-window W] [--threads N] [--max-mesh-bytes N]\n"
-          "                 [--json] [--quiet]\n"
+          "                 [--no-colors] [--json] [--quiet]\n"
           "\n"
           "Builds a multiresolution triangle-strip model from a mesh (OFF, OBJ, PLY, STL, glTF/GLB):\n"
           "strips at full resolution, a quadric edge-collapse sequence down to a base mesh,\n"
-          "and per-collapse strip records, written to a .mtsm model file.\n"
+          "and per-collapse strip records, written to a .mtsm model file. Vertex colours\n"
+          "(PLY red green blue, OBJ v x y z r g b, COFF, glTF COLOR_0) are kept as 8-bit\n"
+          "sRGB, opaque: alpha is dropped with a warning, as are the colours of a mesh\n"
+          "where only some vertices have one.\n"
           "\n"
-          "       mts-build MODEL.mtsm --stream FILE.mts [--records]\n"
+          "       mts-build MODEL.mtsm --stream FILE.mts [--records] [--no-colors]\n"
           "\n"
           "  -o, --output FILE     model file to write (default: MESH's name with .mtsm,\n"
           "                        in the current directory; with --stream, only when\n"
@@ -67,7 +70,11 @@ static void usage(FILE *f)
           "  --max-mesh-bytes N    refuse a mesh file over N bytes before reading it (bytes,\n"
           "                        or with K, M, G: 512M; default 4G); only a regular file\n"
           "                        is read, never a FIFO or a device\n"
-          "  --json                print one line of JSON with the figures\n"
+          "  --no-colors           leave the mesh's vertex colours out of the model (and a\n"
+          "                        model's out of its stream file): the model is then the\n"
+          "                        one an uncoloured mesh gives, byte for byte\n"
+          "  --json                print one line of JSON with the figures (\"colors\":\n"
+          "                        whether the model keeps vertex colours)\n"
           "  -q, --quiet           no progress bar, no summary\n"
           "  -h, --help            this help\n"
           "\n"
@@ -184,15 +191,20 @@ static void print_stream(const char *path, const stream_figures *sf)
 }
 
 /* mts-build MODEL.mtsm --stream FILE: the stream file of a model built before. */
-static int stream_from_model(const char *input, const char *path, int records, int json,
-                             int quiet)
+static int stream_from_model(const char *input, const char *path, int records, int no_colors,
+                             int json, int quiet)
 {
     mts_error err = {0};
     mts_model model = {0};
     stream_figures sf = {0};
     int status = CLI_EXIT_FAIL;
-    if (mts_modelfile_load(input, &model, &err) == MTS_OK &&
-        write_stream_file(&model, path, records, &sf, &err) == MTS_OK) {
+    mts_result rc = mts_modelfile_load(input, &model, &err);
+    if (rc == MTS_OK && no_colors) {
+        free(model.colors);
+        model.colors = NULL;
+        model.flags &= ~MTS_MODEL_COLORS;
+    }
+    if (rc == MTS_OK && write_stream_file(&model, path, records, &sf, &err) == MTS_OK) {
         status = CLI_EXIT_OK;
         if (json) {
             cli_json j;
@@ -200,11 +212,12 @@ static int stream_from_model(const char *input, const char *path, int records, i
             cli_json_str(&j, "input", input);
             cli_json_u64(&j, "vertices", model.vertex_count);
             cli_json_u64(&j, "levels", model.level_count);
+            cli_json_bool(&j, "colors", model.colors != NULL);
             json_stream(&j, path, &sf);
             cli_json_end(&j);
         } else if (!quiet) {
-            printf("%s: %u vertices, %u levels\n", input, model.vertex_count,
-                   model.level_count);
+            printf("%s: %u vertices, %u levels%s\n", input, model.vertex_count,
+                   model.level_count, model.colors ? ", vertex colours" : "");
             print_stream(path, &sf);
         }
     } else {
@@ -275,6 +288,8 @@ int main(int argc, char **argv)
             stream_path = argv[i];
         } else if (!strcmp(a, "--records")) {
             records = 1;
+        } else if (!strcmp(a, "--no-colors")) {
+            mo.no_colors = 1;
         } else if (!strcmp(a, "--json")) {
             json = 1;
         } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
@@ -303,7 +318,7 @@ int main(int argc, char **argv)
                             "its stream file\n", input);
             return CLI_EXIT_USAGE;
         }
-        return stream_from_model(input, stream_path, records, json, quiet);
+        return stream_from_model(input, stream_path, records, mo.no_colors, json, quiet);
     }
     if (max_strip && tunnel_length == 0) {
         fprintf(stderr, "mts-build: --max-strip needs the tunnelling pass (--tunnel-length 0 "
@@ -344,6 +359,18 @@ int main(int argc, char **argv)
                 input, ms.skipped_header_lines, ms.skipped_header_lines == 1 ? "" : "s",
                 ms.skipped_header_lines == 1 ? "is" : "are", mts_mesh_format_name(ms.format),
                 ms.first_skipped_header_line, ms.skipped_header_lines == 1 ? "" : " first");
+    if (ms.colors_missing)
+        fprintf(stderr, "mts-build: warning: %s: %u vertices have no colour while the others "
+                        "have one: the model keeps no colours\n",
+                input, ms.colors_missing);
+    if (ms.colors_from_file && ms.colors_translucent)
+        fprintf(stderr, "mts-build: warning: %s: alpha dropped: %u vertices were not opaque, "
+                        "and the model is drawn opaque\n",
+                input, ms.colors_translucent);
+    if (ms.colors_from_file && ms.colors_clamped)
+        fprintf(stderr, "mts-build: warning: %s: %u colour values outside their range, "
+                        "clamped\n",
+                input, ms.colors_clamped);
     double t1 = cli_now();
     mts_build_options bo = {0};
     bo.base_vertices = base_vertices;
@@ -395,6 +422,7 @@ int main(int argc, char **argv)
         if (stream_path)
             json_stream(&j, stream_path, &sf);
         cli_json_str(&j, "format", mts_mesh_format_name(ms.format));
+        cli_json_bool(&j, "colors", model.colors != NULL);
         cli_json_u64(&j, "vertices", model.vertex_count);
         cli_json_u64(&j, "triangles", model.level_triangles[n]);
         cli_json_u64(&j, "levels", n);
@@ -429,6 +457,11 @@ int main(int argc, char **argv)
         cli_json_u64(&j, "nonmanifold_faces", ms.nonmanifold_faces);
         cli_json_u64(&j, "unreferenced_vertices", ms.unreferenced_vertices);
         cli_json_u64(&j, "header_lines", ms.skipped_header_lines);
+        /* the colours of a mesh some of whose vertices have none: how many lack one */
+        cli_json_u64(&j, "colors_missing", ms.colors_missing);
+        cli_json_bool(&j, "alpha", ms.colors_from_file && ms.colors_alpha);
+        cli_json_u64(&j, "alpha_translucent", ms.colors_from_file ? ms.colors_translucent : 0);
+        cli_json_u64(&j, "colors_clamped", ms.colors_from_file ? ms.colors_clamped : 0);
         cli_json_object_end(&j);
         cli_json_object_begin(&j, "seconds");
         cli_json_num(&j, "load", t1 - t0, 4);
@@ -463,6 +496,11 @@ int main(int argc, char **argv)
                    "%u non-manifold faces, %u unreferenced vertices\n",
                    ms.polygons_triangulated, ms.degenerate_faces, ms.duplicate_faces,
                    ms.nonmanifold_faces, ms.unreferenced_vertices);
+        if (model.colors)
+            printf("  colours: one per vertex, 8-bit sRGB%s\n",
+                   ms.colors_alpha ? ", alpha dropped" : "");
+        else if (ms.colors_missing)
+            printf("  colours: none kept (%u vertices had none)\n", ms.colors_missing);
         printf("  strips: %u at full resolution, %u indices, %.3f indices/triangle with "
                "restarts (%u swaps)\n",
                model.level_strips[n], model.level_indices[n], ipt_full, (unsigned)rep.tunnel.swaps_after);

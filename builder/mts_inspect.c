@@ -17,8 +17,8 @@ static void usage(FILE *f)
     fputs("usage: mts-inspect MODEL.mtsm [--verify] [--sample N] [--level L | --fraction F]\n"
           "                   [--obj OUT.obj] [--json]\n"
           "\n"
-          "Prints a model's figures. Loading always checks the file's checksums and\n"
-          "replays every record once.\n"
+          "Prints a model's figures (and whether it has vertex colours). Loading always\n"
+          "checks the file's checksums and replays every record once.\n"
           "\n"
           "  --verify          check invariants 1 (strips draw exactly the mesh\n"
           "                    at each level, with its winding) and 2 (refining up and\n"
@@ -29,6 +29,8 @@ static void usage(FILE *f)
           "  --level L         figures at level L (0 = base mesh, levels = full mesh)\n"
           "  --fraction F      the level with F x the full vertex count (0..1)\n"
           "  --obj FILE        write the mesh at that level (default: full) as OBJ\n"
+          "                    (with the vertex colours, v x y z r g b, where the model\n"
+          "                    has them)\n"
           "  --json            one line of JSON\n"
           "  -h, --help        this help\n"
           "\n"
@@ -65,9 +67,15 @@ static mts_result write_obj(const mts_lod *lod, const char *path, mts_error *err
         return mts_error_set(err, MTS_ERR_IO, "%s: %s", path, strerror(errno));
     uint32_t nv = m->base_vertex_count + lod->level;
     fprintf(f, "# mtstream model %s at level %u of %u\n", m->source, lod->level, m->level_count);
-    for (uint32_t v = 0; v < nv; v++)
-        fprintf(f, "v %.9g %.9g %.9g\n", m->positions[3 * v], m->positions[3 * v + 1],
+    for (uint32_t v = 0; v < nv; v++) {
+        fprintf(f, "v %.9g %.9g %.9g", m->positions[3 * v], m->positions[3 * v + 1],
                 m->positions[3 * v + 2]);
+        /* OBJ's common colour extension, 0..1, as the mesh readers take it */
+        if (m->colors)
+            fprintf(f, " %.6g %.6g %.6g", m->colors[3 * v] / 255.0, m->colors[3 * v + 1] / 255.0,
+                    m->colors[3 * v + 2] / 255.0);
+        fputc('\n', f);
+    }
     for (uint32_t v = 0; v < nv; v++)
         fprintf(f, "vn %.6g %.6g %.6g\n", m->normals[3 * v], m->normals[3 * v + 1],
                 m->normals[3 * v + 2]);
@@ -220,6 +228,7 @@ int main(int argc, char **argv)
         cli_json_u64(&j, "base_triangles", m.level_triangles[0]);
         cli_json_u64(&j, "strip_slots", m.strip_count);
         cli_json_u64(&j, "record_words", m.record_word_count);
+        cli_json_bool(&j, "colors", (m.flags & MTS_MODEL_COLORS) != 0);
         cli_json_num(&j, "seconds_load", t_load, 4);
         cli_json_object_begin(&j, "level");
         cli_json_u64(&j, "level", lf.level);
@@ -243,6 +252,8 @@ int main(int argc, char **argv)
                m.vertex_count, m.level_triangles[n], m.base_vertex_count, m.level_triangles[0]);
         printf("  %u levels, %u strip slots, %u record words in memory, file %llu bytes\n", n,
                m.strip_count, m.record_word_count, (unsigned long long)file_bytes);
+        printf("  vertex colours: %s\n",
+               m.flags & MTS_MODEL_COLORS ? "yes (8-bit sRGB, one per vertex)" : "none");
         printf("  level %u: %u vertices, %llu triangles, %u strips, %llu indices with restarts "
                "(%.3f per triangle), %.1f%% degenerate windows\n",
                lf.level, lf.vertices, (unsigned long long)lf.triangles, lf.strips,

@@ -78,6 +78,12 @@ mts_result mts_model_validate(const mts_model *m, mts_error *err)
             !(m->bbox_min[a] <= m->bbox_max[a]))
             return mts_error_set(err, MTS_ERR_FORMAT, "model: the bounding box is not finite");
     }
+    /* the flag is what a stream and a renderer read: it must not claim
+     * colours that are not there, nor hide ones that are */
+    if (!(m->flags & MTS_MODEL_COLORS) != !m->colors)
+        return mts_error_set(err, MTS_ERR_FORMAT, "model: %s",
+                             m->colors ? "colours without the colours flag"
+                                       : "the colours flag without colours");
     for (uint64_t i = 0; i < 3 * (uint64_t)m->vertex_count; i++) {
         if (!isfinite(m->positions[i]) || !isfinite(m->normals[i]))
             return mts_error_set(err, MTS_ERR_FORMAT, "model: vertex %llu is not a finite number",
@@ -231,7 +237,7 @@ uint32_t mts_model_level_for_fraction(const mts_model *m, double fraction)
 uint64_t mts_model_memory_bytes(const mts_model *m)
 {
     uint64_t n = m->level_count;
-    return (uint64_t)m->vertex_count * 24 + n * 4 + (n + 1) * 4 * 4 +
+    return (uint64_t)m->vertex_count * (m->colors ? 27 : 24) + n * 4 + (n + 1) * 4 * 4 +
            (uint64_t)m->strip_count * 4 +
            (uint64_t)m->record_word_count * 4 + ((uint64_t)m->strip_count + 1) * 8 +
            ((uint64_t)m->full.index_count + m->base.index_count) * 4;

@@ -24,14 +24,16 @@ enum {
     SEC_CAPACITY, /* version 2 */
     SEC_GROWTH,   /* version 3 */
     SEC_KEY,      /* version 5.1 */
-    SEC_LAST = SEC_KEY
+    SEC_COLORS,   /* version 5.2, only in a model with colours */
+    SEC_LAST = SEC_COLORS
 };
 
 static const char *const section_names[] = {"?",           "info",   "positions",
                                             "normals",     "full strips",
                                             "base strips", "splits", "levels",
                                             "source",      "capacity",
-                                            "growth",      "build key"};
+                                            "growth",      "build key",
+                                            "colors"};
 
 #define HEADER_SIZE 16u
 #define ENTRY_SIZE 24u
@@ -131,6 +133,7 @@ static void layout_sizes(layout *l)
     l->size[SEC_STRIPS_FULL] = 4ull * l->strips + 4ull * l->full_indices;
     l->size[SEC_STRIPS_BASE] = 4ull * l->strips + 4ull * l->base_indices;
     l->size[SEC_CAPACITY] = 4ull * l->strips;
+    l->size[SEC_COLORS] = 3ull * l->vertices;
 }
 
 static int fixed_size(uint32_t id)
@@ -298,15 +301,29 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
     l.size[SEC_SOURCE] = source_len;
     l.size[SEC_KEY] = key_len;
 
-    /* growth and the build key are the last section ids: a model without
-     * growth (made by hand) is written without both */
-    const uint32_t count = has_growth ? SEC_LAST : SEC_GROWTH - 1;
+    /* The sections in id order: a model without growth (made by hand) is
+     * written without growth and the build key, one without colours
+     * without the colour section, so that its file is byte for byte what
+     * version 5.1 wrote. */
+    const int has_colors = (m->flags & MTS_MODEL_COLORS) != 0;
+    if (has_colors && !m->colors) {
+        free(splits);
+        free(levels);
+        free(growth);
+        return mts_error_set(err, MTS_ERR_ARG, "the model's flags say colours, it has none");
+    }
+    l.size[SEC_COLORS] = has_colors ? l.size[SEC_COLORS] : 0;
+    uint32_t ids[SEC_LAST], count = 0;
+    for (uint32_t id = 1; id <= SEC_LAST; id++)
+        if ((id != SEC_GROWTH && id != SEC_KEY) || has_growth)
+            if (id != SEC_COLORS || has_colors)
+                ids[count++] = id;
     uint64_t offset[SEC_LAST + 1] = {0};
     uint64_t at = align8(HEADER_SIZE + (uint64_t)ENTRY_SIZE * count);
-    for (uint32_t id = 1; id <= count; id++) {
-        offset[id] = at;
+    for (uint32_t k = 0; k < count; k++) {
+        offset[ids[k]] = at;
         /* no padding after the last section: any truncation cuts into data */
-        at = id == count ? at + l.size[id] : align8(at + l.size[id]);
+        at = k + 1 == count ? at + l.size[ids[k]] : align8(at + l.size[ids[k]]);
     }
     uint8_t *buf = at > SIZE_MAX ? NULL : calloc(1, (size_t)at);
     if (!buf) {
@@ -341,13 +358,16 @@ mts_result mts_modelfile_encode(const mts_model *m, uint8_t **out, size_t *out_s
         memcpy(buf + offset[SEC_KEY], m->build_key, key_len);
     }
     free(growth);
+    if (has_colors)
+        memcpy(buf + offset[SEC_COLORS], m->colors, (size_t)l.size[SEC_COLORS]);
 
     memcpy(buf, "MTSM", 4);
     put_u16(buf + 4, MTS_MODELFILE_MAJOR);
-    put_u16(buf + 6, MTS_MODELFILE_MINOR);
+    put_u16(buf + 6, has_colors ? MTS_MODELFILE_MINOR : MTS_MODELFILE_MINOR_PLAIN);
     put_u32(buf + 8, count);
-    for (uint32_t id = 1; id <= count; id++) {
-        uint8_t *e = buf + HEADER_SIZE + ENTRY_SIZE * (id - 1);
+    for (uint32_t k = 0; k < count; k++) {
+        const uint32_t id = ids[k];
+        uint8_t *e = buf + HEADER_SIZE + ENTRY_SIZE * k;
         put_u32(e, id);
         put_u32(e + 4, mts_crc32c(0, buf + offset[id], (size_t)l.size[id]));
         put_u64(e + 8, offset[id]);
@@ -455,7 +475,8 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
         sec_size[id] = len;
     }
     for (uint32_t id = 1; id <= SEC_LAST; id++) {
-        if (!sec[id] && id != SEC_SOURCE && id != SEC_GROWTH && id != SEC_KEY)
+        if (!sec[id] && id != SEC_SOURCE && id != SEC_GROWTH && id != SEC_KEY &&
+            id != SEC_COLORS)
             return mts_error_set(err, MTS_ERR_FORMAT, "%s: section '%s' is missing", name,
                                  section_names[id]);
     }
@@ -534,9 +555,26 @@ mts_result mts_modelfile_decode(const void *data, size_t size, const char *name,
     get_f32s(m->bbox_min, info + 32, 3);
     get_f32s(m->bbox_max, info + 44, 3);
     m->flags = get_u32(info + 56);
-    if (m->flags & ~MTS_MODEL_NORMALS_GIVEN) {
+    if (m->flags & ~(MTS_MODEL_NORMALS_GIVEN | MTS_MODEL_COLORS)) {
         rc = mts_error_set(err, MTS_ERR_FORMAT, "%s: unknown model flags 0x%x", name, m->flags);
         goto fail;
+    }
+    if (!(m->flags & MTS_MODEL_COLORS) != !sec[SEC_COLORS]) {
+        rc = mts_error_set(err, MTS_ERR_FORMAT,
+                           sec[SEC_COLORS] ? "%s: section 'colors' in a model whose 'info' "
+                                             "flags say it has no colours"
+                                           : "%s: section 'colors' is missing ('info' flags "
+                                             "say the model has colours)",
+                           name);
+        goto fail;
+    }
+    if (sec[SEC_COLORS]) {
+        /* its size was checked against 'info' with the other fixed sections */
+        if (!(m->colors = malloc(nv3 + 1))) {
+            rc = mts_error_set(err, MTS_ERR_NOMEM, "%s: out of memory", name);
+            goto fail;
+        }
+        memcpy(m->colors, sec[SEC_COLORS], nv3);
     }
     get_f32s(m->positions, sec[SEC_POSITIONS], nv3);
     get_f32s(m->normals, sec[SEC_NORMALS], nv3);

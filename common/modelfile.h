@@ -8,12 +8,13 @@
  *   16  section_count x { u32 id, u32 crc32c, u64 offset, u64 size }
  *       sections, each 8-byte aligned
  *
- * Sections (all required but SOURCE, GROWTH and KEY; unknown ids are
- * skipped):
+ * Sections (all required but SOURCE, GROWTH, KEY and COLORS; unknown ids
+ * are skipped):
  *   1 INFO        u32 vertices, base_vertices, levels, strips, full_indices,
  *                 base_indices, record_words, capacity_total;
  *                 f32 bbox_min[3], bbox_max[3]; u32 flags (model.h's
- *                 MTS_MODEL_*: bit 0, the normals are the source's own)
+ *                 MTS_MODEL_*: bit 0, the normals are the source's own;
+ *                 bit 1, the model has colours)
  *   2 POSITIONS   f32 x 3 per vertex, stream order
  *   3 NORMALS     f32 x 3 per vertex
  *   4 STRIPS_FULL u32 length per strip, then the indices
@@ -31,6 +32,12 @@
  *                 by hand, which a server refuses to stream
  *  11 KEY         UTF-8 text: the build key (model.h), written with GROWTH
  *                 (empty when there is none); absent in older files
+ *  12 COLORS      u8 red, green, blue per vertex (8-bit sRGB), stream order;
+ *                 present exactly when INFO's flags have MTS_MODEL_COLORS
+ *                 (bit 1), and then the file says version 5.2 (a model
+ *                 without colours is still written as 5.1, byte for byte).
+ *                 A 5.1 reader refuses a coloured file by its unknown flag
+ *                 rather than stream it grey
  * Fixed-size sections must have exactly the size INFO's counts give; the
  * varint sections must parse to exactly their end, and INFO's counts must
  * fit their sizes (a varint is a byte at least) before anything is allocated.
@@ -57,7 +64,10 @@
 #include "model.h"
 
 #define MTS_MODELFILE_MAJOR 5
-#define MTS_MODELFILE_MINOR 1 /* 5.1: the KEY section */
+#define MTS_MODELFILE_MINOR 2 /* 5.1: the KEY section; 5.2: the COLORS section */
+/* What a model without colours is written as: the file 5.1 wrote, byte for
+ * byte, so that nothing changes for the models that have none. */
+#define MTS_MODELFILE_MINOR_PLAIN 1
 
 /* Serialises a model into a new buffer (free with free()). */
 mts_result mts_modelfile_encode(const mts_model *model, uint8_t **data, size_t *size,
