@@ -139,6 +139,18 @@ mts_result encode_impl(const mts_draco_mesh *in, const mts_draco_options *opts, 
             nrm_att->SetAttributeValue(draco::AttributeValueIndex(i), n);
         }
     }
+    if (in->colors) {
+        // Unsigned bytes, normalized as glTF and PLY colours are; no
+        // quantization applies to integers, so Draco keeps them exact.
+        draco::GeometryAttribute col_ga;
+        col_ga.Init(draco::GeometryAttribute::COLOR, nullptr, 3, draco::DT_UINT8, true, 3, 0);
+        const int col_id = mesh.AddAttribute(col_ga, true, nv);
+        if (col_id < 0)
+            return mts_error_set(err, MTS_ERR_INTERNAL, "draco encode: cannot add the colour attribute");
+        draco::PointAttribute *col_att = mesh.attribute(col_id);
+        for (uint32_t i = 0; i < nv; ++i)
+            col_att->SetAttributeValue(draco::AttributeValueIndex(i), in->colors + 3 * (size_t)i);
+    }
     mesh.SetNumFaces(nt);
     for (uint32_t f = 0; f < nt; ++f) {
         draco::Mesh::Face face;
@@ -179,6 +191,7 @@ void out_free(mts_draco_mesh_out *m)
     std::free(m->quantized);
     std::free(m->normals);
     std::free(m->triangles);
+    std::free(m->colors);
     std::memset(m, 0, sizeof *m);
 }
 
@@ -251,6 +264,16 @@ mts_result decode_impl(const uint8_t *data, size_t size, mts_draco_mesh_out *out
             return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: normals are not 3 floats");
     }
 
+    const draco::PointAttribute *col = nullptr;
+    if (mesh->NumNamedAttributes(draco::GeometryAttribute::COLOR) > 1)
+        return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: %d colour attributes",
+                             mesh->NumNamedAttributes(draco::GeometryAttribute::COLOR));
+    if (mesh->NumNamedAttributes(draco::GeometryAttribute::COLOR) == 1) {
+        col = mesh->GetNamedAttribute(draco::GeometryAttribute::COLOR);
+        if (!col || col->num_components() != 3 || col->data_type() != draco::DT_UINT8)
+            return mts_error_set(err, MTS_ERR_FORMAT, "draco decode: colours are not 3 bytes");
+    }
+
     mts_draco_mesh_out m = {};
     m.vertex_count = (uint32_t)np;
     m.triangle_count = (uint32_t)nf;
@@ -260,7 +283,9 @@ mts_result decode_impl(const uint8_t *data, size_t size, mts_draco_mesh_out *out
     m.triangles = alloc_array<uint32_t>(3 * nf);
     if (nrm)
         m.normals = alloc_array<float>(3 * np);
-    if (!m.positions || !m.quantized || !m.triangles || (nrm && !m.normals)) {
+    if (col)
+        m.colors = alloc_array<uint8_t>(3 * np);
+    if (!m.positions || !m.quantized || !m.triangles || (nrm && !m.normals) || (col && !m.colors)) {
         out_free(&m);
         return mts_error_set(err, MTS_ERR_NOMEM, "draco decode: out of memory (%llu points, %llu faces)",
                              (unsigned long long)np, (unsigned long long)nf);
@@ -290,6 +315,15 @@ mts_result decode_impl(const uint8_t *data, size_t size, mts_draco_mesh_out *out
                 return mts_error_set(err, MTS_ERR_RANGE, "draco decode: point %u has no valid normal", i);
             }
             std::memcpy(m.normals + 3 * (size_t)i, n.data(), sizeof(float) * 3);
+        }
+        if (col) {
+            const draco::AttributeValueIndex cvi = col->mapped_index(draco::PointIndex(i));
+            std::array<uint8_t, 3> rgb;
+            if (cvi.value() >= col->size() || !col->GetValue<uint8_t, 3>(cvi, &rgb)) {
+                out_free(&m);
+                return mts_error_set(err, MTS_ERR_RANGE, "draco decode: point %u has no colour", i);
+            }
+            std::memcpy(m.colors + 3 * (size_t)i, rgb.data(), 3);
         }
     }
     for (uint32_t f = 0; f < m.triangle_count; ++f) {

@@ -39,6 +39,15 @@
  *    the same code. (On amd64 Draco's own dequantized floats are the same, bit
  *    for bit.) Normals are Draco's octahedral ones, dequantized by Draco.
  *
+ * Colours (mts_draco_mesh.colors) go in as a COLOR attribute of 3 unsigned
+ * bytes, one value per point like the positions. Draco 1.5.5 quantizes
+ * only float attributes, so an integer one takes its integer attribute
+ * coder: predicted (parallelogram at -cl 3..8, constrained
+ * multi-parallelogram above, a plain difference at -cl 0..2), then
+ * entropy-coded, and decoded bit for bit (tests/test_stream_colors.c checks
+ * it on cow and on the stream's base). Their prediction follows Edgebreaker's
+ * traversal, so they do not change the connectivity or its renumbering.
+ *
  * Every function catches all C++ exceptions, prints nothing and keeps no
  * global state; results are malloc'ed and freed with the functions below. */
 #ifndef MTS_DRACO_H
@@ -71,6 +80,9 @@ typedef struct mts_draco_mesh {
     const float *positions;    /* 3 per vertex */
     const float *normals;      /* 3 per vertex, or NULL */
     const uint32_t *triangles; /* 3 per triangle */
+    /* 3 per vertex (8-bit r, g, b), or NULL: a COLOR attribute of unsigned
+     * bytes, which Draco codes losslessly (see the top) */
+    const uint8_t *colors;
 } mts_draco_mesh;
 
 typedef enum mts_draco_method {
@@ -98,6 +110,7 @@ typedef struct mts_draco_mesh_out {
     uint32_t *quantized; /* 3 per vertex, each in [0, 2^bits - 1] */
     float *normals;      /* 3 per vertex, or NULL when the stream has none */
     uint32_t *triangles; /* 3 per triangle, each < vertex_count */
+    uint8_t *colors;     /* 3 per vertex, or NULL when the stream has none */
     mts_draco_grid grid; /* the grid read from the stream */
 } mts_draco_mesh_out;
 

@@ -57,6 +57,7 @@ typedef struct mts_stream_breakdown {
     size_t framing_bytes;    /* frame headers, batch headers (capacities apart) and
                                 CRCs of BASE and BATCHes */
     double parent_bits, fan_bits, position_bits, normal_bits, full_strips_bits, capacity_bits;
+    double color_bits; /* the splits' colours (the base's are in base_draco_bytes) */
     uint32_t vertices, base_vertices, splits;
 } mts_stream_breakdown;
 
@@ -137,6 +138,10 @@ void mts_stream_put_end(const mts_stream *s, uint32_t stop_level, uint32_t bytes
 /* The mesh checksum of PROTOCOL.md's END at the runtime's current level:
  * strips and the grid points of the vertices present. */
 uint64_t mts_stream_checksum(const mts_lod *lod, const uint32_t *quantized);
+/* The same for a stream with colours (colors: 3 bytes a vertex present),
+ * which END sums too; NULL for none, which is mts_stream_checksum. */
+uint64_t mts_stream_checksum_colors(const mts_lod *lod, const uint32_t *quantized,
+                                    const uint8_t *colors);
 
 /* ---- client ---- */
 

@@ -42,6 +42,7 @@ uint64_t mts__stream_vertex_sum(uint32_t x, const uint32_t q[3]);
  * hundred splits pay for the learning once, not once a batch. */
 #define MTS__STREAM_POSITION_CONTEXTS 16
 #define MTS__STREAM_FAN_CONTEXTS 32
+#define MTS__STREAM_COLOR_CONTEXTS 8
 struct mts__stream_models {
     /* a fan code's start and count by the parent's ring
      * (mts__stream_fan_context) */
@@ -61,6 +62,9 @@ struct mts__stream_models {
         normal_part[MTS__STREAM_POSITION_CONTEXTS];
     uint16_t normal_sign[MTS__STREAM_POSITION_CONTEXTS];
     mts_rc_uint_model normal[2];
+    /* a colour residual's Y, Co, Cg (mts__stream_color_forward), each by
+     * its context (mts__stream_color_context) */
+    mts_rc_uint_model color[3][MTS__STREAM_COLOR_CONTEXTS];
 };
 
 void mts__stream_models_init(struct mts__stream_models *m);
@@ -92,6 +96,32 @@ unsigned mts__stream_predict_position(const uint32_t *around, uint32_t k,
 void mts__stream_predict_normal(const uint32_t *around, uint32_t k, const uint32_t *quantized,
                                 uint32_t v, unsigned grid_bits, const uint16_t parent_code[2],
                                 uint16_t code[2]);
+
+/* Where a new vertex's colour is expected, from colours both ends hold
+ * once its split has applied: an eighth of the way from the mean colour of
+ * the corners around it (mts_grow_around_newest, each counted as often as
+ * it is listed) to its parent's, per channel, in integers; u's own where
+ * there are none. Returns the context the residual's Y is coded in: the
+ * significant bits (at most 7) of the ring's spread, the largest
+ * |colour - the ring's rounded mean| over corners and channels. */
+unsigned mts__stream_predict_color(const uint32_t *around, uint32_t k, const uint8_t *colors,
+                                   uint32_t parent, int32_t pred[3]);
+
+/* The context of a colour residual's component (0: Y, 1: Co, 2: Cg): Y's
+ * is the ring's (above); Co's and Cg's the significant bits of |Y| (at most
+ * 7), as a colour that moved in brightness tends to move in hue too. */
+unsigned mts__stream_color_context(unsigned ring, int component, int32_t y);
+
+/* A colour residual (r, g, b differences, each in -255..255) to YCoCg-R
+ * (Malvar and Sullivan, 2003) and back: lifting steps in integers, exact
+ * both ways. Co = r - b, t = b + floor(Co / 2), Cg = g - t, Y = t +
+ * floor(Cg / 2); |Y| <= 255, |Co| <= 510, |Cg| <= 510. */
+void mts__stream_color_forward(const int32_t d[3], int32_t t[3]);
+void mts__stream_color_inverse(const int32_t t[3], int32_t d[3]);
+
+/* A colour's term of the checksum (PROTOCOL.md, END): its vertex id and its
+ * bytes; summed beside mts__stream_vertex_sum for a stream with colours. */
+uint64_t mts__stream_color_sum(uint32_t x, const uint8_t rgb[3]);
 
 /* The bits a triangle id of the full level takes. */
 unsigned mts__stream_triangle_id_bits(uint32_t triangles);

@@ -154,6 +154,9 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     c->models = malloc(sizeof *c->models);
     if (mi->flags & MTS_INFO_NORMALS)
         m->flags = MTS_MODEL_NORMALS_GIVEN;
+    /* colours grow with the vertices like the rest (reserve_vertices) */
+    if (mi->flags & MTS_INFO_COLORS)
+        m->flags |= MTS_MODEL_COLORS;
     c->vertex_room = 0;
     if (!m->parents || !m->record_offsets || !m->capacity || !c->models ||
         mts_strips_alloc(&m->full, mi->strips, 0, err) != MTS_OK)
@@ -322,7 +325,13 @@ static int reserve_vertices(mts_stream_client *c, uint32_t count)
     uint16_t *o = NULL;
     if ((m->flags & MTS_MODEL_NORMALS_GIVEN) && (o = realloc(c->oct, (size_t)room * 4)) != NULL)
         c->oct = o;
-    if (!pos || !nrm || !q || ((m->flags & MTS_MODEL_NORMALS_GIVEN) && !o))
+    const int colored = (m->flags & MTS_MODEL_COLORS) != 0;
+    uint8_t *col = NULL;
+    if (colored && (col = realloc(m->colors, (size_t)room * 3)) != NULL) {
+        memset(col + 3 * (size_t)c->vertex_room, 0, (size_t)(room - c->vertex_room) * 3);
+        m->colors = col;
+    }
+    if (!pos || !nrm || !q || ((m->flags & MTS_MODEL_NORMALS_GIVEN) && !o) || (colored && !col))
         return 0;
     c->vertex_room = (uint32_t)room;
     return 1;
@@ -343,13 +352,17 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     if (rc != MTS_OK)
         return mts_error_prefix(err, "BASE");
     const int carry_normals = (m->flags & MTS_MODEL_NORMALS_GIVEN) != 0;
+    const int carry_colors = (m->flags & MTS_MODEL_COLORS) != 0;
     if (dec.vertex_count != nb || (dec.normals != NULL) != carry_normals ||
+        (dec.colors != NULL) != carry_colors ||
         dec.grid.bits != c->grid.bits ||
         memcmp(dec.grid.origin, c->grid.origin, 12) != 0 || dec.grid.range != c->grid.range) {
         rc = mts_error_set(err, MTS_ERR_FORMAT,
                            "BASE: Draco mesh has %u vertices (expected %u), another grid, or "
-                           "normals where MODEL_INFO says %s",
-                           dec.vertex_count, nb, carry_normals ? "there are" : "there are none");
+                           "normals or colours where MODEL_INFO says %s and %s",
+                           dec.vertex_count, nb,
+                           carry_normals ? "there are normals" : "there are no normals",
+                           carry_colors ? "there are colours" : "there are no colours");
         mts_draco_mesh_out_free(&dec);
         return rc;
     }
@@ -374,6 +387,8 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
             mts__stream_oct_encode(m->normals + 3 * (size_t)x, c->oct + 2 * (size_t)x);
     }
     memcpy(c->quantized, dec.quantized, (size_t)nb * 12);
+    if (carry_colors)
+        memcpy(m->colors, dec.colors, (size_t)nb * 3);
     mts_draco_mesh_out_free(&dec);
 
     /* the slots the base uses, their capacities and lengths (each within
@@ -677,6 +692,31 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, mts_grow_
             }
             mts__stream_oct_decode(o, m->normals + 3 * (size_t)v);
         }
+        if (m->colors) {
+            int32_t cp[3], t[3] = {0, 0, 0}, r[3];
+            const unsigned cctx = mts__stream_predict_color(around, k, m->colors, sp.parent, cp);
+            for (int a = 0; a < 3; a++)
+                t[a] = mts_rc_decode_sint(
+                    d, &md->color[a][mts__stream_color_context(cctx, a, t[0])]);
+            /* no true residual is past +-510 (mts__stream_color_forward):
+             * a larger one is malformed, and kept from overflowing the
+             * inverse */
+            int bad_color = !d->ok;
+            for (int a = 0; a < 3; a++)
+                bad_color |= t[a] < -510 || t[a] > 510;
+            if (!bad_color) {
+                mts__stream_color_inverse(t, r);
+                for (int a = 0; a < 3; a++) {
+                    const int32_t x = cp[a] + r[a];
+                    bad_color |= x < 0 || x > 255;
+                    m->colors[3 * (size_t)v + a] = (uint8_t)x;
+                }
+            }
+            if (bad_color)
+                return mts_error_set(err, MTS_ERR_RANGE,
+                                     "BATCH %u: vertex %u's colour is off the 0..255 range", index,
+                                     v);
+        }
     }
     if (!d->ok || !mts_rc_decoder_finished(d))
         return mts_error_set(err, MTS_ERR_FORMAT,
@@ -743,6 +783,14 @@ static mts_result take_records(mts_stream_client *c, const uint8_t *p, size_t n,
                 o[a] = (uint16_t)x;
             }
             mts__stream_oct_decode(o, m->normals + 3 * (size_t)v);
+        }
+        for (int a = 0; a < 3 && m->colors; a++) {
+            int64_t x = (int64_t)m->colors[3 * (size_t)u + a] +
+                        (int32_t)mts_unzigzag_u32(mts_cursor_varint(&cur));
+            if (!cur.ok || x < 0 || x > 255)
+                return mts_error_set(err, MTS_ERR_RANGE, "BATCH %u: vertex %u's colour is %s",
+                                     index, v, cur.ok ? "off the 0..255 range" : "cut short");
+            m->colors[3 * (size_t)v + a] = (uint8_t)x;
         }
     }
     if (mts_cursor_left(&cur) != 0)
@@ -819,7 +867,7 @@ static mts_result take_end(mts_stream_client *c, const uint8_t *p, size_t n, mts
                              "END at level %u, but the client is at %u of the %u it asked for",
                              e.final_level, c->lod.level, c->stop_level);
     c->end_checksum = e.checksum;
-    c->checksum = mts_stream_checksum(&c->lod, c->quantized);
+    c->checksum = mts_stream_checksum_colors(&c->lod, c->quantized, c->model.colors);
     if (c->checksum != e.checksum)
         return mts_error_set(err, MTS_ERR_CHECKSUM,
                              "END: the mesh at level %u differs from the server's (checksum "

@@ -47,6 +47,10 @@ static mts_result copy_model(const mts_model *src, mts_model *dst, mts_error *er
     memset(dst, 0, sizeof *dst);
     size_t nv = src->vertex_count, n1 = (size_t)src->level_count + 1;
     *dst = *src;
+    /* colours travel only where the model says it has them */
+    const int colored = (src->flags & MTS_MODEL_COLORS) && src->colors;
+    dst->flags = colored ? src->flags : src->flags & ~MTS_MODEL_COLORS;
+    dst->colors = colored ? malloc(nv * 3 + 1) : NULL;
     dst->positions = malloc(nv * 12);
     dst->normals = malloc(nv * 12);
     dst->parents = malloc(n1 * 4);
@@ -64,7 +68,7 @@ static mts_result copy_model(const mts_model *src, mts_model *dst, mts_error *er
     memset(&dst->base, 0, sizeof dst->base);
     if (!dst->positions || !dst->normals || !dst->parents || !dst->record_offsets ||
         !dst->record_data || !dst->level_triangles || !dst->level_strips ||
-        !dst->level_indices || !dst->capacity || !dst->key_levels ||
+        !dst->level_indices || !dst->capacity || !dst->key_levels || (colored && !dst->colors) ||
         (src->growth_offsets && !dst->growth_offsets) || (src->growth_data && !dst->growth_data) ||
         mts_strips_alloc(&dst->full, src->strip_count, src->full.index_count, err) != MTS_OK ||
         mts_strips_alloc(&dst->base, src->strip_count, src->base.index_count, err) != MTS_OK) {
@@ -73,6 +77,8 @@ static mts_result copy_model(const mts_model *src, mts_model *dst, mts_error *er
     }
     memcpy(dst->positions, src->positions, nv * 12);
     memcpy(dst->normals, src->normals, nv * 12);
+    if (colored)
+        memcpy(dst->colors, src->colors, nv * 3);
     memcpy(dst->parents, src->parents, (n1 - 1) * 4);
     memcpy(dst->record_offsets, src->record_offsets, n1 * 4);
     memcpy(dst->record_data, src->record_data, (size_t)src->record_word_count * 4);
@@ -137,20 +143,26 @@ static int renumber_base(mts_model *m, uint32_t *quantized, const uint32_t *map)
 #undef MAP
     float *pos = malloc((size_t)nb * 12 + 1), *nor = malloc((size_t)nb * 12 + 1);
     uint32_t *q = malloc((size_t)nb * 12 + 1);
-    int ok = pos && nor && q;
+    uint8_t *col = m->colors ? malloc((size_t)nb * 3 + 1) : NULL;
+    int ok = pos && nor && q && (!m->colors || col);
     if (ok) {
         for (uint32_t x = 0; x < nb; x++) {
             memcpy(pos + 3 * (size_t)map[x], m->positions + 3 * (size_t)x, 12);
             memcpy(nor + 3 * (size_t)map[x], m->normals + 3 * (size_t)x, 12);
             memcpy(q + 3 * (size_t)map[x], quantized + 3 * (size_t)x, 12);
+            if (col)
+                memcpy(col + 3 * (size_t)map[x], m->colors + 3 * (size_t)x, 3);
         }
         memcpy(m->positions, pos, (size_t)nb * 12);
         memcpy(m->normals, nor, (size_t)nb * 12);
         memcpy(quantized, q, (size_t)nb * 12);
+        if (col)
+            memcpy(m->colors, col, (size_t)nb * 3);
     }
     free(pos);
     free(nor);
     free(q);
+    free(col);
     return ok;
 }
 
@@ -191,7 +203,8 @@ static mts_result encode_base(mts_stream *s, int method, uint8_t **draco, size_t
     }
     const int carry_normals = (m->flags & MTS_MODEL_NORMALS_GIVEN) != 0;
     for (int attempt = 0; attempt < 2; attempt++) {
-        mts_draco_mesh in = {nb, nt, m->positions, carry_normals ? m->normals : NULL, tris};
+        mts_draco_mesh in = {nb, nt, m->positions, carry_normals ? m->normals : NULL, tris,
+                             m->colors};
         mts_draco_options o = {0};
         o.grid = s->grid;
         o.method = attempt == 0 ? method : MTS_DRACO_SEQUENTIAL;
@@ -202,6 +215,7 @@ static mts_result encode_base(mts_stream *s, int method, uint8_t **draco, size_t
             (rc = mts_draco_decode(*draco, *draco_size, &dec, err)) != MTS_OK)
             goto done;
         if (dec.vertex_count == nb && (dec.normals != NULL) == carry_normals &&
+            (dec.colors != NULL) == (m->colors != NULL) &&
             mts_draco_renumber(&in, &dec, map, NULL, err) == MTS_OK) {
             s->draco_method = o.method;
             break;
@@ -241,6 +255,13 @@ static mts_result encode_base(mts_stream *s, int method, uint8_t **draco, size_t
         }
         if (carry_normals)
             memcpy(m->normals + 3 * (size_t)x, dec.normals + 3 * (size_t)x, 12);
+        /* Draco codes byte colours losslessly (draco.h): a client's base
+         * colours are the model's, or the stream would stand for others */
+        if (m->colors && memcmp(m->colors + 3 * (size_t)x, dec.colors + 3 * (size_t)x, 3) != 0) {
+            rc = mts_error_set(err, MTS_ERR_INTERNAL,
+                               "stream: base vertex %u changed its colour through Draco", x);
+            goto done;
+        }
     }
     for (uint32_t x = 0; x < m->vertex_count; x++)
         mts_draco_dequantize(&s->grid, s->quantized + 3 * (size_t)x, m->positions + 3 * (size_t)x);
@@ -283,7 +304,7 @@ static mts_result level_checksums(mts_stream *s, const mts_stream_options *opts,
         mts_lod_free(&lod);
         return mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory");
     }
-    uint64_t sum = mts_stream_checksum(&lod, s->quantized);
+    uint64_t sum = mts_stream_checksum_colors(&lod, s->quantized, m->colors);
     for (uint32_t st = 0; st < m->strip_count; st++) {
         uint32_t len;
         const uint32_t *str = mts_lod_strip(&lod, st, &len);
@@ -310,6 +331,8 @@ static mts_result level_checksums(mts_stream *s, const mts_stream_options *opts,
         mts_lod_clear_changed(&lod);
         uint32_t v = m->base_vertex_count + l;
         sum += mts__stream_vertex_sum(v, s->quantized + 3 * (size_t)v);
+        if (m->colors)
+            sum += mts__stream_color_sum(v, m->colors + 3 * (size_t)v);
         s->level_checksum[l + 1] = sum;
     }
     free(hs);
@@ -323,6 +346,9 @@ static mts_result level_checksums(mts_stream *s, const mts_stream_options *opts,
 typedef struct prediction_pass {
     int32_t *residual; /* 5 per split: position x y z, normal code a b */
     uint8_t *context;
+    int16_t *color;        /* 3 per split, where the stream has colours: the
+                              residual decorrelated (mts__stream_color_forward) */
+    uint8_t *color_context;
     uint8_t *fan_context; /* per split: its fan code's context */
     mts_grow_full_path *paths;
     uint8_t *swaps;
@@ -333,6 +359,8 @@ static void pass_free(prediction_pass *p)
 {
     free(p->residual);
     free(p->context);
+    free(p->color);
+    free(p->color_context);
     free(p->fan_context);
     free(p->paths);
     free(p->swaps);
@@ -349,7 +377,12 @@ static mts_result predict_all(mts_stream *s, const mts_stream_options *opts, con
     pass->fan_context = malloc((size_t)n + 1);
     pass->paths = malloc(((size_t)m->strip_count + 1) * sizeof *pass->paths);
     pass->swaps = malloc((size_t)m->full.index_count + 1);
-    if (!pass->residual || !pass->context || !pass->fan_context || !pass->paths || !pass->swaps)
+    if (m->colors) {
+        pass->color = malloc((size_t)n * 6 + 1);
+        pass->color_context = malloc((size_t)n + 1);
+    }
+    if (!pass->residual || !pass->context || !pass->fan_context || !pass->paths || !pass->swaps ||
+        (m->colors && (!pass->color || !pass->color_context)))
         return mts_error_set(err, MTS_ERR_NOMEM, "stream: out of memory predicting '%s'",
                              s->name);
     mts_grow_options go = {0};
@@ -410,6 +443,16 @@ static mts_result predict_all(mts_stream *s, const mts_stream_options *opts, con
                                        oct + 2 * (size_t)u, code);
             r[3] = (int32_t)oct[2 * (size_t)v] - code[0];
             r[4] = (int32_t)oct[2 * (size_t)v + 1] - code[1];
+        }
+        if (m->colors) {
+            int32_t cp[3], d[3], t[3];
+            pass->color_context[j] =
+                (uint8_t)mts__stream_predict_color(around, k, m->colors, u, cp);
+            for (int c = 0; c < 3; c++)
+                d[c] = (int32_t)m->colors[3 * (size_t)v + c] - cp[c];
+            mts__stream_color_forward(d, t);
+            for (int c = 0; c < 3; c++)
+                pass->color[3 * (size_t)j + c] = (int16_t)t[c];
         }
     }
     if (rc == MTS_OK && n > 0)
@@ -588,6 +631,9 @@ mts_result mts_stream_add_records_form(mts_stream *s, mts_error *err)
             for (int a = 0; a < 2 && carry_normals; a++)
                 mts_buf_varint(&b, mts_zigzag_u32((uint32_t)oct[2 * (size_t)v + a] -
                                                   oct[2 * (size_t)u + a]));
+            for (int c = 0; c < 3 && m->colors; c++)
+                mts_buf_varint(&b, mts_zigzag_u32((uint32_t)m->colors[3 * (size_t)v + c] -
+                                                  m->colors[3 * (size_t)u + c]));
         }
         put_crc(&b, f);
         mts_wire_frame_end(&b, f);
@@ -795,6 +841,13 @@ mts_result mts_stream_build(const mts_model *model, const char *name,
             COUNT_AS(normal_bits);
             for (int a = 0; a < 2 && carry_normals; a++)
                 mts_rc_encode_sint(&e, &models->normal[a], r[3 + a]);
+            COUNT_AS(color_bits);
+            for (int c = 0; c < 3 && m->colors; c++) {
+                const int16_t *t = pass.color + 3 * (size_t)j;
+                mts_rc_encode_sint(
+                    &e, &models->color[c][mts__stream_color_context(pass.color_context[j], c, t[0])],
+                    t[c]);
+            }
         }
 #undef COUNT_AS
         e.cost = NULL; /* the flush carries no field */
@@ -892,7 +945,8 @@ static void info_fields(const mts_stream *s, uint32_t stop_level, mts_wire_model
     memcpy(mi->bbox_max, m->bbox_max, 12);
     mi->quant_bits = (uint8_t)s->grid.bits;
     mi->flags = (uint8_t)(((m->flags & MTS_MODEL_NORMALS_GIVEN) ? MTS_INFO_NORMALS : 0) |
-                          (s->records ? MTS_INFO_RECORDS : 0));
+                          (s->records ? MTS_INFO_RECORDS : 0) |
+                          (m->colors ? MTS_INFO_COLORS : 0));
     memcpy(mi->grid_origin, s->grid.origin, 12);
     mi->grid_range = s->grid.range;
     mi->batch_count = s->batch_count;

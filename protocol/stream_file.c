@@ -420,7 +420,7 @@ mts_result mts_stream_file_reader_end(mts_stream_file_reader *r, mts_stream_clie
     mts_result rc = mts_lod_set_level(&c->lod, p->boundary, err);
     if (rc != MTS_OK)
         return rc;
-    const uint64_t got = mts_stream_checksum(&c->lod, c->quantized);
+    const uint64_t got = mts_stream_checksum_colors(&c->lod, c->quantized, c->model.colors);
     if (got != want)
         return mts_error_set(err, MTS_ERR_CHECKSUM,
                              "stream file: the mesh at level %u differs from the file's "
@@ -463,7 +463,7 @@ mts_result mts_stream_file_reader_end(mts_stream_file_reader *r, mts_stream_clie
     c->stop_level = level;
     c->info.stop_level = level;
     c->info.stop_triangles = (uint32_t)triangles;
-    mts_wire_end e = {level, mts_stream_checksum(&c->lod, c->quantized),
+    mts_wire_end e = {level, mts_stream_checksum_colors(&c->lod, c->quantized, c->model.colors),
                       (uint32_t)(p->to - p->from)};
     mts_buf b = {0};
     mts_wire_put_end(&b, &e);

@@ -16,11 +16,12 @@
  * 4.1: the records form, asked for by a HELLO flag; 5.0: the records a
  * client derives follow the corner-table growth (key levels by quality,
  * rings from a vertex's listed corner) and END sums strips in pairs; 6.0:
- * a split's parent is coded against the previous one's (PROTOCOL.md,
- * "Changes"). A peer of another major version is refused at
- * HELLO with ERROR version. */
+ * a split's parent is coded against the previous one's; 7.1: vertex
+ * colours, under a MODEL_INFO flag a 7.0 client refuses, every other
+ * stream byte for byte as in 7.0 (PROTOCOL.md, "Changes"). A peer of
+ * another major version is refused at HELLO with ERROR version. */
 #define MTS_WIRE_MAJOR 7
-#define MTS_WIRE_MINOR 0
+#define MTS_WIRE_MINOR 1
 
 /* Each key level costs a client a stripification of the whole mesh there, so
  * a client bounds how many it takes (the builder makes 13 on bunny00 and on
@@ -106,10 +107,11 @@ static inline uint32_t mts_wire_batch_splits(const mts_wire_model_info *mi, uint
  * "Records form"): each split's record travels, so the client derives none. */
 #define MTS_INFO_RECORDS 2u
 /* MODEL_INFO flags: the stream carries a colour per vertex (3 bytes, 8-bit
- * sRGB); a stream client holds them in c->model.colors, grown with the
+ * sRGB: Draco's COLOR attribute in BASE, a coded residual a split), since
+ * 7.1; a stream client holds them in c->model.colors, grown with the
  * vertices that arrived (vertex_room), and MTS_MODEL_COLORS in c->model.flags. */
 #define MTS_INFO_COLORS 4u
-#define MTS_INFO_KNOWN_FLAGS (MTS_INFO_NORMALS | MTS_INFO_RECORDS)
+#define MTS_INFO_KNOWN_FLAGS (MTS_INFO_NORMALS | MTS_INFO_RECORDS | MTS_INFO_COLORS)
 
 /* HELLO flags: the client would rather have the records form (many more
  * bytes, far less work to apply); a server without it sends the splits form,

@@ -264,16 +264,22 @@ static void test_model_info_records_flag(mts_test *t)
     mi.batch_count = 2; /* 20 and 15 */
     mi.batch_size = 20;
     mi.capacity_total = 60;
-    CHECK(t, MTS_INFO_RECORDS == 2u &&
-             MTS_INFO_KNOWN_FLAGS == (MTS_INFO_NORMALS | MTS_INFO_RECORDS));
+    /* colours (7.1) are known; a 7.0 client refused them as unknown, the
+     * way this one refuses 8 and up */
+    CHECK(t, MTS_INFO_RECORDS == 2u && MTS_INFO_COLORS == 4u &&
+             MTS_INFO_KNOWN_FLAGS == (MTS_INFO_NORMALS | MTS_INFO_RECORDS | MTS_INFO_COLORS));
+    CHECK(t, MTS_WIRE_MAJOR == 7 && MTS_WIRE_MINOR == 1);
     const struct {
         uint8_t flags;
         int ok;
     } cases[] = {{MTS_INFO_RECORDS, 1},
                  {MTS_INFO_RECORDS | MTS_INFO_NORMALS, 1},
                  {0, 1},
-                 {4, 0},
-                 {MTS_INFO_RECORDS | 4, 0},
+                 {MTS_INFO_COLORS, 1},
+                 {MTS_INFO_RECORDS | MTS_INFO_NORMALS | MTS_INFO_COLORS, 1},
+                 {8, 0},
+                 {MTS_INFO_RECORDS | 8, 0},
+                 {MTS_INFO_COLORS | 0x10, 0},
                  {MTS_INFO_RECORDS | MTS_INFO_NORMALS | 0x40, 0}};
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         mi.flags = cases[i].flags;
