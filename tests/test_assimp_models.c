@@ -89,6 +89,23 @@ static const struct {
     {"PLY/Wuson.ply", 1, 3}, /* Blender 2.47: "Created by Blender3D 247 ..." */
 };
 
+/* Built with vertex colours: every file whose vertices all have one (and
+ * no other file: a reader that starts reading colours where there are
+ * none fails here too). */
+static const char *const colored[] = {
+    "OBJ/cube_with_vertexcolors.obj", /* v x y z r g b */
+    "OBJ/cube_with_vertexcolors_uni.obj",
+    "PLY/float-color.ply", /* float red green blue alpha, VCGLIB */
+};
+
+static int listed_colored(const char *rel)
+{
+    for (size_t i = 0; i < sizeof colored / sizeof colored[0]; i++)
+        if (!strcmp(colored[i], rel))
+            return 1;
+    return 0;
+}
+
 static char bin_dir[512];
 static char *files[MAX_FILES];
 static size_t file_count;
@@ -144,7 +161,7 @@ static const char *refusal_reason(const char *rel)
 /* Loads, builds and verifies one file as mts-build would; 0 with the model's
  * size in *vertices / *triangles, else the error in err. */
 static mts_result build_one(const char *path, mts_mesh_stats *st, uint32_t *vertices,
-                            uint32_t *triangles, mts_error *err)
+                            uint32_t *triangles, int *colors, mts_error *err)
 {
     mts_mesh mesh = {0};
     mts_model model = {0};
@@ -163,6 +180,7 @@ static mts_result build_one(const char *path, mts_mesh_stats *st, uint32_t *vert
             r = mts_verify_growth(&model, &vr, err);
         *vertices = model.vertex_count;
         *triangles = model.level_triangles[model.level_count];
+        *colors = model.colors != NULL && (model.flags & MTS_MODEL_COLORS);
     }
     mts_model_free(&model);
     mts_mesh_free(&mesh);
@@ -217,11 +235,15 @@ static void test_assimp_models(mts_test *t)
         mts_mesh_stats st = {0};
         mts_error err = {0};
         uint32_t nv = 0, nt = 0;
+        int colors = 0;
         double f0 = mts_clock_seconds();
-        mts_result r = build_one(path, &st, &nv, &nt, &err);
+        mts_result r = build_one(path, &st, &nv, &nt, &colors, &err);
         double secs = mts_clock_seconds() - f0;
         if (r == MTS_OK) {
-            printf("  built   %-40s %6u vertices %6u triangles %5.2f s\n", rel, nv, nt, secs);
+            printf("  built   %-40s %6u vertices %6u triangles %5.2f s%s\n", rel, nv, nt, secs,
+                   colors ? " colours" : "");
+            CHECKF(t, colors == listed_colored(rel), "%s built %s colours", rel,
+                   colors ? "with" : "without");
             CHECKF(t, !reason, "%s built, but is listed as refused (\"%s\")", rel, reason);
             built++;
         } else {

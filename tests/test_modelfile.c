@@ -433,6 +433,214 @@ static void test_specific_errors(mts_test *t)
 
 /* The build's two sides on two threads give the model one thread gives,
  * byte for byte, and the progress callback is never entered twice at once. */
+/* ------------------------------------------------------------------------ */
+/* Vertex colours                                                           */
+
+/* What the builder wrote for tests/data/cow.off (source "tests/data/cow.off",
+ * default options) before the model file could hold colours, computed with
+ * the code of commit 1d93558: an uncoloured model's file must stay byte
+ * for byte what it was. A change to what the builder makes (strips,
+ * records, options) changes these, and then they are remade, with that
+ * change's reason, by the printout of this test. */
+#define COW_FILE_BYTES 334664u
+#define COW_FILE_CRC32C 0xfdf6307eu
+
+static int build_file(mts_test *t, const char *mesh_path, const mts_mesh_options *mo,
+                      const char *source, mts_model *model, uint8_t **file, size_t *size)
+{
+    mts_mesh mesh = {0};
+    mts_error err = {0};
+    mts_result rc = mts_mesh_load(mesh_path, mo, &mesh, NULL, &err);
+    CHECKF(t, rc == MTS_OK, "%s: %s", mesh_path, err.msg);
+    if (rc == MTS_OK) {
+        rc = mts_build_model(&mesh, source, NULL, model, NULL, &err);
+        CHECKF(t, rc == MTS_OK, "build: %s", err.msg);
+    }
+    if (rc == MTS_OK) {
+        rc = mts_modelfile_encode(model, file, size, &err);
+        CHECKF(t, rc == MTS_OK, "encode: %s", err.msg);
+        if (rc != MTS_OK)
+            mts_model_free(model);
+    }
+    mts_mesh_free(&mesh);
+    return rc == MTS_OK;
+}
+
+static void test_uncolored_file_unchanged(mts_test *t)
+{
+    mts_model m;
+    uint8_t *f;
+    size_t n;
+    if (!build_file(t, "tests/data/cow.off", NULL, "tests/data/cow.off", &m, &f, &n))
+        return;
+    uint32_t crc = mts_crc32c(0, f, n);
+    CHECKF(t, n == COW_FILE_BYTES && crc == COW_FILE_CRC32C,
+           "cow.off's model file: %zu bytes, CRC-32C 0x%08x; before colours it was %u bytes, "
+           "0x%08x", n, crc, COW_FILE_BYTES, COW_FILE_CRC32C);
+    CHECK(t, m.colors == NULL && !(m.flags & MTS_MODEL_COLORS));
+    CHECK(t, f[6] == 1 && f[7] == 0); /* still version 5.1 */
+    free(f);
+    mts_model_free(&m);
+
+    /* the coloured cow without its colours is that same model */
+    uint8_t *g;
+    size_t gn;
+    mts_mesh_options mo = {.no_colors = 1};
+    if (!build_file(t, "tests/data/cow_colors.ply", &mo, "tests/data/cow.off", &m, &g, &gn))
+        return;
+    CHECKF(t, gn == COW_FILE_BYTES && mts_crc32c(0, g, gn) == COW_FILE_CRC32C,
+           "cow_colors.ply without colours: %zu bytes, 0x%08x", gn, mts_crc32c(0, g, gn));
+    free(g);
+    mts_model_free(&m);
+}
+
+static int by_position(const void *a, const void *b)
+{
+    return memcmp(a, b, 12);
+}
+
+static void test_colors_round_trip(mts_test *t)
+{
+    mts_model m;
+    uint8_t *f;
+    size_t n;
+    if (!build_file(t, "tests/data/cow_colors.ply", NULL, "cow_colors", &m, &f, &n))
+        return;
+    CHECK(t, m.colors != NULL && (m.flags & MTS_MODEL_COLORS));
+    CHECK(t, f[6] == 2); /* version 5.2 */
+    {
+        /* what the colours cost: their bytes, a table entry, alignment */
+        mts_model plain;
+        uint8_t *pf;
+        size_t pn;
+        mts_mesh_options mo = {.no_colors = 1};
+        if (build_file(t, "tests/data/cow_colors.ply", &mo, "cow_colors", &plain, &pf, &pn)) {
+            CHECKF(t, n >= pn + 3 * 2904 + 24 && n < pn + 3 * 2904 + 24 + 8,
+                   "%zu bytes with colours, %zu without", n, pn);
+            free(pf);
+            mts_model_free(&plain);
+        }
+    }
+
+    /* Every vertex of the model has the colour of the source vertex at its
+     * position: the colours followed the vertices through cleaning,
+     * simplification's ids and the stream order. (The field is a function
+     * of position, so where the cow has two vertices at one position they
+     * have one colour too.) */
+    mts_mesh src = {0};
+    mts_error err = {0};
+    CHECK(t, mts_mesh_load("tests/data/cow_colors.ply", NULL, &src, NULL, &err) == MTS_OK);
+    CHECK(t, src.colors && src.vertex_count == m.vertex_count);
+    if (src.colors && src.vertex_count == m.vertex_count) {
+        typedef struct {
+            float p[3];
+            uint8_t c[3];
+        } pc;
+        pc *table = malloc(src.vertex_count * sizeof *table);
+        for (uint32_t v = 0; table && v < src.vertex_count; v++) {
+            memcpy(table[v].p, src.positions + 3 * (size_t)v, 12);
+            memcpy(table[v].c, src.colors + 3 * (size_t)v, 3);
+        }
+        if (table) {
+            qsort(table, src.vertex_count, sizeof *table, by_position);
+            uint32_t wrong = 0;
+            for (uint32_t v = 0; v < m.vertex_count; v++) {
+                const pc *hit = bsearch(m.positions + 3 * (size_t)v, table, src.vertex_count,
+                                        sizeof *table, by_position);
+                wrong += !hit || memcmp(hit->c, m.colors + 3 * (size_t)v, 3) != 0;
+            }
+            CHECKF(t, wrong == 0, "%u of %u vertices with another colour than the source's",
+                   wrong, m.vertex_count);
+            /* and the colours are the field, not one colour everywhere */
+            uint32_t differ = 0;
+            for (uint32_t v = 1; v < m.vertex_count; v++)
+                differ += memcmp(m.colors, m.colors + 3 * (size_t)v, 3) != 0;
+            CHECK(t, differ > m.vertex_count / 2);
+        }
+        free(table);
+    }
+    mts_mesh_free(&src);
+
+    /* the file gives them back */
+    mts_model back;
+    mts_result rc = mts_modelfile_decode(f, n, "cow_colors.mtsm", &back, &err);
+    CHECKF(t, rc == MTS_OK, "%s", err.msg);
+    if (rc == MTS_OK) {
+        CHECK(t, back.flags == m.flags && back.colors != NULL);
+        CHECK(t, back.colors && !memcmp(back.colors, m.colors, 3 * (size_t)m.vertex_count));
+        uint8_t *again;
+        size_t again_n;
+        CHECK(t, mts_modelfile_encode(&back, &again, &again_n, &err) == MTS_OK);
+        CHECK(t, again_n == n && !memcmp(again, f, n));
+        free(again);
+        mts_model_free(&back);
+    }
+    free(f);
+    mts_model_free(&m);
+}
+
+/* A section's table entry in file f. */
+static uint8_t *section_entry(uint8_t *f, uint32_t id)
+{
+    uint32_t count = f[8] | f[9] << 8 | f[10] << 16 | (uint32_t)f[11] << 24;
+    for (uint32_t i = 0; i < count; i++) {
+        uint8_t *e = f + 16 + 24 * i;
+        if ((uint32_t)(e[0] | e[1] << 8 | e[2] << 16 | (uint32_t)e[3] << 24) == id)
+            return e;
+    }
+    return NULL;
+}
+
+static void test_colors_damaged(mts_test *t)
+{
+    mts_model m;
+    uint8_t *f;
+    size_t n;
+    mts_mesh_options mo = {0};
+    if (!build_file(t, "tests/data/cow_colors.ply", &mo, "cow_colors", &m, &f, &n))
+        return;
+    mts_model_free(&m);
+    const uint32_t SEC_COLORS = 12, SEC_INFO = 1;
+    uint8_t *e = section_entry(f, SEC_COLORS);
+    CHECK(t, e != NULL);
+    if (!e) {
+        free(f);
+        return;
+    }
+    uint64_t at = section_offset(f, SEC_COLORS);
+    uint8_t *bad = malloc(n);
+
+    /* a flipped byte: the section's checksum, by name */
+    memcpy(bad, f, n);
+    bad[at + 100] ^= 0x40;
+    expect_error(t, bad, n, MTS_ERR_CHECKSUM, "checksum mismatch in section 'colors'");
+
+    /* shorter than INFO's vertices need */
+    memcpy(bad, f, n);
+    put32(section_entry(bad, SEC_COLORS) + 16, 3 * 2904 - 3);
+    reseal(bad);
+    expect_error(t, bad, n, MTS_ERR_FORMAT, "section 'colors' is 8709 bytes; the counts in 'info' "
+                                            "need 8712");
+
+    /* the flag without the section (its id made unknown: skipped) */
+    memcpy(bad, f, n);
+    put32(section_entry(bad, SEC_COLORS), 99);
+    reseal(bad);
+    expect_error(t, bad, n, MTS_ERR_FORMAT, "section 'colors' is missing");
+
+    /* the section without the flag */
+    memcpy(bad, f, n);
+    uint64_t info = section_offset(bad, SEC_INFO);
+    bad[info + 56] &= (uint8_t)~MTS_MODEL_COLORS;
+    reseal(bad);
+    expect_error(t, bad, n, MTS_ERR_FORMAT, "section 'colors' in a model whose 'info' flags");
+
+    /* cut inside it (the last section) */
+    expect_error(t, f, (size_t)at + 10, MTS_ERR_FORMAT, "truncated: section 'colors'");
+    free(bad);
+    free(f);
+}
+
 typedef struct progress_probe {
     volatile int inside, overlapped, calls;
 } progress_probe;
@@ -493,5 +701,8 @@ int main(void)
     RUN(&t, test_random_flips);
     RUN(&t, test_specific_errors);
     RUN(&t, test_threads_same_model);
+    RUN(&t, test_uncolored_file_unchanged);
+    RUN(&t, test_colors_round_trip);
+    RUN(&t, test_colors_damaged);
     return mts_test_end(&t);
 }
