@@ -249,6 +249,97 @@ static void test_build_inspect_verify(mts_test *t)
     remove(obj);
 }
 
+static int same_file(const char *a, const char *b)
+{
+    FILE *fa = fopen(a, "rb"), *fb = fopen(b, "rb");
+    int same = fa && fb;
+    while (same) {
+        int ca = getc(fa), cb = getc(fb);
+        same = ca == cb;
+        if (ca == EOF || cb == EOF)
+            break;
+    }
+    if (fa)
+        fclose(fa);
+    if (fb)
+        fclose(fb);
+    return same;
+}
+
+static int copy_file(const char *from, const char *to)
+{
+    char cmd[2048];
+    snprintf(cmd, sizeof cmd, "cp %s %s", from, to);
+    return system(cmd) == 0;
+}
+
+/* Vertex colours as a user sees them: kept and said so, left out with
+ * --no-colors (the model an uncoloured mesh gives, byte for byte), warned
+ * of when only some vertices have one, shown by mts-inspect and written
+ * by its --obj. */
+static void test_build_colors(mts_test *t)
+{
+    char cmd[8192], out[16384], mesh[1024], colored[1024], plain[1024], dropped[1024], obj[1024];
+    /* one path for both meshes, no extension (the content says the format),
+     * so that the models' source names are the same */
+    snprintf(mesh, sizeof mesh, "%s/colors_mesh", tmp_dir);
+    snprintf(colored, sizeof colored, "%s/colors_kept.mtsm", tmp_dir);
+    snprintf(plain, sizeof plain, "%s/colors_plain.mtsm", tmp_dir);
+    snprintf(dropped, sizeof dropped, "%s/colors_dropped.mtsm", tmp_dir);
+    snprintf(obj, sizeof obj, "%s/colors.obj", tmp_dir);
+
+    CHECK(t, copy_file("tests/data/cow.off", mesh));
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s --json", bin_dir, mesh, plain);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, strstr(out, "\"colors\":false"), "%s", out);
+
+    CHECK(t, copy_file("tests/data/cow_colors.ply", mesh));
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s --json", bin_dir, mesh, colored);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, strstr(out, "\"colors\":true"), "%s", out);
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s --no-colors --json", bin_dir, mesh, dropped);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, strstr(out, "\"colors\":false"), "%s", out);
+    CHECK(t, same_file(plain, dropped));
+    CHECK(t, !same_file(plain, colored));
+
+    snprintf(cmd, sizeof cmd, "%s/mts-inspect %s --obj %s", bin_dir, colored, obj);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, strstr(out, "vertex colours: yes"), "%s", out);
+    snprintf(cmd, sizeof cmd, "%s/mts-inspect %s --json", bin_dir, plain);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, strstr(out, "\"colors\":false"), "%s", out);
+    /* the OBJ's colours read back as colours */
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s --json", bin_dir, obj, dropped);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, strstr(out, "\"colors\":true"), "%s", out);
+
+    /* --no-colors on a model's stream file is accepted */
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s --stream %s/colors.mts --no-colors --json", bin_dir,
+             colored, tmp_dir);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, strstr(out, "\"colors\":false"), "%s", out);
+
+    /* some vertices coloured, one not: warned, and no colours */
+    FILE *f = fopen(obj, "w");
+    if (f) {
+        fputs("v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0\nv 0 0 1 0 0 1 0.5\n"
+              "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n", f);
+        fclose(f);
+    }
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s --json", bin_dir, obj, dropped);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECKF(t, strstr(out, "1 vertices have no colour while the others have one"), "%s", out);
+    CHECKF(t, strstr(out, "\"colors\":false") && strstr(out, "\"colors_missing\":1"), "%s", out);
+    remove(mesh);
+    remove(colored);
+    remove(plain);
+    remove(dropped);
+    remove(obj);
+    snprintf(cmd, sizeof cmd, "%s/colors.mts", tmp_dir);
+    remove(cmd);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -259,5 +350,6 @@ int main(int argc, char **argv)
     RUN(&t, test_bad_input_exits_1);
     RUN(&t, test_build_refuses_non_files);
     RUN(&t, test_build_inspect_verify);
+    RUN(&t, test_build_colors);
     return mts_test_end(&t);
 }
