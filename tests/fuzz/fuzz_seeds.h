@@ -507,6 +507,20 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
     mts_fuzz_modelfile_seed(&sd, "torus-crc-kept", 1, &torus.model);
     mts_fuzz_modelfile_seed(&sd, "small", 0, &small.model);
     {
+        /* the small torus with a colour per vertex: the COLORS section */
+        mts_model colored = small.model;
+        uint8_t *c = malloc(3 * (size_t)colored.vertex_count + 1);
+        if (c) {
+            for (size_t i = 0; i < 3 * (size_t)colored.vertex_count; i++)
+                c[i] = (uint8_t)(i * 37u);
+            colored.colors = c;
+            colored.flags |= MTS_MODEL_COLORS;
+            mts_fuzz_modelfile_seed(&sd, "small-colors", 0, &colored);
+            mts_fuzz_modelfile_seed(&sd, "small-colors-crc-kept", 1, &colored);
+            free(c);
+        }
+    }
+    {
         mts_model hm;
         hand_state hs[3];
         hand_model_erases(&hm, hs);
