@@ -175,6 +175,14 @@ static void check_stops(mts_test *t, const mts_stream *s, const mts_buf *file)
                    "stop %u/%u: checksum differs at level %u", stops[i].kind, stops[i].value,
                    want);
             CHECK(t, c.info.stop_triangles == s->model.level_triangles[want]);
+            /* a coloured stream's colours, every vertex at the stop (END's
+             * checksum sums them too) */
+            const size_t nv = (size_t)s->model.base_vertex_count + want;
+            CHECKF(t, !s->model.colors ||
+                          ((c.model.flags & MTS_MODEL_COLORS) && c.vertex_room >= nv &&
+                           memcmp(c.model.colors, s->model.colors, nv * 3) == 0),
+                   "stop %u/%u: colours differ at level %u", stops[i].kind, stops[i].value, want);
+            CHECK(t, !!s->model.colors == !!c.model.colors);
             /* what a client fetches: the TCP connection's bytes and the index */
             CHECKF(t, bytes == tcp_bytes(s, want) + index_bytes,
                    "stop %u/%u: %llu bytes read, TCP %zu + index %llu", stops[i].kind,
@@ -242,6 +250,14 @@ static void test_cow_stops(mts_test *t)
 static void test_cow_records_form_stops(mts_test *t)
 {
     stops_of(t, "tests/data/cow.off", 1);
+}
+
+/* A coloured model (the builder reads the PLY's colours): the file's
+ * frames carry them as the wire does, and every stop ends with them. */
+static void test_colored_cow_stops(mts_test *t)
+{
+    stops_of(t, "tests/data/cow_colors.ply", 0);
+    stops_of(t, "tests/data/cow_colors.ply", 1);
 }
 
 static void test_shared_model_stops(mts_test *t)
@@ -424,6 +440,7 @@ int main(void)
     RUN(&t, test_frames_are_the_wire);
     RUN(&t, test_cow_stops);
     RUN(&t, test_cow_records_form_stops);
+    RUN(&t, test_colored_cow_stops);
     RUN(&t, test_shared_model_stops);
     RUN(&t, test_continue_and_resume);
     RUN(&t, test_damage_named);
