@@ -7,7 +7,7 @@
  * the vertices, under "draw_path" in the JSON). Time to first frame over
  * loopback is measured by bench/run.sh with the real server and client.
  * Options for the table alone: --draw-only, --fractions F1,F2,..., --rounds N,
- * --side PIXELS. */
+ * --side PIXELS. --colors: only the colours' table (docs/colors.md). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,6 +26,8 @@
 #include "view.h"
 
 #include <meshoptimizer.h>
+
+#include "../tests/color_field.h"
 
 /* Decodes and applies a whole connection's bytes; with a context, keeps a
  * view (the client's path to GL: client/view.h) in step at each batch, as
@@ -413,16 +415,116 @@ static void breakdown_table(const mts_stream_breakdown *bd, char (*names)[64], c
            "each; level 0: MODEL_INFO + BASE + END of a stream stopped there)\n");
 }
 
+/* ---- colours ----------------------------------------------------------
+ * --colors MESH...: what vertex colours cost on the wire. A mesh without
+ * its own colours gets the tests' smooth field (tests/color_field.h). */
+
+/* The full level's triangles, from the strips' drawn windows. */
+static uint32_t *full_triangles(const mts_model *m, uint32_t *count)
+{
+    uint32_t *t = malloc((size_t)m->full.index_count * 12 + 12), n = 0;
+    for (uint32_t st = 0; t && st < m->strip_count; st++) {
+        const uint32_t *str = m->full.indices + m->full.offsets[st];
+        for (uint32_t k = 0; k + 2 < m->full.offsets[st + 1] - m->full.offsets[st]; k++)
+            n += (uint32_t)mts_strip_window(str, k, t + 3 * (size_t)n);
+    }
+    *count = n;
+    return t;
+}
+
+static int colors_table(const char *const *paths, int np)
+{
+    printf("\nColours: the full stream (MODEL_INFO + BASE + every BATCH + END) beside Draco "
+           "single-rate\nof the full mesh on the same 14-bit grid, with byte colours (COLOR "
+           "attribute, lossless)\n");
+    printf("%-12s %8s %9s %9s %7s %9s %9s %9s %9s %7s %8s %8s\n", "model", "source", "plain B",
+           "color B", "+B", "col b/spl", "base col", "draco7", "draco7+c", "x d7+c", "d10+c",
+           "records");
+    printf("%s\n", "----------------------------------------------------------------------------"
+                   "----------------------------------------");
+    for (int i = 0; i < np; i++) {
+        char name[64];
+        cli_stem(paths[i], name, sizeof name);
+        mts_error err = {0};
+        mts_mesh mesh = {0};
+        mts_model m;
+        if (mts_mesh_load(paths[i], NULL, &mesh, NULL, &err) != MTS_OK ||
+            mts_build_model(&mesh, paths[i], NULL, &m, NULL, &err) != MTS_OK) {
+            printf("%-12s FAILED: %s\n", name, err.msg);
+            mts_mesh_free(&mesh);
+            continue;
+        }
+        mts_mesh_free(&mesh);
+        const int own = (m.flags & MTS_MODEL_COLORS) && m.colors;
+        if (!own && !mts_test_color_field(&m)) {
+            mts_model_free(&m);
+            return 1;
+        }
+        mts_stream plain, col;
+        mts_stream_breakdown bp, bc;
+        mts_stream_options o = {0};
+        o.with_records = 1;
+        o.breakdown = &bp;
+        m.flags &= ~MTS_MODEL_COLORS; /* colours held, not streamed */
+        mts_result rc = mts_stream_build(&m, name, &o, &plain, &err);
+        m.flags |= MTS_MODEL_COLORS;
+        o.breakdown = &bc;
+        if (rc == MTS_OK && (rc = mts_stream_build(&m, name, &o, &col, &err)) != MTS_OK)
+            mts_stream_free(&plain);
+        if (rc != MTS_OK) {
+            printf("%-12s FAILED: %s\n", name, err.msg);
+            mts_model_free(&m);
+            continue;
+        }
+        mts_buf b = {0};
+        const size_t full_plain = bench_connection_bytes(&plain, m.level_count, &b),
+                     full_col = bench_connection_bytes(&col, m.level_count, &b),
+                     rec_col = bench_connection_bytes(col.records_form, m.level_count, &b);
+        mts_buf_free(&b);
+        uint32_t nt = 0;
+        uint32_t *tris = full_triangles(&col.model, &nt);
+        size_t draco[3] = {0};
+        for (int k = 0; tris && k < 3; k++) {
+            mts_draco_mesh dm = {m.vertex_count, nt, col.model.positions, NULL, tris,
+                                 k ? col.model.colors : NULL};
+            mts_draco_options dopt = {0};
+            dopt.grid = col.grid;
+            dopt.compression_level = k == 2 ? 10 : 7;
+            uint8_t *out = NULL;
+            if (mts_draco_encode(&dm, &dopt, &out, &draco[k], &err) != MTS_OK)
+                draco[k] = 0;
+            free(out);
+        }
+        free(tris);
+        printf("%-12s %8s %9zu %9zu %7zu %9.2f %9zu %9zu %9zu %7.2f %8zu %8zu\n", name,
+               own ? "file" : "field", full_plain, full_col, full_col - full_plain,
+               bc.color_bits / (bc.splits ? bc.splits : 1),
+               bc.base_draco_bytes - bp.base_draco_bytes, draco[0], draco[1],
+               draco[1] ? (double)full_col / draco[1] : 0, draco[2], rec_col);
+        mts_stream_free(&plain);
+        mts_stream_free(&col);
+        mts_model_free(&m);
+    }
+    printf("(plain B: the stream without colours, byte for byte a 7.0 server's; +B: what the "
+           "colours add;\n col b/spl: coded colour bits a split; base col: what they add to "
+           "BASE's Draco mesh;\n draco7(+c): Draco edgebreaker cl 7 of the full mesh, positions "
+           "(and colours); x d7+c: colour B / draco7+c;\n d10+c: cl 10 with colours; records: "
+           "the records form with colours)\n");
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     const char *json_path = NULL;
     const char *paths[16];
-    int np = 0, draw_only = 0;
+    int np = 0, draw_only = 0, colors_only = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--json") && i + 1 < argc)
             json_path = argv[++i];
         else if (!strcmp(argv[i], "--draw-only")) /* the draw-path table alone */
             draw_only = 1;
+        else if (!strcmp(argv[i], "--colors")) /* the colours' table alone */
+            colors_only = 1;
         else if (!strcmp(argv[i], "--fractions") && i + 1 < argc) { /* its levels, e.g. 1,0.1 */
             char *p = argv[++i];
             for (dt_nf = 0; dt_nf < 16 && *p; dt_nf++) {
@@ -438,6 +540,8 @@ int main(int argc, char **argv)
         else if (np < 16)
             paths[np++] = argv[i];
     }
+    if (colors_only)
+        return colors_table(paths, np);
     FILE *jf = json_path ? fopen(json_path, "w") : NULL;
     if (jf)
         fputs("{", jf);
@@ -493,7 +597,7 @@ int main(int argc, char **argv)
         size_t draco[3] = {0};
         for (int k = 0; k < 3; k++) {
             mts_draco_mesh dm = {mesh.vertex_count, mesh.triangle_count, mesh.positions,
-                                 k == 2 ? mesh.normals : NULL, mesh.triangles};
+                                 k == 2 ? mesh.normals : NULL, mesh.triangles, NULL};
             mts_draco_options o = {0};
             o.grid = s.grid;
             o.normal_bits = k == 2 ? 10 : -1;

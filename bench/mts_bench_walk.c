@@ -488,7 +488,7 @@ static int rd_model(FILE *jf, const char *name, const mts_mesh *mesh, const mts_
     size_t draco = 0, draco_n = 0;
     for (int k = 0; k < 2; k++) {
         mts_draco_mesh dm = {mesh->vertex_count, mesh->triangle_count, mesh->positions,
-                             k ? mesh->normals : NULL, mesh->triangles};
+                             k ? mesh->normals : NULL, mesh->triangles, NULL};
         mts_draco_options o = {0};
         o.grid = s.grid;
         o.normal_bits = k ? 10 : -1;

@@ -372,7 +372,7 @@ static inline void mts_fuzz_draco_seed(mts_fuzz_seeder *sd, const char *name,
         for (uint32_t k = 0; k + 2 < len; k++)
             nt += (uint32_t)mts_strip_window(str, k, tris + 3 * (size_t)nt);
     }
-    mts_draco_mesh in = {m->vertex_count, nt, m->positions, normals ? m->normals : NULL, tris};
+    mts_draco_mesh in = {m->vertex_count, nt, m->positions, normals ? m->normals : NULL, tris, NULL};
     mts_draco_options o = {0};
     o.grid = s->grid;
     o.method = method;
@@ -452,6 +452,35 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
         }
     }
 
+    /* the small torus with a colour per vertex from its position, so
+     * that colours travel (MODEL_INFO flags bit 2), in both forms; none
+     * when building it fails (out of memory: sd.failed) */
+    mts_stream colored = {0};
+    int have_colored = 0;
+    {
+        size_t size = 0;
+        char *off = mts_fuzz_torus_off(5, 6, &size);
+        mts_model m;
+        rc = off ? mts_fuzz_build_model("torus.off", off, size, 0, &m, err)
+                 : mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
+        free(off);
+        if (rc == MTS_OK) {
+            free(m.colors);
+            m.colors = malloc(3 * (size_t)m.vertex_count + 1);
+            for (uint32_t x = 0; m.colors && x < m.vertex_count; x++)
+                for (int a = 0; a < 3; a++)
+                    m.colors[3 * (size_t)x + a] =
+                        (uint8_t)(128 + (int)(100.0f * m.positions[3 * (size_t)x + a]));
+            m.flags |= m.colors ? MTS_MODEL_COLORS : 0;
+            mts_stream_options o = {0};
+            o.batch_splits = 4;
+            o.with_records = 1;
+            have_colored = m.colors && mts_stream_build(&m, "fuzz", &o, &colored, err) == MTS_OK;
+            mts_model_free(&m);
+        }
+        sd.failed |= !have_colored;
+    }
+
     /* stream_client */
     const uint32_t n = torus.model.level_count;
     const uint32_t torus_stops[] = {0, 9, n / 2, n};
@@ -472,6 +501,13 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
                               2, 0);
     } else {
         sd.failed = 1; /* with_records = 1 gave none: out of memory */
+    }
+    if (have_colored && colored.records_form) {
+        const uint32_t colored_stops[] = {colored.model.level_count / 2,
+                                          colored.model.level_count};
+        mts_fuzz_stream_seeds(&sd, "small-colors", &colored, colored_stops, 2, 0);
+        mts_fuzz_stream_seeds(&sd, "small-colors-records", colored.records_form, colored_stops,
+                              2, 0);
     }
     {
         mts_buf b = {0};
@@ -494,6 +530,8 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
     if (torus.records_form)
         mts_fuzz_stream_file_seeds(&sd, "torus-records", torus.records_form, 0);
     mts_fuzz_stream_file_seeds(&sd, "small-normals", &normals, 0);
+    if (have_colored)
+        mts_fuzz_stream_file_seeds(&sd, "small-colors", &colored, 0);
 
     /* request */
     mts_fuzz_request_seeds(&sd, &torus);
@@ -550,6 +588,8 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
     mts_stream_free(&small);
     mts_stream_free(&seq);
     mts_stream_free(&normals);
+    if (have_colored)
+        mts_stream_free(&colored);
 
     /* cow: the real model, cut at its first batches (its full stream and
      * file are a few hundred KiB: too slow an input to mutate) */
