@@ -146,7 +146,7 @@ unsigned mts__stream_predict_color(const uint32_t *around, uint32_t k, const uin
             sum[c] += colors[3 * (size_t)around[i] + c];
     /* an eighth of the way from the ring's mean to u, as for positions:
      * on cow and bunny00 with smooth, shaded and normal-mapped colours it
-     * codes 1-4 % under the ring's mean alone, 5-35 % under u's colour */
+     * codes 0-4 % under the ring's mean alone, 3-35 % under u's colour */
     uint32_t far = 0;
     for (int c = 0; c < 3; c++) {
         pred[c] = (int32_t)((7 * sum[c] + k * cu[c] + 4 * k) / (8 * k));
