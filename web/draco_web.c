@@ -3,7 +3,9 @@
  * reads the buffer; what it gives is checked and dequantized here, as
  * protocol/draco.cpp does over the native library: the integer positions
  * (the position transform skipped) on the buffer's grid through
- * mts_draco_dequantize, Draco's own normals, the faces as Draco orders them.
+ * mts_draco_dequantize, Draco's own normals, the colours (one COLOR
+ * attribute of 3 unsigned bytes, as draco.cpp reads them), the faces as
+ * Draco orders them.
  * The head is checked first (mts_draco_check_head) so that no declared
  * count reaches Draco unbounded.
  *
@@ -16,9 +18,9 @@
 
 #include "draco.h"
 
-/* Decodes into Module.mtsDraco (kept until take): counts[0..2] = points,
- * faces, whether normals came; grid[0..3] = origin, range; *bits. 0 with a
- * message in msg on failure. */
+/* Decodes into Module.mtsDraco (kept until take): counts[0..3] = points,
+ * faces, whether normals came, whether colours came; grid[0..3] = origin,
+ * range; *bits. 0 with a message in msg on failure. */
 EM_JS(int, mts_web_draco_begin,
       (const uint8_t *data, size_t size, uint32_t *counts, float *grid, int *bits, char *msg,
        int msg_size),
@@ -60,30 +62,46 @@ EM_JS(int, mts_web_draco_begin,
               if (na.num_components() != 3 || na.data_type() != D.DT_FLOAT32)
                   return fail("normals are not 3 floats", k);
           }
+          let ca = null, colors = 0;
+          for (let i = 0; i < mesh.num_attributes(); i++) {
+              const a = dec.GetAttribute(mesh, i);
+              if (a.attribute_type() === D.COLOR) {
+                  ca = a;
+                  colors++;
+              }
+          }
+          if (colors > 1)
+              return fail(colors + " colour attributes", k);
+          if (ca && (ca.num_components() != 3 || ca.data_type() != D.DT_UINT8))
+              return fail("colours are not 3 bytes", k);
           HEAPU32[counts >> 2] = mesh.num_points();
           HEAPU32[(counts >> 2) + 1] = mesh.num_faces();
           HEAPU32[(counts >> 2) + 2] = na ? 1 : 0;
+          HEAPU32[(counts >> 2) + 3] = ca ? 1 : 0;
           for (let c = 0; c < 3; c++)
               HEAPF32[(grid >> 2) + c] = k.qt.min_value(c);
           HEAPF32[(grid >> 2) + 3] = k.qt.range();
           HEAP32[bits >> 2] = k.qt.quantization_bits();
           k.pa = pa;
           k.na = na;
+          k.ca = ca;
           Module.mtsDraco = k;
           return 1;
       });
 
-/* Copies what begin decoded into our arrays (normals may be 0; all 0:
- * nothing is copied) and lets Draco's objects go. */
-EM_JS(void, mts_web_draco_take, (uint32_t *quantized, float *normals, uint32_t *triangles), {
+/* Copies what begin decoded into our arrays (normals and colors may be 0;
+ * all 0: nothing is copied) and lets Draco's objects go. */
+EM_JS(void, mts_web_draco_take,
+      (uint32_t *quantized, float *normals, uint32_t *triangles, uint8_t *colors), {
     const D = Module.draco;
     const k = Module.mtsDraco;
     Module.mtsDraco = null;
-    const copy = function(n, fill, dst)
+    const copy = function(n, fill, dst, size)
     {
-        const p = D._malloc(n * 4);
+        const bytes = n * (size || 4);
+        const p = D._malloc(bytes);
         fill(p);
-        HEAPU8.set(D.HEAPU8.subarray(p, p + n * 4), dst);
+        HEAPU8.set(D.HEAPU8.subarray(p, p + bytes), dst);
         D._free(p);
     };
     const np = k.mesh.num_points(), nf = k.mesh.num_faces();
@@ -95,6 +113,10 @@ EM_JS(void, mts_web_draco_take, (uint32_t *quantized, float *normals, uint32_t *
         copy(3 * np, function(p) {
             k.dec.GetAttributeDataArrayForAllPoints(k.mesh, k.na, D.DT_FLOAT32, 12 * np, p);
         }, normals);
+    if (colors && k.ca)
+        copy(3 * np, function(p) {
+            k.dec.GetAttributeDataArrayForAllPoints(k.mesh, k.ca, D.DT_UINT8, 3 * np, p);
+        }, colors, 1);
     copy(3 * nf, function(p) { k.dec.GetTrianglesUInt32Array(k.mesh, 12 * nf, p); }, triangles);
     }
     D.destroy(k.qt);
@@ -117,7 +139,7 @@ mts_result mts_draco_decode(const uint8_t *data, size_t size, mts_draco_mesh_out
     mts_result rc = mts_draco_check_head(data, size, err);
     if (rc != MTS_OK)
         return rc;
-    uint32_t counts[3];
+    uint32_t counts[4];
     float g[4];
     int bits = 0;
     char msg[256];
@@ -137,12 +159,14 @@ mts_result mts_draco_decode(const uint8_t *data, size_t size, mts_draco_mesh_out
         m.triangles = malloc(12 * (size_t)m.triangle_count);
         if (counts[2])
             m.normals = malloc(12 * (size_t)m.vertex_count);
+        if (counts[3])
+            m.colors = malloc(3 * (size_t)m.vertex_count);
     }
-    const int ok_memory =
-        ok_counts && m.positions && m.quantized && m.triangles && (!counts[2] || m.normals);
+    const int ok_memory = ok_counts && m.positions && m.quantized && m.triangles &&
+                          (!counts[2] || m.normals) && (!counts[3] || m.colors);
     /* Draco's objects go either way */
     mts_web_draco_take(ok_memory ? m.quantized : NULL, ok_memory ? m.normals : NULL,
-                       ok_memory ? m.triangles : NULL);
+                       ok_memory ? m.triangles : NULL, ok_memory ? m.colors : NULL);
     if (!ok_counts) {
         mts_draco_mesh_out_free(&m);
         return mts_error_set(err, m.vertex_count && m.triangle_count ? MTS_ERR_LIMIT : MTS_ERR_FORMAT,
@@ -194,6 +218,7 @@ void mts_draco_mesh_out_free(mts_draco_mesh_out *m)
     free(m->quantized);
     free(m->normals);
     free(m->triangles);
+    free(m->colors);
     memset(m, 0, sizeof *m);
 }
 

@@ -15,6 +15,8 @@
   const redraw = params.get('redraw') === '1';
   // a level change slides over this long (the window client's default)
   const morphMs = params.get('morph') !== null ? Number(params.get('morph')) : 250;
+  // ?colors=0: grey even where the model has vertex colours (mts-client --no-colors)
+  const noColors = params.get('colors') === '0';
 
   // What the page shows, published into #state (JSON) for tests.
   const state = {
@@ -23,7 +25,7 @@
     server_checksum: '', ms_connect: 0, ms_base: 0, ms_first_frame: 0, ms_final: 0, decode_ms: 0,
     frames: 0, fps: 0, draw_ms_total: 0, draw_ms_max: 0, frames_streaming: 0,
     morphing: false, morph_ms: 0, models: [],
-    requests: 0, reconnects: 0, first_batch: 0,
+    requests: 0, reconnects: 0, first_batch: 0, colors: false,
   };
   window.mtsState = state;
   const publish = () => { $('state').textContent = JSON.stringify(state); };
@@ -46,6 +48,10 @@
   let ws = null;
   let file = null;     // the stream file's conversation (?src=)
   let gl = null, prog = null, vbo = null, nbo = null, mbo = null, ibo = null;
+  // with colours (as the native renderer's layout.colors): RGBA8 a vertex in
+  // cbo, the morph's from-colours in mcbo, and programs built with COLORS 1;
+  // a model without colours has none of them
+  let cbo = null, mcbo = null, colorCapacity = 0;
   let morphSerial = -1; // the morph range whose from-places mbo holds
   let uploadedVertices = 0, vertexCapacity = 0, indexCount = 0, packedLevel = -1;
   const cam = {yaw: Number(params.get('yaw') || 30), pitch: Number(params.get('pitch') || 20),
@@ -75,20 +81,23 @@
       if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(s));
       return s;
     };
-    // as the native renderer: a plain program, and one that morphs a range
-    prog = [0, 1].map((morph) => {
+    // as the native renderer: a plain program, and one that morphs a range;
+    // those with COLORS 1 are built when a model with colours first draws
+    const build = (morph, colors) => {
       const p = gl.createProgram();
-      const head = `#version 300 es\n#define MORPH ${morph}\n#define COLORS 0\n`;
+      const head = `#version 300 es\n#define MORPH ${morph}\n#define COLORS ${colors}\n`;
       gl.attachShader(p, sh(gl.VERTEX_SHADER, head + M.UTF8ToString(M._mts_web_shader(0))));
       gl.attachShader(p, sh(gl.FRAGMENT_SHADER, head + M.UTF8ToString(M._mts_web_shader(1))));
       gl.linkProgram(p);
       if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(p));
       p.u = {};
       for (const u of ['u_mvp', 'u_normal', 'u_color', 'u_light', 'u_ambient', 'u_flat',
-                       'u_morph', 'u_morph_t'])
+                       'u_morph', 'u_morph_t', 'u_vertex_color'])
         p.u[u] = gl.getUniformLocation(p, u);
       return p;
-    });
+    };
+    prog = [build(0, 0), build(1, 0), null, null];
+    prog.get = (morph, colors) => prog[2 * colors + morph] || (prog[2 * colors + morph] = build(morph, colors));
     vbo = gl.createBuffer();
     nbo = gl.createBuffer();
     mbo = gl.createBuffer();
@@ -116,7 +125,30 @@
     gl.bufferSubData(gl.ARRAY_BUFFER, from * 12, M.HEAPF32.subarray(pos + 3 * from, pos + 3 * nv));
     gl.bindBuffer(gl.ARRAY_BUFFER, nbo);
     gl.bufferSubData(gl.ARRAY_BUFFER, from * 12, M.HEAPF32.subarray(nrm + 3 * from, nrm + 3 * nv));
+    uploadColors(from, nv);
     uploadedVertices = nv;
+  }
+
+  // The colours of vertices from .. nv-1, RGBA8, where the model has them;
+  // the buffers are made (or grown, everything sent again) with the vertices'.
+  function withColors() { return !noColors && w && M._mts_web_has_colors(w) !== 0; }
+  function uploadColors(from, nv) {
+    if (!withColors()) return;
+    if (colorCapacity < vertexCapacity) {
+      if (!cbo) { cbo = gl.createBuffer(); mcbo = gl.createBuffer(); }
+      colorCapacity = vertexCapacity;
+      for (const b of [cbo, mcbo]) {
+        gl.bindBuffer(gl.ARRAY_BUFFER, b);
+        gl.bufferData(gl.ARRAY_BUFFER, colorCapacity * 4, gl.DYNAMIC_DRAW);
+      }
+      from = 0;
+      morphSerial = -1;
+    }
+    const c = M._mts_web_colors_rgba(w, from, nv - from);
+    if (!c) return;
+    gl.bindBuffer(gl.ARRAY_BUFFER, cbo);
+    gl.bufferSubData(gl.ARRAY_BUFFER, from * 4, M.HEAPU8.subarray(c, c + 4 * (nv - from)));
+    state.colors = true;
   }
 
   // The level to show: the slider's, or all that came while following.
@@ -133,6 +165,11 @@
     gl.bufferSubData(gl.ARRAY_BUFFER, first * 12, M.HEAPF32.subarray(from, from + 3 * count));
     gl.bufferSubData(gl.ARRAY_BUFFER, vertexCapacity * 12 + first * 12,
                      M.HEAPF32.subarray(from + 3 * count, from + 6 * count));
+    const c = withColors() ? M._mts_web_morph_from_colors_rgba(w) : 0;
+    if (c) {
+      gl.bindBuffer(gl.ARRAY_BUFFER, mcbo);
+      gl.bufferSubData(gl.ARRAY_BUFFER, first * 4, M.HEAPU8.subarray(c, c + 4 * count));
+    }
     morphSerial = serial;
   }
 
@@ -177,7 +214,8 @@
     // at t = 1 every vertex is at its own place: the plain program draws that exactly
     const t = M._mts_web_morph_t(w);
     const morph = state.morphing && M._mts_web_morph_count(w) > 0 && t < 1 ? 1 : 0;
-    const pg = prog[morph];
+    const colors = state.colors ? 1 : 0;
+    const pg = prog.get(morph, colors);
     gl.useProgram(pg);
     const m = M._mts_web_camera(w, cam.yaw, cam.pitch, cam.zoom, canvas.width / canvas.height) >> 2;
     gl.uniformMatrix4fv(pg.u.u_mvp, false, M.HEAPF32.subarray(m, m + 16));
@@ -200,6 +238,16 @@
         gl.disableVertexAttribArray(a);
       }
     }
+    for (const a of [4, 5]) { // the colours, and the morph's from-colours
+      if (colors && (a === 4 || morph)) {
+        gl.bindBuffer(gl.ARRAY_BUFFER, a === 4 ? cbo : mcbo);
+        gl.enableVertexAttribArray(a);
+        gl.vertexAttribPointer(a, 4, gl.UNSIGNED_BYTE, true, 0, 0);
+      } else {
+        gl.disableVertexAttribArray(a);
+      }
+    }
+    if (colors) gl.uniform1i(pg.u.u_vertex_color, $('strips').checked ? 0 : 1);
     if (morph) {
       const first = M._mts_web_morph_first(w);
       gl.uniform2ui(pg.u.u_morph, first, first + M._mts_web_morph_count(w));
@@ -357,9 +405,9 @@
                           ms_first_frame: 0, ms_final: 0, decode_ms: 0, frames: 0,
                           draw_ms_total: 0, draw_ms_max: 0, frames_streaming: 0,
                           morphing: false, morph_ms: morphMs, requests: 0, reconnects: 0,
-                          first_batch: 0});
+                          first_batch: 0, colors: false});
     $('error').hidden = true;
-    uploadedVertices = vertexCapacity = indexCount = 0;
+    uploadedVertices = vertexCapacity = indexCount = colorCapacity = 0;
     packedLevel = -1;
   }
 

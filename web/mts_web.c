@@ -52,6 +52,10 @@ struct mts_web {
     int have_file_idx, have_file_plan, file_begun;
     mts_stream_file_plan file_plan;
     mts_stream_file_reader file_reader;
+    /* colours as RGBA8 for one upload (the native renderer's layout: WebGL
+     * fetches 4-byte vertices as they are) */
+    uint8_t *rgba;
+    size_t rgba_cap;
 };
 
 MTS_WEB_API mts_web *mts_web_create(void)
@@ -75,6 +79,7 @@ MTS_WEB_API void mts_web_destroy(mts_web *w)
     mts_stream_file_index_free(&w->file_idx);
     mts_buf_free(&w->out);
     mts_buf_free(&w->models);
+    free(w->rgba);
     free(w);
 }
 
@@ -374,6 +379,37 @@ MTS_WEB_API const float *mts_web_normals(const mts_web *w)
     return w->client.model.normals;
 }
 
+MTS_WEB_API int mts_web_has_colors(const mts_web *w)
+{
+    return w->state >= 2 && (w->client.model.flags & MTS_MODEL_COLORS) && w->client.model.colors;
+}
+
+/* count colours of 3 bytes as RGBA8, alpha 255, in w->rgba; NULL when out
+ * of memory. */
+static const uint8_t *as_rgba(mts_web *w, const uint8_t *rgb, uint32_t count)
+{
+    size_t need = (size_t)count * 4u;
+    if (need > w->rgba_cap) {
+        uint8_t *p = realloc(w->rgba, need);
+        if (!p)
+            return NULL;
+        w->rgba = p;
+        w->rgba_cap = need;
+    }
+    for (size_t i = 0; i < count; i++) {
+        memcpy(w->rgba + 4 * i, rgb + 3 * i, 3);
+        w->rgba[4 * i + 3] = 255;
+    }
+    return w->rgba;
+}
+
+MTS_WEB_API const uint8_t *mts_web_colors_rgba(mts_web *w, uint32_t first, uint32_t count)
+{
+    if (!mts_web_has_colors(w) || (uint64_t)first + count > mts_web_vertices(w))
+        return NULL;
+    return as_rgba(w, w->client.model.colors + 3 * (size_t)first, count);
+}
+
 MTS_WEB_API const float *mts_web_bbox(const mts_web *w)
 {
     return w->bbox;
@@ -435,6 +471,14 @@ MTS_WEB_API uint32_t mts_web_morph_count(const mts_web *w)
 MTS_WEB_API const float *mts_web_morph_from(const mts_web *w)
 {
     return w->follow.morph.from;
+}
+
+MTS_WEB_API const uint8_t *mts_web_morph_from_colors_rgba(mts_web *w)
+{
+    const mts_morph *mo = &w->follow.morph;
+    if (!mts_web_has_colors(w) || !mo->count || !mo->from_colors)
+        return NULL;
+    return as_rgba(w, mo->from_colors, mo->count);
 }
 
 MTS_WEB_API uint32_t mts_web_morph_serial(const mts_web *w)

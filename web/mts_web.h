@@ -97,6 +97,15 @@ const char *mts_web_checksum(const mts_web *w);  /* ours, 16 hex digits ("" befo
 const char *mts_web_server_checksum(const mts_web *w);
 const float *mts_web_positions(const mts_web *w); /* 3 floats a vertex; moves as vertices come */
 const float *mts_web_normals(const mts_web *w);
+/* 1 when the model has a colour a vertex (MODEL_INFO's MTS_INFO_COLORS, the
+ * colours come with the vertices). */
+int mts_web_has_colors(const mts_web *w);
+/* The colours of vertices first .. first+count-1 as RGBA8 (8-bit sRGB as the
+ * stream holds them, alpha 255; 4 bytes a vertex, the native renderer's
+ * layout), valid until the next call of this or
+ * mts_web_morph_from_colors_rgba; NULL without colours or past the
+ * vertices present. */
+const uint8_t *mts_web_colors_rgba(mts_web *w, uint32_t first, uint32_t count);
 const float *mts_web_bbox(const mts_web *w);      /* min xyz, max xyz of the full model */
 const char *mts_web_models(const mts_web *w);     /* after a LIST: "name vertices triangles levels\n"... */
 
@@ -119,6 +128,9 @@ float mts_web_morph_t(const mts_web *w);
 uint32_t mts_web_morph_first(const mts_web *w);
 uint32_t mts_web_morph_count(const mts_web *w);
 const float *mts_web_morph_from(const mts_web *w);
+/* The range's from-colours (each vertex's ancestor's), RGBA8 as
+ * mts_web_colors_rgba's and valid as long; NULL without colours or a range. */
+const uint8_t *mts_web_morph_from_colors_rgba(mts_web *w);
 uint32_t mts_web_morph_serial(const mts_web *w);
 uint32_t mts_web_shown_level(const mts_web *w);
 uint32_t mts_web_shown_triangles(const mts_web *w);
@@ -144,7 +156,9 @@ const float *mts_web_camera(mts_web *w, float yaw_deg, float pitch_deg, float zo
 const float *mts_web_style(mts_web *w);
 /* 1 when the stream carries no normals: shade by the faces (u_flat). */
 int mts_web_flat(const mts_web *w);
-/* The shaders' GLSL bodies (fragment 0: vertex), as the native renderer's. */
+/* The shaders' GLSL bodies (fragment 0: vertex), as the native renderer's:
+ * to follow "#version 300 es", "#define MORPH 0|1" and "#define COLORS 0|1"
+ * (client/camera.h). */
 const char *mts_web_shader(int fragment);
 
 #endif
