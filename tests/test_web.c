@@ -12,6 +12,10 @@
  *     checksum for that stop;
  *   - the level slider goes down and up through geomorphs, and the lower
  *     level's picture is mts-client's;
+ *   - a model with vertex colours (tests/data/cow_colors.ply) is drawn in
+ *     them: the page says so, its picture is mts-client's coloured one
+ *     within the same tolerance, at the full level and slid down to level
+ *     100 through a geomorph, and far from mts-client --no-colors' grey;
  *   - a server killed mid-stream shows an error on the page, not a frozen
  *     picture;
  *   - the page reads stream files (?src=) cross-origin over https from
@@ -342,6 +346,58 @@ static void test_page_slider_morph(mts_test *t)
            "going up, the level is set at once and the vertices slide: %s",
            (const char *)state.data);
     CHECK(t, up && wait_state(&c, full, 10, &state));
+    mts_buf_free(&ok);
+    mts_buf_free(&state);
+    mts_cdp_stop(&c);
+    CHECK(t, server_stop(&sv) == 0);
+}
+
+/* A coloured stream: the page draws its colours as mts-client does. */
+static void test_page_colors(mts_test *t)
+{
+    if (!have_chromium)
+        SKIP(t, "no chromium (scripts/deps.sh installs it): the page is not tested");
+    server sv;
+    CHECK(t, server_start(&sv, "colors", NULL));
+    mts_cdp c;
+    char log[700];
+    int up = browser_start(&c, "colors", log, sizeof log);
+    CHECKF(t, up, "chromium did not start (see %s)", log);
+    char url[600];
+    snprintf(url, sizeof url, "http://127.0.0.1:%d/?model=cow_colors&bare=1&morph=300",
+             sv.web_port);
+    mts_buf state = {0};
+    const char *full[] = {"\"phase\":\"complete\"", "\"level\":2875,", "\"morphing\":false",
+                          "\"colors\":true", NULL};
+    CHECKF(t, up && mts_cdp_navigate(&c, url) && wait_state(&c, full, 60, &state), "%s",
+           state.data ? (const char *)state.data : "");
+    double share = up ? picture_share(&sv, &c, "cow_colors", "", "cow_colors") : -1;
+    CHECKF(t, share >= 0 && share <= PIXEL_SHARE, "cow_colors: %.4f", share);
+    /* against the grey: the colours are on the page, not only in the state */
+    char png_web[700], png_grey[700], cmd[2000], out[4096];
+    snprintf(png_web, sizeof png_web, "%s/web_cow_colors.png", tmp_dir);
+    snprintf(png_grey, sizeof png_grey, "%s/native_cow_colors_grey.png", tmp_dir);
+    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow_colors --no-colors --png %s --quiet",
+             bin_dir, sv.port, png_grey);
+    double grey = up && mts_test_run(cmd, out, sizeof out) == 0
+                      ? mts_cdp_png_diff(png_web, png_grey, PIXEL_TOLERANCE)
+                      : -1;
+    fprintf(stderr, "  cow_colors: %.2f%% of pixels differ by more than %d from the grey\n",
+            100 * grey, PIXEL_TOLERANCE);
+    CHECKF(t, grey > 0.05, "the page's colours against the grey: %.4f", grey);
+    /* down to level 100 through a geomorph (the from-colours too) */
+    const char *slide_down = "(() => { document.getElementById('follow').checked = false; "
+                             "const l = document.getElementById('level'); l.value = '100'; "
+                             "l.dispatchEvent(new Event('input')); return 'ok'; })()";
+    mts_buf ok = {0};
+    CHECK(t, up && mts_cdp_eval(&c, slide_down, &ok));
+    const char *low[] = {"\"level\":100,", "\"morphing\":false", NULL};
+    CHECKF(t, up && wait_state(&c, low, 10, &state), "%s",
+           state.data ? (const char *)state.data : "");
+    CHECKF(t, up && !strstr((const char *)state.data, "\"phase\":\"error\""), "%s",
+           (const char *)state.data);
+    share = up ? picture_share(&sv, &c, "cow_colors", "--level 100", "cow_colors_100") : -1;
+    CHECKF(t, share >= 0 && share <= PIXEL_SHARE, "cow_colors slid to 100: %.4f", share);
     mts_buf_free(&ok);
     mts_buf_free(&state);
     mts_cdp_stop(&c);
@@ -784,7 +840,7 @@ int main(int argc, char **argv)
         if (required)
             t.failed = 1;
         else
-            t.skipped = 6;
+            t.skipped = 7;
         return mts_test_end(&t);
     }
     have_node = have("node --version");
@@ -798,7 +854,7 @@ int main(int argc, char **argv)
     }
     if (!have_nginx) {
         printf("  SKIP: no nginx (scripts/deps.sh installs it): it serves the page\n");
-        t.skipped = 6;
+        t.skipped = 7;
         return mts_test_end(&t);
     }
     char m[600];
@@ -808,8 +864,9 @@ int main(int argc, char **argv)
     char cmd[6000], out[8192];
     snprintf(cmd, sizeof cmd,
              "mkdir -p %s %s && %s/mts-build tests/data/cow.off -o %s/cow.mtsm --stream "
-             "%s/cow.mts --quiet",
-             models_dir, www_dir, bin_dir, models_dir, www_dir);
+             "%s/cow.mts --quiet && %s/mts-build tests/data/cow_colors.ply -o "
+             "%s/cow_colors.mtsm --quiet",
+             models_dir, www_dir, bin_dir, models_dir, www_dir, bin_dir, models_dir);
     if (mts_test_run(cmd, out, sizeof out) != 0) {
         fprintf(stderr, "cannot build cow: %s\n", out);
         return 1;
@@ -831,6 +888,7 @@ int main(int argc, char **argv)
     RUN(&t, test_node_decoder);
     RUN(&t, test_page);
     RUN(&t, test_page_slider_morph);
+    RUN(&t, test_page_colors);
     RUN(&t, test_page_broken_connection);
     RUN(&t, test_page_stream_file);
     return mts_test_end(&t);
