@@ -7,6 +7,9 @@
  *     stream -- with the client's own "level" and "triangles";
  *   - --json counts the frames shown while the stream came, and its seconds;
  *   - geomorphs: a shot mid-morph is named so and its HUD says morphing;
+ *   - a model with vertex colours (tests/data/cow_colors.ply) is drawn in
+ *     them, mid-morph too: --json says colors, the shots are saturated
+ *     where the grey cow's are not;
  *   - more on demand: with --lod-policy distance the stream stops at the
  *     policy's level, zooming in continues it, and the end is an unbroken
  *     stream's checksum;
@@ -84,6 +87,35 @@ static long foreground_pixels(const char *path)
             fg++;
     free(px);
     return fg;
+}
+
+/* Pixels whose channels span more than 40 (the grey spans 23 at full light). */
+static long saturated_pixels(const char *path)
+{
+    png_image im;
+    memset(&im, 0, sizeof im);
+    im.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_file(&im, path))
+        return -1;
+    im.format = PNG_FORMAT_RGBA;
+    size_t n = PNG_IMAGE_SIZE(im);
+    uint8_t *px = malloc(n);
+    if (!px || !png_image_finish_read(&im, NULL, px, 0, NULL)) {
+        free(px);
+        png_image_free(&im);
+        return -1;
+    }
+    long sat = 0;
+    for (size_t i = 0; i < n; i += 4) {
+        int mx = px[i], mn = px[i];
+        for (int c = 1; c < 3; c++) {
+            mx = px[i + c] > mx ? px[i + c] : mx;
+            mn = px[i + c] < mn ? px[i + c] : mn;
+        }
+        sat += mx - mn > 40;
+    }
+    free(px);
+    return sat;
 }
 
 static int read_whole(const char *path, unsigned char **data, long *size)
@@ -176,7 +208,9 @@ static void test_window_screenshots(mts_test *t)
     }
     char dir[700], cmd[8192], out[16384], log[800];
     snprintf(dir, sizeof dir, "%s/window_%d", tmp_dir, (int)getpid());
-    snprintf(cmd, sizeof cmd, "rm -rf %s && mkdir -p %s/models && cp tests/data/cow.off %s/models/",
+    snprintf(cmd, sizeof cmd,
+             "rm -rf %s && mkdir -p %s/models && cp tests/data/cow.off tests/data/cow_colors.ply "
+             "%s/models/",
              dir, dir, dir);
     CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
 
@@ -252,6 +286,36 @@ static void test_window_screenshots(mts_test *t)
                "the mid-morph frame is the final frame");
         free(d1);
         free(d2);
+    }
+
+    /* vertex colours, in the window and through its geomorphs: the same
+     * morph of the coloured cow; its shots are mostly saturated, where the
+     * grey cow's above have none */
+    char csource[100], cout[8192];
+    CHECKF(t, mts_test_wait_models(bin_dir, listen, "cow_colors", 300, cout, sizeof cout),
+           "the server does not list cow_colors: %s", cout);
+    snprintf(csource, sizeof csource, "%s cow_colors", listen);
+    const window_env wc = {dir, csource, display};
+    const char *cs[2];
+    if (run_window_two_shots(t, &wc, "colors",
+                             "0.5 key Home\n1.2 key End\n1.3 key s\n2.0 key s\n2.2 key q\n",
+                             "--morph-ms 400", cout, sizeof cout, cs)) {
+        CHECKF(t, strstr(cout, "\"colors\":true") != NULL, "%s", cout);
+        CHECKF(t, strstr(mout, "\"colors\":false") != NULL, "the grey cow: %s", mout);
+        char m1[300];
+        json_s(m[0], "file", m1, sizeof m1);
+        for (int i = 0; i < 2; i++) {
+            char file[300], path[1100], grey[1100];
+            json_s(cs[i], "file", file, sizeof file);
+            snprintf(path, sizeof path, "%s/%s", dir, file);
+            snprintf(grey, sizeof grey, "%s/%s", dir, m1);
+            long fg = foreground_pixels(path), sat = saturated_pixels(path),
+                 grey_sat = saturated_pixels(grey);
+            fprintf(stderr, "  window, cow_colors %s: %ld of %ld pixels saturated (grey mid-morph: "
+                            "%ld)\n", file, sat, fg, grey_sat);
+            CHECKF(t, fg > 640 * 480 / 50 && sat > fg / 3 && grey_sat >= 0 && grey_sat < fg / 100,
+                   "%s: %ld of %ld saturated, the grey %ld", file, sat, fg, grey_sat);
+        }
     }
 
     /* more on demand: the distance policy asks for its level's stop, and
