@@ -815,7 +815,7 @@ static void test_records_form_published_later(mts_test *t)
         mts_wire_put_hello(&hb, &h);
         CHECK(t, exchange(port, hb.data, hb.size, &rep, 10));
         if (i == 0) {
-            mts_wire_model_info mi;
+            mts_wire_model_info mi = {0};
             CHECKF(t, rep.size > 5 && rep.data[4] == MTS_MSG_MODEL_INFO, "cow: code %u",
                    error_code_of(&rep));
             size_t n = rep.size > 5 ? (size_t)(rep.data[0] | rep.data[1] << 8 |
@@ -825,6 +825,7 @@ static void test_records_form_published_later(mts_test *t)
                           mts_wire_parse_model_info(rep.data + 5, n - 1, &mi, &err) == MTS_OK &&
                           mi.stream_id == r->stream_id && (mi.flags & MTS_INFO_RECORDS),
                    "cow: not resumed in the records form: %s", err.msg);
+            mts_wire_model_info_free(&mi);
             /* from batch 5 on: no BASE, no batch sent twice */
             CHECKF(t, rep.size < r->size - r->batch_offset[5] + 4096, "resumed reply %zu bytes",
                    rep.size);
