@@ -498,11 +498,15 @@ static mts_result add_mesh_file(mts_catalog *cat, const char *name, const char *
 
     /* The cache key: what the mesh is now and how it is built. The figures
      * come first so that a long file name, cut at the model's 255
-     * characters, never hides them. */
+     * characters, never hides them. The model file's minor version is in
+     * it because a minor version can add what the builder keeps (5.2 keeps
+     * vertex colours): a cache from a builder before that must not serve a
+     * coloured mesh as grey. */
     char key[sizeof e->model.build_key];
-    snprintf(key, sizeof key, "size %llu, mtime %lld.%09ld, base_vertices %u, mtsm %d: %s",
+    snprintf(key, sizeof key, "size %llu, mtime %lld.%09ld, base_vertices %u, mtsm %d.%d: %s",
              (unsigned long long)st.st_size, (long long)st.st_mtim.tv_sec,
-             (long)st.st_mtim.tv_nsec, cat->opts.base_vertices, MTS_MODELFILE_MAJOR, file);
+             (long)st.st_mtim.tv_nsec, cat->opts.base_vertices, MTS_MODELFILE_MAJOR,
+             MTS_MODELFILE_MINOR, file);
 
     char why[512];
     cache = cache_path_for(cat, dir, file, why, sizeof why);

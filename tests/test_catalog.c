@@ -459,6 +459,64 @@ static void test_cache_reuse_and_rebuild(mts_test *t)
     mts_catalog_free(cat);
 }
 
+/* A coloured mesh whose cache an older builder wrote (no colours, the key
+ * without the model file's minor version): rebuilt with its colours, with a
+ * note, never served grey. */
+static void test_cache_from_before_colors(mts_test *t)
+{
+    char dir[1300], mesh[1400], cache[1400];
+    snprintf(dir, sizeof dir, "%s/colored", work);
+    CHECK(t, mkdir(dir, 0755) == 0);
+    snprintf(mesh, sizeof mesh, "%s/ccow.ply", dir);
+    snprintf(cache, sizeof cache, "%s/.ccow.ply.mtsm", dir);
+    CHECK(t, copy_file("tests/data/cow_colors.ply", mesh));
+
+    reports rep;
+    mts_catalog *cat = open_dir(t, dir, NULL, &rep, NULL);
+    if (!cat)
+        return;
+    const mts_catalog_entry *e = mts_catalog_find(cat, "ccow");
+    CHECK(t, e && e->origin == MTS_CATALOG_BUILT && e->model.colors &&
+                 (e->model.flags & MTS_MODEL_COLORS));
+    mts_catalog_free(cat);
+
+    /* what a builder before colours left: the same model less its colours,
+     * keyed "mtsm 5: " */
+    mts_model m = {0};
+    mts_error err = {0};
+    CHECKF(t, mts_modelfile_load(cache, &m, &err) == MTS_OK, "%s", err.msg);
+    char *v = strstr(m.build_key, "mtsm 5.");
+    CHECKF(t, v != NULL, "key %s", m.build_key);
+    if (v) {
+        char *colon = strchr(v, ':');
+        if (colon)
+            memmove(v + 6, colon, strlen(colon) + 1);
+    }
+    free(m.colors);
+    m.colors = NULL;
+    m.flags &= ~MTS_MODEL_COLORS;
+    CHECKF(t, mts_modelfile_save(&m, cache, NULL, &err) == MTS_OK, "%s", err.msg);
+    mts_model_free(&m);
+    CHECK(t, set_mtime(cache, time(NULL) + 100));
+
+    cat = open_dir(t, dir, NULL, &rep, NULL);
+    if (!cat)
+        return;
+    e = mts_catalog_find(cat, "ccow");
+    CHECK(t, e && e->origin == MTS_CATALOG_BUILT && e->model.colors &&
+                 (e->model.flags & MTS_MODEL_COLORS));
+    const report_line *l = find_report(&rep, MTS_CATALOG_NOTE, "/ccow.ply");
+    CHECKF(t, l && strstr(l->msg, "another version"), "note: %s", l ? l->msg : "(none)");
+    mts_catalog_free(cat);
+    /* ... and the rebuilt cache, coloured, is served from then on */
+    cat = open_dir(t, dir, NULL, &rep, NULL);
+    if (!cat)
+        return;
+    e = mts_catalog_find(cat, "ccow");
+    CHECK(t, e && e->origin == MTS_CATALOG_CACHED && e->model.colors);
+    mts_catalog_free(cat);
+}
+
 static void test_cache_dir_option(mts_test *t)
 {
     char dir[1300], cache_dir[1300], p[1400];
@@ -1161,6 +1219,7 @@ int main(void)
     }
     RUN(&t, test_models_dir);
     RUN(&t, test_cache_reuse_and_rebuild);
+    RUN(&t, test_cache_from_before_colors);
     RUN(&t, test_cache_dir_option);
     RUN(&t, test_cache_readonly_dir);
     RUN(&t, test_names);
