@@ -56,6 +56,8 @@
 #include "render.h"
 #include "stream.h"
 
+#include "../tests/color_field.h"
+
 /* ---- walkthrough ------------------------------------------------------- */
 
 enum { MODE_STRIPS, MODE_NOCOH, MODE_LIST, MODE_COUNT };
@@ -213,8 +215,10 @@ static void json_series_f(FILE *f, const char *key, const float *v, uint32_t n)
 /* ---- rate-distortion ---------------------------------------------------- */
 
 /* Closest point on triangle abc to p (Ericson, Real-Time Collision
- * Detection, 5.1.5); returns the squared distance. */
-static double point_tri_d2(const double p[3], const float *a, const float *b, const float *c)
+ * Detection, 5.1.5), into qout when not NULL; returns the squared
+ * distance. */
+static double point_tri_d2(const double p[3], const float *a, const float *b, const float *c,
+                           double *qout)
 {
     double ab[3], ac[3], ap[3], q[3];
     for (int i = 0; i < 3; i++) {
@@ -275,6 +279,8 @@ static double point_tri_d2(const double p[3], const float *a, const float *b, co
             q[i] = a[i] + ab[i] * v + ac[i] * w;
     }
 out:;
+    if (qout)
+        memcpy(qout, q, sizeof q);
     double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
     return DOT(d, d);
 #undef DOT
@@ -366,11 +372,13 @@ static void grid_free(tri_grid *g)
 }
 
 /* Squared distance from p to the nearest triangle: cells in growing shells
- * around p's cell until the best distance is inside the shell searched. */
-static double grid_nearest_d2(tri_grid *g, const double p[3])
+ * around p's cell until the best distance is inside the shell searched.
+ * With tout, the triangle and (qout) the closest point on it. */
+static double grid_nearest_d2(tri_grid *g, const double p[3], uint32_t *tout, double qout[3])
 {
     if (!g->ntri)
         return 0;
+    double q[3];
     int c[3];
     for (int i = 0; i < 3; i++)
         c[i] = cell_of(g, p[i], i);
@@ -399,9 +407,14 @@ static double grid_nearest_d2(tri_grid *g, const double p[3])
                         const uint32_t *v = g->tri + 3 * (size_t)t;
                         double d2 = point_tri_d2(p, g->pos + 3 * (size_t)v[0],
                                                  g->pos + 3 * (size_t)v[1],
-                                                 g->pos + 3 * (size_t)v[2]);
-                        if (d2 < best)
+                                                 g->pos + 3 * (size_t)v[2], tout ? q : NULL);
+                        if (d2 < best) {
                             best = d2;
+                            if (tout) {
+                                *tout = t;
+                                memcpy(qout, q, sizeof q);
+                            }
+                        }
                     }
                 }
             }
@@ -417,34 +430,86 @@ static double grid_nearest_d2(tri_grid *g, const double p[3])
 
 typedef struct rd_error {
     double rms, rms_full_to_level, rms_level_to_full, max;
+    /* with colours: sRGB 0..255 units, RMS over the three channels */
+    double color_rms, color_rms_full_to_level, color_rms_level_to_full;
 } rd_error;
 
+/* The colour at q on triangle t of (pos, tri, col): the corners' colours
+ * weighted by q's barycentric coordinates, as a rasterizer interpolates
+ * them (on the stored sRGB values, as the renderer shades them). */
+static void color_at(const float *pos, const uint32_t *tri, const uint8_t *col, uint32_t t,
+                     const double q[3], double out[3])
+{
+    const uint32_t *v = tri + 3 * (size_t)t;
+    const float *a = pos + 3 * (size_t)v[0], *b = pos + 3 * (size_t)v[1],
+                *c = pos + 3 * (size_t)v[2];
+    double e0[3], e1[3], e2[3];
+    for (int i = 0; i < 3; i++) {
+        e0[i] = (double)b[i] - a[i];
+        e1[i] = (double)c[i] - a[i];
+        e2[i] = q[i] - a[i];
+    }
+#define DOT(u, w) ((u)[0] * (w)[0] + (u)[1] * (w)[1] + (u)[2] * (w)[2])
+    double d00 = DOT(e0, e0), d01 = DOT(e0, e1), d11 = DOT(e1, e1), d20 = DOT(e2, e0),
+           d21 = DOT(e2, e1), den = d00 * d11 - d01 * d01;
+#undef DOT
+    double wb = 1.0 / 3, wc = 1.0 / 3;
+    if (fabs(den) > 1e-30) {
+        wb = (d11 * d20 - d01 * d21) / den;
+        wc = (d00 * d21 - d01 * d20) / den;
+    }
+    double wa = 1 - wb - wc;
+    for (int i = 0; i < 3; i++)
+        out[i] = wa * col[3 * (size_t)v[0] + i] + wb * col[3 * (size_t)v[1] + i] +
+                 wc * col[3 * (size_t)v[2] + i];
+}
+
 /* Symmetric sampled error of (lpos, ltri) against (fpos, ftri), whose grid
- * is fgrid; both in model units. */
-static int rd_measure(const float *fpos, uint32_t fverts, tri_grid *fgrid, const float *lpos,
-                      const uint32_t *ltri, uint32_t lntri, const double lo[3],
-                      const double hi[3], rd_error *e)
+ * is fgrid; both in model units. With fcol and lcol (the two meshes' vertex
+ * colours), the colour error at the same samples: a full-mesh vertex's
+ * colour against the level's colour interpolated at the closest point of
+ * the level's surface, and a level triangle's centroid colour against the
+ * full mesh's interpolated at the closest point of the full surface. */
+static int rd_measure(const float *fpos, const uint8_t *fcol, uint32_t fverts, tri_grid *fgrid,
+                      const float *lpos, const uint8_t *lcol, const uint32_t *ltri,
+                      uint32_t lntri, const double lo[3], const double hi[3], rd_error *e)
 {
     tri_grid lg;
     if (!grid_build(&lg, lpos, ltri, lntri, lo, hi)) {
         grid_free(&lg);
         return 0;
     }
-    double sa = 0, sb = 0, mx = 0;
+    const int colors = fcol && lcol;
+    double sa = 0, sb = 0, mx = 0, ca = 0, cb = 0;
     for (uint32_t v = 0; v < fverts; v++) {
-        double p[3] = {fpos[3 * v], fpos[3 * v + 1], fpos[3 * v + 2]};
-        double d2 = grid_nearest_d2(&lg, p);
+        double p[3] = {fpos[3 * v], fpos[3 * v + 1], fpos[3 * v + 2]}, q[3], c[3];
+        uint32_t t = 0;
+        double d2 = grid_nearest_d2(&lg, p, colors ? &t : NULL, q);
         sa += d2;
         mx = fmax(mx, d2);
+        if (colors && lntri) {
+            color_at(lpos, ltri, lcol, t, q, c);
+            for (int i = 0; i < 3; i++)
+                ca += (c[i] - fcol[3 * (size_t)v + i]) * (c[i] - fcol[3 * (size_t)v + i]);
+        }
     }
     for (uint32_t t = 0; t < lntri; t++) {
-        double p[3] = {0, 0, 0};
+        double p[3] = {0, 0, 0}, own[3] = {0, 0, 0}, q[3], c[3];
         for (int k = 0; k < 3; k++)
-            for (int i = 0; i < 3; i++)
+            for (int i = 0; i < 3; i++) {
                 p[i] += lpos[3 * (size_t)ltri[3 * t + k] + i] / 3.0;
-        double d2 = grid_nearest_d2(fgrid, p);
+                if (colors)
+                    own[i] += lcol[3 * (size_t)ltri[3 * t + k] + i] / 3.0;
+            }
+        uint32_t ft = 0;
+        double d2 = grid_nearest_d2(fgrid, p, colors ? &ft : NULL, q);
         sb += d2;
         mx = fmax(mx, d2);
+        if (colors && fgrid->ntri) {
+            color_at(fgrid->pos, fgrid->tri, fcol, ft, q, c);
+            for (int i = 0; i < 3; i++)
+                cb += (c[i] - own[i]) * (c[i] - own[i]);
+        }
     }
     grid_free(&lg);
     e->rms_full_to_level = sqrt(sa / (fverts ? fverts : 1));
@@ -452,12 +517,17 @@ static int rd_measure(const float *fpos, uint32_t fverts, tri_grid *fgrid, const
     double samples = (double)fverts + lntri;
     e->rms = sqrt((sa + sb) / (samples > 0 ? samples : 1));
     e->max = sqrt(mx);
+    e->color_rms_full_to_level = sqrt(ca / (3.0 * (fverts ? fverts : 1)));
+    e->color_rms_level_to_full = sqrt(cb / (3.0 * (lntri ? lntri : 1)));
+    e->color_rms = sqrt((ca + cb) / (3 * (samples > 0 ? samples : 1)));
     return 1;
 }
 
 static int rd_model(FILE *jf, const char *name, const mts_mesh *mesh, const mts_model *m,
                     uint32_t points, mts_error *err)
 {
+    /* colour error where both the input and the stream have colours */
+    const uint8_t *fcol = (m->flags & MTS_MODEL_COLORS) && m->colors ? mesh->colors : NULL;
     mts_stream s;
     if (mts_stream_build(m, name, NULL, &s, err) != MTS_OK)
         return 0;
@@ -485,20 +555,23 @@ static int rd_model(FILE *jf, const char *name, const mts_mesh *mesh, const mts_
     }
     diag = sqrt(diag);
     /* Draco single-rate of the full mesh on the stream's grid */
-    size_t draco = 0, draco_n = 0;
-    for (int k = 0; k < 2; k++) {
+    size_t draco = 0, draco_n = 0, draco_c = 0;
+    for (int k = 0; k < 3; k++) {
+        if (k == 2 && !fcol)
+            break;
         mts_draco_mesh dm = {mesh->vertex_count, mesh->triangle_count, mesh->positions,
-                             k ? mesh->normals : NULL, mesh->triangles, NULL};
+                             k == 1 ? mesh->normals : NULL, mesh->triangles,
+                             k == 2 ? fcol : NULL};
         mts_draco_options o = {0};
         o.grid = s.grid;
-        o.normal_bits = k ? 10 : -1;
+        o.normal_bits = k == 1 ? 10 : -1;
         o.compression_level = 7;
         uint8_t *out = NULL;
         size_t sz = 0;
         if (mts_draco_encode(&dm, &o, &out, &sz, err) != MTS_OK)
             sz = 0;
         free(out);
-        *(k ? &draco_n : &draco) = sz;
+        *(k == 2 ? &draco_c : k ? &draco_n : &draco) = sz;
     }
     ltri = malloc(((size_t)m->level_triangles[m->level_count] + 1) * 12);
     if (!ltri || !grid_build(&fg, mesh->positions, mesh->triangles, mesh->triangle_count, lo, hi))
@@ -509,9 +582,13 @@ static int rd_model(FILE *jf, const char *name, const mts_mesh *mesh, const mts_
     mts_buf info = {0};
     fprintf(jf, "\"%s\":{\"diagonal\":%.6g,\"full_triangles\":%u,\"levels\":%u,"
                 "\"batches\":%u,\"metric\":\"symmetric RMS: full-mesh vertices to the level's "
-                "surface and level triangle centroids to the full surface, / bbox diagonal\","
+                "surface and level triangle centroids to the full surface, / bbox diagonal\",%s"
                 "\"points\":[",
-            name, diag, m->level_triangles[m->level_count], m->level_count, s.batch_count);
+            name, diag, m->level_triangles[m->level_count], m->level_count, s.batch_count,
+            fcol ? "\"color_metric\":\"symmetric RMS in sRGB 0..255 units over the three "
+                   "channels, same samples: a full-mesh vertex's colour against the level's "
+                   "interpolated at the closest point of its surface, a level centroid's "
+                   "colour against the full mesh's at the closest point\"," : "");
     uint32_t nb = s.batch_count, np = points < nb + 1 ? points : nb + 1;
     uint32_t prev = UINT32_MAX;
     rd_error full_err = {0};
@@ -531,8 +608,8 @@ static int rd_model(FILE *jf, const char *name, const mts_mesh *mesh, const mts_
         }
         size_t n = strips_to_list(&lod, ltri);
         rd_error e;
-        if (!rd_measure(mesh->positions, mesh->vertex_count, &fg, s.model.positions, ltri,
-                        (uint32_t)(n / 3), lo, hi, &e)) {
+        if (!rd_measure(mesh->positions, fcol, mesh->vertex_count, &fg, s.model.positions,
+                        fcol ? s.model.colors : NULL, ltri, (uint32_t)(n / 3), lo, hi, &e)) {
             mts_buf_free(&info);
             goto done;
         }
@@ -540,21 +617,35 @@ static int rd_model(FILE *jf, const char *name, const mts_mesh *mesh, const mts_
             full_err = e;
         fprintf(jf, "%s{\"batches\":%u,\"level\":%u,\"bytes\":%zu,\"triangles\":%u,"
                     "\"rms\":%.6g,\"rms_full_to_level\":%.6g,\"rms_level_to_full\":%.6g,"
-                    "\"max\":%.6g}",
+                    "\"max\":%.6g",
                 i ? "," : "", k, level, bytes, m->level_triangles[level], e.rms / diag,
                 e.rms_full_to_level / diag, e.rms_level_to_full / diag, e.max / diag);
-        printf("  %-12s %4u/%u batches  level %7u  %9zu B  %8u triangles  rms %.3e  max %.3e\n",
+        if (fcol)
+            fprintf(jf, ",\"color_rms\":%.6g,\"color_rms_full_to_level\":%.6g,"
+                        "\"color_rms_level_to_full\":%.6g",
+                    e.color_rms, e.color_rms_full_to_level, e.color_rms_level_to_full);
+        fputc('}', jf);
+        printf("  %-12s %4u/%u batches  level %7u  %9zu B  %8u triangles  rms %.3e  max %.3e",
                name, k, nb, level, bytes, m->level_triangles[level], e.rms / diag,
                e.max / diag);
+        if (fcol)
+            printf("  colour rms %6.2f", e.color_rms);
+        putchar('\n');
     }
     mts_buf_free(&info);
-    fprintf(jf, "],\"draco\":{\"bytes\":%zu,\"bytes_with_normals\":%zu,\"triangles\":%u,"
+    if (fcol)
+        fprintf(jf, "],\"draco_with_colors\":{\"bytes\":%zu,\"color_rms\":0,\"how\":\"edgebreaker "
+                    "-cl 7, positions on the stream's grid and byte colours (lossless)\"}",
+                draco_c);
+    fprintf(jf, "%s\"draco\":{\"bytes\":%zu,\"bytes_with_normals\":%zu,\"triangles\":%u,"
                 "\"rms\":%.6g,\"max\":%.6g,\"how\":\"edgebreaker -cl 7 on the stream's %d-bit "
                 "grid; error = quantization only (the stream's full level)\"}}",
-            draco, draco_n, m->level_triangles[m->level_count], full_err.rms / diag,
+            fcol ? "," : "],", draco, draco_n, m->level_triangles[m->level_count], full_err.rms / diag,
             full_err.max / diag, s.grid.bits);
     printf("  %-12s Draco single-rate (cl 7, positions): %zu B, %u triangles, rms %.3e\n", name,
            draco, m->level_triangles[m->level_count], full_err.rms / diag);
+    if (fcol)
+        printf("  %-12s Draco single-rate (cl 7, positions and colours): %zu B\n", name, draco_c);
     ok = 1;
 done:
     if (have_lod)
@@ -571,9 +662,14 @@ static void usage(FILE *f)
 {
     fputs("usage: mts-bench-walk MESH... [--json FILE] [--rd-json FILE] [--seconds S] [--hz H]\n"
           "                      [--far D] [--size WxH] [--rd-points N] [--no-walk] [--no-rd]\n"
+          "                      [--colors [--color-field smooth|patches] [--color-cost W]]\n"
           "Walkthrough (model moving away, linear and exponential) through EGL with the\n"
           "distance LOD policy: strips with and without coherence and a triangle list; and\n"
-          "the rate-distortion series of each stream beside Draco single-rate.\n",
+          "the rate-distortion series of each stream beside Draco single-rate.\n"
+          "--colors: the series with a colour error beside the geometric one; a mesh\n"
+          "without its own colours gets a field (tests/color_field.h, default smooth)\n"
+          "before it is built; --color-cost W builds with that colour weight in the\n"
+          "collapse cost (mts_build_options.color_cost; 0: none).\n",
           f);
 }
 
@@ -581,7 +677,8 @@ int main(int argc, char **argv)
 {
     const char *json_path = NULL, *rd_path = NULL;
     const char *paths[16];
-    int np = 0, do_walk = 1, do_rd = 1;
+    int np = 0, do_walk = 1, do_rd = 1, colors = 0, field = MTS_TEST_FIELD_SMOOTH;
+    mts_build_options bo = {0};
     walk_cfg cfg = {20, 60, 10, 1024, 768};
     uint32_t rd_points = 50;
     for (int i = 1; i < argc; i++) {
@@ -612,6 +709,15 @@ int main(int argc, char **argv)
             do_walk = 0;
         } else if (!strcmp(a, "--no-rd")) {
             do_rd = 0;
+        } else if (!strcmp(a, "--colors")) {
+            colors = 1;
+        } else if (!strcmp(a, "--color-field") && v &&
+                   (!strcmp(v, "smooth") || !strcmp(v, "patches"))) {
+            field = strcmp(v, "smooth") ? MTS_TEST_FIELD_PATCHES : MTS_TEST_FIELD_SMOOTH;
+            i++;
+        } else if (!strcmp(a, "--color-cost") && v && atof(v) >= 0) {
+            bo.color_cost = atof(v) > 0 ? atof(v) : -1;
+            i++;
         } else if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
             usage(stdout);
             return 0;
@@ -660,7 +766,9 @@ int main(int argc, char **argv)
         mts_mesh mesh = {0};
         mts_model m;
         if (mts_mesh_load(paths[pi], NULL, &mesh, NULL, &err) != MTS_OK ||
-            mts_build_model(&mesh, paths[pi], NULL, &m, NULL, &err) != MTS_OK) {
+            (colors && !mesh.colors && !mts_test_mesh_color_field(&mesh, field)) ||
+            (!colors && (free(mesh.colors), mesh.colors = NULL, 0)) ||
+            mts_build_model(&mesh, paths[pi], &bo, &m, NULL, &err) != MTS_OK) {
             printf("%-14s FAILED: %s\n", name, err.msg);
             mts_mesh_free(&mesh);
             status = 1;

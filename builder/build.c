@@ -258,6 +258,10 @@ mts_result mts_build_model(const mts_mesh *mesh, const char *source,
     double t1 = mts_clock_seconds();
     mts_simplify_options so = {0};
     so.base_vertices = opts->base_vertices;
+    so.colors = mesh->colors;
+    so.color_weight = opts->color_cost > 0 ? opts->color_cost
+                      : opts->color_cost < 0 ? 0
+                                             : MTS_BUILD_DEFAULT_COLOR_COST;
     so.progress = (mts_progress){progress_simplify, &bp};
     rc = mts_simplify(mesh->positions, mesh->vertex_count, mesh->triangles, mesh->triangle_count,
                       &so, &simp, err);

@@ -15,6 +15,16 @@
 #include "stripify.h"
 #include "tunnel.h"
 
+/* The colour term's weight a coloured mesh gets by default
+ * (mts_build_options.color_cost): a whole-range colour mismatch weighs as a
+ * displacement of 0.1% of the bounding-box diagonal. Small enough to leave
+ * the geometry of smoothly coloured curved meshes as it was, enough to
+ * decide where the quadric is indifferent (flat regions, where it is 0)
+ * and to keep sharp colour boundaries; docs/colors.md has the
+ * measurements. */
+#define MTS_BUILD_DEFAULT_COLOR_COST 1e-6
+#define MTS_BUILD_DEFAULT_COLOR_COST_STR "1e-6"
+
 /* Zero-initialised means the defaults. */
 typedef struct mts_build_options {
     uint32_t base_vertices; /* 0: max(4, 1% of the vertices) */
@@ -31,6 +41,10 @@ typedef struct mts_build_options {
                              * MTS_STRIPIFY_MAX_STRIP */
     uint32_t reorder_window; /* splits sorted by parent within windows of this
                               * many (reorder.h): 0: the default; 1: none */
+    /* A coloured mesh's collapses also weigh the colour error they leave
+     * (simplify.h's color_weight): 0: MTS_BUILD_DEFAULT_COLOR_COST; < 0:
+     * none, the quadric alone. A mesh without colours ignores it. */
+    double color_cost;
     /* The full-level strips and the simplification need nothing of each
      * other: with more than one thread they run side by side (the model is
      * the same byte for byte). 0: the processors online; 1: one after the

@@ -19,7 +19,7 @@ static void usage(FILE *f)
           "                 [--base-vertices N] [--tunnel-length K]\n"
           "                 [--strip-effort E] [--max-strip M] [--key-ratio R]\n"
           "                 [--reorder-window W] [--threads N] [--max-mesh-bytes N]\n"
-          "                 [--no-colors] [--json] [--quiet]\n"
+          "                 [--no-colors] [--color-cost W] [--json] [--quiet]\n"
           "\n"
           "Builds a multiresolution triangle-strip model from a mesh (OFF, OBJ, PLY, STL, glTF/GLB):\n"
           "strips at full resolution, a quadric edge-collapse sequence down to a base mesh,\n"
@@ -73,6 +73,10 @@ static void usage(FILE *f)
           "  --no-colors           leave the mesh's vertex colours out of the model (and a\n"
           "                        model's out of its stream file): the model is then the\n"
           "                        one an uncoloured mesh gives, byte for byte\n"
+          "  --color-cost W        a coloured mesh's collapses also weigh the colour error\n"
+          "                        they leave: a whole-range colour mismatch weighs as a\n"
+          "                        displacement of sqrt(W) of the bounding-box diagonal;\n"
+          "                        0: geometry alone (default " MTS_BUILD_DEFAULT_COLOR_COST_STR ")\n"
           "  --json                print one line of JSON with the figures (\"colors\":\n"
           "                        whether the model keeps vertex colours)\n"
           "  -q, --quiet           no progress bar, no summary\n"
@@ -233,7 +237,7 @@ int main(int argc, char **argv)
     uint32_t base_vertices = 0, tunnel_length = MTS_TUNNEL_DEFAULT_LENGTH,
              strip_effort = MTS_TUNNEL_DEFAULT_ANNEAL, max_strip = 0, reorder_window = 0,
              threads = 0;
-    double key_ratio = MTS_LODBUILD_DEFAULT_KEY_RATIO;
+    double key_ratio = MTS_LODBUILD_DEFAULT_KEY_RATIO, color_cost = MTS_BUILD_DEFAULT_COLOR_COST;
     int json = 0, quiet = 0, records = 0;
     const char *stream_path = NULL;
     mts_mesh_options mo = {0};
@@ -266,6 +270,12 @@ int main(int argc, char **argv)
             if (++i >= argc || !cli_parse_double(argv[i], &key_ratio) ||
                 !(key_ratio == 0 || (key_ratio > 1 && key_ratio <= 1000))) {
                 fprintf(stderr, "mts-build: --key-ratio needs 0 or a number above 1\n");
+                return CLI_EXIT_USAGE;
+            }
+        } else if (!strcmp(a, "--color-cost")) {
+            if (++i >= argc || !cli_parse_double(argv[i], &color_cost) ||
+                !(color_cost >= 0 && color_cost <= 1e6)) {
+                fprintf(stderr, "mts-build: --color-cost needs a number from 0 to 1e6\n");
                 return CLI_EXIT_USAGE;
             }
         } else if (!strcmp(a, "--reorder-window")) {
@@ -380,6 +390,7 @@ int main(int argc, char **argv)
     bo.reorder_window = reorder_window;
     bo.threads = threads;
     bo.key_ratio = key_ratio == 0 ? -1 : key_ratio;
+    bo.color_cost = color_cost == 0 ? -1 : color_cost;
     bo.progress = (mts_progress){stage_memory_update, &sm};
     if (mts_build_model(&mesh, input, &bo, &model, &rep, &err) != MTS_OK)
         goto fail;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cfloat>
+#include <cmath>
 #include <cstdlib>
 #include <new>
 #include <vector>
@@ -134,6 +135,83 @@ public:
     size_t target = 0;
 };
 
+// The quadric's priority plus a colour term, after Garland and Heckbert,
+// "Simplifying Surfaces with Color and Texture using Quadric Error
+// Metrics" (IEEE Visualization 1998), reduced to what a half-edge collapse
+// needs: the kept vertex keeps its own colour (the stream sends the source
+// colour of every vertex), so instead of their colour quadric over a moving
+// attribute vector each vertex holds the area-weighted sums of the colours
+// it stands for (area, sum of colours, sum of squared colours), and the
+// error of representing them by a colour c is
+//     area |c|^2 - 2 c . sum + sum of squares,
+// accumulated on collapse as the geometric quadric is. Like the quadric's
+// priority it is the total error of the merged vertex, not the increment.
+template <class MeshT> class ModQuadricColorT : public OpenMesh::Decimater::ModQuadricT<MeshT> {
+public:
+    typedef ModQuadricColorT<MeshT> Self;
+    typedef OpenMesh::Decimater::ModHandleT<Self> Handle;
+    typedef OpenMesh::Decimater::ModQuadricT<MeshT> Quadric;
+    typedef typename Quadric::CollapseInfo CollapseInfo;
+    DECIMATER_MODNAME(QuadricColor)
+
+    explicit ModQuadricColorT(MeshT &mesh) : Quadric(mesh) {}
+
+    // colors: 3 bytes a vertex; area: each vertex's third of its faces'
+    // areas; scale: what a squared colour distance (channels over 255,
+    // summed) of unit area costs in the quadric's units.
+    void set_colors(const uint8_t *colors, const std::vector<double> &area, double scale)
+    {
+        size_t n = area.size();
+        stats_.assign(n, Stats{});
+        for (size_t v = 0; v < n; v++) {
+            Stats &s = stats_[v];
+            s.area = area[v];
+            for (int k = 0; k < 3; k++) {
+                double c = colors[3 * v + k] / 255.0;
+                s.sum[k] = area[v] * c;
+                s.sq += area[v] * c * c;
+            }
+            s.own[0] = colors[3 * v] / 255.0;
+            s.own[1] = colors[3 * v + 1] / 255.0;
+            s.own[2] = colors[3 * v + 2] / 255.0;
+        }
+        scale_ = scale;
+    }
+
+    float collapse_priority(const CollapseInfo &ci) override
+    {
+        float q = Quadric::collapse_priority(ci);
+        if (q < 0)
+            return q;
+        const Stats &a = stats_[(size_t)ci.v0.idx()], &b = stats_[(size_t)ci.v1.idx()];
+        const double *c = b.own; // the kept vertex's colour
+        double area = a.area + b.area, sq = a.sq + b.sq, dot = 0, cc = 0;
+        for (int k = 0; k < 3; k++) {
+            dot += c[k] * (a.sum[k] + b.sum[k]);
+            cc += c[k] * c[k];
+        }
+        double e = area * cc - 2 * dot + sq;
+        return q + (float)(scale_ * (e > 0 ? e : 0));
+    }
+
+    void postprocess_collapse(const CollapseInfo &ci) override
+    {
+        Quadric::postprocess_collapse(ci);
+        Stats &a = stats_[(size_t)ci.v0.idx()], &b = stats_[(size_t)ci.v1.idx()];
+        b.area += a.area;
+        b.sq += a.sq;
+        for (int k = 0; k < 3; k++)
+            b.sum[k] += a.sum[k];
+    }
+
+private:
+    struct Stats {
+        double area = 0, sum[3] = {0, 0, 0}, sq = 0, own[3] = {0, 0, 0};
+    };
+    std::vector<Stats> stats_;
+    double scale_ = 0;
+};
+
 } // namespace
 
 // A vertex's best collapse, as the library's heap_vertex chooses it -- the
@@ -245,13 +323,49 @@ extern "C" mts_result mts_simplify(const float *positions, uint32_t vertex_count
 
         OpenMesh::Decimater::DecimaterT<Mesh> decimater(mesh);
         OpenMesh::Decimater::ModQuadricT<Mesh>::Handle quadric;
+        ModQuadricColorT<Mesh>::Handle colored;
         OpenMesh::Decimater::ModNormalFlippingT<Mesh>::Handle flip;
         ModRecordT<Mesh>::Handle record;
-        decimater.add(quadric);
+        // an uncoloured mesh (or no weight) takes the plain quadric, so that
+        // its collapses are exactly those of the builder before colours
+        const bool by_color = opts->colors && opts->color_weight > 0;
+        if (by_color)
+            decimater.add(colored);
+        else
+            decimater.add(quadric);
         decimater.add(flip);
         decimater.add(record);
-        decimater.module(quadric).unset_max_err(); // priority only, no error cap
-        mesh.quadric = &decimater.module(quadric);
+        OpenMesh::Decimater::ModQuadricT<Mesh> &prio =
+            by_color ? decimater.module(colored) : decimater.module(quadric);
+        prio.unset_max_err(); // priority only, no error cap
+        mesh.quadric = &prio;
+        if (by_color) {
+            std::vector<double> area(vertex_count, 0.0);
+            float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
+            for (uint32_t v = 0; v < vertex_count; v++)
+                for (int k = 0; k < 3; k++) {
+                    lo[k] = std::min(lo[k], positions[3 * (size_t)v + k]);
+                    hi[k] = std::max(hi[k], positions[3 * (size_t)v + k]);
+                }
+            // the quadric's faces weigh by area, so the colours' vertices do
+            for (uint32_t f = 0; f < triangle_count; f++) {
+                const uint32_t *t = triangles + 3 * (size_t)f;
+                double e1[3], e2[3];
+                for (int k = 0; k < 3; k++) {
+                    e1[k] = (double)positions[3 * (size_t)t[1] + k] - positions[3 * (size_t)t[0] + k];
+                    e2[k] = (double)positions[3 * (size_t)t[2] + k] - positions[3 * (size_t)t[0] + k];
+                }
+                double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
+                       cz = e1[0] * e2[1] - e1[1] * e2[0];
+                double a = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz) / 3;
+                for (int k = 0; k < 3; k++)
+                    area[t[k]] += a;
+            }
+            double diag2 = 0;
+            for (int k = 0; k < 3; k++)
+                diag2 += ((double)hi[k] - lo[k]) * ((double)hi[k] - lo[k]);
+            decimater.module(colored).set_colors(opts->colors, area, opts->color_weight * diag2);
+        }
         decimater.module(flip).set_max_normal_deviation(
             opts->max_normal_deviation_deg > 0 ? opts->max_normal_deviation_deg : 90.0);
         ModRecordT<Mesh> &rec = decimater.module(record);

@@ -31,6 +31,18 @@ typedef struct mts_simplify_options {
     uint32_t base_vertices;
     /* Largest angle a face normal may turn in one collapse; 0: 90 degrees. */
     double max_normal_deviation_deg;
+    /* 3 bytes of 8-bit sRGB a vertex, or NULL. With colors and
+     * color_weight > 0 a collapse also costs the colour error it leaves
+     * (simplify.cpp's ModQuadricColorT): a kept vertex stands for the
+     * vertices merged into it, and the squared distance of their colours
+     * (each channel over 255) from its own, weighted by their areas, adds
+     * color_weight times the squared bounding-box diagonal times that to
+     * the quadric's area-weighted squared distance -- a whole-range colour
+     * mismatch costs as much as a displacement of sqrt(color_weight) of the
+     * diagonal. Without colours or with color_weight <= 0 the collapses are
+     * the quadric's alone. */
+    const uint8_t *colors;
+    double color_weight;
     mts_progress progress;
 } mts_simplify_options;
 

@@ -7,6 +7,7 @@
 #include <stdint.h>
 
 #include "build.h"
+#include "color_field.h"
 #include "crc32c.h"
 #include "hand_model.h"
 #include "lod.h"
@@ -445,15 +446,16 @@ static void test_specific_errors(mts_test *t)
 #define COW_FILE_BYTES 334664u
 #define COW_FILE_CRC32C 0xfdf6307eu
 
-static int build_file(mts_test *t, const char *mesh_path, const mts_mesh_options *mo,
-                      const char *source, mts_model *model, uint8_t **file, size_t *size)
+static int build_file_with(mts_test *t, const char *mesh_path, const mts_mesh_options *mo,
+                           const mts_build_options *bo, const char *source, mts_model *model,
+                           uint8_t **file, size_t *size)
 {
     mts_mesh mesh = {0};
     mts_error err = {0};
     mts_result rc = mts_mesh_load(mesh_path, mo, &mesh, NULL, &err);
     CHECKF(t, rc == MTS_OK, "%s: %s", mesh_path, err.msg);
     if (rc == MTS_OK) {
-        rc = mts_build_model(&mesh, source, NULL, model, NULL, &err);
+        rc = mts_build_model(&mesh, source, bo, model, NULL, &err);
         CHECKF(t, rc == MTS_OK, "build: %s", err.msg);
     }
     if (rc == MTS_OK) {
@@ -464,6 +466,12 @@ static int build_file(mts_test *t, const char *mesh_path, const mts_mesh_options
     }
     mts_mesh_free(&mesh);
     return rc == MTS_OK;
+}
+
+static int build_file(mts_test *t, const char *mesh_path, const mts_mesh_options *mo,
+                      const char *source, mts_model *model, uint8_t **file, size_t *size)
+{
+    return build_file_with(t, mesh_path, mo, NULL, source, model, file, size);
 }
 
 static void test_uncolored_file_unchanged(mts_test *t)
@@ -509,14 +517,22 @@ static void test_colors_round_trip(mts_test *t)
     CHECK(t, m.colors != NULL && (m.flags & MTS_MODEL_COLORS));
     CHECK(t, f[6] == 2); /* version 5.2 */
     {
-        /* what the colours cost: their bytes, a table entry, alignment */
-        mts_model plain;
-        uint8_t *pf;
-        size_t pn;
+        /* what the colours cost: their bytes, a table entry, alignment --
+         * with the collapses of the uncoloured mesh (the colour term in the
+         * collapse cost, which changes them, off) */
+        mts_model plain, held;
+        uint8_t *pf, *hf;
+        size_t pn, hn;
         mts_mesh_options mo = {.no_colors = 1};
+        mts_build_options bo = {.color_cost = -1};
         if (build_file(t, "tests/data/cow_colors.ply", &mo, "cow_colors", &plain, &pf, &pn)) {
-            CHECKF(t, n >= pn + 3 * 2904 + 24 && n < pn + 3 * 2904 + 24 + 8,
-                   "%zu bytes with colours, %zu without", n, pn);
+            if (build_file_with(t, "tests/data/cow_colors.ply", NULL, &bo, "cow_colors", &held,
+                                &hf, &hn)) {
+                CHECKF(t, hn >= pn + 3 * 2904 + 24 && hn < pn + 3 * 2904 + 24 + 8,
+                       "%zu bytes with colours, %zu without", hn, pn);
+                free(hf);
+                mts_model_free(&held);
+            }
             free(pf);
             mts_model_free(&plain);
         }
@@ -691,6 +707,77 @@ static void test_threads_same_model(mts_test *t)
     mts_mesh_free(&mesh);
 }
 
+/* Mean squared colour distance (sRGB units, summed over channels) between
+ * each vertex's colour and the colour its place takes at level L: its
+ * ancestor's there, the vertex it was collapsed into. */
+static double ancestor_color_error(const mts_model *m, uint32_t level)
+{
+    const uint32_t nb = m->base_vertex_count, present = nb + level;
+    double sum = 0;
+    for (uint32_t v = 0; v < m->vertex_count; v++) {
+        uint32_t a = v;
+        while (a >= present)
+            a = m->parents[a - nb];
+        for (int k = 0; k < 3; k++) {
+            double d = (double)m->colors[3 * (size_t)v + k] - m->colors[3 * (size_t)a + k];
+            sum += d * d;
+        }
+    }
+    return sum / m->vertex_count;
+}
+
+/* The colour term in the collapse cost (build.h's color_cost): on the cow
+ * with sharp colour patches (tests/color_field.h), the default weight keeps
+ * the patches' boundaries, so the colours the coarse levels draw are nearer
+ * the input's than the quadric alone leaves them, at every level measured;
+ * an uncoloured mesh ignores the weight (its model is the same byte for
+ * byte, whatever the weight). */
+static void test_color_cost(mts_test *t)
+{
+    mts_mesh mesh = {0};
+    mts_error err = {0};
+    CHECKF(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK, "%s",
+           err.msg);
+    if (!mesh.vertex_count)
+        return;
+    mts_model m[2];
+    uint8_t *file[2] = {NULL, NULL};
+    size_t size[2] = {0, 0};
+    for (int k = 0; k < 2; k++) { /* uncoloured: the quadric alone, then a heavy colour weight */
+        mts_build_options bo = {0};
+        bo.color_cost = k ? 1e-2 : -1;
+        CHECKF(t, mts_build_model(&mesh, "cow", &bo, &m[k], NULL, &err) == MTS_OK, "%s", err.msg);
+        CHECK(t, mts_modelfile_encode(&m[k], &file[k], &size[k], &err) == MTS_OK);
+        mts_model_free(&m[k]);
+    }
+    CHECKF(t, size[0] == size[1] && size[0] && memcmp(file[0], file[1], size[0]) == 0,
+           "an uncoloured cow built with a colour weight: %zu bytes against %zu", size[1], size[0]);
+    free(file[0]);
+    free(file[1]);
+
+    CHECK(t, mts_test_mesh_color_field(&mesh, MTS_TEST_FIELD_PATCHES));
+    for (int k = 0; k < 2; k++) { /* the quadric alone, then a colour weight */
+        mts_build_options bo = {0};
+        bo.color_cost = k ? 1e-4 : -1;
+        CHECKF(t, mts_build_model(&mesh, "cow", &bo, &m[k], NULL, &err) == MTS_OK, "%s", err.msg);
+        CHECK(t, m[k].colors != NULL);
+    }
+    if (m[0].colors && m[1].colors) {
+        CHECK(t, m[0].level_count == m[1].level_count);
+        for (int pct = 5; pct <= 50; pct *= 2) { /* 5, 10, 20, 40 % of the splits */
+            uint32_t level = m[0].level_count * (uint32_t)pct / 100;
+            double plain = ancestor_color_error(&m[0], level),
+                   colored = ancestor_color_error(&m[1], level);
+            CHECKF(t, colored < 0.9 * plain,
+                   "level %u (%d%%): colour error %.1f with the colour term, %.1f without", level,
+                   pct, colored, plain);
+        }
+    }
+    mts_model_free(&m[0]);
+    mts_model_free(&m[1]);
+    mts_mesh_free(&mesh);
+}
+
 int main(void)
 {
     mts_test t = {0};
@@ -704,5 +791,6 @@ int main(void)
     RUN(&t, test_uncolored_file_unchanged);
     RUN(&t, test_colors_round_trip);
     RUN(&t, test_colors_damaged);
+    RUN(&t, test_color_cost);
     return mts_test_end(&t);
 }
