@@ -14,6 +14,8 @@
 #include <unistd.h>
 
 #include "clock.h"
+#include "draco.h"
+#include "gltf_read.h"
 #include "mesh.h"
 #include "mesh_read.h"
 #include "test.h"
@@ -2144,6 +2146,482 @@ static void test_gltf_colors(mts_test *t)
     buf_free(&b);
 }
 
+/* ------------------------------------------------------------------------ */
+/* glTF KHR_draco_mesh_compression                                          */
+
+/* The assimp test models' glTF2 folder (assimp-testmodels), or NULL with
+ * the case skipped, failed where MTS_TEST_REQUIRE_ASSIMP says it must be
+ * there. */
+static const char *assimp_gltf2(mts_test *t, char *out, size_t size)
+{
+    const char *root = getenv("MTS_ASSIMP_MODELS");
+    snprintf(out, size, "%s/glTF2", root && *root ? root : "/usr/share/assimp/models");
+    struct stat ds;
+    if (stat(out, &ds) == 0 && S_ISDIR(ds.st_mode))
+        return out;
+    CHECKF(t, !getenv("MTS_TEST_REQUIRE_ASSIMP"), "MTS_TEST_REQUIRE_ASSIMP is set and there "
+           "is no %s (apt-get install assimp-testmodels)", out);
+    if (!t->case_failed) {
+        fprintf(stderr, "  SKIP %s: no %s (apt-get install assimp-testmodels)\n",
+                t->case_name, out);
+        t->case_skipped = 1;
+    }
+    return NULL;
+}
+
+static unsigned char *read_whole(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    buf b = {0};
+    unsigned char chunk[65536];
+    size_t n;
+    while ((n = fread(chunk, 1, sizeof chunk, f)) > 0)
+        buf_put(&b, chunk, n);
+    fclose(f);
+    *size = b.n;
+    return b.d ? b.d : malloc(1);
+}
+
+/* A GLB of this JSON and binary chunk. */
+static void glb_pack(buf *out, const buf *json, const void *bin, size_t bin_n)
+{
+    size_t jn = (json->n + 3) & ~(size_t)3, bn = (bin_n + 3) & ~(size_t)3;
+    uint32_t head[3] = {0x46546C67u, 2, (uint32_t)(12 + 8 + jn + 8 + bn)};
+    buf_put(out, head, 12);
+    uint32_t ch[2] = {(uint32_t)jn, 0x4E4F534Au};
+    buf_put(out, ch, 8);
+    buf_put(out, json->d, json->n);
+    for (size_t i = json->n; i < jn; i++)
+        buf_put(out, " ", 1);
+    uint32_t cb[2] = {(uint32_t)bn, 0x004E4942u};
+    buf_put(out, cb, 8);
+    buf_put(out, bin, bin_n);
+    for (size_t i = bin_n; i < bn; i++)
+        buf_put(out, "", 1);
+}
+
+/* A point of a grid of cubes, keyed by its cube. */
+typedef struct cell_point {
+    uint64_t key;
+    uint32_t i;
+} cell_point;
+
+static int by_key(const void *x, const void *y)
+{
+    uint64_t a = ((const cell_point *)x)->key, b = ((const cell_point *)y)->key;
+    return a < b ? -1 : a > b;
+}
+
+static uint64_t cell_key(const double lo[3], double tol, const float *p, int dx, int dy, int dz)
+{
+    int64_t c[3];
+    int d[3] = {dx, dy, dz};
+    for (int k = 0; k < 3; k++)
+        c[k] = (int64_t)floor((p[k] - lo[k]) / tol) + 1 + d[k]; /* >= 0 for b's box */
+    return ((uint64_t)c[0] << 42) | ((uint64_t)c[1] << 21) | (uint64_t)c[2];
+}
+
+/* The largest distance from a point of a to the nearest point of b, or
+ * INFINITY when some point of a has none within tol: b's points are
+ * bucketed on a grid of cell tol, so only the 27 cells around each point of
+ * a are searched. */
+static double nearest_worst(const float *a, uint32_t na, const float *b, uint32_t nb,
+                            const double lo[3], double tol)
+{
+    cell_point *cells = malloc((nb ? nb : 1) * sizeof *cells);
+    if (!cells)
+        abort();
+    for (uint32_t i = 0; i < nb; i++)
+        cells[i] = (cell_point){cell_key(lo, tol, b + 3 * (size_t)i, 0, 0, 0), i};
+    qsort(cells, nb, sizeof *cells, by_key);
+    double worst = 0;
+    for (uint32_t i = 0; i < na && worst < INFINITY; i++) {
+        const float *p = a + 3 * (size_t)i;
+        double best = INFINITY;
+        for (int dx = -1; dx <= 1; dx++)
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dz = -1; dz <= 1; dz++) {
+                    uint64_t key = cell_key(lo, tol, p, dx, dy, dz);
+                    size_t l = 0, h = nb;
+                    while (l < h) {
+                        size_t m = (l + h) / 2;
+                        if (cells[m].key < key)
+                            l = m + 1;
+                        else
+                            h = m;
+                    }
+                    for (; l < nb && cells[l].key == key; l++) {
+                        const float *q = b + 3 * (size_t)cells[l].i;
+                        double s = 0;
+                        for (int k = 0; k < 3; k++)
+                            s += ((double)p[k] - q[k]) * ((double)p[k] - q[k]);
+                        if (sqrt(s) < best)
+                            best = sqrt(s);
+                    }
+                }
+        worst = best <= tol ? (best > worst ? best : worst) : INFINITY;
+    }
+    free(cells);
+    return worst;
+}
+
+static double mesh_area(const mts_gltf_mesh *m)
+{
+    double area = 0;
+    for (uint32_t f = 0; f < m->triangle_count; f++) {
+        const float *p[3];
+        for (int k = 0; k < 3; k++)
+            p[k] = m->positions + 3 * (size_t)m->triangles[3 * (size_t)f + k];
+        double u[3], v[3];
+        for (int k = 0; k < 3; k++) {
+            u[k] = (double)p[1][k] - p[0][k];
+            v[k] = (double)p[2][k] - p[0][k];
+        }
+        double x = u[1] * v[2] - u[2] * v[1], y = u[2] * v[0] - u[0] * v[2],
+               z = u[0] * v[1] - u[1] * v[0];
+        area += 0.5 * sqrt(x * x + y * y + z * z);
+    }
+    return area;
+}
+
+/* Triangles whose three corners lie at three different positions. */
+static uint32_t proper_triangles(const mts_gltf_mesh *m)
+{
+    uint32_t n = 0;
+    for (uint32_t f = 0; f < m->triangle_count; f++) {
+        const uint32_t *v = m->triangles + 3 * (size_t)f;
+        const float *a = m->positions + 3 * (size_t)v[0], *b = m->positions + 3 * (size_t)v[1],
+                    *c = m->positions + 3 * (size_t)v[2];
+        n += memcmp(a, b, 12) && memcmp(b, c, 12) && memcmp(a, c, 12);
+    }
+    return n;
+}
+
+static void mesh_box(const mts_gltf_mesh *m, double lo[3], double hi[3])
+{
+    for (int k = 0; k < 3; k++)
+        lo[k] = INFINITY, hi[k] = -INFINITY;
+    for (uint32_t i = 0; i < m->vertex_count; i++)
+        for (int k = 0; k < 3; k++) {
+            double v = m->positions[3 * (size_t)i + k];
+            lo[k] = v < lo[k] ? v : lo[k];
+            hi[k] = v > hi[k] ? v : hi[k];
+        }
+}
+
+/* Khronos's 2CylinderEngine, Draco-compressed and plain, read as the same
+ * mesh. Draco quantizes each primitive's positions to 11 bits over that
+ * primitive's box (read from its buffers: every one of the 34 uses 11), so
+ * a coordinate moves by at most half a step, L / (2 (2^11 - 1)) with L
+ * no more than the whole model's largest side, and a vertex by sqrt(3)
+ * times that: those are the tolerances (0.18 and 0.31 on a largest side of
+ * 743; the worst vertex measured is 0.11 off). The encoder dropped the
+ * plain file's degenerate triangles (11,160 of them, corners at one
+ * position), so Draco's count is the plain file's proper triangles. */
+static void test_gltf_draco_engine(mts_test *t)
+{
+    char dir[512], path[700], draco_dir[600];
+    if (!assimp_gltf2(t, dir, sizeof dir))
+        return;
+    size_t dn = 0, pn = 0;
+    snprintf(draco_dir, sizeof draco_dir, "%s/draco", dir);
+    snprintf(path, sizeof path, "%s/2CylinderEngine.gltf", draco_dir);
+    unsigned char *dbytes = read_whole(path, &dn);
+    snprintf(path, sizeof path, "%s/2CylinderEngine-glTF-Binary/2CylinderEngine.glb", dir);
+    unsigned char *pbytes = read_whole(path, &pn);
+    CHECKF(t, dbytes && pbytes, "the 2CylinderEngine files are missing under %s", dir);
+    mts_gltf_mesh d = {0}, p = {0};
+    mts_error err = {0};
+    mts_result r = dbytes ? mts_gltf_read("draco.gltf", dbytes, dn, draco_dir, 0, &d, &err)
+                          : MTS_ERR_IO;
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    mts_result r2 = pbytes ? mts_gltf_read("plain.glb", pbytes, pn, NULL, 0, &p, &err)
+                           : MTS_ERR_IO;
+    CHECKF(t, r2 == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK && r2 == MTS_OK) {
+        CHECKF(t, d.primitives == p.primitives && d.primitives == 115, "%u and %u primitives",
+               d.primitives, p.primitives);
+        uint32_t proper = proper_triangles(&p);
+        CHECKF(t, d.triangle_count == proper && proper == 110336,
+               "Draco %u triangles, plain %u of which %u proper", d.triangle_count,
+               p.triangle_count, proper);
+        CHECK(t, d.colors == NULL && p.colors == NULL);
+        double dlo[3], dhi[3], plo[3], phi[3], side = 0;
+        mesh_box(&d, dlo, dhi);
+        mesh_box(&p, plo, phi);
+        for (int k = 0; k < 3; k++)
+            side = phi[k] - plo[k] > side ? phi[k] - plo[k] : side;
+        double step = side / ((1 << 11) - 1), axis_tol = step / 2, tol = sqrt(3.0) * step / 2;
+        for (int k = 0; k < 3; k++)
+            CHECKF(t, fabs(dlo[k] - plo[k]) <= axis_tol && fabs(dhi[k] - phi[k]) <= axis_tol,
+                   "axis %d: Draco %g..%g, plain %g..%g (tolerance %g)", k, dlo[k], dhi[k],
+                   plo[k], phi[k], axis_tol);
+        double lo[3];
+        for (int k = 0; k < 3; k++)
+            lo[k] = (dlo[k] < plo[k] ? dlo[k] : plo[k]) - 2 * tol;
+        double w1 =
+            nearest_worst(d.positions, d.vertex_count, p.positions, p.vertex_count, lo, tol);
+        double w2 =
+            nearest_worst(p.positions, p.vertex_count, d.positions, d.vertex_count, lo, tol);
+        CHECKF(t, w1 <= tol && w2 <= tol, "nearest vertex: Draco to plain %g, plain to Draco %g "
+               "(tolerance %g)", w1, w2, tol);
+        double da = mesh_area(&d), pa = mesh_area(&p);
+        CHECKF(t, fabs(da - pa) <= 1e-3 * pa, "area %g and %g", da, pa);
+        if (getenv("MTS_TEST_VERBOSE"))
+            fprintf(stderr, "  2CylinderEngine: Draco %u v %u t, plain %u v %u t (%u proper); "
+                    "nearest %.4f %.4f of %.4f; area %.1f %.1f\n", d.vertex_count,
+                    d.triangle_count, p.vertex_count, p.triangle_count, proper, w1, w2, tol,
+                    da, pa);
+    }
+    mts_gltf_mesh_free(&d);
+    mts_gltf_mesh_free(&p);
+    free(dbytes);
+    free(pbytes);
+}
+
+/* Mesh 0 of the Draco 2CylinderEngine, alone in a GLB: its compressed
+ * bytes (the .bin's first 7048) and the accessors' counts, each of which
+ * the case may change. */
+typedef struct draco_case {
+    const unsigned char *draco; /* the compressed bytes */
+    size_t draco_n;
+    size_t view_len;            /* the buffer view's byteLength */
+    int points, indices, position_id, mode;
+    const char *indices_key;    /* how the JSON spells "indices", NULL: so */
+    const char *extras;         /* the primitive's "extras" member, or NULL */
+} draco_case;
+
+static mts_result draco_case_read(const draco_case *c, mts_gltf_mesh *m, mts_error *err)
+{
+    buf json = {0}, glb = {0};
+    buf_printf(&json,
+               "{\"asset\":{\"version\":\"2.0\"},"
+               "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],"
+               "\"extensionsRequired\":[\"KHR_draco_mesh_compression\"],\"scene\":0,"
+               "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],");
+    buf_printf(&json,
+               "\"meshes\":[{\"primitives\":[{%s%s\"attributes\":{\"POSITION\":0,\"NORMAL\":2},"
+               "\"%s\" : 1,\"mode\":%d,\"extensions\":{\"KHR_draco_mesh_compression\":"
+               "{\"bufferView\":0,\"attributes\":{\"POSITION\":%d,\"NORMAL\":0}}}}]}],",
+               c->extras ? c->extras : "", c->extras ? "," : "",
+               c->indices_key ? c->indices_key : "indices", c->mode, c->position_id);
+    buf_printf(&json,
+               "\"accessors\":[{\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\"},"
+               "{\"componentType\":5123,\"count\":%d,\"type\":\"SCALAR\"},"
+               "{\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\"}],",
+               c->points, c->indices, c->points);
+    buf_printf(&json,
+               "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":%zu}],"
+               "\"buffers\":[{\"byteLength\":%zu}]}",
+               c->view_len, c->draco_n);
+    glb_pack(&glb, &json, c->draco, c->draco_n);
+    mts_result r = mts_gltf_read("engine0.glb", glb.d, glb.n, NULL, 0, m, err);
+    buf_free(&json);
+    buf_free(&glb);
+    return r;
+}
+
+static void expect_draco_refused(mts_test *t, const draco_case *c, const char *want,
+                                 const char *label)
+{
+    mts_gltf_mesh m = {0};
+    mts_error err = {0};
+    mts_result r = draco_case_read(c, &m, &err);
+    CHECKF(t, r == MTS_ERR_FORMAT || r == MTS_ERR_RANGE || r == MTS_ERR_LIMIT,
+           "%s: %d (%s)", label, (int)r, err.msg);
+    CHECKF(t, strstr(err.msg, "engine0.glb: mesh 0 primitive 0: ") && strstr(err.msg, want),
+           "%s: '%s' lacks '%s'", label, err.msg, want);
+    mts_gltf_mesh_free(&m);
+}
+
+/* The compressed bytes are the file's: cut short, bytes flipped, an
+ * attribute id the buffer has not, counts the accessors contradict. Each
+ * is refused with the primitive and the problem named, never read past or
+ * crashed on (ASan runs this too). */
+static void test_gltf_draco_hostile(mts_test *t)
+{
+    char dir[512], path[600];
+    if (!assimp_gltf2(t, dir, sizeof dir))
+        return;
+    snprintf(path, sizeof path, "%s/draco/2CylinderEngine.bin", dir);
+    size_t bn = 0;
+    unsigned char *bin = read_whole(path, &bn);
+    CHECKF(t, bin && bn >= 7048 && !memcmp(bin, "DRACO", 5), "%s: not the Draco engine", path);
+    if (!bin || bn < 7048) {
+        free(bin);
+        return;
+    }
+    unsigned char draco[7048];
+    memcpy(draco, bin, sizeof draco);
+    free(bin);
+    const draco_case good = {draco, sizeof draco, sizeof draco, 2019, 8250, 1, 4, NULL, NULL};
+    mts_gltf_mesh m = {0};
+    mts_error err = {0};
+    mts_result r = draco_case_read(&good, &m, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    CHECKF(t, m.vertex_count == 2019 && m.triangle_count == 2750, "%u v %u t", m.vertex_count,
+           m.triangle_count);
+    mts_gltf_mesh_free(&m);
+    /* a strip primitive's Draco mesh is its triangles too */
+    draco_case c = good;
+    c.mode = 5;
+    r = draco_case_read(&c, &m, &err);
+    CHECKF(t, r == MTS_OK && m.triangle_count == 2750, "strip: %s", err.msg);
+    mts_gltf_mesh_free(&m);
+    /* the indices key escaped, extras of the primitive's own: still its
+     * indices accessor that the decoded triangles are held to */
+    c = good;
+    c.indices_key = "ind\\u0069ces";
+    c.extras = "\"extras\":{\"indices\":5}";
+    r = draco_case_read(&c, &m, &err);
+    CHECKF(t, r == MTS_OK && m.triangle_count == 2750, "escaped key, extras: %s", err.msg);
+    mts_gltf_mesh_free(&m);
+    c.indices = 8253;
+    expect_draco_refused(t, &c, "the primitive's 8253 indices make 2751", "escaped key");
+
+    /* cut short: inside the head, inside the body */
+    const size_t cuts[] = {4, 11, 20, 100, 1000, 7000, 7047};
+    for (size_t i = 0; i < sizeof cuts / sizeof cuts[0]; i++) {
+        c = good;
+        c.view_len = cuts[i];
+        char label[64];
+        snprintf(label, sizeof label, "cut to %zu bytes", cuts[i]);
+        expect_draco_refused(t, &c, "KHR_draco_mesh_compression: ", label);
+    }
+    c = good;
+    c.view_len = sizeof draco + 1;
+    expect_draco_refused(t, &c, "runs past the end of its buffer", "view past its buffer");
+
+    /* flipped: the magic, the version, the geometry type */
+    unsigned char bad[sizeof draco];
+    c = good;
+    c.draco = bad;
+    memcpy(bad, draco, sizeof bad);
+    bad[0] ^= 0xff;
+    expect_draco_refused(t, &c, "not a Draco buffer", "magic");
+    memcpy(bad, draco, sizeof bad);
+    bad[5] = 1;
+    expect_draco_refused(t, &c, "bitstream version 1.2", "version");
+    memcpy(bad, draco, sizeof bad);
+    bad[7] = 0;
+    expect_draco_refused(t, &c, "a point cloud, not a triangle mesh", "point cloud");
+    /* and one byte in every 7 of the whole buffer: refused with the
+     * primitive named, or read with its counts. Draco has no checksum: a
+     * flip in the attribute values' entropy-coded bytes decodes as other
+     * values (of 1007 flips, 785 are read so; the reader still holds them
+     * finite and in range) */
+    unsigned refused = 0, read = 0;
+    for (size_t i = 0; i < sizeof bad; i += 7) {
+        memcpy(bad, draco, sizeof bad);
+        bad[i] ^= 0xff;
+        mts_error e = {0};
+        r = draco_case_read(&c, &m, &e);
+        if (r == MTS_OK) {
+            CHECKF(t, m.vertex_count == 2019 && m.triangle_count == 2750,
+                   "byte %zu flipped: read as %u v %u t", i, m.vertex_count, m.triangle_count);
+            read++;
+        } else {
+            CHECKF(t, r != MTS_ERR_NOMEM && r != MTS_ERR_INTERNAL &&
+                          strstr(e.msg, "engine0.glb: mesh 0 primitive 0: "),
+                   "byte %zu flipped: %s", i, e.msg);
+            refused++;
+        }
+        mts_gltf_mesh_free(&m);
+    }
+    CHECKF(t, refused > 0, "of the flips %u refused, %u read", refused, read);
+    if (getenv("MTS_TEST_VERBOSE"))
+        fprintf(stderr, "  Draco byte flips: %u refused, %u read\n", refused, read);
+
+    /* an attribute id the Draco mesh has not (it has 0, NORMAL, and 1) */
+    c = good;
+    c.position_id = 7;
+    expect_draco_refused(t, &c, "POSITION's Draco attribute id 7 is not in the Draco mesh",
+                         "id 7");
+    /* counts the accessors contradict */
+    c = good;
+    c.points = 2018;
+    expect_draco_refused(t, &c, "the Draco mesh has 2019 points, the POSITION accessor 2018",
+                         "points");
+    c = good;
+    c.indices = 8253;
+    expect_draco_refused(t, &c, "the Draco mesh has 2750 triangles, the primitive's 8253 "
+                         "indices make 2751", "indices");
+    c = good;
+    c.indices = 30;
+    expect_draco_refused(t, &c, "the Draco buffer declares 2750 triangles, more than the "
+                         "primitive's 30 indices hold", "declared");
+    c = good;
+    c.mode = 6;
+    expect_draco_refused(t, &c, "holds TRIANGLES (4) or TRIANGLE_STRIP (5)", "fan");
+}
+
+/* COLOR_0 in the Draco buffer takes the plain accessor's way: linear bytes
+ * to sRGB, the same values as the tetrahedron's uncompressed COLOR_0. */
+static void test_gltf_draco_colors(mts_test *t)
+{
+    const uint8_t u8[4][3] = {{255, 0, 0}, {0, 255, 0}, {128, 51, 13}, {0, 0, 255}};
+    mts_draco_mesh in = {4, 4, &tet_pos[0][0], NULL, &tet_tri[0][0], &u8[0][0]};
+    mts_draco_options o = {0};
+    uint8_t *draco = NULL;
+    size_t dn = 0;
+    mts_error err = {0};
+    mts_result r = mts_draco_encode(&in, &o, &draco, &dn, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    if (r != MTS_OK)
+        return;
+    buf json = {0}, glb = {0}, plain = {0};
+    /* the encoder adds POSITION (unique id 0), then COLOR (1) */
+    buf_printf(&json,
+               "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],"
+               "\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"extensions\":"
+               "{\"KHR_draco_mesh_compression\":{\"bufferView\":0,\"attributes\":"
+               "{\"POSITION\":0,\"COLOR_0\":1}}},\"indices\":2,"
+               "\"attributes\":{\"POSITION\":0,\"COLOR_0\":1}}]}],");
+    buf_printf(&json,
+               "\"accessors\":[{\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"},"
+               "{\"componentType\":5121,\"normalized\":true,\"count\":4,\"type\":\"VEC3\"},"
+               "{\"componentType\":5125,\"count\":12,\"type\":\"SCALAR\"}],"
+               "\"bufferViews\":[{\"buffer\":0,\"byteLength\":%zu}],"
+               "\"buffers\":[{\"byteLength\":%zu}]}",
+               dn, dn);
+    glb_pack(&glb, &json, draco, dn);
+    tet_glb(&plain, "VEC3", 5121, 1, u8, sizeof u8);
+    mts_gltf_mesh d = {0}, p = {0};
+    r = mts_gltf_read("tet_draco.glb", glb.d, glb.n, NULL, 0, &d, &err);
+    CHECKF(t, r == MTS_OK, "%s", err.msg);
+    mts_result r2 = mts_gltf_read("tet.glb", plain.d, plain.n, NULL, 0, &p, &err);
+    CHECKF(t, r2 == MTS_OK, "%s", err.msg);
+    if (r == MTS_OK && r2 == MTS_OK) {
+        CHECKF(t, d.vertex_count == 4 && d.triangle_count == 4 && d.colors && p.colors,
+               "%u v %u t", d.vertex_count, d.triangle_count);
+        /* Edgebreaker may renumber: matched by position (14-bit grid) */
+        for (uint32_t i = 0; d.colors && p.colors && i < d.vertex_count; i++) {
+            int match = -1;
+            for (int v = 0; v < 4; v++) {
+                double s = 0;
+                for (int k = 0; k < 3; k++)
+                    s += fabs(d.positions[3 * i + k] - tet_pos[v][k]);
+                if (s < 1e-3)
+                    match = v;
+            }
+            CHECKF(t, match >= 0, "Draco vertex %u is no tetrahedron vertex", i);
+            if (match >= 0)
+                CHECKF(t, !memcmp(d.colors + 3 * i, p.colors + 3 * match, 12),
+                       "vertex %u: %g %g %g, plain %g %g %g", i, d.colors[3 * i],
+                       d.colors[3 * i + 1], d.colors[3 * i + 2], p.colors[3 * match],
+                       p.colors[3 * match + 1], p.colors[3 * match + 2]);
+        }
+    }
+    mts_gltf_mesh_free(&d);
+    mts_gltf_mesh_free(&p);
+    buf_free(&json);
+    buf_free(&glb);
+    buf_free(&plain);
+    free(draco);
+}
+
 static void test_cow(mts_test *t)
 {
     mts_mesh m;
@@ -2213,6 +2691,9 @@ int main(void)
     RUN(&t, test_off_colors);
     RUN(&t, test_obj_colors);
     RUN(&t, test_gltf_colors);
+    RUN(&t, test_gltf_draco_engine);
+    RUN(&t, test_gltf_draco_hostile);
+    RUN(&t, test_gltf_draco_colors);
     RUN(&t, test_cleaning);
     RUN(&t, test_compute_normals);
     RUN(&t, test_error_files);
