@@ -416,8 +416,11 @@ static void breakdown_table(const mts_stream_breakdown *bd, char (*names)[64], c
 }
 
 /* ---- colours ----------------------------------------------------------
- * --colors MESH...: what vertex colours cost on the wire. A mesh without
- * its own colours gets the tests' smooth field (tests/color_field.h). */
+ * --colors MESH... [--json FILE]: what vertex colours cost on the wire. A
+ * mesh without its own colours gets the tests' smooth field
+ * (tests/color_field.h) before it is built, as a coloured file's would be
+ * seen by the builder; the stream without colours is the mesh's built
+ * without them. */
 
 /* The full level's triangles, from the strips' drawn windows. */
 static uint32_t *full_triangles(const mts_model *m, uint32_t *count)
@@ -432,52 +435,74 @@ static uint32_t *full_triangles(const mts_model *m, uint32_t *count)
     return t;
 }
 
-static int colors_table(const char *const *paths, int np)
+static int colors_table(const char *const *paths, int np, const char *json_path)
 {
+    FILE *jf = json_path ? fopen(json_path, "w") : NULL;
+    if (json_path && !jf) {
+        fprintf(stderr, "mts-bench-stream: cannot write %s\n", json_path);
+        return 1;
+    }
+    if (jf)
+        fputs("{\"grid_bits\":14,\"models\":{", jf);
+    int status = 0, first = 1;
     printf("\nColours: the full stream (MODEL_INFO + BASE + every BATCH + END) beside Draco "
            "single-rate\nof the full mesh on the same 14-bit grid, with byte colours (COLOR "
            "attribute, lossless)\n");
-    printf("%-12s %8s %9s %9s %7s %9s %9s %9s %9s %7s %8s %8s\n", "model", "source", "plain B",
-           "color B", "+B", "col b/spl", "base col", "draco7", "draco7+c", "x d7+c", "d10+c",
-           "records");
+    printf("%-14s %6s %9s %9s %7s %8s %9s %8s %9s %9s %7s %8s %8s\n", "model", "source",
+           "plain B", "color B", "+B", "+b/vert", "col b/spl", "base col", "draco7", "draco7+c",
+           "x d7+c", "d10+c", "records");
     printf("%s\n", "----------------------------------------------------------------------------"
-                   "----------------------------------------");
+                   "----------------------------------------------");
     for (int i = 0; i < np; i++) {
         char name[64];
         cli_stem(paths[i], name, sizeof name);
         mts_error err = {0};
         mts_mesh mesh = {0};
-        mts_model m;
-        if (mts_mesh_load(paths[i], NULL, &mesh, NULL, &err) != MTS_OK ||
-            mts_build_model(&mesh, paths[i], NULL, &m, NULL, &err) != MTS_OK) {
-            printf("%-12s FAILED: %s\n", name, err.msg);
-            mts_mesh_free(&mesh);
+        mts_model m, mp;
+        int have_m = 0, have_mp = 0;
+        if (mts_mesh_load(paths[i], NULL, &mesh, NULL, &err) != MTS_OK) {
+            printf("%-14s FAILED: %s\n", name, err.msg);
+            status = 1;
             continue;
         }
-        mts_mesh_free(&mesh);
-        const int own = (m.flags & MTS_MODEL_COLORS) && m.colors;
-        if (!own && !mts_test_color_field(&m)) {
-            mts_model_free(&m);
+        /* the field goes on the mesh, so that the builder sees the colours
+         * as it sees a coloured file's */
+        const int own = mesh.colors != NULL;
+        if (!own && !mts_test_mesh_color_field(&mesh, MTS_TEST_FIELD_SMOOTH)) {
+            mts_mesh_free(&mesh);
             return 1;
         }
+        uint8_t *colors = mesh.colors;
+        mts_result rc = mts_build_model(&mesh, paths[i], NULL, &m, NULL, &err);
+        have_m = rc == MTS_OK;
+        /* the same mesh without colours: the stream a 7.0 server sent */
+        mesh.colors = NULL;
+        if (rc == MTS_OK)
+            rc = mts_build_model(&mesh, paths[i], NULL, &mp, NULL, &err);
+        have_mp = have_m && rc == MTS_OK;
+        mesh.colors = colors;
+        mts_mesh_free(&mesh);
         mts_stream plain, col;
         mts_stream_breakdown bp, bc;
         mts_stream_options o = {0};
         o.with_records = 1;
         o.breakdown = &bp;
-        m.flags &= ~MTS_MODEL_COLORS; /* colours held, not streamed */
-        mts_result rc = mts_stream_build(&m, name, &o, &plain, &err);
-        m.flags |= MTS_MODEL_COLORS;
+        if (rc == MTS_OK)
+            rc = mts_stream_build(&mp, name, &o, &plain, &err);
         o.breakdown = &bc;
         if (rc == MTS_OK && (rc = mts_stream_build(&m, name, &o, &col, &err)) != MTS_OK)
             mts_stream_free(&plain);
         if (rc != MTS_OK) {
-            printf("%-12s FAILED: %s\n", name, err.msg);
-            mts_model_free(&m);
+            printf("%-14s FAILED: %s\n", name, err.msg);
+            if (have_m)
+                mts_model_free(&m);
+            if (have_mp)
+                mts_model_free(&mp);
+            status = 1;
             continue;
         }
         mts_buf b = {0};
-        const size_t full_plain = bench_connection_bytes(&plain, m.level_count, &b),
+        const size_t full_plain = bench_connection_bytes(&plain, mp.level_count, &b),
                      full_col = bench_connection_bytes(&col, m.level_count, &b),
                      rec_col = bench_connection_bytes(col.records_form, m.level_count, &b);
         mts_buf_free(&b);
@@ -496,21 +521,42 @@ static int colors_table(const char *const *paths, int np)
             free(out);
         }
         free(tris);
-        printf("%-12s %8s %9zu %9zu %7zu %9.2f %9zu %9zu %9zu %7.2f %8zu %8zu\n", name,
-               own ? "file" : "field", full_plain, full_col, full_col - full_plain,
-               bc.color_bits / (bc.splits ? bc.splits : 1),
-               bc.base_draco_bytes - bp.base_draco_bytes, draco[0], draco[1],
-               draco[1] ? (double)full_col / draco[1] : 0, draco[2], rec_col);
+        const double added = (double)full_col - (double)full_plain,
+                     bits_vertex = 8 * added / m.vertex_count,
+                     bits_split = bc.color_bits / (bc.splits ? bc.splits : 1),
+                     ratio = draco[1] ? (double)full_col / draco[1] : 0;
+        const size_t base_col = bc.base_draco_bytes - bp.base_draco_bytes;
+        printf("%-14s %6s %9zu %9zu %7.0f %8.2f %9.2f %8zu %9zu %9zu %7.2f %8zu %8zu\n", name,
+               own ? "file" : "field", full_plain, full_col, added, bits_vertex, bits_split,
+               base_col, draco[0], draco[1], ratio, draco[2], rec_col);
+        if (jf)
+            fprintf(jf,
+                    "%s\"%s\":{\"colors\":\"%s\",\"vertices\":%u,\"stream_bytes_without\":%zu,"
+                    "\"stream_bytes_with\":%zu,\"added_bytes\":%.0f,\"added_bits_per_vertex\":%.3f,"
+                    "\"color_bits_per_split\":%.3f,\"base_color_bytes\":%zu,"
+                    "\"draco_cl7_positions\":%zu,\"draco_cl7_with_colors\":%zu,"
+                    "\"stream_over_draco_cl7_with_colors\":%.4f,\"draco_cl10_with_colors\":%zu,"
+                    "\"records_form_bytes_with\":%zu}",
+                    first ? "" : ",", name, own ? "file" : "smooth field", m.vertex_count,
+                    full_plain, full_col, added, bits_vertex, bits_split, base_col, draco[0],
+                    draco[1], ratio, draco[2], rec_col);
+        first = 0;
         mts_stream_free(&plain);
         mts_stream_free(&col);
         mts_model_free(&m);
+        mts_model_free(&mp);
     }
-    printf("(plain B: the stream without colours, byte for byte a 7.0 server's; +B: what the "
-           "colours add;\n col b/spl: coded colour bits a split; base col: what they add to "
-           "BASE's Draco mesh;\n draco7(+c): Draco edgebreaker cl 7 of the full mesh, positions "
-           "(and colours); x d7+c: colour B / draco7+c;\n d10+c: cl 10 with colours; records: "
-           "the records form with colours)\n");
-    return 0;
+    printf("(plain B: the stream of the mesh without colours, byte for byte a 7.0 server's; "
+           "+B: what the colours add,\n the collapses they change included; +b/vert: that in "
+           "bits a vertex; col b/spl: coded colour bits a split;\n base col: what they add to "
+           "BASE's Draco mesh; draco7(+c): Draco edgebreaker cl 7 of the full mesh,\n positions "
+           "(and colours); x d7+c: colour B / draco7+c; d10+c: cl 10 with colours; records: "
+           "the\n records form with colours)\n");
+    if (jf) {
+        fputs("}}\n", jf);
+        fclose(jf);
+    }
+    return status;
 }
 
 int main(int argc, char **argv)
@@ -541,7 +587,7 @@ int main(int argc, char **argv)
             paths[np++] = argv[i];
     }
     if (colors_only)
-        return colors_table(paths, np);
+        return colors_table(paths, np, json_path);
     FILE *jf = json_path ? fopen(json_path, "w") : NULL;
     if (jf)
         fputs("{", jf);

@@ -8,7 +8,8 @@ BASE's geometric and colour errors are interpolated at OTHER's byte count
 (linearly in bytes, on the logarithm of the error) and the ratios
 OTHER / BASE taken; a model's summary is the geometric mean of the ratios
 over those points (below 1: OTHER has less error for the same bytes), its
-worst ratio, and the full streams' byte counts.
+worst ratio, and the full streams' byte counts; "excess" is the geometric
+ratio of the errors above each stream's full level (the grid's quantization).
 """
 import json
 import math
@@ -47,6 +48,17 @@ def compare(a, b):
                 r[key + "_ratio_geomean"] = math.exp(sum(map(math.log, ratios)) / len(ratios))
                 r[key + "_ratio_worst"] = max(ratios)
                 r[key + "_ratio_best"] = min(ratios)
+        # the geometric error above each stream's full level (the grid's
+        # quantization, the same for both): a ratio of errors near that
+        # floor says little about what shows
+        fa, fb = ma["points"][-1]["rms"], mb["points"][-1]["rms"]
+        ex = []
+        for p in inner:
+            e = interp(ma["points"], "rms", p["bytes"]) - fa
+            if e > 0 and p["rms"] - fb > 0:
+                ex.append((p["rms"] - fb) / e)
+        if ex:
+            r["rms_excess_ratio_geomean"] = math.exp(sum(map(math.log, ex)) / len(ex))
         out[name] = r
     return out
 
@@ -66,12 +78,13 @@ def main():
     with open(args[1]) as f:
         b = json.load(f)
     res = compare(a, b)
-    print(f"{'model':<16} {'points':>6} {'geo ratio':>9} {'worst':>6} {'colour ratio':>12} "
+    print(f"{'model':<16} {'points':>6} {'geo ratio':>9} {'worst':>6} {'excess':>6} {'colour ratio':>12} "
           f"{'worst':>6} {'best':>6} {'full B base':>11} {'full B other':>12}")
     for name, r in res.items():
         g = r.get("rms_ratio_geomean", float("nan"))
         c = r.get("color_rms_ratio_geomean", float("nan"))
         print(f"{name:<16} {r['points']:>6} {g:>9.3f} {r.get('rms_ratio_worst', float('nan')):>6.3f} "
+              f"{r.get('rms_excess_ratio_geomean', float('nan')):>6.3f} "
               f"{c:>12.3f} {r.get('color_rms_ratio_worst', float('nan')):>6.3f} "
               f"{r.get('color_rms_ratio_best', float('nan')):>6.3f} {r['full_bytes_base']:>11} "
               f"{r['full_bytes_other']:>12}")

@@ -8,7 +8,8 @@
 # skips the big mesh (a minute of the run), MTS_BENCH_STRESS=0 the many-client
 # runs, MTS_BENCH_CLIENT=0 the client's cost, MTS_BENCH_WEB=0 the browser
 # client, MTS_BENCH_BUILDER=0 the builder at scale (MTS_BENCH_HUGE=0 its 6M
-# mesh); MTS_BENCH_APPLYING_CLIENTS (default 1000) sets the applying
+# mesh), MTS_BENCH_COLORS=0 the vertex colours' figures (bench/colors.sh);
+# MTS_BENCH_APPLYING_CLIENTS (default 1000) sets the applying
 # mts-stress clients, MTS_BENCH_FILES=0 the stream files on nginx
 # (bench/files.sh), MTS_BENCH_STRESS_FILES=0 the applying mts-stress clients
 # of a stream file on nginx beside mts-server's (bench/stress_files.sh). Exit status 1 when a requested
@@ -61,6 +62,17 @@ if [ -f "$shared/models/bunny00.off" ]; then
   done
   kill -TERM "$server" 2>/dev/null
   wait "$server" 2>/dev/null
+fi
+
+# --- vertex colours -----------------------------------------------------------
+# what they cost on the wire beside Draco with colours, and the rate-distortion
+# series with a colour error, the builder's colour term on and off
+# (bench/colors.sh, docs/colors.md)
+rm -f "$out"/colors_*.json
+if [ "${MTS_BENCH_COLORS:-1}" = 0 ]; then
+  printf '{"skipped": "MTS_BENCH_COLORS=0"}\n' >"$out/colors_stream.json"
+else
+  bench/colors.sh "$out" "$shared/models" || status=1
 fi
 
 # --- many clients: mts-server beside nginx on the same bytes ------------------
@@ -395,6 +407,51 @@ if previews:
               f"{'the same' if v['same_checksum'] else 'DIFFERS'}; the whole stream "
               f"{v['full_stream_bytes']} B")
 res["stream"] = stream
+
+# --- vertex colours ---
+colors = {}
+try:
+    with open(os.path.join(out, "colors_stream.json")) as f:
+        colors["stream"] = json.load(f)
+except (OSError, ValueError):
+    colors["stream"] = {"skipped": "bench/colors.sh wrote nothing"}
+cs = colors["stream"]
+if "skipped" in cs:
+    print(f"\nVertex colours: skipped: {cs['skipped']}")
+else:
+    print("\nVertex colours: full stream with and without them beside Draco cl 7 / 10 with "
+          "colours (same 14-bit grid; docs/colors.md)")
+    print(f"{'model':<14} {'colours':<13} {'without B':>10} {'with B':>9} {'b/vertex':>8} "
+          f"{'b/split':>8} {'Draco7+c':>9} {'ratio':>6} {'Draco10+c':>10}")
+    for name, c in cs.get("models", {}).items():
+        print(f"{name:<14} {c['colors']:<13} {c['stream_bytes_without']:>10} "
+              f"{c['stream_bytes_with']:>9} {c['added_bits_per_vertex']:>8.2f} "
+              f"{c['color_bits_per_split']:>8.2f} {c['draco_cl7_with_colors']:>9} "
+              f"{c['stream_over_draco_cl7_with_colors']:>6.2f} {c['draco_cl10_with_colors']:>10}")
+rdc = {}
+for field in ("smooth", "patches"):
+    d = {}
+    for key, fname in (("with_color_term", "default"), ("without_color_term", "0"),
+                       ("compare", "compare")):
+        try:
+            with open(os.path.join(out, f"colors_rd_{field}_{fname}.json")) as f:
+                d[key] = json.load(f)
+        except (OSError, ValueError):
+            pass
+    if d:
+        rdc[field] = d
+if rdc:
+    print("  rate-distortion, the colour term against none at equal bytes (geometric mean of "
+          "error ratios over 15 stops; < 1: less error)")
+    for field, d in rdc.items():
+        for name, r in d.get("compare", {}).items():
+            print(f"  {field:<8} {name:<14} geometric {r.get('rms_ratio_geomean', 0):.3f} "
+                  f"(worst {r.get('rms_ratio_worst', 0):.3f}), colour "
+                  f"{r.get('color_rms_ratio_geomean', 0):.3f} (worst "
+                  f"{r.get('color_rms_ratio_worst', 0):.3f}); full stream "
+                  f"{r['full_bytes_base']} -> {r['full_bytes_other']} B")
+    colors["rate_distortion"] = rdc
+res["colors"] = colors
 
 stress = {}
 try:

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <sys/wait.h>
 
+#include "build.h"
 #include "clock.h"
 #include "test.h"
 #include "test_proc.h"
@@ -274,7 +275,8 @@ static int copy_file(const char *from, const char *to)
 }
 
 /* Vertex colours as a user sees them: kept and said so, left out with
- * --no-colors (the model an uncoloured mesh gives, byte for byte), warned
+ * --no-colors (the model an uncoloured mesh gives, byte for byte), weighed
+ * in the collapses unless --color-cost 0, warned
  * of when only some vertices have one, shown by mts-inspect and written
  * by its --obj. */
 static void test_build_colors(mts_test *t)
@@ -302,6 +304,18 @@ static void test_build_colors(mts_test *t)
     CHECKF(t, strstr(out, "\"colors\":false"), "%s", out);
     CHECK(t, same_file(plain, dropped));
     CHECK(t, !same_file(plain, colored));
+    /* --color-cost: 0 leaves the collapses to the geometry, which the
+     * default colour term changes; the default is the weight it names */
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s --color-cost 0 --quiet", bin_dir, mesh,
+             dropped);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECK(t, !same_file(dropped, colored));
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s --color-cost " MTS_BUILD_DEFAULT_COLOR_COST_STR
+             " --quiet", bin_dir, mesh, dropped);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
+    CHECK(t, same_file(dropped, colored));
+    snprintf(cmd, sizeof cmd, "%s/mts-build %s -o %s --color-cost -1 2>&1", bin_dir, mesh, dropped);
+    CHECKF(t, mts_test_run(cmd, out, sizeof out) != 0 && strstr(out, "--color-cost"), "%s", out);
 
     snprintf(cmd, sizeof cmd, "%s/mts-inspect %s --obj %s", bin_dir, colored, obj);
     CHECKF(t, mts_test_run(cmd, out, sizeof out) == 0, "%s", out);
