@@ -509,6 +509,14 @@ static mts_result restrip(mts_grow *g, mts_error *err)
         }
         if (!perm || !mts__corner_renumber(g, perm) || !mts__grow_paths_reset(g, count))
             rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+        if (rc == MTS_OK && g->keep_order) {
+            g->key_order.n = 0;
+            if (!mts_words_reserve(&g->key_order, n))
+                rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+            else
+                memcpy(g->key_order.w, perm, (size_t)n * 4);
+            g->key_order.n = rc == MTS_OK ? n : 0;
+        }
         free(perm);
     }
     for (uint32_t k = 0; rc == MTS_OK && k < count; k++) {
@@ -848,6 +856,34 @@ static int emit_record(mts_grow *g, uint32_t u, uint32_t v)
     return 1;
 }
 
+int mts__grow_splice_whole(mts_grow *g, uint32_t s, const mts_words *r, uint32_t u, uint32_t v,
+                           uint32_t *edits)
+{
+    const splice sp = {0, (uint32_t)g->slot[s].seq.n, 0, r};
+    return emit_splice(g, s, &sp, u, v, edits);
+}
+
+int mts__grow_slots_reserve(mts_grow *g, uint32_t count)
+{
+    if (count > g->slot_cap) {
+        uint32_t old = g->slot_cap, cap = old ? old : 64;
+        while (cap < count)
+            cap *= 2;
+        /* each array keeps its old block if its own growth fails */
+        if (!grow_zeroed((void **)&g->slot, sizeof *g->slot, old, cap) ||
+            !grow_zeroed((void **)&g->capacity, 4, old, cap) ||
+            !grow_zeroed((void **)&g->free_slots, 4, old, cap) ||
+            !grow_zeroed((void **)&g->touched, 4, old, cap))
+            return 0;
+        g->slot_cap = cap;
+    }
+    for (; g->slot_count < count; g->slot_count++) {
+        g->slot[g->slot_count].head = -1;
+        g->slot[g->slot_count].ntri = 0;
+    }
+    return 1;
+}
+
 /* Derives every touched slot's indices into seq without a record (the base). */
 static int settle(mts_grow *g)
 {
@@ -890,6 +926,7 @@ void mts_grow_free(mts_grow *g)
     free(g->cand.w);
     free(g->ring.w);
     free(g->around.w);
+    free(g->key_order.w);
     free(g);
 }
 
@@ -1010,6 +1047,8 @@ static int note_candidates(mts_grow *g)
 mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_full *full,
                          const uint32_t **record, uint32_t *word_count, mts_error *err)
 {
+    if (g->mesh_only)
+        return mts_error_set(err, MTS_ERR_ARG, "grow: a mesh-only grow derives no records");
     if (g->level >= g->n)
         return mts_error_set(err, MTS_ERR_ARG, "grow: every split is applied already");
     const uint32_t v = g->nb + g->level, u = sp->parent;
@@ -1114,6 +1153,8 @@ const uint32_t *mts_grow_slot(const mts_grow *g, uint32_t s, uint32_t *length)
 mts_result mts_grow_check(const mts_grow *g, mts_error *err)
 {
     mts_result rc = mts__corner_check(g, err);
+    if (g->mesh_only || rc != MTS_OK)
+        return rc;
     mts_words d = {0};
     uint64_t indices = 0;
     uint32_t nonempty = 0, placed = 0;

@@ -135,7 +135,8 @@ mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
  * model.h's format: *record points at *word_count words owned by g, valid
  * until the next call. The last split needs `full`; elsewhere it is
  * ignored. A split that names no live triangle or contradicts the mesh
- * gives MTS_ERR_FORMAT and leaves g unusable. */
+ * gives MTS_ERR_FORMAT and leaves g unusable; a mesh-only grow
+ * (grow_tokens.h) gives MTS_ERR_ARG. */
 mts_result mts_grow_next(mts_grow *g, const mts_grow_split *split, const mts_grow_full *full,
                          const uint32_t **record, uint32_t *word_count, mts_error *err);
 

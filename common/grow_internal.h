@@ -1,6 +1,7 @@
-/* Private to strip growth (grow.c, grow_full.c, and the corner table,
- * corner.c): the state they share, and the small helpers each of them calls
- * a triangle at a time. Not the public API (grow.h): mts__ names.
+/* Private to strip growth (grow.c, grow_full.c, grow_tokens.c, and the
+ * corner table, corner.c): the state they share, and the small helpers each
+ * of them calls a triangle at a time. Not the public API (grow.h): mts__
+ * names.
  *
  * One object holds it all, and the mesh and the strips' paths share each
  * triangle's record, so a walk along a path or round a vertex reads one
@@ -77,6 +78,10 @@ struct mts_grow {
     mts_words born;       /* the triangles the last split brought back */
     mts_words around;     /* scratch of mts_grow_around_newest */
     mts_grow_figures fig;
+    /* grow_tokens.h: a mesh-only grow has no slots or paths, and a worker
+     * keeps each key's renumbering (old id -> new) for the next worker */
+    int mesh_only, keep_order;
+    mts_words key_order;
 };
 
 /* ---- paths on the dual graph ---- */
@@ -122,6 +127,17 @@ int mts__grow_paths_reset(mts_grow *g, uint32_t slots);
 
 /* Frees the slots from `used` on and the empty ones below it (grow.c). */
 void mts__grow_slots_free_unused(mts_grow *g, uint32_t used);
+
+/* Room for `count` slots, the new ones empty; slot_count becomes at least
+ * `count` (grow.c). 0 when out of memory. */
+int mts__grow_slots_reserve(mts_grow *g, uint32_t count);
+
+/* Appends to g->rec the edit that turns slot s's indices into r whole (u
+ * the parent of the split to the level r is of, v its vertex), as a key
+ * level's record does for every slot, and stores r as the slot's indices
+ * (grow.c). 0 when out of memory. */
+int mts__grow_splice_whole(mts_grow *g, uint32_t s, const mts_words *r, uint32_t u, uint32_t v,
+                           uint32_t *edits);
 
 /* The full level's paths from a description of its strips (grow_full.c):
  * the walk a client makes at the last split. */

@@ -1,0 +1,97 @@
+/* Growth cut at its key levels, so that the key intervals can be derived
+ * apart (by workers, docs/threads.md) and still give, word for word, the
+ * records one grow gives (grow.h).
+ *
+ * Why it can be cut there: after a key, the strips' paths follow from the
+ * mesh at the key alone (greedy.c, in the triangle ids the key before left),
+ * and growth compares slots only for equality and path lengths. The records
+ * are what depends on the past, through the slot ids: which slot a key's
+ * strip goes into (the capacities so far), which free slot a split opens,
+ * the order of a record's edits, and a key record erases what the interval
+ * before left. So a worker grows its interval in slot tokens of its own,
+ * and the in-order fix-up (mts_grow_fixup) turns its records into the real
+ * ones once the interval before is known; that is a mapping and a sort a
+ * record, and one splice a slot a key.
+ *
+ * The pieces, in the order a decoder uses them:
+ *  - a mesh-only grow (the sequential pass): the corner table and nothing
+ *    else, never renumbered, so triangle ids are birth order. Rings, fan
+ *    codes and the triangles round a new vertex are what grow.h's calls give
+ *    on a full grow (they read vertex ids and corners, not triangle ids).
+ *  - a worker: a copy of the mesh-only grow at the level before a key, its
+ *    triangles renumbered to the ids one grow has there; mts_grow_next then
+ *    applies the key split and the splits up to the next key, its slots
+ *    being tokens (token k at a restripified key: its k-th longest path;
+ *    later tokens: the slots it opens, in order).
+ *  - the fix-up, fed every worker's records in level order.
+ *
+ * Explicit splits name triangles by the ids of one grow: a mesh-only grow
+ * takes them in its own ids (the caller maps them, mts_grow_key_order). */
+#ifndef MTS_GROW_TOKENS_H
+#define MTS_GROW_TOKENS_H
+
+#include <stdint.h>
+
+#include "error.h"
+#include "grow.h"
+#include "strips.h"
+
+/* A grow that keeps the mesh only: mts_grow_split_mesh applies splits,
+ * mts_grow_next refuses it (MTS_ERR_ARG), and the calls that read the mesh
+ * (rings, fan codes, mts_grow_around_newest, mts_grow_model_split,
+ * mts_grow_check) work as on a full grow. The base strips are read as
+ * triangles only. Freed with mts_grow_free. */
+mts_result mts_grow_create_mesh(const mts_strips *base, uint32_t base_vertex_count,
+                                uint32_t level_count, mts_grow **out, mts_error *err);
+
+/* Applies the next split to a mesh-only grow. MTS_ERR_ARG on a full grow
+ * or after the last split; MTS_ERR_FORMAT as mts_grow_next gives it. */
+mts_result mts_grow_split_mesh(mts_grow *g, const mts_grow_split *split, mts_error *err);
+
+/* A worker for the key interval that starts at level mesh->level + 1 (a key
+ * of opts->key_levels, or the full level): a full grow at mesh's level
+ * holding its mesh, triangle t of mesh being triangle ids[t] of the worker
+ * (ids: the renumbering one grow made at the keys so far, a permutation of
+ * mesh's triangles; NULL: none, before the first key). Its first
+ * mts_grow_next is the key split; it stops being of use at the next key.
+ * opts must list the key levels (MTS_ERR_ARG otherwise, or when the next
+ * level is not a key). */
+mts_result mts_grow_create_worker(const mts_grow *mesh, const uint32_t *ids,
+                                  const mts_grow_options *opts, mts_grow **out, mts_error *err);
+
+/* A worker's renumbering at its key (restripified, not the full level):
+ * triangle t before it became order[t]; *count triangles. NULL before. The
+ * ids of the next worker are ids[t] -> order[ids[t]] for the triangles this
+ * worker started with, and the same id for those its key split brought. */
+const uint32_t *mts_grow_key_order(const mts_grow *worker, uint32_t *count);
+
+/* The in-order state: each slot's indices and capacity as the intervals
+ * derived so far leave them, and the current worker's tokens. The free
+ * slots are not part of it: a key empties them and refills them with its
+ * empty slots. An error leaves f unusable. */
+typedef struct mts_grow_fixup mts_grow_fixup;
+
+mts_result mts_grow_fixup_create(mts_grow_fixup **out, mts_error *err);
+void mts_grow_fixup_free(mts_grow_fixup *f);
+
+/* The end of an interval: w's slots (the tokens of the last key given, or
+ * before any, a grow from the base, whose slots are the real ones) become
+ * the state the next key starts from. w is only read. */
+mts_result mts_grow_fixup_end(mts_grow_fixup *f, const mts_grow *w, mts_error *err);
+
+/* A key split's record: rec (words) as the worker gave it for the split to
+ * the key (u its parent, v its vertex), from empty slots in its tokens.
+ * `full`: the key is the full level, whose slots are the model's (tokens
+ * are slots). Maps the tokens to slots as one grow would (by capacity) and
+ * gives the real record in *out (owned by f, valid until the next call).
+ * MTS_ERR_FORMAT when rec is not such a record. */
+mts_result mts_grow_fixup_key(mts_grow_fixup *f, const uint32_t *rec, uint32_t words, uint32_t u,
+                              uint32_t v, int full, const uint32_t **out, uint32_t *out_words,
+                              mts_error *err);
+
+/* A record between keys, in the tokens of the last key given: the real one
+ * in *out (owned by f, valid until the next call). */
+mts_result mts_grow_fixup_record(mts_grow_fixup *f, const uint32_t *rec, uint32_t words,
+                                 const uint32_t **out, uint32_t *out_words, mts_error *err);
+
+#endif
