@@ -8,9 +8,9 @@
 #   - the rate-distortion series with a colour error beside the geometric one
 #     (mts-bench-walk --colors, 17 stops along each stream), built with the
 #     builder's colour term in the collapse cost (its default) and without it
-#     (--color-cost 0), on the smooth field and on sharp colour patches (cow.off
-#     for cow_colors.ply there), and the two compared at equal bytes
-#     (bench/rd_compare.py).
+#     (--color-cost 0), on the smooth field, on sharp colour patches and on
+#     the baked mean curvature (cow.off for cow_colors.ply in those two), and
+#     the two compared at equal bytes (bench/rd_compare.py).
 # Writes $out/colors_*.json (and .txt, the tables as printed); bench/run.sh
 # merges them into bench/results.json under "colors".
 #
@@ -40,7 +40,7 @@ echo "bench: colours on the wire ..." >&2
   | tee "$out/colors_stream.txt" || status=1
 
 echo "bench: colours' rate-distortion, colour term on and off ..." >&2
-for field in smooth patches; do
+for field in smooth patches curvature; do
   if [ "$field" = smooth ]; then meshes=("${smooth[@]}"); else meshes=("${patches[@]}"); fi
   for cost in default 0; do
     extra=()

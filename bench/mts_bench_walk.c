@@ -662,7 +662,7 @@ static void usage(FILE *f)
 {
     fputs("usage: mts-bench-walk MESH... [--json FILE] [--rd-json FILE] [--seconds S] [--hz H]\n"
           "                      [--far D] [--size WxH] [--rd-points N] [--no-walk] [--no-rd]\n"
-          "                      [--colors [--color-field smooth|patches] [--color-cost W]]\n"
+          "                      [--colors [--color-field smooth|patches|curvature] [--color-cost W]]\n"
           "Walkthrough (model moving away, linear and exponential) through EGL with the\n"
           "distance LOD policy: strips with and without coherence and a triangle list; and\n"
           "the rate-distortion series of each stream beside Draco single-rate.\n"
@@ -712,8 +712,10 @@ int main(int argc, char **argv)
         } else if (!strcmp(a, "--colors")) {
             colors = 1;
         } else if (!strcmp(a, "--color-field") && v &&
-                   (!strcmp(v, "smooth") || !strcmp(v, "patches"))) {
-            field = strcmp(v, "smooth") ? MTS_TEST_FIELD_PATCHES : MTS_TEST_FIELD_SMOOTH;
+                   (!strcmp(v, "smooth") || !strcmp(v, "patches") || !strcmp(v, "curvature"))) {
+            field = !strcmp(v, "smooth")    ? MTS_TEST_FIELD_SMOOTH
+                    : !strcmp(v, "patches") ? MTS_TEST_FIELD_PATCHES
+                                            : MTS_TEST_FIELD_CURVATURE;
             i++;
         } else if (!strcmp(a, "--color-cost") && v && atof(v) >= 0) {
             bo.color_cost = atof(v) > 0 ? atof(v) : -1;

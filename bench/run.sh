@@ -429,7 +429,7 @@ else:
               f"{c['color_bits_per_split']:>8.2f} {c['draco_cl7_with_colors']:>9} "
               f"{c['stream_over_draco_cl7_with_colors']:>6.2f} {c['draco_cl10_with_colors']:>10}")
 rdc = {}
-for field in ("smooth", "patches"):
+for field in ("smooth", "patches", "curvature"):
     d = {}
     for key, fname in (("with_color_term", "default"), ("without_color_term", "0"),
                        ("compare", "compare")):
@@ -445,7 +445,7 @@ if rdc:
           "error ratios over 15 stops; < 1: less error)")
     for field, d in rdc.items():
         for name, r in d.get("compare", {}).items():
-            print(f"  {field:<8} {name:<14} geometric {r.get('rms_ratio_geomean', 0):.3f} "
+            print(f"  {field:<9} {name:<14} geometric {r.get('rms_ratio_geomean', 0):.3f} "
                   f"(worst {r.get('rms_ratio_worst', 0):.3f}), colour "
                   f"{r.get('color_rms_ratio_geomean', 0):.3f} (worst "
                   f"{r.get('color_rms_ratio_worst', 0):.3f}); full stream "
