@@ -304,9 +304,10 @@ FUZZ_CXX      ?= clang++
 FUZZ_DIR      := build/fuzz
 # target:-max_len. A server reads a first frame of at most 512 bytes; the
 # other targets' largest seeds are 1 to 9 KiB (cow's streams, the torus's
-# model file and stream files), and room to grow a few times that.
+# model file and stream files, a textured box GLB), and room to grow a few
+# times that.
 FUZZ_TARGETS  := stream_client:32768 request:1024 modelfile:16384 draco:8192 ws:8192 \
-                 stream_file:16384
+                 stream_file:16384 gltf:16384
 FUZZ_NAMES    := $(foreach t,$(FUZZ_TARGETS),$(firstword $(subst :, ,$(t))))
 FUZZ_SAN      := -fsanitize=address,undefined -fno-sanitize-recover=undefined
 FUZZ_OPT      := -O1 -g -fno-omit-frame-pointer -fsanitize=fuzzer-no-link $(FUZZ_SAN)

@@ -54,6 +54,10 @@ run_target() {
   local dirs=("$corpus" "$dir/seeds/$t")
   [ -d "tests/fuzz/regressions/$t" ] && dirs+=("tests/fuzz/regressions/$t")
   [ -d "$kept" ] && dirs+=("$kept")
+  # a dictionary of the tokens a target's format is made of, where the
+  # fuzzer cannot learn them from the comparisons it sees
+  local dict=()
+  [ -f "tests/fuzz/$t.dict" ] && dict=(-dict="tests/fuzz/$t.dict")
   echo "fuzz: $t for $seconds s (log: $log)"
   : > "$log"
   local result=ok runs=0 secs=0 phase limit time_limit n s
@@ -64,7 +68,7 @@ run_target() {
       limit=(-runs=$((min_runs - runs)))
       time_limit=$((max_seconds - secs))
     fi
-    if ! "$dir/bin/fuzz_$t" -max_total_time="$time_limit" "${limit[@]}" -max_len="$max_len" \
+    if ! "$dir/bin/fuzz_$t" -max_total_time="$time_limit" "${limit[@]}" "${dict[@]}" -max_len="$max_len" \
          -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048 -print_final_stats=1 \
          -artifact_prefix="$dir/artifacts/$t/" "${dirs[@]}" >> "$log" 2>&1; then
       result=FAILED

@@ -17,6 +17,7 @@
 
 #define MTS_FUZZ_NO_ENTRY
 #include "fuzz/fuzz_draco.c"
+#include "fuzz/fuzz_gltf.c"
 #include "fuzz/fuzz_modelfile.c"
 #include "fuzz/fuzz_request.c"
 #include "fuzz/fuzz_seeds.h"
@@ -58,6 +59,7 @@ static const target targets[] = {
     {"draco", mts_fuzz_draco},
     {"ws", mts_fuzz_ws},
     {"stream_file", mts_fuzz_stream_file},
+    {"gltf", mts_fuzz_gltf},
 };
 
 static const target *find_target(const char *name)
@@ -146,6 +148,42 @@ static void test_stream_file_seeds_end(mts_test *t)
     CHECKF(t, rc == MTS_OK, "%s", err.msg);
 }
 
+/* Every glTF seed is a whole model the reader loads: the torus, each
+ * instance of it whole, with its colours where the seed has them (a seed
+ * the reader refused would leave the fuzzer in the error paths). */
+static void check_gltf_seed(void *user, const char *target_name, const char *name,
+                            const uint8_t *data, size_t size)
+{
+    mts_test *t = user;
+    if (strcmp(target_name, "gltf") != 0)
+        return;
+    mts_mesh m;
+    mts_mesh_stats st;
+    mts_error err = {0};
+    mts_result rc = mts_mesh_load_memory(name, data, size, NULL, &m, &st, &err);
+    CHECKF(t, rc == MTS_OK, "glTF seed %s: %s", name, err.msg);
+    if (rc != MTS_OK)
+        return;
+    const uint32_t instances = strstr(name, "-nodes") ? 2 : 1;
+    CHECKF(t, m.vertex_count == 30 * instances && m.triangle_count == 60 * instances,
+           "glTF seed %s: %u vertices, %u triangles", name, m.vertex_count, m.triangle_count);
+    const int colored = strstr(name, "-colors") || strstr(name, "-sparse");
+    CHECKF(t, (m.colors != NULL) == colored, "glTF seed %s: colours %s", name,
+           m.colors ? "kept" : "none");
+    if (strstr(name, "-ubyte"))
+        CHECKF(t, st.colors_alpha && st.colors_translucent == 8,
+               "glTF seed %s: alpha %d, %u translucent", name, st.colors_alpha,
+               st.colors_translucent);
+    mts_mesh_free(&m);
+}
+
+static void test_gltf_seeds_load(mts_test *t)
+{
+    mts_error err = {0};
+    mts_result rc = mts_fuzz_make_seeds(NULL, 0, check_gltf_seed, t, &err);
+    CHECKF(t, rc == MTS_OK, "%s", err.msg);
+}
+
 static uint8_t *read_all(const char *path, size_t *size)
 {
     FILE *f = fopen(path, "rb");
@@ -221,6 +259,7 @@ int main(void)
     RUN(&t, test_seeds);
     RUN(&t, test_stream_seeds_end);
     RUN(&t, test_stream_file_seeds_end);
+    RUN(&t, test_gltf_seeds_load);
     RUN(&t, test_regressions);
     RUN(&t, test_corpus);
     return mts_test_end(&t);

@@ -17,12 +17,17 @@
  * torus whose normals travel (and, for the regression test only, of cow's
  * splits form), behind a mode byte and four stop bytes.
  *
+ * The glTF seeds are the small torus as .glb and .gltf files, each reaching
+ * one more part of the reader (mts_fuzz_gltf_seeds says which).
+ *
  * Targets: "stream_client", "request", "modelfile", "draco", "ws",
- * "stream_file" (the fuzz_*.c files say what their input is; four of them
- * start with a mode byte). */
+ * "stream_file", "gltf" (the fuzz_*.c files say what their input is; four
+ * of them start with a mode byte). */
 #ifndef MTS_FUZZ_SEEDS_H
 #define MTS_FUZZ_SEEDS_H
 
+#include <math.h>
+#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -31,6 +36,7 @@
 #include "../hand_model.h"
 #include "draco.h"
 #include "fuzz_util.h"
+#include "mesh.h"
 #include "modelfile.h"
 #include "stream.h"
 #include "stream_file.h"
@@ -388,6 +394,319 @@ static inline void mts_fuzz_draco_seed(mts_fuzz_seeder *sd, const char *name,
     free(tris);
 }
 
+/* glTF seeds (the gltf target): the small torus (5 x 6, 30 vertices, 60
+ * triangles, as tests/fuzz/fuzz_util.h writes it) as glTF 2.0, each seed
+ * reaching one more part of builder/gltf_read.cpp: a GLB of positions and
+ * uint16 indices, COLOR_0 as float VEC3 and as normalized ubyte VEC4 (that
+ * one interleaved with the positions in one strided view), a .gltf whose
+ * buffer is a base64 data: URI, node transforms (translation, rotation,
+ * scale, a matrix, a child node, a mirroring scale that turns the winding
+ * over), triangle strips, and sparse accessors (on a buffer view, and
+ * without one). */
+
+/* printf onto the end of a buffer (failure: b->failed) */
+static inline void mts_fuzz_printf(mts_buf *b, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+static inline void mts_fuzz_printf(mts_buf *b, const char *fmt, ...)
+{
+    char small[256];
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(small, sizeof small, fmt, ap);
+    va_end(ap);
+    if (n < 0) {
+        b->failed = 1;
+        return;
+    }
+    if ((size_t)n < sizeof small) {
+        mts_buf_put(b, small, (size_t)n);
+        return;
+    }
+    char *big = malloc((size_t)n + 1);
+    if (!big) {
+        b->failed = 1;
+        return;
+    }
+    va_start(ap, fmt);
+    vsnprintf(big, (size_t)n + 1, fmt, ap);
+    va_end(ap);
+    mts_buf_put(b, big, (size_t)n);
+    free(big);
+}
+
+static inline void mts_fuzz_base64(mts_buf *b, const uint8_t *p, size_t n)
+{
+    static const char abc[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for (size_t i = 0; i < n; i += 3) {
+        uint32_t v = (uint32_t)p[i] << 16 | (i + 1 < n ? (uint32_t)p[i + 1] << 8 : 0) |
+                     (i + 2 < n ? p[i + 2] : 0);
+        char q[4] = {abc[v >> 18 & 63], abc[v >> 12 & 63], i + 1 < n ? abc[v >> 6 & 63] : '=',
+                     i + 2 < n ? abc[v & 63] : '='};
+        mts_buf_put(b, q, 4);
+    }
+}
+
+/* Emits a glTF of the JSON in json (an object without its closing brace
+ * and without "buffers") and one buffer, bin: as GLB (its BIN chunk) or as
+ * .gltf with bin as a data: URI. */
+static inline void mts_fuzz_gltf_emit(mts_fuzz_seeder *sd, const char *name, const mts_buf *json,
+                                      const mts_buf *bin, int glb)
+{
+    mts_buf j = {0}, b = {0};
+    mts_buf_put(&j, json->data, json->size);
+    mts_fuzz_printf(&j, ",\"buffers\":[{\"byteLength\":%zu", bin->size);
+    if (!glb) {
+        mts_fuzz_printf(&j, ",\"uri\":\"data:application/octet-stream;base64,");
+        mts_fuzz_base64(&j, bin->data, bin->size);
+        mts_buf_u8(&j, '"');
+    }
+    mts_fuzz_printf(&j, "}]}");
+    if (glb) {
+        /* header, JSON chunk (padded with spaces), BIN chunk (with zeros) */
+        size_t jl = (j.size + 3) & ~(size_t)3, bl = (bin->size + 3) & ~(size_t)3;
+        mts_buf_put(&b, "glTF", 4);
+        mts_buf_u32(&b, 2);
+        mts_buf_u32(&b, (uint32_t)(12 + 8 + jl + 8 + bl));
+        mts_buf_u32(&b, (uint32_t)jl);
+        mts_buf_u32(&b, 0x4E4F534Au); /* "JSON" */
+        mts_buf_put(&b, j.data, j.size);
+        for (size_t k = j.size; k < jl; k++)
+            mts_buf_u8(&b, ' ');
+        mts_buf_u32(&b, (uint32_t)bl);
+        mts_buf_u32(&b, 0x004E4942u); /* "BIN\0" */
+        mts_buf_put(&b, bin->data, bin->size);
+        for (size_t k = bin->size; k < bl; k++)
+            mts_buf_u8(&b, 0);
+    } else {
+        mts_buf_put(&b, j.data, j.size);
+    }
+    if (j.failed || b.failed || json->failed || bin->failed)
+        sd->failed = 1;
+    else
+        sd->emit(sd->user, "gltf", name, b.data, b.size);
+    mts_buf_free(&j);
+    mts_buf_free(&b);
+}
+
+/* The JSON every torus seed starts with: asset, one scene of the root
+ * nodes listed in roots. */
+static inline void mts_fuzz_gltf_head(mts_buf *j, const char *roots)
+{
+    mts_fuzz_printf(j, "{\"asset\":{\"version\":\"2.0\",\"generator\":\"mtstream fuzz seeds\"},"
+                       "\"scene\":0,\"scenes\":[{\"nodes\":[%s]}]", roots);
+}
+
+/* A POSITION accessor of the torus's vertex count, its bounds as glTF
+ * wants them, more members (more: "" or ",\"name\":...") at its end. */
+static inline void mts_fuzz_gltf_position_accessor(mts_buf *j, const mts_mesh *m, int view,
+                                                   const char *more)
+{
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = hi[a] = m->positions[a];
+        for (uint32_t v = 1; v < m->vertex_count; v++) {
+            float x = m->positions[3 * (size_t)v + a];
+            lo[a] = x < lo[a] ? x : lo[a];
+            hi[a] = x > hi[a] ? x : hi[a];
+        }
+    }
+    mts_fuzz_printf(j,
+                    "{\"bufferView\":%d,\"componentType\":5126,\"count\":%u,\"type\":\"VEC3\","
+                    "\"min\":[%.9g,%.9g,%.9g],\"max\":[%.9g,%.9g,%.9g]%s}",
+                    view, m->vertex_count, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], more);
+}
+
+static inline void mts_fuzz_gltf_put_positions(mts_buf *bin, const mts_mesh *m)
+{
+    for (size_t k = 0; k < 3 * (size_t)m->vertex_count; k++)
+        mts_buf_f32(bin, m->positions[k]);
+}
+
+static inline void mts_fuzz_gltf_put_indices16(mts_buf *bin, const mts_mesh *m)
+{
+    for (size_t k = 0; k < 3 * (size_t)m->triangle_count; k++)
+        mts_buf_u16(bin, (uint16_t)m->triangles[k]);
+}
+
+/* A vertex's colour from its position, as the other coloured seeds make
+ * theirs, in 0..1. */
+static inline float mts_fuzz_gltf_color(const mts_mesh *m, uint32_t v, int a)
+{
+    return (128.0f + 100.0f * m->positions[3 * (size_t)v + a]) / 255.0f;
+}
+
+static inline mts_result mts_fuzz_gltf_seeds(mts_fuzz_seeder *sd, mts_error *err)
+{
+    const int nu = 5, nv = 6;
+    size_t size = 0;
+    char *off = mts_fuzz_torus_off(nu, nv, &size);
+    mts_mesh m;
+    mts_result rc = off ? mts_mesh_load_memory("torus.off", off, size, NULL, &m, NULL, err)
+                        : mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
+    free(off);
+    if (rc != MTS_OK)
+        return rc;
+    const size_t pos_bytes = 12 * (size_t)m.vertex_count;
+    const size_t idx_bytes = 6 * (size_t)m.triangle_count;
+    const uint32_t nidx = 3 * m.triangle_count;
+    mts_buf j = {0}, bin = {0};
+
+    /* positions and uint16 indices, as GLB and as .gltf with a data: URI */
+    mts_fuzz_gltf_head(&j, "0");
+    mts_fuzz_printf(&j, ",\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+                        "{\"POSITION\":0},\"indices\":1,\"mode\":4}]}],\"accessors\":[");
+    mts_fuzz_gltf_position_accessor(&j, &m, 0, "");
+    mts_fuzz_printf(&j, ",{\"bufferView\":1,\"componentType\":5123,\"count\":%u,"
+                        "\"type\":\"SCALAR\"}],\"bufferViews\":["
+                        "{\"buffer\":0,\"byteLength\":%zu,\"target\":34962},"
+                        "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu,\"target\":34963}]",
+                    nidx, pos_bytes, pos_bytes, idx_bytes);
+    mts_fuzz_gltf_put_positions(&bin, &m);
+    mts_fuzz_gltf_put_indices16(&bin, &m);
+    mts_fuzz_gltf_emit(sd, "torus.glb", &j, &bin, 1);
+    mts_fuzz_gltf_emit(sd, "torus-data-uri.gltf", &j, &bin, 0);
+
+    /* node transforms: node 0 (translation, rotation, scale) over node 1 (a
+     * matrix) with the mesh, and node 2 mirrored (its winding turned over) */
+    j.size = 0;
+    mts_fuzz_gltf_head(&j, "0,2");
+    mts_fuzz_printf(&j, ",\"nodes\":["
+                        "{\"translation\":[1,2,3],\"rotation\":[0,0,0.382683432,0.923879533],"
+                        "\"scale\":[2,2,2],\"children\":[1]},"
+                        "{\"mesh\":0,\"matrix\":[1,0,0,0,0,0.5,0,0,0,0,1,0,0,0,-4,1]},"
+                        "{\"mesh\":0,\"translation\":[10,0,0],\"scale\":[-1,1,1]}],"
+                        "\"meshes\":[{\"primitives\":[{\"attributes\":"
+                        "{\"POSITION\":0},\"indices\":1}]}],\"accessors\":[");
+    mts_fuzz_gltf_position_accessor(&j, &m, 0, "");
+    mts_fuzz_printf(&j, ",{\"bufferView\":1,\"componentType\":5123,\"count\":%u,"
+                        "\"type\":\"SCALAR\"}],\"bufferViews\":["
+                        "{\"buffer\":0,\"byteLength\":%zu},"
+                        "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}]",
+                    nidx, pos_bytes, pos_bytes, idx_bytes);
+    mts_fuzz_gltf_emit(sd, "torus-nodes.glb", &j, &bin, 1);
+
+    /* COLOR_0 as float VEC3 in a view of its own */
+    j.size = 0;
+    mts_fuzz_gltf_head(&j, "0");
+    mts_fuzz_printf(&j, ",\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+                        "{\"POSITION\":0,\"COLOR_0\":2},\"indices\":1}]}],\"accessors\":[");
+    mts_fuzz_gltf_position_accessor(&j, &m, 0, "");
+    mts_fuzz_printf(&j, ",{\"bufferView\":1,\"componentType\":5123,\"count\":%u,"
+                        "\"type\":\"SCALAR\"},"
+                        "{\"bufferView\":2,\"componentType\":5126,\"count\":%u,\"type\":\"VEC3\"}],"
+                        "\"bufferViews\":[{\"buffer\":0,\"byteLength\":%zu},"
+                        "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu},"
+                        "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}]",
+                    nidx, m.vertex_count, pos_bytes, pos_bytes, idx_bytes, pos_bytes + idx_bytes,
+                    pos_bytes);
+    for (uint32_t v = 0; v < m.vertex_count; v++)
+        for (int a = 0; a < 3; a++)
+            mts_buf_f32(&bin, mts_fuzz_gltf_color(&m, v, a));
+    mts_fuzz_gltf_emit(sd, "torus-colors-float.glb", &j, &bin, 1);
+
+    /* COLOR_0 as normalized ubyte VEC4 (some alpha below opaque),
+     * interleaved with the positions in one view of stride 16 */
+    j.size = 0;
+    bin.size = 0;
+    mts_fuzz_gltf_head(&j, "0");
+    mts_fuzz_printf(&j, ",\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+                        "{\"POSITION\":0,\"COLOR_0\":2},\"indices\":1}]}],\"accessors\":[");
+    mts_fuzz_gltf_position_accessor(&j, &m, 0, "");
+    mts_fuzz_printf(&j, ",{\"bufferView\":1,\"componentType\":5123,\"count\":%u,"
+                        "\"type\":\"SCALAR\"},"
+                        "{\"bufferView\":0,\"byteOffset\":12,\"componentType\":5121,"
+                        "\"normalized\":true,\"count\":%u,\"type\":\"VEC4\"}],"
+                        "\"bufferViews\":[{\"buffer\":0,\"byteLength\":%zu,\"byteStride\":16},"
+                        "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}]",
+                    nidx, m.vertex_count, 16 * (size_t)m.vertex_count,
+                    16 * (size_t)m.vertex_count, idx_bytes);
+    for (uint32_t v = 0; v < m.vertex_count; v++) {
+        for (int a = 0; a < 3; a++)
+            mts_buf_f32(&bin, m.positions[3 * (size_t)v + a]);
+        for (int a = 0; a < 3; a++)
+            mts_buf_u8(&bin, (uint8_t)lrintf(255.0f * mts_fuzz_gltf_color(&m, v, a)));
+        mts_buf_u8(&bin, v % 4 ? 255 : 128);
+    }
+    mts_fuzz_gltf_put_indices16(&bin, &m);
+    mts_fuzz_gltf_emit(sd, "torus-colors-ubyte.glb", &j, &bin, 1);
+
+    /* triangle strips: a strip a ring of the torus, vertices (i, j) and
+     * (i + 1, j) in turn around it, the rings joined into one strip by
+     * repeating the last index of one and the first of the next (an even
+     * number of indices each, so that every ring starts on an even
+     * triangle and keeps its winding); the joins' triangles are degenerate
+     * and dropped */
+    j.size = 0;
+    bin.size = 0;
+    const int ring_len = 2 * (nv + 1), strip_len = nu * ring_len + 2 * (nu - 1);
+    mts_fuzz_gltf_head(&j, "0");
+    mts_fuzz_printf(&j, ",\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+                        "{\"POSITION\":0},\"indices\":1,\"mode\":5}]}],\"accessors\":[");
+    mts_fuzz_gltf_position_accessor(&j, &m, 0, "");
+    mts_fuzz_printf(&j, ",{\"bufferView\":1,\"componentType\":5123,\"count\":%d,"
+                        "\"type\":\"SCALAR\"}],\"bufferViews\":[{\"buffer\":0,\"byteLength\":%zu},"
+                        "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%d}]",
+                    strip_len, pos_bytes, pos_bytes, 2 * strip_len);
+    mts_fuzz_gltf_put_positions(&bin, &m);
+    for (int i = 0; i < nu; i++) {
+        if (i > 0) {
+            mts_buf_u16(&bin, (uint16_t)(i * nv)); /* the last of ring i - 1 */
+            mts_buf_u16(&bin, (uint16_t)(i * nv)); /* the first of ring i */
+        }
+        for (int k = 0; k <= nv; k++) {
+            mts_buf_u16(&bin, (uint16_t)(i * nv + k % nv));
+            mts_buf_u16(&bin, (uint16_t)((i + 1) % nu * nv + k % nv));
+        }
+    }
+    mts_fuzz_gltf_emit(sd, "torus-strips.glb", &j, &bin, 1);
+
+    /* sparse: three positions moved out (uint8 indices), on the positions'
+     * view; COLOR_0 without a view, zero but for four vertices (uint16
+     * indices) */
+    j.size = 0;
+    bin.size = 0;
+    static const uint8_t moved[3] = {0, 7, 20};
+    static const uint16_t lit[4] = {1, 9, 17, 29};
+    const size_t sparse_at = pos_bytes + idx_bytes;
+    mts_fuzz_gltf_head(&j, "0");
+    mts_fuzz_printf(&j, ",\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+                        "{\"POSITION\":0,\"COLOR_0\":2},\"indices\":1}]}],\"accessors\":[");
+    mts_fuzz_gltf_position_accessor(&j, &m, 0,
+                                    ",\"sparse\":{\"count\":3,\"indices\":{\"bufferView\":2,"
+                                    "\"componentType\":5121},\"values\":{\"bufferView\":3}}");
+    mts_fuzz_printf(&j, ",{\"bufferView\":1,\"componentType\":5123,\"count\":%u,"
+                        "\"type\":\"SCALAR\"},"
+                        "{\"componentType\":5126,\"count\":%u,\"type\":\"VEC3\","
+                        "\"sparse\":{\"count\":4,\"indices\":{\"bufferView\":4,"
+                        "\"componentType\":5123},\"values\":{\"bufferView\":5}}}],"
+                        "\"bufferViews\":[{\"buffer\":0,\"byteLength\":%zu},"
+                        "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu},"
+                        "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":3},"
+                        "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":36},"
+                        "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":8},"
+                        "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":48}]",
+                    nidx, m.vertex_count, pos_bytes, pos_bytes, idx_bytes, sparse_at,
+                    sparse_at + 4, sparse_at + 40, sparse_at + 48);
+    mts_fuzz_gltf_put_positions(&bin, &m);
+    mts_fuzz_gltf_put_indices16(&bin, &m);
+    mts_buf_put(&bin, moved, 3);
+    mts_buf_u8(&bin, 0); /* the values' view starts 4-aligned */
+    for (int k = 0; k < 3; k++)
+        for (int a = 0; a < 3; a++)
+            mts_buf_f32(&bin, 1.1f * m.positions[3 * (size_t)moved[k] + a]);
+    for (int k = 0; k < 4; k++)
+        mts_buf_u16(&bin, lit[k]);
+    for (int k = 0; k < 4; k++)
+        for (int a = 0; a < 3; a++)
+            mts_buf_f32(&bin, mts_fuzz_gltf_color(&m, lit[k], a));
+    mts_fuzz_gltf_emit(sd, "torus-sparse.glb", &j, &bin, 1);
+
+    mts_buf_free(&j);
+    mts_buf_free(&bin);
+    mts_mesh_free(&m);
+    return MTS_OK;
+}
+
 /* Makes every seed; cow_path is tests/data/cow.off (NULL: torus seeds only).
  * slow: also cow's whole model file (160 KiB), which takes a fuzz target some
  * 100 ms an execution (it is validated, walked and written again): the
@@ -590,6 +909,10 @@ static inline mts_result mts_fuzz_make_seeds(const char *cow_path, int slow, mts
     mts_stream_free(&normals);
     if (have_colored)
         mts_stream_free(&colored);
+
+    /* gltf: the small torus as glTF */
+    if ((rc = mts_fuzz_gltf_seeds(&sd, err)) != MTS_OK)
+        return mts_error_prefix(err, "glTF seeds");
 
     /* cow: the real model, cut at its first batches (its full stream and
      * file are a few hundred KiB: too slow an input to mutate) */
