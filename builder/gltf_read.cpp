@@ -466,12 +466,14 @@ class Reader {
     uint32_t translucent = 0;
     uint32_t primitives = 0, points = 0, lines = 0;
 
-    void node(int index, const Mat &parent, std::vector<char> &on_path, int depth);
+    /* per node: 0 not reached yet, 1 on the path from the root, 2 done */
+    void node(int index, const Mat &parent, std::vector<char> &state, int depth);
 
   private:
     const unsigned char *whole_view(int view, const char *what);
     const unsigned char *view_bytes(int view, size_t offset, size_t count, size_t elem,
                                     size_t stride_given, size_t *stride, const char *what);
+    size_t view_stride(int view) const;
     std::vector<float> read_floats(const tinygltf::Accessor &a, size_t comps, size_t cs,
                                    bool normalized, const char *what, const std::string &where);
     void read_positions(int acc, const Mat &m, const std::string &where);
@@ -500,6 +502,15 @@ size_t component_size(int type)
     case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
     default: return 0;
     }
+}
+
+/* A buffer view's byteStride, read only when the view exists (0 else:
+ * view_bytes then refuses the index, saying why). */
+size_t Reader::view_stride(int view) const
+{
+    return view >= 0 && (size_t)view < model.bufferViews.size()
+               ? model.bufferViews[(size_t)view].byteStride
+               : 0;
 }
 
 /* The bytes of count elements of elem bytes each, stride apart, at offset
@@ -651,7 +662,7 @@ std::vector<float> Reader::read_floats(const tinygltf::Accessor &a, size_t comps
         size_t stride;
         const unsigned char *p =
             view_bytes(a.bufferView, a.byteOffset, a.count, comps * cs,
-                       model.bufferViews[(size_t)a.bufferView].byteStride, &stride, w);
+                       view_stride(a.bufferView), &stride, w);
         v.resize(a.count * comps);
         for (size_t i = 0; i < a.count; i++)
             for (size_t c = 0; c < comps; c++)
@@ -759,8 +770,7 @@ void Reader::read_indices(int acc, uint32_t vertices, std::vector<uint32_t> &out
         fail(MTS_ERR_FORMAT, where + ": indices accessor without a buffer view, or sparse");
     size_t cs = component_size(a.componentType), stride;
     const unsigned char *p = view_bytes(a.bufferView, a.byteOffset, a.count, cs,
-                                        model.bufferViews[(size_t)a.bufferView].byteStride,
-                                        &stride, w);
+                                        view_stride(a.bufferView), &stride, w);
     out.resize(a.count);
     for (size_t i = 0; i < a.count; i++) {
         uint32_t x = to_index(p + i * stride, cs);
@@ -1077,14 +1087,21 @@ void Reader::primitive(const tinygltf::Primitive &p, const Mat &m, const std::st
     primitives++;
 }
 
-void Reader::node(int index, const Mat &parent, std::vector<char> &on_path, int depth)
+void Reader::node(int index, const Mat &parent, std::vector<char> &state, int depth)
 {
     if (index < 0 || (size_t)index >= model.nodes.size())
         fail(MTS_ERR_RANGE, "node " + std::to_string(index) + " out of range (" +
                                 std::to_string(model.nodes.size()) + " defined)");
-    if (on_path[(size_t)index])
+    if (state[(size_t)index] == 1)
         fail(MTS_ERR_FORMAT, "node " + std::to_string(index) +
                                  " is its own ancestor (the node hierarchy has a cycle)");
+    /* glTF's nodes form trees: a node reached again (two parents, or
+     * listed twice) would be walked once for each path to it, which nodes
+     * shared at every level make exponential in the depth */
+    if (state[(size_t)index] == 2)
+        fail(MTS_ERR_FORMAT, "node " + std::to_string(index) +
+                                 " is reached twice (two parents, or listed twice): glTF "
+                                 "nodes form trees");
     if (depth > 1024)
         fail(MTS_ERR_LIMIT, "the node hierarchy is more than 1024 levels deep");
     const tinygltf::Node &n = model.nodes[(size_t)index];
@@ -1130,10 +1147,10 @@ void Reader::node(int index, const Mat &parent, std::vector<char> &on_path, int 
             primitive(mesh.primitives[k], world,
                       "mesh " + std::to_string(n.mesh) + " primitive " + std::to_string(k));
     }
-    on_path[(size_t)index] = 1;
+    state[(size_t)index] = 1;
     for (int c : n.children)
-        node(c, world, on_path, depth + 1);
-    on_path[(size_t)index] = 0;
+        node(c, world, state, depth + 1);
+    state[(size_t)index] = 2;
 }
 
 
@@ -1227,7 +1244,7 @@ extern "C" mts_result mts_gltf_read(const char *name, const void *data, size_t s
         }
         uint64_t cap = max_bytes ? max_bytes : ((uint64_t)4 << 30);
         Reader R(model, cap);
-        std::vector<char> on_path(model.nodes.size(), 0);
+        std::vector<char> state(model.nodes.size(), 0);
         std::vector<int> roots;
         int scene = model.defaultScene;
         if (scene >= (int)model.scenes.size() && !model.scenes.empty())
@@ -1250,7 +1267,7 @@ extern "C" mts_result mts_gltf_read(const char *name, const void *data, size_t s
         }
         Mat id = identity();
         for (int r : roots)
-            R.node(r, id, on_path, 0);
+            R.node(r, id, state, 0);
         if (R.tri.empty()) {
             if (R.points || R.lines)
                 fail(MTS_ERR_FORMAT, "no triangles: the scene has " + std::to_string(R.points) +
