@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cli.h"
 #include "fetch.h"
@@ -27,7 +28,7 @@ static void usage(FILE *f)
           "                  [--verify] [--model-file M.mtsm] [--no-render] [--records]\n"
           "                  [--resume] [--retries N] [--connect-timeout S] [--timeout S]\n"
           "                  [--max-time S] [--lod-policy P [--fps N] [--distance D]]\n"
-          "                  [--json] [--quiet]\n"
+          "                  [--threads N] [--json] [--quiet]\n"
           "       mts-client [HOST[:PORT]] MODEL --window [--size WxH] [--script FILE]\n"
           "                  [--color-strips] [--no-colors] [--level L | ...] [--lod-policy P]\n"
           "                  [--resume]\n"
@@ -94,6 +95,8 @@ static void usage(FILE *f)
           "  --cacert FILE       for https and --tls: trust the CAs in FILE (PEM) instead of the\n"
           "                      system's (a private CA); verification is never skipped\n"
           "  --max-file-bytes N  refuse a stream file over N bytes (K, M, G; default 1G)\n"
+          "  --threads N         threads that decode the stream (default: the processors\n"
+          "                      online); the mesh is the same whatever N\n"
           "  --list              print the server's models\n"
           "  --json              one line of JSON with the figures\n"
           "  -q, --quiet         no progress, no summary\n"
@@ -127,6 +130,9 @@ static int parse_args(int argc, char **argv, client_options *o)
     rn->render = 1;
     rn->morph_ms = -1;
     rn->distance = 1;
+    /* the decoder's growth between keys goes to the other cores */
+    const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    rn->threads = cpus < 1 ? 1 : cpus > 64 ? 64 : (uint32_t)cpus;
     mts_render_options_default(&rn->ro);
     o->so.hello.stop_kind = MTS_STOP_FULL;
     int stop;
@@ -146,6 +152,9 @@ static int parse_args(int argc, char **argv, client_options *o)
             o->list = 1;
         } else if (!strcmp(a, "--no-render")) {
             rn->render = 0;
+        } else if (!strcmp(a, "--threads")) {
+            if (!cli_option_u32(argc, argv, &i, "mts-client", 1, 64, &rn->threads))
+                return CLI_EXIT_USAGE;
         } else if (!strcmp(a, "--records")) {
             o->so.hello.flags |= MTS_HELLO_RECORDS;
         } else if (!strcmp(a, "--window")) {
@@ -516,6 +525,7 @@ static int run_headless(client_options *o)
                      mts_client_run_policy_stop(&o->so, rn, rn->distance, &res.stop);
     mts_stream_client c;
     mts_stream_client_init(&c);
+    c.threads = rn->threads;
     c.on_model = print_model;
     mts_session_stats st;
     mts_error err = {0};

@@ -515,6 +515,7 @@ int client_window_main(client_options *o)
     memset(&wn, 0, sizeof wn);
     mts_stream_client c;
     mts_stream_client_init(&c);
+    c.threads = rn->threads;
     mts_session_stats st;
     memset(&st, 0, sizeof st);
     wn.rn = rn;

@@ -34,6 +34,7 @@ typedef struct mts_client_run {
     int verify;           /* --verify */
     const char *model_file; /* --model-file: what --verify compares with */
     int no_colors;        /* --no-colors: grey where the stream has colours */
+    uint32_t threads;     /* --threads: the stream decoder's (stream.h) */
     /* the run's */
     uint32_t next_png;    /* index into png_levels */
     mts_render_context *ctx;

@@ -192,6 +192,15 @@ typedef struct mts_stream_client {
     uint32_t resumes;   /* conversations that resumed (MTS_EV_RESUMED) */
     void (*on_model)(void *user, const mts_wire_model_entry *m); /* for LIST */
     void *user;
+    /* Threads that decode a splits-form stream, the caller's included; set
+     * after mts_stream_client_init, before BASE (0 or 1: the caller's alone).
+     * With more, the caller's thread decodes the splits and the vertices
+     * while the others derive each key interval's records (docs/threads.md);
+     * the records, strips and events are the same whatever the count, and a
+     * batch is still applied before its frame returns. A stream whose
+     * MODEL_INFO lists no key levels, and the records form, use one. */
+    uint32_t threads;
+    struct mts__stream_par *par; /* those threads' state (stream_dec.c), NULL with one */
     mts_wire_reader reader; /* bytes fed, not yet taken as frames (mts_stream_client_feed) */
 } mts_stream_client;
 

@@ -14,7 +14,7 @@ static void usage(FILE *f)
 {
     fputs("usage: mts-stress [HOST[:PORT]] MODEL --clients N [--concurrency C] [--ramp S]\n"
           "                  [--level L | --triangles N | --fraction F] [--no-apply] [--verify]\n"
-          "                  [--records] [--threads T] [--appliers A]\n"
+          "                  [--records] [--threads T] [--appliers A] [--decode-threads D]\n"
           "                  [--continue-level L | --continue-triangles N |\n"
           "                   --continue-fraction F [--continue-share S]]\n"
           "                  [--connect-timeout S] [--io-timeout S] [--json] [--quiet]\n"
@@ -49,6 +49,9 @@ static void usage(FILE *f)
           "  --appliers A         applying clients decode at most A at once, the oldest\n"
           "                       first, while every socket is read as bytes come (default\n"
           "                       8 a thread); bounds memory, not the work\n"
+          "  --decode-threads D   threads each applying client's decoder uses (default 1:\n"
+          "                       a load generator's many clients already fill the cores;\n"
+          "                       mts-client's --threads)\n"
           "  --http PATH          not mtstream: GET PATH over HTTP/1.0 from each client, to\n"
           "                       measure a web server (nginx) on the same bytes\n"
           "  URL                  a stream file (PROTOCOL.md, \"Stream files\") on any web\n"
@@ -132,12 +135,15 @@ int main(int argc, char **argv)
         } else if (!strcmp(a, "--records")) {
             so.hello.flags |= MTS_HELLO_RECORDS;
         } else if (!strcmp(a, "--clients") || !strcmp(a, "--concurrency") ||
-                   !strcmp(a, "--threads") || !strcmp(a, "--appliers")) {
+                   !strcmp(a, "--threads") || !strcmp(a, "--appliers") ||
+                   !strcmp(a, "--decode-threads")) {
             uint32_t *x = !strcmp(a, "--clients")       ? &so.clients
                           : !strcmp(a, "--concurrency") ? &so.concurrency
                           : !strcmp(a, "--threads")     ? &so.threads
-                                                        : &so.appliers;
-            if (!cli_option_u32(argc, argv, &i, "mts-stress", 1, UINT32_MAX, x))
+                          : !strcmp(a, "--appliers")    ? &so.appliers
+                                                        : &so.decode_threads;
+            if (!cli_option_u32(argc, argv, &i, "mts-stress", 1,
+                                x == &so.decode_threads ? 64 : UINT32_MAX, x))
                 return CLI_EXIT_USAGE;
         } else if (!strncmp(a, "--continue-", 11) && strcmp(a, "--continue-share") != 0) {
             char base[40];

@@ -614,6 +614,7 @@ static int sc_decoder(stress *s, sclient *c)
             return 0;
         }
         mts_stream_client_init(c->decoder);
+        c->decoder->threads = s->o->decode_threads;
     }
     return 1;
 }

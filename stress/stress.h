@@ -75,6 +75,8 @@ typedef struct mts_stress_options {
                              * oldest first (the others' bytes wait, read as they
                              * come, so the server sees every client keep up); 0: 8 */
     int verify;             /* with no_apply: still check every BATCH's CRC */
+    uint32_t decode_threads; /* each applying client's decoder's (stream.h's threads);
+                              * 0: 1, as the clients already share the cores */
     /* Previews that ask for more (PROTOCOL.md, "Continuing"; applying
      * clients only): after END at the hello's stop, a share of the clients
      * (continue_share in (0, 1]; 0: all) connects again and continues to

@@ -1,0 +1,427 @@
+/* The stream client's decoder on threads (c->threads, docs/threads.md)
+ * against one thread, on cow, bunny00 and fandisk_large:
+ *  - at 2 and 4 threads, fed whole and in small random pieces, every record
+ *    (offsets, words, parents), every vertex and the strips are the
+ *    one-thread decode's byte for byte; after each batch the runtime is at
+ *    that batch's level with the server's checksum (a batch is applied
+ *    before its frame returns, whatever the threads); the strips are
+ *    compared at every level of cow and at the keys, the batches' ends and
+ *    evenly spaced levels of the others;
+ *  - a conversation broken after a batch resumes on the same threads;
+ *  - a batch damaged after its CRC was taken fails the client at every
+ *    thread count, and freeing it stops its threads;
+ *  - mts-client --threads 1 and --threads 4 print the same checksum for
+ *    cow over loopback, and --json reports the threads; mts-stress's
+ *    clients decode on two threads each (--decode-threads). */
+#include <libgen.h>
+#include <signal.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "build.h"
+#include "crc32c.h"
+#include "mesh.h"
+#include "stream.h"
+#include "test.h"
+#include "test_proc.h"
+#include "varint.h"
+#include "wire.h"
+
+static char bin_dir[512];
+
+static int build_stream(mts_test *t, const char *path, const char *name, mts_stream *s)
+{
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_model m;
+    if (mts_mesh_load(path, NULL, &mesh, NULL, &err) != MTS_OK) {
+        CHECKF(t, 0, "load %s: %s", path, err.msg);
+        return 0;
+    }
+    mts_result rc = mts_build_model(&mesh, path, NULL, &m, NULL, &err);
+    mts_mesh_free(&mesh);
+    CHECKF(t, rc == MTS_OK, "build %s: %s", path, err.msg);
+    if (rc != MTS_OK)
+        return 0;
+    rc = mts_stream_build(&m, name, NULL, s, &err);
+    mts_model_free(&m);
+    CHECKF(t, rc == MTS_OK, "stream %s: %s", name, err.msg);
+    return rc == MTS_OK;
+}
+
+/* MODEL_INFO, the batches from `from` (BASE first when 0) to the full
+ * level, END. */
+static void conversation(const mts_stream *s, uint32_t from, mts_buf *out)
+{
+    mts_error err = {0};
+    const uint32_t stop = s->model.level_count;
+    size_t off, len;
+    out->size = 0;
+    mts_stream_put_model_info(s, stop, out);
+    if (mts_stream_range(s, from, stop, &off, &len, &err) != MTS_OK)
+        return;
+    mts_buf_put(out, s->bytes + off, len);
+    mts_stream_put_end(s, stop, (uint32_t)out->size, out);
+}
+
+typedef struct fed {
+    uint32_t batches, bad_levels, bad_checksums;
+    int ended;
+} fed;
+
+/* Takes every whole frame buffered; after each batch, the runtime must be
+ * at the batch's level with the server's checksum there. */
+static int take_frames(mts_stream_client *c, const mts_stream *s, fed *f, mts_error *err)
+{
+    mts_stream_event ev;
+    int got;
+    while ((got = mts_stream_client_next(c, &ev, err)) > 0) {
+        if (ev == MTS_EV_BATCH) {
+            f->batches++;
+            f->bad_levels += c->lod.level != c->splits;
+            f->bad_checksums +=
+                mts_stream_checksum_colors(&c->lod, c->quantized, c->model.colors) !=
+                s->level_checksum[c->lod.level];
+        }
+        f->ended |= ev == MTS_EV_END;
+    }
+    return got;
+}
+
+/* Feeds b into c in pieces of 1..max_piece bytes from seed (max_piece 0:
+ * whole). */
+static mts_result feed(mts_stream_client *c, const mts_stream *s, const mts_buf *b,
+                       uint64_t seed, size_t max_piece, fed *f, mts_error *err)
+{
+    size_t at = 0;
+    while (at < b->size) {
+        size_t piece = b->size - at;
+        if (max_piece) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            piece = 1 + (size_t)((seed >> 33) % max_piece);
+            if (piece > b->size - at)
+                piece = b->size - at;
+        }
+        mts_result rc = mts_stream_client_feed(c, b->data + at, piece, err);
+        if (rc != MTS_OK)
+            return rc;
+        at += piece;
+        if (take_frames(c, s, f, err) < 0)
+            return err->code ? err->code : MTS_ERR_INTERNAL;
+    }
+    return MTS_OK;
+}
+
+/* Whether a and b draw the same strips now, slot by slot. */
+static int same_strips(const mts_stream_client *a, const mts_stream_client *b)
+{
+    for (uint32_t st = 0; st < a->model.strip_count; st++) {
+        uint32_t la, lb;
+        const uint32_t *x = mts_lod_strip(&a->lod, st, &la), *y = mts_lod_strip(&b->lod, st, &lb);
+        if (la != lb || (la && memcmp(x, y, (size_t)la * 4) != 0))
+            return 0;
+    }
+    return 1;
+}
+
+static int is_key(const mts_stream_client *c, uint32_t level)
+{
+    for (uint32_t k = 0; k < c->info.key_count; k++) {
+        if (c->info.key_levels[k] == level)
+            return 1;
+    }
+    return 0;
+}
+
+/* c (threads) against one (one thread), both at the full level: records,
+ * parents, vertices, and the strips at the levels compared (every one with
+ * every_level); both end back at the full level. */
+static void compare(mts_test *t, const char *what, const mts_stream *s, mts_stream_client *one,
+                    mts_stream_client *c, int every_level)
+{
+    mts_error err = {0};
+    const mts_model *a = &one->model, *b = &c->model;
+    const uint32_t n = a->level_count, nv = a->base_vertex_count + n;
+    CHECKF(t, c->par != NULL, "%s: the threads did not start", what);
+    CHECKF(t,
+           b->record_word_count == a->record_word_count &&
+               memcmp(b->record_offsets, a->record_offsets, ((size_t)n + 1) * 4) == 0 &&
+               memcmp(b->record_data, a->record_data, (size_t)a->record_word_count * 4) == 0,
+           "%s: the records differ (%u words, one thread %u)", what, b->record_word_count,
+           a->record_word_count);
+    CHECKF(t, memcmp(b->parents, a->parents, (size_t)n * 4) == 0, "%s: the parents differ", what);
+    CHECKF(t,
+           memcmp(b->positions, a->positions, (size_t)nv * 12) == 0 &&
+               memcmp(c->quantized, one->quantized, (size_t)nv * 12) == 0,
+           "%s: the vertices differ", what);
+    CHECKF(t, c->checksum == one->checksum && c->checksum == s->level_checksum[n],
+           "%s: checksum %016llx, one thread %016llx", what, (unsigned long long)c->checksum,
+           (unsigned long long)one->checksum);
+    uint32_t compared = 0, bad = 0, at_batch = 0;
+    for (uint32_t level = 0; level <= n && bad < 3; level++) {
+        int here = every_level || level == n || is_key(one, level) || is_key(one, level + 1) ||
+                   level % (n / 64 + 1) == 0;
+        while (at_batch < s->batch_count && s->batch_first[at_batch + 1] < level)
+            at_batch++;
+        here |= at_batch < s->batch_count && s->batch_first[at_batch + 1] == level;
+        if (!here)
+            continue;
+        if (mts_lod_set_level(&one->lod, level, &err) != MTS_OK ||
+            mts_lod_set_level(&c->lod, level, &err) != MTS_OK) {
+            CHECKF(t, 0, "%s: level %u: %s", what, level, err.msg);
+            break;
+        }
+        compared++;
+        if (!same_strips(one, c) ||
+            mts_stream_checksum(&c->lod, c->quantized) != s->level_checksum[level]) {
+            CHECKF(t, 0, "%s: the strips differ at level %u", what, level);
+            bad++;
+        }
+    }
+    CHECKF(t, bad == 0 && compared > 0, "%s: %u levels compared", what, compared);
+}
+
+/* One model's stream: one thread, then 2 and 4, whole and in pieces. */
+static void model_threads(mts_test *t, const char *path, const char *name, size_t piece,
+                          int every_level)
+{
+    mts_stream s;
+    if (!build_stream(t, path, name, &s))
+        return;
+    mts_buf b = {0};
+    conversation(&s, 0, &b);
+    mts_error err = {0};
+    mts_stream_client one;
+    mts_stream_client_init(&one);
+    fed f1 = {0};
+    CHECKF(t, feed(&one, &s, &b, 0, 0, &f1, &err) == MTS_OK && f1.ended, "%s: %s", name,
+           err.msg);
+    CHECKF(t, one.par == NULL && f1.bad_levels == 0 && f1.bad_checksums == 0 &&
+                  f1.batches == s.batch_count,
+           "%s: one thread: %u batches, %u at the wrong level, %u checksums", name, f1.batches,
+           f1.bad_levels, f1.bad_checksums);
+    CHECKF(t, one.info.key_count > 0, "%s: no key levels", name);
+    const uint32_t threads[2] = {2, 4};
+    for (int k = 0; k < 2 && !t->case_failed; k++) {
+        for (int pieces = 0; pieces < 2 && !t->case_failed; pieces++) {
+            char what[96];
+            snprintf(what, sizeof what, "%s, %u threads, %s", name, threads[k],
+                     pieces ? "small pieces" : "whole");
+            mts_stream_client c;
+            mts_stream_client_init(&c);
+            c.threads = threads[k];
+            fed f = {0};
+            mts_result rc = feed(&c, &s, &b, 7 + (uint64_t)k, pieces ? piece : 0, &f, &err);
+            CHECKF(t, rc == MTS_OK && f.ended, "%s: %s", what, err.msg);
+            CHECKF(t, f.batches == s.batch_count && f.bad_levels == 0 && f.bad_checksums == 0,
+                   "%s: %u batches, %u at the wrong level, %u checksums", what, f.batches,
+                   f.bad_levels, f.bad_checksums);
+            if (rc == MTS_OK)
+                compare(t, what, &s, &one, &c, every_level && pieces == 0);
+            mts_stream_client_free(&c);
+        }
+    }
+    mts_stream_client_free(&one);
+    mts_buf_free(&b);
+    mts_stream_free(&s);
+}
+
+static void test_cow(mts_test *t)
+{
+    model_threads(t, "tests/data/cow.off", "cow", 97, 1);
+}
+
+static void test_bunny(mts_test *t)
+{
+    char buf[1024];
+    const char *path = mts_test_model("bunny00.off", buf, sizeof buf);
+    if (!path)
+        SKIP(t, "%s not found", buf);
+    model_threads(t, path, "bunny00", 977, 0);
+}
+
+static void test_fandisk(mts_test *t)
+{
+    char buf[1024];
+    const char *path = mts_test_model("fandisk_large.off", buf, sizeof buf);
+    if (!path)
+        SKIP(t, "%s not found", buf);
+    model_threads(t, path, "fandisk_large", 977, 0);
+}
+
+/* A conversation cut after a third of the batches, resumed: the threads
+ * go on where they were. */
+static void test_resume(mts_test *t)
+{
+    mts_stream s;
+    if (!build_stream(t, "tests/data/cow.off", "cow", &s))
+        return;
+    mts_error err = {0};
+    mts_buf whole = {0}, first = {0}, rest = {0};
+    conversation(&s, 0, &whole);
+    mts_stream_client one, c;
+    mts_stream_client_init(&one);
+    fed f1 = {0}, f = {0};
+    CHECK(t, feed(&one, &s, &whole, 0, 0, &f1, &err) == MTS_OK && f1.ended);
+    /* MODEL_INFO, BASE and the first third of the batches, and half a batch */
+    mts_stream_put_model_info(&s, s.model.level_count, &first);
+    const uint32_t cut = s.batch_count / 3;
+    mts_buf_put(&first, s.bytes, s.batch_offset[cut] + 9);
+    mts_stream_client_init(&c);
+    c.threads = 3;
+    CHECKF(t, feed(&c, &s, &first, 5, 61, &f, &err) == MTS_OK && !f.ended, "%s", err.msg);
+    uint32_t batch;
+    uint64_t id;
+    CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == cut);
+    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK && c.threads == 3);
+    conversation(&s, batch, &rest);
+    CHECKF(t, feed(&c, &s, &rest, 6, 61, &f, &err) == MTS_OK && f.ended, "%s", err.msg);
+    CHECKF(t, f.batches == s.batch_count && f.bad_levels == 0 && f.bad_checksums == 0,
+           "%u batches, %u at the wrong level, %u checksums", f.batches, f.bad_levels,
+           f.bad_checksums);
+    if (f.ended)
+        compare(t, "cow resumed, 3 threads", &s, &one, &c, 0);
+    mts_stream_client_free(&c);
+    mts_stream_client_free(&one);
+    mts_buf_free(&whole);
+    mts_buf_free(&first);
+    mts_buf_free(&rest);
+    mts_stream_free(&s);
+}
+
+/* A batch past the first whose coded splits are damaged, its CRC resealed:
+ * refused at every thread count, and the client frees its threads. */
+static void test_damaged_batch(mts_test *t)
+{
+    mts_stream s;
+    if (!build_stream(t, "tests/data/cow.off", "cow", &s))
+        return;
+    mts_buf b = {0};
+    conversation(&s, 0, &b);
+    /* the frame of batch batch_count / 2 */
+    size_t at = 0;
+    uint32_t seen = 0;
+    const uint32_t target = s.batch_count / 2;
+    while (at + 5 < b.size) {
+        size_t flen = b.data[at] | b.data[at + 1] << 8 | b.data[at + 2] << 16 |
+                      (size_t)b.data[at + 3] << 24;
+        if (b.data[at + 4] == MTS_MSG_BATCH && seen++ == target)
+            break;
+        at += 4 + flen;
+    }
+    size_t flen = b.data[at] | b.data[at + 1] << 8 | b.data[at + 2] << 16 |
+                  (size_t)b.data[at + 3] << 24;
+    uint8_t *pl = b.data + at + 5;
+    CHECK(t, flen > 40);
+    for (size_t k = flen / 3; k < flen / 3 + 8; k++)
+        pl[k] ^= 0x5a;
+    uint32_t crc = mts_crc32c(0, pl, flen - 1 - 4);
+    for (int k = 0; k < 4; k++)
+        pl[flen - 1 - 4 + k] = (uint8_t)(crc >> (8 * k));
+    const uint32_t threads[3] = {1, 2, 4};
+    mts_result first_rc = MTS_OK;
+    for (int k = 0; k < 3; k++) {
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        c.threads = threads[k];
+        mts_error err = {0};
+        fed f = {0};
+        mts_result rc = feed(&c, &s, &b, 3, 0, &f, &err);
+        CHECKF(t, rc != MTS_OK && !f.ended && f.batches == target &&
+                      strncmp(err.msg, "BATCH ", 6) == 0,
+               "%u threads: %s after %u batches", threads[k], err.msg, f.batches);
+        if (k == 0)
+            first_rc = rc;
+        CHECKF(t, rc == first_rc, "%u threads: result %d, one thread %d", threads[k], rc,
+               first_rc);
+        mts_stream_client_free(&c);
+    }
+    mts_buf_free(&b);
+    mts_stream_free(&s);
+}
+
+/* ---- mts-client ---- */
+
+/* A server in a child process: each connection gets one HELLO read and b
+ * sent; it lives until killed (60 s at most). */
+static pid_t serve(int lfd, const mts_buf *b)
+{
+    pid_t pid = fork();
+    if (pid != 0) {
+        close(lfd);
+        return pid;
+    }
+    alarm(60);
+    for (;;) {
+        int fd = accept(lfd, NULL, NULL);
+        char hello[256];
+        (void)!recv(fd, hello, sizeof hello, 0);
+        (void)!send(fd, b->data, b->size, MSG_NOSIGNAL);
+        usleep(100000);
+        close(fd);
+    }
+}
+
+static void test_client_program(mts_test *t)
+{
+    mts_stream s;
+    if (!build_stream(t, "tests/data/cow.off", "cow", &s))
+        return;
+    mts_buf b = {0};
+    conversation(&s, 0, &b);
+    int port, lfd = mts_test_listen_any(&port);
+    CHECK(t, lfd >= 0);
+    if (lfd < 0)
+        return;
+    pid_t pid = serve(lfd, &b);
+    char cmd[2048], out[2][8192], want[64];
+    snprintf(want, sizeof want, "\"checksum\":\"%016llx\"",
+             (unsigned long long)s.level_checksum[s.model.level_count]);
+    const int threads[2] = {1, 4};
+    for (int k = 0; k < 2; k++) {
+        snprintf(cmd, sizeof cmd,
+                 "ASAN_OPTIONS=detect_leaks=0 %s/mts-client 127.0.0.1:%d cow --no-render --json "
+                 "--threads %d",
+                 bin_dir, port, threads[k]);
+        int rc = mts_test_run(cmd, out[k], sizeof out[k]);
+        char th[32];
+        snprintf(th, sizeof th, "\"threads\":%d", threads[k]);
+        CHECKF(t, rc == 0 && strstr(out[k], want) && strstr(out[k], th), "--threads %d: exit %d: %s",
+               threads[k], rc, out[k]);
+    }
+    snprintf(cmd, sizeof cmd, "%s/mts-client 127.0.0.1:%d cow --threads 0", bin_dir, port);
+    CHECK(t, mts_test_run(cmd, out[0], sizeof out[0]) == 2 && strstr(out[0], "--threads"));
+    snprintf(cmd, sizeof cmd, "%s/mts-client --help", bin_dir);
+    CHECK(t, mts_test_run(cmd, out[0], sizeof out[0]) == 0 && strstr(out[0], "--threads"));
+    snprintf(cmd, sizeof cmd, "%s/mts-stress --help", bin_dir);
+    CHECK(t, mts_test_run(cmd, out[0], sizeof out[0]) == 0 && strstr(out[0], "--decode-threads"));
+    /* a stress client decoding on two threads ends with the same mesh */
+    snprintf(cmd, sizeof cmd,
+             "ASAN_OPTIONS=detect_leaks=0 %s/mts-stress 127.0.0.1:%d cow --clients 2 "
+             "--decode-threads 2 --json",
+             bin_dir, port);
+    CHECKF(t, mts_test_run(cmd, out[0], sizeof out[0]) == 0, "mts-stress: %s", out[0]);
+    kill(pid, SIGKILL);
+    waitpid(pid, NULL, 0);
+    mts_buf_free(&b);
+    mts_stream_free(&s);
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    mts_test_bin_dir(argv[0], bin_dir, sizeof bin_dir);
+    signal(SIGPIPE, SIG_IGN);
+    mts_test t = {0};
+    RUN(&t, test_cow);
+    RUN(&t, test_resume);
+    RUN(&t, test_damaged_batch);
+    RUN(&t, test_bunny);
+    RUN(&t, test_fandisk);
+    RUN(&t, test_client_program);
+    return mts_test_end(&t);
+}
