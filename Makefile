@@ -71,8 +71,9 @@ CFLAGS   += $(filter-out -I/usr/include/draco%,$(PKG_CFLAGS))
 LDFLAGS  += $(filter -fsanitize=%,$(OPT)) -pthread -Wl,--as-needed
 # -ltinygltf before $(PKG_LIBS): Debian's libdraco exports the symbols of
 # its own bundled (older) tinygltf, and the first library that defines a
-# symbol wins; linked after draco, gltf_read.cpp would call draco's copy
-# with this header's layouts and corrupt memory.
+# symbol wins; linked after draco, the glTF reader (gltf_read.cpp and
+# gltf_draco.cpp) would call draco's copy with this header's layouts and
+# corrupt memory.
 LDLIBS   += -ltinygltf $(PKG_LIBS) -lOpenMeshTools -lOpenMeshCore -lm
 
 # Library modules; a file named mts_*.c holds a program's main().

@@ -16,7 +16,7 @@
  * only when the model came from a file (dir non-NULL); data: URIs are read
  * in place. KHR_draco_mesh_compression primitives are decoded through
  * Draco, the compressed bytes checked as hostile as the rest (see
- * gltf_read.cpp). TEXCOORD_n and NORMAL are not read. */
+ * gltf_draco.cpp). TEXCOORD_n and NORMAL are not read. */
 #ifndef MTS_GLTF_READ_H
 #define MTS_GLTF_READ_H
 

@@ -1,5 +1,6 @@
-/* Internal to the mesh loader (mesh.c + mesh_read.c): the per-format parsers
- * and what they hand to the cleaning pipeline. Not part of the public API.
+/* Internal to the mesh loader (mesh.c + mesh_read.c and the per-format
+ * mesh_read_off.c, _obj.c, _ply.c, _stl.c): the parsers and what they hand to
+ * the cleaning pipeline. Not part of the public API.
  *
  * A parser reads the bytes of one file and fills an mts__mesh_raw: positions
  * (and normals and colours when the file has them per vertex) plus the polygons already

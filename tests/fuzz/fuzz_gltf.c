@@ -1,5 +1,6 @@
-/* Fuzz target: the glTF 2.0 reader (builder/gltf_read.cpp, through Debian's
- * tinygltf) behind the mesh loader, as mts-server meets a downloaded model:
+/* Fuzz target: the glTF 2.0 reader (builder/gltf_read.cpp and gltf_draco.cpp,
+ * through Debian's tinygltf) behind the mesh loader, as mts-server meets a
+ * downloaded model:
  * mts_mesh_load_memory with the file's bytes, named fuzz.glb when they
  * start with GLB's magic and fuzz.gltf otherwise (either name picks the
  * glTF reader; the reader itself tells GLB from JSON by the magic).
