@@ -3,7 +3,9 @@
  * median time to decode and apply the whole splits form (deriving every
  * record) and the records form (records on the wire), their ratio, the cost
  * per split, and how long a server takes to encode the stream. Models are
- * .mtsm files, or meshes built first. Used by bench/client_cost.sh. */
+ * .mtsm files, or meshes built first. Used by bench/client_cost.sh. With
+ * --threads listing several counts, the splits form is timed at each,
+ * alternated within each run, a row each. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,10 +19,11 @@
 #include "stream.h"
 
 /* Seconds to take every frame of b into a fresh client; 0 on an error. */
-static double apply(const mts_buf *b, uint64_t *checksum, mts_error *err)
+static double apply(const mts_buf *b, uint32_t threads, uint64_t *checksum, mts_error *err)
 {
     mts_stream_client c;
     mts_stream_client_init(&c);
+    c.threads = threads;
     double t0 = cli_now();
     int ok = mts_stream_client_feed(&c, b->data, b->size, err) == MTS_OK, got = 0;
     mts_stream_event ev;
@@ -49,9 +52,27 @@ static int load(const char *path, mts_model *m, mts_error *err)
 int main(int argc, char **argv)
 {
     const char *paths[16], *json_path = NULL;
-    int npaths = 0, runs = 7;
+    int npaths = 0, runs = 7, nthreads = 1;
+    uint32_t threads[8] = {1};
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--json") && i + 1 < argc) {
+        if (!strcmp(argv[i], "--threads") && i + 1 < argc) {
+            /* a comma-separated list of counts, 1 to 64 each */
+            const char *p = argv[++i];
+            nthreads = 0;
+            while (*p && nthreads < 8) {
+                char *end;
+                unsigned long v = strtoul(p, &end, 10);
+                if (end == p || v < 1 || v > 64 || (*end && *end != ','))
+                    break;
+                threads[nthreads++] = (uint32_t)v;
+                p = *end ? end + 1 : end;
+            }
+            if (*p || !nthreads) {
+                fprintf(stderr, "mts-bench-apply: --threads needs counts from 1 to 64, "
+                                "comma-separated (at most 8)\n");
+                return CLI_EXIT_USAGE;
+            }
+        } else if (!strcmp(argv[i], "--json") && i + 1 < argc) {
             json_path = argv[++i];
         } else if (!strcmp(argv[i], "--runs")) {
             uint32_t u;
@@ -59,10 +80,12 @@ int main(int argc, char **argv)
                 return CLI_EXIT_USAGE;
             runs = (int)u;
         } else if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
-            printf("usage: mts-bench-apply MODEL.mtsm|MESH... [--runs N] [--json FILE]\n"
+            printf("usage: mts-bench-apply MODEL.mtsm|MESH... [--runs N] [--threads T1,T2,..]\n"
+                   "                       [--json FILE]\n"
                    "Per model, both stream forms decoded and applied in this process (median\n"
                    "of N warm runs, default 7): ms, splits/s, their ratio, ns a split; and\n"
-                   "the server's encoding time.\n");
+                   "the server's encoding time. --threads: the splits form's decoder threads\n"
+                   "(stream.h; default 1), each count a row, alternated within each run.\n");
             return CLI_EXIT_OK;
         } else if (argv[i][0] == '-') {
             fprintf(stderr, "mts-bench-apply: unknown option %s\n", argv[i]);
@@ -115,25 +138,38 @@ int main(int argc, char **argv)
         }
         double encode = cli_now() - e0;
         mts_buf a = {0}, r = {0};
-        double ta[99], tr[99];
-        uint64_t ca = 0, cr = 0;
+        double ta[8][99], tr[99];
+        uint64_t ca[8] = {0}, cr = 0;
         int ok = bench_connection_bytes(&s, s.model.level_count, &a) &&
                  bench_connection_bytes(s.records_form, s.records_form->model.level_count, &r);
         /* a first run of each: first-touch page faults are not decoding */
-        ok = ok && apply(&a, &ca, &err) > 0 && apply(&r, &cr, &err) > 0;
-        for (int i = 0; ok && i < runs; i++) { /* alternated, so drift hits both */
-            ok = (ta[i] = apply(&a, &ca, &err)) > 0 && (tr[i] = apply(&r, &cr, &err)) > 0;
+        ok = ok && apply(&r, 1, &cr, &err) > 0;
+        for (int x = 0; ok && x < nthreads; x++)
+            ok = apply(&a, threads[x], &ca[x], &err) > 0;
+        for (int i = 0; ok && i < runs; i++) { /* alternated, so drift hits all */
+            for (int x = 0; ok && x < nthreads; x++)
+                ok = (ta[x][i] = apply(&a, threads[x], &ca[x], &err)) > 0;
+            ok = ok && (tr[i] = apply(&r, 1, &cr, &err)) > 0;
         }
-        ok = ok && ca == cr;
+        for (int x = 0; x < nthreads; x++)
+            ok = ok && ca[x] == cr;
         if (!ok) {
-            printf("%-14s FAILED: %s\n", name, ca != cr ? "the forms end in other meshes" : err.msg);
+            printf("%-14s FAILED: %s\n", name, ca[0] != cr ? "the forms end in other meshes" : err.msg);
             status = CLI_EXIT_FAIL;
-        } else {
-            qsort(ta, (size_t)runs, sizeof *ta, bench_cmp_double);
+        }
+        if (ok)
             qsort(tr, (size_t)runs, sizeof *tr, bench_cmp_double);
-            const double sa = ta[runs / 2], sr = tr[runs / 2], n = m.level_count;
+        for (int x = 0; ok && x < nthreads; x++) {
+            double *tx = ta[x];
+            char row[128];
+            if (nthreads > 1 || threads[x] != 1)
+                snprintf(row, sizeof row, "%.100s@t%u", name, threads[x]);
+            else
+                snprintf(row, sizeof row, "%s", name);
+            qsort(tx, (size_t)runs, sizeof *tx, bench_cmp_double);
+            const double sa = tx[runs / 2], sr = tr[runs / 2], n = m.level_count;
             const uint32_t tris = m.level_triangles[m.level_count];
-            printf("%-14s %9u %9u %10.2f %11.3f %10.2f %11.3f %7.2f %9.0f %9.2f\n", name, tris,
+            printf("%-14s %9u %9u %10.2f %11.3f %10.2f %11.3f %7.2f %9.0f %9.2f\n", row, tris,
                    m.level_count, sa * 1e3, n / sa / 1e6, sr * 1e3, n / sr / 1e6, sa / sr,
                    sa / n * 1e9, encode);
             if (js)
@@ -142,10 +178,10 @@ int main(int argc, char **argv)
                         "\"records_bytes\":%zu,\"splits_ms\":%.3f,\"splits_per_s\":%.0f,"
                         "\"records_ms\":%.3f,\"records_per_s\":%.0f,\"ratio\":%.3f,"
                         "\"ns_per_split\":%.1f,\"splits_ms_min\":%.3f,\"records_ms_min\":%.3f,"
-                        "\"encode_s\":%.3f}",
-                        first ? "" : ",", name, tris, m.level_count, a.size, r.size, sa * 1e3,
-                        n / sa, sr * 1e3, n / sr, sa / sr, sa / n * 1e9, ta[0] * 1e3,
-                        tr[0] * 1e3, encode);
+                        "\"encode_s\":%.3f,\"threads\":%u}",
+                        first ? "" : ",", row, tris, m.level_count, a.size, r.size, sa * 1e3,
+                        n / sa, sr * 1e3, n / sr, sa / sr, sa / n * 1e9, tx[0] * 1e3,
+                        tr[0] * 1e3, encode, threads[x]);
             first = 0;
         }
         mts_buf_free(&a);

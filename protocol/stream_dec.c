@@ -540,6 +540,11 @@ static mts_result keep_record(mts_stream_client *c, uint32_t j, const uint32_t *
 
 #define LOG_CHUNK 4096u /* splits a log chunk holds: freed once fixed up */
 #define REC_BLOCK 65536u /* words of a worker's record block */
+/* Splits logged, or records made, between two hand-overs: a split costs
+ * microseconds, a waiting thread's wake-up about as much, so each side
+ * publishes in runs (and whenever it is about to wait, so neither waits on
+ * what the other holds back). */
+#define PUBLISH_EVERY 64u
 
 typedef struct logged_split {
     mts_grow_split sp;   /* as one grow takes it: explicit lists in its ids */
@@ -560,6 +565,7 @@ typedef struct interval {
     mts_grow *w;         /* made on the decode thread, grown on a pool thread */
     uint32_t first, end; /* its splits; first is its key split but in interval 0 */
     uint32_t made;       /* records made, first..made-1 (under mu) */
+    uint32_t seen;       /* made as the decode thread last read it (its own) */
     int done;            /* the worker has finished with w (under mu) */
     mts_result rc;       /* how (under mu, with done) */
     mts_error err;
@@ -580,6 +586,7 @@ struct mts__stream_par {
     interval *iv;            /* before the first key, one a key, the full level's */
     uint32_t iv_count;
     /* the decode thread's alone */
+    uint32_t log_end;          /* splits logged, published or not */
     mts_grow_options go;
     mts_grow_fixup *fix;
     uint32_t dec_iv;           /* the interval of the split being decoded */
@@ -620,17 +627,21 @@ static void par_grow(struct mts__stream_par *p, interval *v)
 {
     uint32_t j = v->first;
     mts_result rc = MTS_OK;
-    while (rc == MTS_OK && j < v->end) {
-        pthread_mutex_lock(&p->mu);
+    pthread_mutex_lock(&p->mu);
+    for (;;) {
+        /* what is made is published before waiting for more */
+        v->made = j;
+        pthread_cond_broadcast(&p->progress);
+        if (j >= v->end)
+            break;
         while (!p->stop && p->logged <= j)
             pthread_cond_wait(&p->work, &p->mu);
-        const uint32_t avail = p->logged;
-        const int stop = p->stop;
-        pthread_mutex_unlock(&p->mu);
-        if (stop) {
+        if (p->stop) {
             rc = mts_error_set(&v->err, MTS_ERR_ARG, "stream: the decoder stopped");
             break;
         }
+        const uint32_t avail = p->logged;
+        pthread_mutex_unlock(&p->mu);
         for (; rc == MTS_OK && j < avail && j < v->end; j++) {
             logged_split *ls = par_entry(p, j);
             const uint32_t *r;
@@ -655,13 +666,17 @@ static void par_grow(struct mts__stream_par *p, interval *v)
             b->used += rw;
             ls->rec = to;
             ls->rec_words = rw;
-            pthread_mutex_lock(&p->mu);
-            v->made = j + 1;
-            pthread_cond_broadcast(&p->progress);
-            pthread_mutex_unlock(&p->mu);
+            if ((j + 1 - v->first) % PUBLISH_EVERY == 0) {
+                pthread_mutex_lock(&p->mu);
+                v->made = j + 1;
+                pthread_cond_broadcast(&p->progress);
+                pthread_mutex_unlock(&p->mu);
+            }
         }
+        pthread_mutex_lock(&p->mu);
+        if (rc != MTS_OK)
+            break;
     }
-    pthread_mutex_lock(&p->mu);
     v->rc = rc;
     v->done = 1;
     pthread_cond_broadcast(&p->progress);
@@ -684,6 +699,15 @@ static void *par_thread(void *arg)
     }
     pthread_mutex_unlock(&p->mu);
     return NULL;
+}
+
+/* The decode thread: the splits logged so far, to the pool. */
+static void par_publish(struct mts__stream_par *p)
+{
+    pthread_mutex_lock(&p->mu);
+    p->logged = p->log_end;
+    pthread_cond_broadcast(&p->work);
+    pthread_mutex_unlock(&p->mu);
 }
 
 static void par_free(struct mts__stream_par *p)
@@ -721,10 +745,17 @@ static mts_result par_wait(struct mts__stream_par *p, uint32_t i, uint32_t upto,
                            mts_error *err)
 {
     interval *v = &p->iv[i];
+    if (!whole && v->seen >= upto)
+        return MTS_OK;
     pthread_mutex_lock(&p->mu);
+    if (p->logged < p->log_end) { /* what the worker may be waiting for */
+        p->logged = p->log_end;
+        pthread_cond_broadcast(&p->work);
+    }
     while (!v->done && (whole || v->made < upto))
         pthread_cond_wait(&p->progress, &p->mu);
     const int ok = v->rc == MTS_OK && (whole ? v->done : v->made >= upto);
+    v->seen = v->made;
     pthread_mutex_unlock(&p->mu);
     if (ok)
         return MTS_OK;
@@ -896,6 +927,39 @@ static mts_result par_fixup(mts_stream_client *c, uint32_t upto, mts_error *err)
     return MTS_OK;
 }
 
+/* Between splits: the records the workers have made so far, below upto,
+ * fixed up, kept and applied to the runtime without waiting, so that the
+ * batch's end waits only for what the workers lag behind (the caller sees
+ * the runtime only once the batch is in). */
+static mts_result par_catch_up(mts_stream_client *c, uint32_t upto, mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    uint32_t ready = p->fixed;
+    pthread_mutex_lock(&p->mu);
+    p->logged = p->log_end;
+    pthread_cond_broadcast(&p->work);
+    /* an interval whose records are all made is done with its worker too
+     * (par_grow sets both under one lock), which its successor's key needs */
+    for (uint32_t k = p->fix_iv; k < p->queued && ready < upto; k++) {
+        interval *v = &p->iv[k];
+        v->seen = v->made;
+        if (v->rc != MTS_OK || v->made < v->first)
+            break;
+        ready = v->made < upto ? v->made : upto;
+        if (v->made < v->end)
+            break;
+    }
+    pthread_mutex_unlock(&p->mu);
+    if (ready <= p->fixed)
+        return MTS_OK;
+    mts_result rc = par_fixup(c, ready, err);
+    if (rc == MTS_OK) {
+        mts_lod_set_available(&c->lod, p->fixed);
+        rc = mts_lod_set_level(&c->lod, p->fixed < c->stop_level ? p->fixed : c->stop_level, err);
+    }
+    return rc;
+}
+
 /* Split j on the decode thread: a worker made where a key interval starts,
  * the split logged for it (or, the full level's, derived here), and the
  * mesh-only grow split. *lists (an explicit split's) passes to the log. */
@@ -959,10 +1023,9 @@ static mts_result par_split(mts_stream_client *c, uint32_t j, const mts_grow_spl
         ls->sp = *sp;
         ls->lists = *lists;
         *lists = NULL;
-        pthread_mutex_lock(&p->mu);
-        p->logged = j + 1;
-        pthread_cond_broadcast(&p->work);
-        pthread_mutex_unlock(&p->mu);
+        p->log_end = j + 1;
+        if (p->log_end % PUBLISH_EVERY == 0)
+            par_publish(p);
     }
     return mts_grow_split_mesh(c->grow, &ms, err);
 }
@@ -1175,6 +1238,8 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, mts_grow_
                                      "BATCH %u: vertex %u's colour is off the 0..255 range", index,
                                      v);
         }
+        if (c->par && (j + 1) % PUBLISH_EVERY == 0 && (rc = par_catch_up(c, j + 1, err)) != MTS_OK)
+            return mts_error_prefix(err, "BATCH %u", index);
     }
     if (!d->ok || !mts_rc_decoder_finished(d))
         return mts_error_set(err, MTS_ERR_FORMAT,
@@ -1305,6 +1370,13 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
     /* threads: the batch's records, in order, before it is applied */
     if (rc == MTS_OK && c->par && (rc = par_fixup(c, first + count, err)) != MTS_OK)
         rc = mts_error_prefix(err, "BATCH %u", index);
+    if (rc != MTS_OK && c->par && c->lod.level > first && !c->lod.broken) {
+        /* the runtime went up with the splits (par_catch_up): a batch that
+         * fails leaves it where the batch before did, as one thread does */
+        mts_error ignored;
+        mts_lod_set_available(&c->lod, first);
+        (void)mts_lod_set_level(&c->lod, first, &ignored);
+    }
     if (rc != MTS_OK)
         return rc;
 applied:
