@@ -63,7 +63,8 @@ typedef struct mts_mesh_stats {
     /* glTF POINTS and LINES primitives: no surface, skipped */
     uint32_t skipped_primitives;
     /* Vertex colours (PLY red green blue [alpha], OBJ "v x y z r g b",
-     * COFF, glTF COLOR_0), stored as 8-bit sRGB in mesh.colors. */
+     * COFF, ASCII or binary, glTF COLOR_0), stored as 8-bit sRGB in
+     * mesh.colors. */
     int colors_from_file;          /* 1 when the mesh keeps the file's colours */
     int colors_alpha;              /* 1 when they came with alpha, which is dropped:
                                     * the model is drawn opaque */

@@ -46,7 +46,8 @@ void mts__mesh_raw_free(mts__mesh_raw *raw);
 
 /* The parsers. data need not be NUL-terminated; size > 0. The OFF parser
  * reads ASCII and binary OFF ("OFF BINARY": Geomview's big-endian layout with
- * a colour count per face, and OpenMesh's little-endian one without). */
+ * a colour count per face, and OpenMesh's little-endian one without), with
+ * COFF's vertex colours either way. */
 mts_result mts__mesh_read_off(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
 mts_result mts__mesh_read_obj(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);
 mts_result mts__mesh_read_ply(mts__mesh_raw *raw, const char *data, size_t size, mts_error *err);

@@ -100,9 +100,11 @@ static mts_result off_count(mts__text *t, const char *what, uint32_t *out, mts_e
  *    count after a face; with C, vertices may carry 3 or 4 colour words (ints
  *    or floats) and faces 3 or 4 more, either possibly absent.
  * Both are: #vertices #faces #edges, per vertex x y z [normal] [colour] [s t],
- * per face n i[0] .. i[n-1] [colour]. Each candidate layout is first walked
- * through (counts and indices checked, nothing stored), and the first that
- * reads as a valid file ending exactly at the end is parsed. When none does (a
+ * per face n i[0] .. i[n-1] [colour]. Vertex colours are kept, as ASCII
+ * COFF's are (offb_color_scale says how they read); face colours are
+ * skipped, as ASCII OFF's are. Each candidate layout is first walked through
+ * (counts and indices checked, nothing stored), and the first that reads as
+ * a valid file ending exactly at the end is parsed. When none does (a
  * truncated or corrupt file), the byte order whose counts are the more
  * plausible is parsed in its usual layout so that the error says where the
  * file breaks. */
@@ -175,6 +177,33 @@ static int offb_sane_floats(const unsigned char *p, const unsigned char *end, in
         sane += (u & 0x7fffffffu) == 0 || (e >= 127 - 60 && e <= 127 + 60);
     }
     return sane;
+}
+
+/* How binary COFF's vertex colour words read: ncol (3 or 4) words at word
+ * `at` of each of nv vertices, vstride bytes apart. Geomview writes floats
+ * in 0..1; OpenMesh integers in 0..255 or floats, and says not which. When
+ * every word is at most 255 they are integers in 0..255 (*ints set): a
+ * float colour above 0 has a far larger bit pattern, and 0 is 0 either way.
+ * Floats otherwise, their range decided as ASCII COFF's is: integral values
+ * of which some pass 1 are 0..255, anything else 0..1. Returns the scale,
+ * 255 or 1. */
+static float offb_color_scale(const unsigned char *p, uint32_t nv, size_t vstride, unsigned at,
+                              unsigned ncol, int big, int *ints)
+{
+    int small = 1, over_one = 0, integral = 1;
+    for (uint32_t i = 0; i < nv; i++, p += vstride)
+        for (unsigned c = 0; c < ncol; c++) {
+            uint32_t u = offb_u32(p + 4 * (at + c), big);
+            float f;
+            memcpy(&f, &u, sizeof f);
+            small &= u <= 255;
+            if (isfinite(f)) { /* the others are refused as the vertices are read */
+                over_one |= f > 1;
+                integral &= f == floorf(f);
+            }
+        }
+    *ints = small;
+    return small || (over_one && integral) ? 255.0f : 1.0f;
 }
 
 static mts_result offb_truncated(const char *name, const char *what, uint32_t expected,
@@ -267,6 +296,16 @@ static mts_result off_binary(mts__mesh_raw *raw, const mts__off_flags *fl, const
     if (r != MTS_OK)
         return r;
     const unsigned values = fl->normals ? 6 : 3;
+    /* the colour words after x y z [normal]: none, or 3 or 4 with C */
+    const unsigned ncol = L.vwords - base;
+    int ints = 0;
+    float scale = 1.0f;
+    uint32_t translucent = 0;
+    if (ncol >= 3) {
+        scale = offb_color_scale(p, nv, vstride, values, ncol, big, &ints);
+        if ((r = mts__raw_enable_colors(raw, err)) != MTS_OK)
+            return r;
+    }
     for (uint32_t i = 0; i < nv; i++, p += vstride) {
         uint32_t u[6];
         for (unsigned c = 0; c < values; c++) {
@@ -278,8 +317,31 @@ static mts_result off_binary(mts__mesh_raw *raw, const mts__off_flags *fl, const
         memcpy(raw->positions + (size_t)i * 3, u, 3 * sizeof *u);
         if (fl->normals)
             memcpy(raw->normals + (size_t)i * 3, u + 3, 3 * sizeof *u);
+        if (ncol < 3)
+            continue;
+        float c[4];
+        for (unsigned k = 0; k < ncol; k++) {
+            uint32_t w = offb_u32(p + 4 * (values + k), big);
+            if (ints) {
+                c[k] = (float)w;
+                continue;
+            }
+            memcpy(&c[k], &w, sizeof w);
+            if (!isfinite(c[k]))
+                return mts_error_set(err, MTS_ERR_FORMAT,
+                                     "%s: vertex %u: a colour value is not a finite number", name,
+                                     i);
+        }
+        for (unsigned k = 0; k < 3; k++)
+            raw->colors[(size_t)i * 3 + k] = c[k] / scale;
+        if (ncol == 4)
+            translucent += c[3] < scale;
     }
     raw->vertex_count = nv;
+    if (ncol == 4) {
+        st->colors_alpha = 1;
+        st->colors_translucent = translucent;
+    }
     st->file_vertices = nv;
 
     /* the walk counted the triangles; otherwise reserve what the bytes left

@@ -1979,6 +1979,87 @@ static void test_off_colors(mts_test *t)
     mts_mesh_free(&m);
 }
 
+/* The tetrahedron as binary COFF with tet_rgb's vertex colours: big = 1 is
+ * Geomview's layout (big endian, RGBA floats, a colour count after each
+ * face's indices and face 2 with a colour of its own), big = 0 OpenMesh's
+ * (little endian, integer RGB, nothing after a face). bytes writes the
+ * floats in 0..255. Vertex 2's alpha is half; nan_at puts NaN in that
+ * vertex's red (-1: none). */
+static void tet_coff_binary(buf *b, int big, int bytes, int nan_at)
+{
+    buf_printf(b, "COFF BINARY\n");
+    put_u32(b, 4, big);
+    put_u32(b, 4, big);
+    put_u32(b, 6, big);
+    const float scale = bytes ? 1.0f : 1.0f / 255.0f;
+    for (int v = 0; v < 4; v++) {
+        for (int k = 0; k < 3; k++)
+            put_f32(b, tet_pos[v][k], big);
+        for (int k = 0; k < 3; k++) {
+            if (!big)
+                put_u32(b, (uint32_t)tet_rgb[v][k], big);
+            else
+                put_f32(b, v == nan_at && k == 0 ? NAN : (float)tet_rgb[v][k] * scale, big);
+        }
+        if (big)
+            put_f32(b, (v == 2 ? 128.0f : 255.0f) * scale, big);
+    }
+    for (int f = 0; f < 4; f++) {
+        put_u32(b, 3, big);
+        for (int k = 0; k < 3; k++)
+            put_u32(b, tet_tri[f][k], big);
+        if (big) {
+            put_u32(b, f == 2 ? 4 : 0, big);
+            for (int k = 0; k < (f == 2 ? 4 : 0); k++)
+                put_f32(b, 0.75f, big);
+        }
+    }
+}
+
+/* Binary COFF keeps its vertex colours, ranged as ASCII COFF's are. */
+static void test_off_binary_colors(mts_test *t)
+{
+    static const struct {
+        const char *name;
+        int big, bytes;
+    } cases[] = {{"geomview.off", 1, 0}, {"openmesh.off", 0, 0}, {"floats255.off", 1, 1}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        buf b = {0};
+        tet_coff_binary(&b, cases[i].big, cases[i].bytes, -1);
+        mts_mesh m;
+        mts_mesh_stats st;
+        mts_error err = {0};
+        mts_result r = load_bytes(cases[i].name, b.d, b.n, &m, &st, &err);
+        CHECKF(t, r == MTS_OK, "%s: %s", cases[i].name, err.msg);
+        if (r == MTS_OK) {
+            check_tet(t, &m, &st, cases[i].name);
+            CHECKF(t, m.colors && st.colors_from_file, "%s", cases[i].name);
+            for (int v = 0; m.colors && v < 4; v++)
+                CHECKF(t, color_is(&m, (uint32_t)v, tet_rgb[v][0], tet_rgb[v][1], tet_rgb[v][2]),
+                       "%s vertex %d: %d %d %d", cases[i].name, v, m.colors[3 * v],
+                       m.colors[3 * v + 1], m.colors[3 * v + 2]);
+            /* OpenMesh's words here are RGB; Geomview's RGBA, vertex 2 half */
+            const uint32_t rgba = (uint32_t)cases[i].big;
+            CHECKF(t, st.colors_alpha == (int)rgba && st.colors_translucent == rgba,
+                   "%s: alpha %d translucent %u", cases[i].name, st.colors_alpha,
+                   st.colors_translucent);
+        }
+        mts_mesh_free(&m);
+        buf_free(&b);
+    }
+    /* a non-finite colour is refused, naming the vertex, as in ASCII COFF */
+    buf b = {0};
+    tet_coff_binary(&b, 1, 0, 1);
+    mts_mesh m;
+    mts_error err = {0};
+    mts_result r = load_bytes("nan.off", b.d, b.n, &m, NULL, &err);
+    CHECKF(t, r == MTS_ERR_FORMAT &&
+                  strstr(err.msg, "vertex 1: a colour value is not a finite number"),
+           "%d %s", r, err.msg);
+    mts_mesh_free(&m);
+    buf_free(&b);
+}
+
 static void test_obj_colors(mts_test *t)
 {
     mts_mesh m;
@@ -2689,6 +2770,7 @@ int main(void)
     RUN(&t, test_stl);
     RUN(&t, test_ply_colors);
     RUN(&t, test_off_colors);
+    RUN(&t, test_off_binary_colors);
     RUN(&t, test_obj_colors);
     RUN(&t, test_gltf_colors);
     RUN(&t, test_gltf_draco_engine);
