@@ -7,7 +7,8 @@
  *    before its frame returns, whatever the threads); the strips are
  *    compared at every level of cow and at the keys, the batches' ends and
  *    evenly spaced levels of the others;
- *  - a conversation broken after a batch resumes on the same threads;
+ *  - a conversation broken after a batch resumes on the same threads, and
+ *    a preview continued past its stop goes on with them;
  *  - a batch damaged after its CRC was taken fails the client at every
  *    thread count, and freeing it stops its threads;
  *  - mts-client --threads 1 and --threads 4 print the same checksum for
@@ -285,6 +286,26 @@ static void test_resume(mts_test *t)
            f.bad_checksums);
     if (f.ended)
         compare(t, "cow resumed, 3 threads", &s, &one, &c, 0);
+    mts_stream_client_free(&c);
+    /* a preview to a third of the levels, continued to the full level */
+    const uint32_t stop = s.model.level_count / 3;
+    size_t off, len;
+    first.size = 0;
+    mts_stream_put_model_info(&s, stop, &first);
+    CHECK(t, mts_stream_range(&s, 0, stop, &off, &len, &err) == MTS_OK);
+    mts_buf_put(&first, s.bytes + off, len);
+    mts_stream_put_end(&s, stop, (uint32_t)first.size, &first);
+    mts_stream_client_init(&c);
+    c.threads = 2;
+    f = (fed){0};
+    CHECKF(t, feed(&c, &s, &first, 8, 0, &f, &err) == MTS_OK && f.ended && c.lod.level == stop,
+           "preview: %s", err.msg);
+    CHECKF(t, mts_stream_client_continue(&c, &batch, &id, &err) == MTS_OK, "%s", err.msg);
+    conversation(&s, batch, &rest);
+    f.ended = 0;
+    CHECKF(t, feed(&c, &s, &rest, 0, 0, &f, &err) == MTS_OK && f.ended, "continued: %s", err.msg);
+    if (f.ended)
+        compare(t, "cow continued, 2 threads", &s, &one, &c, 0);
     mts_stream_client_free(&c);
     mts_stream_client_free(&one);
     mts_buf_free(&whole);
