@@ -200,7 +200,7 @@ typedef struct mts_stream_client {
      * batch is still applied before its frame returns. A stream whose
      * MODEL_INFO lists no key levels, and the records form, use one. */
     uint32_t threads;
-    struct mts__stream_par *par; /* those threads' state (stream_dec.c), NULL with one */
+    struct mts__stream_par *par; /* those threads' state (stream_dec_threads.c), NULL with one */
     mts_wire_reader reader; /* bytes fed, not yet taken as frames (mts_stream_client_feed) */
 } mts_stream_client;
 

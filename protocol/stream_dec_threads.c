@@ -1,0 +1,512 @@
+/* The client's decoder on more than one thread (stream_dec_threads.h):
+ * growth cut at its keys (grow_tokens.h), the pool that grows each key
+ * interval, the hand-over of splits and records, and the fix-up that puts
+ * the records back in one grow's slots, in level order. */
+#include "stream_dec_threads.h"
+
+#include "grow_tokens.h"
+
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "words.h"
+
+/* The decode thread (the caller's) decodes the splits against a mesh-only
+ * grow, which gives the fan codes, rings and the triangles round each new
+ * vertex exactly as one grow does, and logs each split. Every key interval
+ * has a worker, a full grow copied from the mesh-only one just before its
+ * key split, which a pool thread grows through the logged splits, its
+ * records in slot tokens. The decode thread fixes them up in level order
+ * (mts_grow_fixup), keeps them and applies them at the batch's end, so the
+ * records and the runtime are what one grow gives, and each batch is
+ * applied before its frame returns. The full level's split reads the
+ * batch's coder as it walks, so its worker runs on the decode thread. */
+
+#define LOG_CHUNK 4096u /* splits a log chunk holds: freed once fixed up */
+#define REC_BLOCK 65536u /* words of a worker's record block */
+
+typedef struct logged_split {
+    mts_grow_split sp;   /* as one grow takes it: explicit lists in its ids */
+    uint32_t *lists;     /* what sp's explicit lists point into (owned) */
+    const uint32_t *rec; /* the worker's record, in its tokens (in its blocks) */
+    uint32_t rec_words;
+} logged_split;
+
+/* Records are appended to blocks that never move, so the decode thread
+ * reads one while the worker writes the next. */
+typedef struct rec_block {
+    struct rec_block *next;
+    size_t used, cap;
+    uint32_t w[];
+} rec_block;
+
+typedef struct interval {
+    mts_grow *w;         /* made on the decode thread, grown on a pool thread */
+    uint32_t first, end; /* its splits; first is its key split but in interval 0 */
+    uint32_t made;       /* records made, first..made-1 (under mu) */
+    uint32_t seen;       /* made as the decode thread last read it (its own) */
+    int done;            /* the worker has finished with w (under mu) */
+    mts_result rc;       /* how (under mu, with done) */
+    mts_error err;
+    rec_block *blocks;
+} interval;
+
+struct mts__stream_par {
+    pthread_mutex_t mu;
+    pthread_cond_t work;     /* for pool threads: a split logged, a worker queued, stop */
+    pthread_cond_t progress; /* for the decode thread: a record made, a worker done */
+    pthread_t *thread;
+    uint32_t thread_count;
+    int stop;                /* under mu */
+    uint32_t logged;         /* under mu: splits 0..logged-1 are in the log */
+    uint32_t queued, taken;  /* under mu: intervals with a worker, and taken by a thread */
+    logged_split **chunk;    /* written by the decode thread before the split is logged */
+    uint32_t chunk_count;
+    interval *iv;            /* before the first key, one a key, the full level's */
+    uint32_t iv_count;
+    /* the decode thread's alone */
+    uint32_t log_end;          /* splits logged, published or not */
+    mts_grow_options go;
+    mts_grow_fixup *fix;
+    uint32_t dec_iv;           /* the interval of the split being decoded */
+    uint32_t fix_iv, fixed;    /* records 0..fixed-1 kept; fix_iv: split fixed's interval */
+    uint32_t composed;         /* the key orders of intervals 1..composed are in ids */
+    uint32_t *ids, *inv;       /* mesh-only triangle -> one grow's, and back */
+    uint32_t ids_n, ids_cap;
+    mts_words mapped;          /* an explicit split's moved triangles in mesh-only ids */
+};
+
+static logged_split *par_entry(struct mts__stream_par *p, uint32_t j)
+{
+    return &p->chunk[j / LOG_CHUNK][j % LOG_CHUNK];
+}
+
+static void par_free_chunk(struct mts__stream_par *p, uint32_t k)
+{
+    if (!p->chunk[k])
+        return;
+    for (uint32_t x = 0; x < LOG_CHUNK; x++)
+        free(p->chunk[k][x].lists);
+    free(p->chunk[k]);
+    p->chunk[k] = NULL;
+}
+
+static void par_free_blocks(interval *v)
+{
+    while (v->blocks) {
+        rec_block *b = v->blocks;
+        v->blocks = b->next;
+        free(b);
+    }
+}
+
+/* A pool thread's interval: each logged split in turn, its record kept in
+ * the interval's blocks and published. */
+static void par_grow(struct mts__stream_par *p, interval *v)
+{
+    uint32_t j = v->first;
+    mts_result rc = MTS_OK;
+    pthread_mutex_lock(&p->mu);
+    for (;;) {
+        /* what is made is published before waiting for more */
+        v->made = j;
+        pthread_cond_broadcast(&p->progress);
+        if (j >= v->end)
+            break;
+        while (!p->stop && p->logged <= j)
+            pthread_cond_wait(&p->work, &p->mu);
+        if (p->stop) {
+            rc = mts_error_set(&v->err, MTS_ERR_ARG, "stream: the decoder stopped");
+            break;
+        }
+        const uint32_t avail = p->logged;
+        pthread_mutex_unlock(&p->mu);
+        for (; rc == MTS_OK && j < avail && j < v->end; j++) {
+            logged_split *ls = par_entry(p, j);
+            const uint32_t *r;
+            uint32_t rw;
+            rc = mts_grow_next(v->w, &ls->sp, NULL, &r, &rw, &v->err);
+            if (rc != MTS_OK)
+                break;
+            rec_block *b = v->blocks;
+            if (!b || b->cap - b->used < rw) {
+                const size_t cap = rw > REC_BLOCK ? rw : REC_BLOCK;
+                if (!(b = malloc(sizeof *b + cap * 4))) {
+                    rc = mts_error_set(&v->err, MTS_ERR_NOMEM, "out of memory for records");
+                    break;
+                }
+                b->next = v->blocks;
+                b->used = 0;
+                b->cap = cap;
+                v->blocks = b;
+            }
+            uint32_t *to = b->w + b->used;
+            memcpy(to, r, (size_t)rw * 4);
+            b->used += rw;
+            ls->rec = to;
+            ls->rec_words = rw;
+            if ((j + 1 - v->first) % MTS__STREAM_PUBLISH_EVERY == 0) {
+                pthread_mutex_lock(&p->mu);
+                v->made = j + 1;
+                pthread_cond_broadcast(&p->progress);
+                pthread_mutex_unlock(&p->mu);
+            }
+        }
+        pthread_mutex_lock(&p->mu);
+        if (rc != MTS_OK)
+            break;
+    }
+    v->rc = rc;
+    v->done = 1;
+    pthread_cond_broadcast(&p->progress);
+    pthread_mutex_unlock(&p->mu);
+}
+
+static void *par_thread(void *arg)
+{
+    struct mts__stream_par *p = arg;
+    pthread_mutex_lock(&p->mu);
+    for (;;) {
+        while (!p->stop && p->taken >= p->queued)
+            pthread_cond_wait(&p->work, &p->mu);
+        if (p->stop)
+            break;
+        interval *v = &p->iv[p->taken++];
+        pthread_mutex_unlock(&p->mu);
+        par_grow(p, v);
+        pthread_mutex_lock(&p->mu);
+    }
+    pthread_mutex_unlock(&p->mu);
+    return NULL;
+}
+
+/* The decode thread: the splits logged so far, to the pool. */
+static void par_publish(struct mts__stream_par *p)
+{
+    pthread_mutex_lock(&p->mu);
+    p->logged = p->log_end;
+    pthread_cond_broadcast(&p->work);
+    pthread_mutex_unlock(&p->mu);
+}
+
+void mts__stream_par_free(struct mts__stream_par *p)
+{
+    if (!p)
+        return;
+    pthread_mutex_lock(&p->mu);
+    p->stop = 1;
+    pthread_cond_broadcast(&p->work);
+    pthread_mutex_unlock(&p->mu);
+    for (uint32_t k = 0; k < p->thread_count; k++)
+        pthread_join(p->thread[k], NULL);
+    for (uint32_t k = 0; p->chunk && k < p->chunk_count; k++)
+        par_free_chunk(p, k);
+    for (uint32_t i = 0; p->iv && i < p->iv_count; i++) {
+        mts_grow_free(p->iv[i].w);
+        par_free_blocks(&p->iv[i]);
+    }
+    pthread_cond_destroy(&p->work);
+    pthread_cond_destroy(&p->progress);
+    pthread_mutex_destroy(&p->mu);
+    mts_grow_fixup_free(p->fix);
+    free(p->thread);
+    free(p->chunk);
+    free(p->iv);
+    free(p->ids);
+    free(p->inv);
+    free(p->mapped.w);
+    free(p);
+}
+
+/* Until interval i has made its records below `upto` or its worker is
+ * done: its error then, if it did not get there. */
+static mts_result par_wait(struct mts__stream_par *p, uint32_t i, uint32_t upto, int whole,
+                           mts_error *err)
+{
+    interval *v = &p->iv[i];
+    if (!whole && v->seen >= upto)
+        return MTS_OK;
+    pthread_mutex_lock(&p->mu);
+    if (p->logged < p->log_end) { /* what the worker may be waiting for */
+        p->logged = p->log_end;
+        pthread_cond_broadcast(&p->work);
+    }
+    while (!v->done && (whole || v->made < upto))
+        pthread_cond_wait(&p->progress, &p->mu);
+    const int ok = v->rc == MTS_OK && (whole ? v->done : v->made >= upto);
+    v->seen = v->made;
+    pthread_mutex_unlock(&p->mu);
+    if (ok)
+        return MTS_OK;
+    if (err)
+        *err = v->err;
+    return v->rc != MTS_OK ? v->rc : MTS_ERR_INTERNAL;
+}
+
+/* Sets the state up after BASE: the log, the intervals, the fix-up, the
+ * first worker (a grow from the base, whose slots are the real ones) and
+ * the pool. MTS_OK with c->par NULL where one thread it is. */
+mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *go, mts_error *err)
+{
+    const mts_model *m = &c->model;
+    const uint32_t n = m->level_count, kc = c->info.key_count;
+    if (c->threads < 2 || c->records || !c->info.key_levels || n == 0)
+        return MTS_OK;
+    struct mts__stream_par *p = calloc(1, sizeof *p);
+    if (!p)
+        return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the decoder's threads");
+    if (pthread_mutex_init(&p->mu, NULL) != 0) {
+        free(p);
+        return mts_error_set(err, MTS_ERR_NOMEM, "cannot make the decoder's threads' lock");
+    }
+    pthread_cond_init(&p->work, NULL);
+    pthread_cond_init(&p->progress, NULL);
+    p->go = *go;
+    p->iv_count = kc + 2;
+    p->chunk_count = n / LOG_CHUNK + 1;
+    mts_result rc = MTS_OK;
+    if (!(p->iv = calloc(p->iv_count, sizeof *p->iv)) ||
+        !(p->chunk = calloc(p->chunk_count, sizeof *p->chunk)) ||
+        !(p->thread = calloc(c->threads, sizeof *p->thread)))
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the decoder's threads");
+    /* interval i: the splits from key i's (none for i = 0) to the next
+     * key's; the last one the full level's split alone */
+    for (uint32_t i = 0; rc == MTS_OK && i < p->iv_count; i++) {
+        interval *v = &p->iv[i];
+        v->first = i == 0 ? 0 : i <= kc ? c->info.key_levels[i - 1] - 1 : n - 1;
+        v->end = i < kc ? c->info.key_levels[i] - 1 : i == kc ? n - 1 : n;
+        if (v->end < v->first || (i > 0 && v->end == v->first))
+            rc = mts_error_set(err, MTS_ERR_FORMAT, "MODEL_INFO: key levels out of order");
+    }
+    if (rc == MTS_OK)
+        rc = mts_grow_fixup_create(&p->fix, err);
+    if (rc == MTS_OK)
+        rc = mts_grow_create(&m->base, m->base_vertex_count, n, go, &p->iv[0].w, err);
+    if (rc == MTS_OK) {
+        p->queued = 1;
+        /* more threads than intervals would wait for nothing */
+        const uint32_t want = c->threads - 1 < p->iv_count - 1 ? c->threads - 1 : p->iv_count - 1;
+        for (uint32_t k = 0; k < want; k++) {
+            if (pthread_create(&p->thread[p->thread_count], NULL, par_thread, p) != 0)
+                break;
+            p->thread_count++;
+        }
+        if (!p->thread_count)
+            rc = mts_error_set(err, MTS_ERR_NOMEM, "cannot start the decoder's threads");
+    }
+    if (rc != MTS_OK) {
+        mts__stream_par_free(p);
+        return rc;
+    }
+    c->par = p;
+    return MTS_OK;
+}
+
+/* Composes the key orders of the intervals up to i into ids (waiting for
+ * each worker's key split): what an explicit split's triangle ids, and the
+ * next worker, need. */
+static mts_result par_chain(mts_stream_client *c, uint32_t i, mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    for (; p->composed < i; p->composed++) {
+        const uint32_t k = p->composed + 1;
+        mts_result rc = par_wait(p, k, p->iv[k].first + 1, 0, err);
+        if (rc != MTS_OK)
+            return rc;
+        uint32_t count;
+        const uint32_t *order = mts_grow_key_order(p->iv[k].w, &count);
+        if (count > p->ids_cap) {
+            uint32_t cap = count > 2 * p->ids_cap ? count : 2 * p->ids_cap;
+            uint32_t *a = realloc(p->ids, (size_t)cap * 4), *b;
+            if (a)
+                p->ids = a;
+            if (!a || !(b = realloc(p->inv, (size_t)cap * 4)))
+                return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for triangle ids");
+            p->inv = b;
+            p->ids_cap = cap;
+        }
+        /* the triangles born since the last key have the same id in both */
+        for (; p->ids_n < count; p->ids_n++)
+            p->ids[p->ids_n] = p->ids_n;
+        for (uint32_t x = 0; order && x < count; x++) {
+            p->ids[x] = order[p->ids[x]];
+            p->inv[p->ids[x]] = x;
+        }
+    }
+    return MTS_OK;
+}
+
+/* The ids a new worker starts in: those composed, and for the triangles
+ * born since, their own. */
+static mts_result par_ids(mts_stream_client *c, mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    mts_grow_figures fig;
+    mts_grow_get_figures(c->grow, &fig);
+    if (fig.triangles > p->ids_cap) {
+        uint32_t cap = fig.triangles > 2 * p->ids_cap ? fig.triangles : 2 * p->ids_cap;
+        uint32_t *a = realloc(p->ids, (size_t)cap * 4), *b;
+        if (a)
+            p->ids = a;
+        if (!a || !(b = realloc(p->inv, (size_t)cap * 4)))
+            return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for triangle ids");
+        p->inv = b;
+        p->ids_cap = cap;
+    }
+    for (; p->ids_n < fig.triangles; p->ids_n++)
+        p->ids[p->ids_n] = p->inv[p->ids_n] = p->ids_n;
+    return MTS_OK;
+}
+
+/* Interval k's worker is done: its slots become the fix-up's state. */
+static mts_result par_retire(struct mts__stream_par *p, uint32_t k, mts_error *err)
+{
+    mts_result rc = par_wait(p, k, 0, 1, err);
+    if (rc == MTS_OK)
+        rc = mts_grow_fixup_end(p->fix, p->iv[k].w, err);
+    mts_grow_free(p->iv[k].w);
+    p->iv[k].w = NULL;
+    par_free_blocks(&p->iv[k]);
+    return rc;
+}
+
+/* Fixes up and keeps the records below `upto`, in level order, as their
+ * workers make them. */
+mts_result mts__stream_par_fixup(mts_stream_client *c, uint32_t upto, mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    const uint32_t nb = c->model.base_vertex_count;
+    while (p->fixed < upto) {
+        const uint32_t j = p->fixed;
+        while (j >= p->iv[p->fix_iv].end)
+            p->fix_iv++;
+        const uint32_t i = p->fix_iv;
+        mts_result rc = par_wait(p, i, j + 1, 0, err);
+        if (rc != MTS_OK)
+            return rc;
+        const logged_split *ls = par_entry(p, j);
+        const uint32_t *o = ls->rec;
+        uint32_t ow = ls->rec_words;
+        if (i > 0 && j == p->iv[i].first) {
+            if ((rc = par_retire(p, i - 1, err)) != MTS_OK ||
+                (rc = mts_grow_fixup_key(p->fix, ls->rec, ls->rec_words, ls->sp.parent, nb + j,
+                                         0, &o, &ow, err)) != MTS_OK)
+                return rc;
+        } else if (i > 0 &&
+                   (rc = mts_grow_fixup_record(p->fix, ls->rec, ls->rec_words, &o, &ow, err)) !=
+                       MTS_OK) {
+            return rc;
+        }
+        if ((rc = mts__stream_keep_record(c, j, o, ow, err)) != MTS_OK)
+            return rc;
+        p->fixed = j + 1;
+        if (p->fixed % LOG_CHUNK == 0)
+            par_free_chunk(p, p->fixed / LOG_CHUNK - 1);
+    }
+    return MTS_OK;
+}
+
+/* Between splits: the records the workers have made so far, below upto,
+ * fixed up, kept and applied to the runtime without waiting, so that the
+ * batch's end waits only for what the workers lag behind (the caller sees
+ * the runtime only once the batch is in). */
+mts_result mts__stream_par_catch_up(mts_stream_client *c, uint32_t upto, mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    uint32_t ready = p->fixed;
+    pthread_mutex_lock(&p->mu);
+    p->logged = p->log_end;
+    pthread_cond_broadcast(&p->work);
+    /* an interval whose records are all made is done with its worker too
+     * (par_grow sets both under one lock), which its successor's key needs */
+    for (uint32_t k = p->fix_iv; k < p->queued && ready < upto; k++) {
+        interval *v = &p->iv[k];
+        v->seen = v->made;
+        if (v->rc != MTS_OK || v->made < v->first)
+            break;
+        ready = v->made < upto ? v->made : upto;
+        if (v->made < v->end)
+            break;
+    }
+    pthread_mutex_unlock(&p->mu);
+    if (ready <= p->fixed)
+        return MTS_OK;
+    mts_result rc = mts__stream_par_fixup(c, ready, err);
+    if (rc == MTS_OK) {
+        mts_lod_set_available(&c->lod, p->fixed);
+        rc = mts_lod_set_level(&c->lod, p->fixed < c->stop_level ? p->fixed : c->stop_level, err);
+    }
+    return rc;
+}
+
+/* Split j on the decode thread: a worker made where a key interval starts,
+ * the split logged for it (or, the full level's, derived here), and the
+ * mesh-only grow split. *lists (an explicit split's) passes to the log. */
+mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_grow_split *sp,
+                            uint32_t **lists, const mts_grow_full *full, mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    while (p->dec_iv + 1 < p->iv_count && j >= p->iv[p->dec_iv + 1].first)
+        p->dec_iv++;
+    const uint32_t i = p->dec_iv;
+    const int starts = i > 0 && j == p->iv[i].first, last = i + 1 == p->iv_count;
+    /* an explicit split names triangles by one grow's ids at level j: the
+     * keys before j renumbered them */
+    mts_result rc = par_chain(c, starts ? i - 1 : i, err);
+    if (rc != MTS_OK)
+        return rc;
+    mts_grow_split ms = *sp;
+    if (sp->moved_count) {
+        p->mapped.n = 0;
+        if (!mts_words_reserve(&p->mapped, sp->moved_count))
+            return mts_error_set(err, MTS_ERR_NOMEM, "out of memory");
+        for (uint32_t k = 0; k < sp->moved_count; k++) {
+            const uint32_t x = sp->moved[k];
+            p->mapped.w[k] = x < p->ids_n && p->composed ? p->inv[x] : x;
+        }
+        ms.moved = p->mapped.w;
+    }
+    if (starts) {
+        mts_grow *w = NULL;
+        if ((rc = par_ids(c, err)) != MTS_OK ||
+            (rc = mts_grow_create_worker(c->grow, p->composed ? p->ids : NULL, &p->go, &w,
+                                         err)) != MTS_OK)
+            return rc;
+        if (last) {
+            /* the full level: the fix-up must have every record before */
+            const uint32_t *r, *o;
+            uint32_t rw, ow;
+            if ((rc = mts__stream_par_fixup(c, j, err)) == MTS_OK &&
+                (rc = mts_grow_next(w, sp, full, &r, &rw, err)) == MTS_OK &&
+                (rc = par_retire(p, i - 1, err)) == MTS_OK &&
+                (rc = mts_grow_fixup_key(p->fix, r, rw, sp->parent, c->model.base_vertex_count + j,
+                                         1, &o, &ow, err)) == MTS_OK &&
+                (rc = mts__stream_keep_record(c, j, o, ow, err)) == MTS_OK)
+                p->fixed = j + 1;
+            mts_grow_free(w);
+            if (rc != MTS_OK)
+                return rc;
+        } else {
+            p->iv[i].w = w;
+            pthread_mutex_lock(&p->mu);
+            p->queued = i + 1;
+            pthread_cond_broadcast(&p->work);
+            pthread_mutex_unlock(&p->mu);
+        }
+    }
+    if (!last) {
+        logged_split **ch = &p->chunk[j / LOG_CHUNK];
+        if (!*ch && !(*ch = calloc(LOG_CHUNK, sizeof **ch)))
+            return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the split log");
+        logged_split *ls = &(*ch)[j % LOG_CHUNK];
+        ls->sp = *sp;
+        ls->lists = *lists;
+        *lists = NULL;
+        p->log_end = j + 1;
+        if (p->log_end % MTS__STREAM_PUBLISH_EVERY == 0)
+            par_publish(p);
+    }
+    return mts_grow_split_mesh(c->grow, &ms, err);
+}
+

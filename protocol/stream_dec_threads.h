@@ -1,0 +1,52 @@
+/* Private to protocol/stream_dec*.c, not installed and not part of the
+ * public API (that is stream.h): the client's decoder on more than one
+ * thread (c->threads > 1). stream_dec.c decodes each split and calls in
+ * here; stream_dec_threads.c holds the pool that grows each key interval,
+ * the hand-over between the threads and the fix-up in level order
+ * (docs/threads.md, "Threads in the decoder"). */
+#ifndef MTS_STREAM_DEC_THREADS_H
+#define MTS_STREAM_DEC_THREADS_H
+
+#include <stdint.h>
+
+#include "grow.h"
+#include "stream.h"
+
+/* Splits logged, or records made, between two hand-overs: a split costs
+ * microseconds, a waiting thread's wake-up about as much, so each side
+ * publishes in runs (and whenever it is about to wait, so neither waits on
+ * what the other holds back). The decode thread also catches up (fixes up
+ * and applies what the workers have made) every this many splits. */
+#define MTS__STREAM_PUBLISH_EVERY 64u
+
+/* Appends one derived record, that of split j, to the client's model
+ * (stream_dec.c): the one-thread path and the fix-up keep records alike. */
+mts_result mts__stream_keep_record(mts_stream_client *c, uint32_t j, const uint32_t *r,
+                                   uint32_t words, mts_error *err);
+
+/* Sets the threads up after BASE: the log, the intervals, the fix-up, the
+ * first worker (a grow from the base, whose slots are the real ones) and
+ * the pool. MTS_OK with c->par left NULL where one thread it is (threads
+ * below 2, the records form, no key levels listed). */
+mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *go,
+                                 mts_error *err);
+
+/* Stops and joins the pool and frees everything; NULL is fine. */
+void mts__stream_par_free(struct mts__stream_par *p);
+
+/* Split j on the decode thread, in place of one grow's mts_grow_next: a
+ * worker made where a key interval starts, the split logged for it (or,
+ * the full level's, derived here), and the mesh-only grow (c->grow) split.
+ * *lists (an explicit split's, or NULL) passes to the log. */
+mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_grow_split *sp,
+                                 uint32_t **lists, const mts_grow_full *full, mts_error *err);
+
+/* Fixes up and keeps the records below `upto`, in level order, waiting for
+ * their workers: a batch's records before it is applied. */
+mts_result mts__stream_par_fixup(mts_stream_client *c, uint32_t upto, mts_error *err);
+
+/* Between splits: the records the workers have made so far, below upto,
+ * fixed up, kept and applied to the runtime without waiting. */
+mts_result mts__stream_par_catch_up(mts_stream_client *c, uint32_t upto, mts_error *err);
+
+#endif
