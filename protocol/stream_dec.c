@@ -730,7 +730,7 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, mts_grow_
                                      "BATCH %u: vertex %u's colour is off the 0..255 range", index,
                                      v);
         }
-        if (c->par && (j + 1) % MTS__STREAM_PUBLISH_EVERY == 0 &&
+        if (c->par && (j + 1) % MTS__STREAM_CATCH_UP_EVERY == 0 &&
             (rc = mts__stream_par_catch_up(c, j + 1, err)) != MTS_OK)
             return mts_error_prefix(err, "BATCH %u", index);
     }

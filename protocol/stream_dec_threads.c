@@ -7,8 +7,10 @@
 #include "grow_tokens.h"
 
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "words.h"
 
@@ -44,10 +46,10 @@ typedef struct rec_block {
 typedef struct interval {
     mts_grow *w;         /* made on the decode thread, grown on a pool thread */
     uint32_t first, end; /* its splits; first is its key split but in interval 0 */
-    uint32_t made;       /* records made, first..made-1 (under mu) */
+    atomic_uint made;    /* records made, first..made-1 */
     uint32_t seen;       /* made as the decode thread last read it (its own) */
-    int done;            /* the worker has finished with w (under mu) */
-    mts_result rc;       /* how (under mu, with done) */
+    atomic_int done;     /* the worker has finished with w */
+    mts_result rc;       /* how (written before done) */
     mts_error err;
     rec_block *blocks;
 } interval;
@@ -58,15 +60,17 @@ struct mts__stream_par {
     pthread_cond_t progress; /* for the decode thread: a record made, a worker done */
     pthread_t *thread;
     uint32_t thread_count;
-    int stop;                /* under mu */
-    uint32_t logged;         /* under mu: splits 0..logged-1 are in the log */
+    atomic_int stop;         /* set under mu, so that a sleeper sees it */
+    atomic_uint logged;      /* splits 0..logged-1 are in the log */
+    /* threads asleep on work for a split, on progress for a record: the
+     * other side wakes them only then (par_sleep) */
+    atomic_uint pool_sleeping, dec_sleeping;
     uint32_t queued, taken;  /* under mu: intervals with a worker, and taken by a thread */
     logged_split **chunk;    /* written by the decode thread before the split is logged */
     uint32_t chunk_count;
     interval *iv;            /* before the first key, one a key, the full level's */
     uint32_t iv_count;
     /* the decode thread's alone */
-    uint32_t log_end;          /* splits logged, published or not */
     mts_grow_options go;
     mts_grow_fixup *fix;
     uint32_t dec_iv;           /* the interval of the split being decoded */
@@ -101,28 +105,85 @@ static void par_free_blocks(interval *v)
     }
 }
 
+/* Handing splits and records over: each is published as it is made (an
+ * atomic store), and a side that finds nothing to take spins a while before
+ * it sleeps. A split costs a couple of microseconds and a sleeping
+ * thread's wake-up several, so waking the other side for each would cost
+ * what threads gain, and publishing in runs made the worker lag a run
+ * behind: at every batch's end the decode thread waited for that lag
+ * (a quarter of bunny00's time on two threads). The spin is bounded, so a
+ * thread that waits for longer (a network gap, a key's restripification)
+ * sleeps on the lock, and only a sleeper is woken. */
+#define SPIN_NS 50000
+
+static void cpu_relax(void)
+{
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#elif defined(__aarch64__)
+    __asm__ __volatile__("yield");
+#endif
+}
+
+static uint64_t now_ns(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (uint64_t)t.tv_sec * 1000000000u + (uint64_t)t.tv_nsec;
+}
+
+/* A pool thread: the splits logged, once there are more than j (or the
+ * decoder stops: then at most j). */
+static uint32_t par_wait_logged(struct mts__stream_par *p, uint32_t j)
+{
+    uint32_t n = atomic_load(&p->logged);
+    if (n > j)
+        return n;
+    const uint64_t until = now_ns() + SPIN_NS;
+    for (unsigned k = 1;; k++) {
+        cpu_relax();
+        if ((n = atomic_load(&p->logged)) > j || atomic_load(&p->stop))
+            return n;
+        if (k % 32 == 0 && now_ns() > until)
+            break;
+    }
+    /* the decode thread stores logged, then reads pool_sleeping; this
+     * thread counts itself, then reads logged: one of the two sees the
+     * other (sequentially consistent), so no wake-up is lost */
+    pthread_mutex_lock(&p->mu);
+    atomic_fetch_add(&p->pool_sleeping, 1);
+    while ((n = atomic_load(&p->logged)) <= j && !atomic_load(&p->stop))
+        pthread_cond_wait(&p->work, &p->mu);
+    atomic_fetch_sub(&p->pool_sleeping, 1);
+    pthread_mutex_unlock(&p->mu);
+    return n;
+}
+
+/* A pool thread: interval v's records below n are made. */
+static void par_made(struct mts__stream_par *p, interval *v, uint32_t n)
+{
+    atomic_store(&v->made, n);
+    if (atomic_load(&p->dec_sleeping)) {
+        pthread_mutex_lock(&p->mu);
+        pthread_cond_broadcast(&p->progress);
+        pthread_mutex_unlock(&p->mu);
+    }
+}
+
 /* A pool thread's interval: each logged split in turn, its record kept in
  * the interval's blocks and published. */
 static void par_grow(struct mts__stream_par *p, interval *v)
 {
     uint32_t j = v->first;
     mts_result rc = MTS_OK;
-    pthread_mutex_lock(&p->mu);
-    for (;;) {
-        /* what is made is published before waiting for more */
-        v->made = j;
-        pthread_cond_broadcast(&p->progress);
-        if (j >= v->end)
-            break;
-        while (!p->stop && p->logged <= j)
-            pthread_cond_wait(&p->work, &p->mu);
-        if (p->stop) {
+    par_made(p, v, j);
+    while (rc == MTS_OK && j < v->end) {
+        const uint32_t avail = par_wait_logged(p, j);
+        if (avail <= j) {
             rc = mts_error_set(&v->err, MTS_ERR_ARG, "stream: the decoder stopped");
             break;
         }
-        const uint32_t avail = p->logged;
-        pthread_mutex_unlock(&p->mu);
-        for (; rc == MTS_OK && j < avail && j < v->end; j++) {
+        for (; j < avail && j < v->end; j++) {
             logged_split *ls = par_entry(p, j);
             const uint32_t *r;
             uint32_t rw;
@@ -146,19 +207,12 @@ static void par_grow(struct mts__stream_par *p, interval *v)
             b->used += rw;
             ls->rec = to;
             ls->rec_words = rw;
-            if ((j + 1 - v->first) % MTS__STREAM_PUBLISH_EVERY == 0) {
-                pthread_mutex_lock(&p->mu);
-                v->made = j + 1;
-                pthread_cond_broadcast(&p->progress);
-                pthread_mutex_unlock(&p->mu);
-            }
+            par_made(p, v, j + 1);
         }
-        pthread_mutex_lock(&p->mu);
-        if (rc != MTS_OK)
-            break;
     }
+    pthread_mutex_lock(&p->mu);
     v->rc = rc;
-    v->done = 1;
+    atomic_store(&v->done, 1);
     pthread_cond_broadcast(&p->progress);
     pthread_mutex_unlock(&p->mu);
 }
@@ -168,9 +222,9 @@ static void *par_thread(void *arg)
     struct mts__stream_par *p = arg;
     pthread_mutex_lock(&p->mu);
     for (;;) {
-        while (!p->stop && p->taken >= p->queued)
+        while (!atomic_load(&p->stop) && p->taken >= p->queued)
             pthread_cond_wait(&p->work, &p->mu);
-        if (p->stop)
+        if (atomic_load(&p->stop))
             break;
         interval *v = &p->iv[p->taken++];
         pthread_mutex_unlock(&p->mu);
@@ -181,13 +235,15 @@ static void *par_thread(void *arg)
     return NULL;
 }
 
-/* The decode thread: the splits logged so far, to the pool. */
-static void par_publish(struct mts__stream_par *p)
+/* The decode thread: splits 0..n-1 are in the log. */
+static void par_publish(struct mts__stream_par *p, uint32_t n)
 {
-    pthread_mutex_lock(&p->mu);
-    p->logged = p->log_end;
-    pthread_cond_broadcast(&p->work);
-    pthread_mutex_unlock(&p->mu);
+    atomic_store(&p->logged, n);
+    if (atomic_load(&p->pool_sleeping)) {
+        pthread_mutex_lock(&p->mu);
+        pthread_cond_broadcast(&p->work);
+        pthread_mutex_unlock(&p->mu);
+    }
 }
 
 void mts__stream_par_free(struct mts__stream_par *p)
@@ -195,7 +251,7 @@ void mts__stream_par_free(struct mts__stream_par *p)
     if (!p)
         return;
     pthread_mutex_lock(&p->mu);
-    p->stop = 1;
+    atomic_store(&p->stop, 1);
     pthread_cond_broadcast(&p->work);
     pthread_mutex_unlock(&p->mu);
     for (uint32_t k = 0; k < p->thread_count; k++)
@@ -227,16 +283,32 @@ static mts_result par_wait(struct mts__stream_par *p, uint32_t i, uint32_t upto,
     interval *v = &p->iv[i];
     if (!whole && v->seen >= upto)
         return MTS_OK;
-    pthread_mutex_lock(&p->mu);
-    if (p->logged < p->log_end) { /* what the worker may be waiting for */
-        p->logged = p->log_end;
-        pthread_cond_broadcast(&p->work);
+    int done = atomic_load(&v->done);
+    uint32_t made = atomic_load(&v->made);
+    if (!done && (whole || made < upto)) {
+        const uint64_t until = now_ns() + SPIN_NS;
+        for (unsigned k = 1;; k++) {
+            cpu_relax();
+            done = atomic_load(&v->done);
+            made = atomic_load(&v->made);
+            if (done || (!whole && made >= upto) || (k % 32 == 0 && now_ns() > until))
+                break;
+        }
     }
-    while (!v->done && (whole || v->made < upto))
-        pthread_cond_wait(&p->progress, &p->mu);
-    const int ok = v->rc == MTS_OK && (whole ? v->done : v->made >= upto);
-    v->seen = v->made;
-    pthread_mutex_unlock(&p->mu);
+    if (!done && (whole || made < upto)) {
+        /* as par_wait_logged, the other way round */
+        pthread_mutex_lock(&p->mu);
+        atomic_fetch_add(&p->dec_sleeping, 1);
+        while (!(done = atomic_load(&v->done)) && (whole || (made = atomic_load(&v->made)) < upto))
+            pthread_cond_wait(&p->progress, &p->mu);
+        atomic_fetch_sub(&p->dec_sleeping, 1);
+        pthread_mutex_unlock(&p->mu);
+    }
+    /* records made are as good as made, but a worker that failed fails its
+     * whole interval, as one grow would have stopped there */
+    made = atomic_load(&v->made);
+    const int ok = (!done || v->rc == MTS_OK) && (whole ? done : made >= upto);
+    v->seen = made;
     if (ok)
         return MTS_OK;
     if (err)
@@ -415,21 +487,19 @@ mts_result mts__stream_par_catch_up(mts_stream_client *c, uint32_t upto, mts_err
 {
     struct mts__stream_par *p = c->par;
     uint32_t ready = p->fixed;
-    pthread_mutex_lock(&p->mu);
-    p->logged = p->log_end;
-    pthread_cond_broadcast(&p->work);
-    /* an interval whose records are all made is done with its worker too
-     * (par_grow sets both under one lock), which its successor's key needs */
+    /* the successor's key needs the interval's worker done, not only its
+     * records made (par_grow stores made, then done): done is read first */
     for (uint32_t k = p->fix_iv; k < p->queued && ready < upto; k++) {
         interval *v = &p->iv[k];
-        v->seen = v->made;
-        if (v->rc != MTS_OK || v->made < v->first)
+        const int done = atomic_load(&v->done);
+        const uint32_t made = atomic_load(&v->made);
+        v->seen = made;
+        if ((done && v->rc != MTS_OK) || made < v->first)
             break;
-        ready = v->made < upto ? v->made : upto;
-        if (v->made < v->end)
+        ready = made < upto ? made : upto;
+        if (made < v->end || !done)
             break;
     }
-    pthread_mutex_unlock(&p->mu);
     if (ready <= p->fixed)
         return MTS_OK;
     mts_result rc = mts__stream_par_fixup(c, ready, err);
@@ -452,8 +522,10 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
     const uint32_t i = p->dec_iv;
     const int starts = i > 0 && j == p->iv[i].first, last = i + 1 == p->iv_count;
     /* an explicit split names triangles by one grow's ids at level j: the
-     * keys before j renumbered them */
-    mts_result rc = par_chain(c, starts ? i - 1 : i, err);
+     * keys before j renumbered them; a new worker starts in the ids before
+     * its key. Only those wait for the chain: any other split goes on
+     * decoding while its interval's worker restripifies at the key. */
+    mts_result rc = starts || sp->moved_count ? par_chain(c, starts ? i - 1 : i, err) : MTS_OK;
     if (rc != MTS_OK)
         return rc;
     mts_grow_split ms = *sp;
@@ -503,9 +575,7 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
         ls->sp = *sp;
         ls->lists = *lists;
         *lists = NULL;
-        p->log_end = j + 1;
-        if (p->log_end % MTS__STREAM_PUBLISH_EVERY == 0)
-            par_publish(p);
+        par_publish(p, j + 1);
     }
     return mts_grow_split_mesh(c->grow, &ms, err);
 }

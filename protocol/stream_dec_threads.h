@@ -12,12 +12,10 @@
 #include "grow.h"
 #include "stream.h"
 
-/* Splits logged, or records made, between two hand-overs: a split costs
- * microseconds, a waiting thread's wake-up about as much, so each side
- * publishes in runs (and whenever it is about to wait, so neither waits on
- * what the other holds back). The decode thread also catches up (fixes up
- * and applies what the workers have made) every this many splits. */
-#define MTS__STREAM_PUBLISH_EVERY 64u
+/* The decode thread catches up (fixes up and applies what the workers have
+ * made, mts__stream_par_catch_up) every this many splits, so that a
+ * batch's end is left only the records made since. */
+#define MTS__STREAM_CATCH_UP_EVERY 64u
 
 /* Appends one derived record, that of split j, to the client's model
  * (stream_dec.c): the one-thread path and the fix-up keep records alike. */
