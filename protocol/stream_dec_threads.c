@@ -7,6 +7,7 @@
 #include "grow_tokens.h"
 
 #include <pthread.h>
+#include <sched.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,7 +24,9 @@
  * (mts_grow_fixup), keeps them and applies them at the batch's end, so the
  * records and the runtime are what one grow gives, and each batch is
  * applied before its frame returns. The full level's split reads the
- * batch's coder as it walks, so its worker runs on the decode thread. */
+ * batch's coder as it walks, so its worker runs on the decode thread.
+ * With one pool thread (two threads in all) there is one worker, a grow
+ * from the base that takes every split, and nothing to fix up (`pipe`). */
 
 #define LOG_CHUNK 4096u /* splits a log chunk holds: freed once fixed up */
 #define REC_BLOCK 65536u /* words of a worker's record block */
@@ -51,7 +54,9 @@ typedef struct interval {
     atomic_int done;     /* the worker has finished with w */
     mts_result rc;       /* how (written before done) */
     mts_error err;
-    rec_block *blocks;
+    /* oldest first: the worker appends at tail, the decode thread frees
+     * from the head those whose records it has kept */
+    rec_block *blocks, *tail;
 } interval;
 
 struct mts__stream_par {
@@ -70,12 +75,22 @@ struct mts__stream_par {
     uint32_t chunk_count;
     interval *iv;            /* before the first key, one a key, the full level's */
     uint32_t iv_count;
+    /* One pool thread (threads == 2): one grow from the base takes every
+     * split but the full level's, on that thread, and its records are the
+     * real ones. Intervals on one thread run one after another anyway, so
+     * a worker a key would only add the mesh copies, the fresh memory and
+     * the fix-up, all on the decode thread, which is the bound. Then iv[0]
+     * is that grow's, iv[1] the full level's, and each key's renumbering
+     * is kept in orders (for explicit splits' ids). */
+    int pipe;
+    uint32_t **orders, *order_n; /* written by the pool before the key's record is made */
     /* the decode thread's alone */
     mts_grow_options go;
     mts_grow_fixup *fix;
     uint32_t dec_iv;           /* the interval of the split being decoded */
     uint32_t fix_iv, fixed;    /* records 0..fixed-1 kept; fix_iv: split fixed's interval */
     uint32_t composed;         /* the key orders of intervals 1..composed are in ids */
+    uint32_t dec_keys;         /* pipe: the keys at or below the split being decoded */
     uint32_t *ids, *inv;       /* mesh-only triangle -> one grow's, and back */
     uint32_t ids_n, ids_cap;
     mts_words mapped;          /* an explicit split's moved triangles in mesh-only ids */
@@ -103,6 +118,7 @@ static void par_free_blocks(interval *v)
         v->blocks = b->next;
         free(b);
     }
+    v->tail = NULL;
 }
 
 /* Handing splits and records over: each is published as it is made (an
@@ -116,8 +132,16 @@ static void par_free_blocks(interval *v)
  * sleeps on the lock, and only a sleeper is woken. */
 #define SPIN_NS 50000
 
-static void cpu_relax(void)
+/* One turn of a spin. After the first few it yields the processor: where
+ * the two threads share a core (a busy machine), a pure spin would hold it
+ * for the whole spin while the thread it waits for cannot run, at every
+ * hand-over; where a core is free, yielding returns at once. */
+static void spin_turn(unsigned k)
 {
+    if (k >= 64) {
+        sched_yield();
+        return;
+    }
 #if defined(__x86_64__) || defined(__i386__)
     __builtin_ia32_pause();
 #elif defined(__aarch64__)
@@ -141,7 +165,7 @@ static uint32_t par_wait_logged(struct mts__stream_par *p, uint32_t j)
         return n;
     const uint64_t until = now_ns() + SPIN_NS;
     for (unsigned k = 1;; k++) {
-        cpu_relax();
+        spin_turn(k);
         if ((n = atomic_load(&p->logged)) > j || atomic_load(&p->stop))
             return n;
         if (k % 32 == 0 && now_ns() > until)
@@ -174,7 +198,7 @@ static void par_made(struct mts__stream_par *p, interval *v, uint32_t n)
  * the interval's blocks and published. */
 static void par_grow(struct mts__stream_par *p, interval *v)
 {
-    uint32_t j = v->first;
+    uint32_t j = v->first, key = 0;
     mts_result rc = MTS_OK;
     par_made(p, v, j);
     while (rc == MTS_OK && j < v->end) {
@@ -190,17 +214,33 @@ static void par_grow(struct mts__stream_par *p, interval *v)
             rc = mts_grow_next(v->w, &ls->sp, NULL, &r, &rw, &v->err);
             if (rc != MTS_OK)
                 break;
-            rec_block *b = v->blocks;
+            if (p->pipe && key < p->go.key_count && p->go.key_levels[key] == j + 1) {
+                /* the renumbering of the key just made, before the next */
+                uint32_t count;
+                const uint32_t *order = mts_grow_key_order(v->w, &count);
+                if (order && !(p->orders[key] = malloc((size_t)count * 4 + 4))) {
+                    rc = mts_error_set(&v->err, MTS_ERR_NOMEM, "out of memory for a key's order");
+                    break;
+                }
+                if (order)
+                    memcpy(p->orders[key], order, (size_t)count * 4);
+                p->order_n[key++] = order ? count : 0;
+            }
+            rec_block *b = v->tail;
             if (!b || b->cap - b->used < rw) {
                 const size_t cap = rw > REC_BLOCK ? rw : REC_BLOCK;
                 if (!(b = malloc(sizeof *b + cap * 4))) {
                     rc = mts_error_set(&v->err, MTS_ERR_NOMEM, "out of memory for records");
                     break;
                 }
-                b->next = v->blocks;
+                b->next = NULL;
                 b->used = 0;
                 b->cap = cap;
-                v->blocks = b;
+                if (v->tail)
+                    v->tail->next = b;
+                else
+                    v->blocks = b;
+                v->tail = b;
             }
             uint32_t *to = b->w + b->used;
             memcpy(to, r, (size_t)rw * 4);
@@ -272,6 +312,10 @@ void mts__stream_par_free(struct mts__stream_par *p)
     free(p->ids);
     free(p->inv);
     free(p->mapped.w);
+    for (uint32_t k = 0; p->orders && k < p->go.key_count; k++)
+        free(p->orders[k]);
+    free(p->orders);
+    free(p->order_n);
     free(p);
 }
 
@@ -288,7 +332,7 @@ static mts_result par_wait(struct mts__stream_par *p, uint32_t i, uint32_t upto,
     if (!done && (whole || made < upto)) {
         const uint64_t until = now_ns() + SPIN_NS;
         for (unsigned k = 1;; k++) {
-            cpu_relax();
+            spin_turn(k);
             done = atomic_load(&v->done);
             made = atomic_load(&v->made);
             if (done || (!whole && made >= upto) || (k % 32 == 0 && now_ns() > until))
@@ -335,26 +379,38 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
     pthread_cond_init(&p->work, NULL);
     pthread_cond_init(&p->progress, NULL);
     p->go = *go;
-    p->iv_count = kc + 2;
+    p->pipe = c->threads == 2;
+    p->iv_count = p->pipe ? 2 : kc + 2;
     p->chunk_count = n / LOG_CHUNK + 1;
     mts_result rc = MTS_OK;
     if (!(p->iv = calloc(p->iv_count, sizeof *p->iv)) ||
         !(p->chunk = calloc(p->chunk_count, sizeof *p->chunk)) ||
-        !(p->thread = calloc(c->threads, sizeof *p->thread)))
+        !(p->thread = calloc(c->threads, sizeof *p->thread)) ||
+        (p->pipe && (!(p->orders = calloc(kc + 1, sizeof *p->orders)) ||
+                     !(p->order_n = calloc(kc + 1, sizeof *p->order_n)))))
         rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the decoder's threads");
     /* interval i: the splits from key i's (none for i = 0) to the next
      * key's; the last one the full level's split alone */
-    for (uint32_t i = 0; rc == MTS_OK && i < p->iv_count; i++) {
-        interval *v = &p->iv[i];
-        v->first = i == 0 ? 0 : i <= kc ? c->info.key_levels[i - 1] - 1 : n - 1;
-        v->end = i < kc ? c->info.key_levels[i] - 1 : i == kc ? n - 1 : n;
-        if (v->end < v->first || (i > 0 && v->end == v->first))
+    for (uint32_t i = 0; rc == MTS_OK && i < kc + 2; i++) {
+        const uint32_t first = i == 0 ? 0 : i <= kc ? c->info.key_levels[i - 1] - 1 : n - 1;
+        const uint32_t end = i < kc ? c->info.key_levels[i] - 1 : i == kc ? n - 1 : n;
+        if (end < first || (i > 0 && end == first))
             rc = mts_error_set(err, MTS_ERR_FORMAT, "MODEL_INFO: key levels out of order");
+        else if (!p->pipe) {
+            p->iv[i].first = first;
+            p->iv[i].end = end;
+        }
+    }
+    if (rc == MTS_OK && p->pipe) {
+        p->iv[0].end = p->iv[1].first = n - 1;
+        p->iv[1].end = n;
     }
     if (rc == MTS_OK)
         rc = mts_grow_fixup_create(&p->fix, err);
     if (rc == MTS_OK)
         rc = mts_grow_create(&m->base, m->base_vertex_count, n, go, &p->iv[0].w, err);
+    if (rc == MTS_OK && p->pipe)
+        mts_grow_keep_key_order(p->iv[0].w);
     if (rc == MTS_OK) {
         p->queued = 1;
         /* more threads than intervals would wait for nothing */
@@ -383,11 +439,19 @@ static mts_result par_chain(mts_stream_client *c, uint32_t i, mts_error *err)
     struct mts__stream_par *p = c->par;
     for (; p->composed < i; p->composed++) {
         const uint32_t k = p->composed + 1;
-        mts_result rc = par_wait(p, k, p->iv[k].first + 1, 0, err);
+        /* the key split of interval k, split key_levels[k - 1] - 1, made */
+        mts_result rc = p->pipe ? par_wait(p, 0, c->info.key_levels[k - 1], 0, err)
+                                : par_wait(p, k, p->iv[k].first + 1, 0, err);
         if (rc != MTS_OK)
             return rc;
-        uint32_t count;
-        const uint32_t *order = mts_grow_key_order(p->iv[k].w, &count);
+        uint32_t count = 0;
+        const uint32_t *order = NULL;
+        if (p->pipe) {
+            order = p->orders[k - 1];
+            count = p->order_n[k - 1];
+        } else {
+            order = mts_grow_key_order(p->iv[k].w, &count);
+        }
         if (count > p->ids_cap) {
             uint32_t cap = count > 2 * p->ids_cap ? count : 2 * p->ids_cap;
             uint32_t *a = realloc(p->ids, (size_t)cap * 4), *b;
@@ -473,6 +537,16 @@ mts_result mts__stream_par_fixup(mts_stream_client *c, uint32_t upto, mts_error 
         if ((rc = mts__stream_keep_record(c, j, o, ow, err)) != MTS_OK)
             return rc;
         p->fixed = j + 1;
+        /* the blocks before the one this record lies in are all kept (the
+         * worker linked the next block before making a record there) */
+        interval *v = &p->iv[i];
+        const uintptr_t at = (uintptr_t)ls->rec;
+        while (v->blocks && (at < (uintptr_t)v->blocks->w ||
+                             at > (uintptr_t)(v->blocks->w + v->blocks->cap))) {
+            rec_block *b = v->blocks;
+            v->blocks = b->next;
+            free(b);
+        }
         if (p->fixed % LOG_CHUNK == 0)
             par_free_chunk(p, p->fixed / LOG_CHUNK - 1);
     }
@@ -525,7 +599,14 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
      * keys before j renumbered them; a new worker starts in the ids before
      * its key. Only those wait for the chain: any other split goes on
      * decoding while its interval's worker restripifies at the key. */
-    mts_result rc = starts || sp->moved_count ? par_chain(c, starts ? i - 1 : i, err) : MTS_OK;
+    uint32_t keys = starts ? i - 1 : i;
+    if (p->pipe) {
+        while (p->dec_keys < p->go.key_count && p->go.key_levels[p->dec_keys] <= j)
+            p->dec_keys++;
+        keys = p->dec_keys;
+    }
+    mts_result rc =
+        (starts && !p->pipe) || sp->moved_count ? par_chain(c, keys, err) : MTS_OK;
     if (rc != MTS_OK)
         return rc;
     mts_grow_split ms = *sp;
@@ -539,7 +620,18 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
         }
         ms.moved = p->mapped.w;
     }
-    if (starts) {
+    if (starts && p->pipe) {
+        /* the full level, here: the pool's grow once it has made every
+         * record before (its records are the real ones) */
+        const uint32_t *r;
+        uint32_t rw;
+        if ((rc = mts__stream_par_fixup(c, j, err)) != MTS_OK ||
+            (rc = par_wait(p, 0, 0, 1, err)) != MTS_OK ||
+            (rc = mts_grow_next(p->iv[0].w, sp, full, &r, &rw, err)) != MTS_OK ||
+            (rc = mts__stream_keep_record(c, j, r, rw, err)) != MTS_OK)
+            return rc;
+        p->fixed = j + 1;
+    } else if (starts) {
         mts_grow *w = NULL;
         if ((rc = par_ids(c, err)) != MTS_OK ||
             (rc = mts_grow_create_worker(c->grow, p->composed ? p->ids : NULL, &p->go, &w,

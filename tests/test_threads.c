@@ -6,7 +6,8 @@
  *    that batch's level with the server's checksum (a batch is applied
  *    before its frame returns, whatever the threads); the strips are
  *    compared at every level of cow and at the keys, the batches' ends and
- *    evenly spaced levels of the others;
+ *    evenly spaced levels of the others; likewise cow with every fourth
+ *    split explicit (triangle ids, mapped through the keys' renumberings);
  *  - a conversation broken after a batch resumes on the same threads, and
  *    a preview continued past its stop goes on with them;
  *  - a batch damaged after its CRC was taken fails the client at every
@@ -25,16 +26,120 @@
 
 #include "build.h"
 #include "crc32c.h"
+#include "grow.h"
 #include "mesh.h"
 #include "stream.h"
 #include "test.h"
 #include "test_proc.h"
 #include "varint.h"
 #include "wire.h"
+#include "words.h"
 
 static char bin_dir[512];
 
-static int build_stream(mts_test *t, const char *path, const char *name, mts_stream *s)
+/* Rewrites m's split descriptions so that every `every`-th split but the
+ * full level's names its triangles (one grow's ids, as a stream does), the
+ * fans of the others coded again against a grow that took those, whose
+ * records m then holds. No builder makes explicit splits yet, and with
+ * threads the decoder maps their ids through the keys' renumberings. */
+static int make_explicit(mts_test *t, mts_model *m, uint32_t every)
+{
+    mts_error err = {0};
+    const uint32_t n = m->level_count, nb = m->base_vertex_count;
+    const mts_grow_options go = {.key_levels = m->key_levels, .key_count = m->key_count};
+    const mts_grow_full given = {.strips = &m->full, .slot_count = m->strip_count};
+    mts_grow *fan = NULL, *g = NULL;
+    uint32_t *off = calloc((size_t)n + 1, 4), *roff = calloc((size_t)n + 1, 4);
+    mts_words data = {0}, rec = {0}, moved = {0};
+    int ok = off && roff &&
+             mts_grow_create(&m->base, nb, n, &go, &fan, &err) == MTS_OK &&
+             mts_grow_create(&m->base, nb, n, &go, &g, &err) == MTS_OK;
+    uint32_t explicit = 0;
+    for (uint32_t j = 0; ok && j < n; j++) {
+        mts_grow_split sp;
+        const uint32_t *r;
+        uint32_t rw;
+        if (!mts_grow_model_split(fan, m, j, &sp)) {
+            ok = 0;
+            break;
+        }
+        const uint32_t u = sp.parent, v = nb + j;
+        mts_grow_split xs = sp;
+        uint32_t born[6], nborn = 0;
+        off[j] = (uint32_t)data.n;
+        if (j % every == every - 1 && j + 1 < n) {
+            if (sp.left != MTS_GROW_NONE) {
+                born[3 * nborn] = u, born[3 * nborn + 1] = v, born[3 * nborn + 2] = sp.left;
+                nborn++;
+            }
+            if (sp.right != MTS_GROW_NONE) {
+                born[3 * nborn] = v, born[3 * nborn + 1] = u, born[3 * nborn + 2] = sp.right;
+                nborn++;
+            }
+            const int32_t k = mts_grow_fan(g, u, sp.left, sp.right, NULL, 0);
+            moved.n = 0;
+            ok = k > 0 && mts_words_reserve(&moved, (size_t)k) &&
+                 mts_grow_fan(g, u, sp.left, sp.right, moved.w, (uint32_t)k) == k &&
+                 mts_words_reserve(&data, 5 + (size_t)k + 3 * nborn);
+            if (!ok)
+                break;
+            uint32_t *w = data.w + data.n;
+            w[0] = w[1] = 0;
+            w[2] = MTS_GROWTH_EXPLICIT;
+            w[3] = (uint32_t)k;
+            w[4] = nborn;
+            memcpy(w + 5, moved.w, (size_t)k * 4);
+            memcpy(w + 5 + k, born, (size_t)nborn * 12);
+            data.n += 5 + (size_t)k + 3 * nborn;
+            xs = (mts_grow_split){u, MTS_GROW_NONE, MTS_GROW_NONE, (uint32_t)k, moved.w, nborn,
+                                  born};
+            explicit++;
+        } else {
+            mts_grow_fan_code fc;
+            ok = mts_grow_fan_encode(g, u, sp.left, sp.right, &fc) &&
+                 mts_words_reserve(&data, 3);
+            if (!ok)
+                break;
+            data.w[data.n++] = fc.start;
+            data.w[data.n++] = fc.count;
+            data.w[data.n++] = fc.sides;
+        }
+        ok = mts_grow_next(g, &xs, &given, &r, &rw, &err) == MTS_OK &&
+             mts_words_reserve(&rec, rw);
+        if (!ok)
+            break;
+        memcpy(rec.w + rec.n, r, (size_t)rw * 4);
+        rec.n += rw;
+        roff[j + 1] = (uint32_t)rec.n;
+        ok = mts_grow_next(fan, &sp, &given, &r, &rw, &err) == MTS_OK;
+    }
+    CHECKF(t, ok && explicit > 0, "explicit splits: %u made: %s", explicit, err.msg);
+    if (ok) {
+        off[n] = (uint32_t)data.n;
+        free(m->growth_offsets);
+        free(m->growth_data);
+        free(m->record_offsets);
+        free(m->record_data);
+        m->growth_offsets = off;
+        m->growth_data = data.w;
+        m->growth_word_count = (uint32_t)data.n;
+        m->record_offsets = roff;
+        m->record_data = rec.w;
+        m->record_word_count = (uint32_t)rec.n;
+    } else {
+        free(off);
+        free(roff);
+        free(data.w);
+        free(rec.w);
+    }
+    free(moved.w);
+    mts_grow_free(fan);
+    mts_grow_free(g);
+    return ok;
+}
+
+static int build_stream(mts_test *t, const char *path, const char *name, uint32_t explicit_every,
+                        mts_stream *s)
 {
     mts_error err = {0};
     mts_mesh mesh = {0};
@@ -48,6 +153,10 @@ static int build_stream(mts_test *t, const char *path, const char *name, mts_str
     CHECKF(t, rc == MTS_OK, "build %s: %s", path, err.msg);
     if (rc != MTS_OK)
         return 0;
+    if (explicit_every && !make_explicit(t, &m, explicit_every)) {
+        mts_model_free(&m);
+        return 0;
+    }
     rc = mts_stream_build(&m, name, NULL, s, &err);
     mts_model_free(&m);
     CHECKF(t, rc == MTS_OK, "stream %s: %s", name, err.msg);
@@ -188,10 +297,10 @@ static void compare(mts_test *t, const char *what, const mts_stream *s, mts_stre
 
 /* One model's stream: one thread, then 2 and 4, whole and in pieces. */
 static void model_threads(mts_test *t, const char *path, const char *name, size_t piece,
-                          int every_level)
+                          int every_level, uint32_t explicit_every)
 {
     mts_stream s;
-    if (!build_stream(t, path, name, &s))
+    if (!build_stream(t, path, name, explicit_every, &s))
         return;
     mts_buf b = {0};
     conversation(&s, 0, &b);
@@ -233,7 +342,7 @@ static void model_threads(mts_test *t, const char *path, const char *name, size_
 
 static void test_cow(mts_test *t)
 {
-    model_threads(t, "tests/data/cow.off", "cow", 97, 1);
+    model_threads(t, "tests/data/cow.off", "cow", 97, 1, 0);
 }
 
 static void test_bunny(mts_test *t)
@@ -242,7 +351,7 @@ static void test_bunny(mts_test *t)
     const char *path = mts_test_model("bunny00.off", buf, sizeof buf);
     if (!path)
         SKIP(t, "%s not found", buf);
-    model_threads(t, path, "bunny00", 977, 0);
+    model_threads(t, path, "bunny00", 977, 0, 0);
 }
 
 static void test_fandisk(mts_test *t)
@@ -251,7 +360,16 @@ static void test_fandisk(mts_test *t)
     const char *path = mts_test_model("fandisk_large.off", buf, sizeof buf);
     if (!path)
         SKIP(t, "%s not found", buf);
-    model_threads(t, path, "fandisk_large", 977, 0);
+    model_threads(t, path, "fandisk_large", 977, 0, 0);
+}
+
+/* cow with every fourth split explicit: the ids a split names are one
+ * grow's, which the decode thread's mesh-only grow maps through every
+ * key's renumbering so far (from the workers, or from the one grow on two
+ * threads) */
+static void test_explicit(mts_test *t)
+{
+    model_threads(t, "tests/data/cow.off", "cow-explicit", 97, 1, 4);
 }
 
 /* A conversation cut after a third of the batches, resumed: the threads
@@ -259,7 +377,7 @@ static void test_fandisk(mts_test *t)
 static void test_resume(mts_test *t)
 {
     mts_stream s;
-    if (!build_stream(t, "tests/data/cow.off", "cow", &s))
+    if (!build_stream(t, "tests/data/cow.off", "cow", 0, &s))
         return;
     mts_error err = {0};
     mts_buf whole = {0}, first = {0}, rest = {0};
@@ -319,7 +437,7 @@ static void test_resume(mts_test *t)
 static void test_damaged_batch(mts_test *t)
 {
     mts_stream s;
-    if (!build_stream(t, "tests/data/cow.off", "cow", &s))
+    if (!build_stream(t, "tests/data/cow.off", "cow", 0, &s))
         return;
     mts_buf b = {0};
     conversation(&s, 0, &b);
@@ -390,7 +508,7 @@ static pid_t serve(int lfd, const mts_buf *b)
 static void test_client_program(mts_test *t)
 {
     mts_stream s;
-    if (!build_stream(t, "tests/data/cow.off", "cow", &s))
+    if (!build_stream(t, "tests/data/cow.off", "cow", 0, &s))
         return;
     mts_buf b = {0};
     conversation(&s, 0, &b);
@@ -443,6 +561,7 @@ int main(int argc, char **argv)
     RUN(&t, test_damaged_batch);
     RUN(&t, test_bunny);
     RUN(&t, test_fandisk);
+    RUN(&t, test_explicit);
     RUN(&t, test_client_program);
     return mts_test_end(&t);
 }
