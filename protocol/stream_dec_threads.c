@@ -509,6 +509,17 @@ static mts_result par_retire(struct mts__stream_par *p, uint32_t k, mts_error *e
 
 /* Fixes up and keeps the records below `upto`, in level order, as their
  * workers make them. */
+/* The records kept so far, applied to the runtime (up to the stop). */
+static mts_result par_apply(mts_stream_client *c, mts_error *err)
+{
+    const uint32_t fixed = c->par->fixed;
+    const uint32_t to = fixed < c->stop_level ? fixed : c->stop_level;
+    if (c->lod.level >= to)
+        return MTS_OK;
+    mts_lod_set_available(&c->lod, fixed);
+    return mts_lod_set_level(&c->lod, to, err);
+}
+
 mts_result mts__stream_par_fixup(mts_stream_client *c, uint32_t upto, mts_error *err)
 {
     struct mts__stream_par *p = c->par;
@@ -518,7 +529,13 @@ mts_result mts__stream_par_fixup(mts_stream_client *c, uint32_t upto, mts_error 
         while (j >= p->iv[p->fix_iv].end)
             p->fix_iv++;
         const uint32_t i = p->fix_iv;
-        mts_result rc = par_wait(p, i, j + 1, 0, err);
+        mts_result rc = MTS_OK;
+        /* about to wait: what is kept is applied meanwhile, so that the
+         * batch's end is left only with what the pool makes last */
+        if (p->iv[i].seen <= j && atomic_load(&p->iv[i].made) <= j &&
+            (rc = par_apply(c, err)) != MTS_OK)
+            return rc;
+        rc = par_wait(p, i, j + 1, 0, err);
         if (rc != MTS_OK)
             return rc;
         const logged_split *ls = par_entry(p, j);
@@ -577,11 +594,7 @@ mts_result mts__stream_par_catch_up(mts_stream_client *c, uint32_t upto, mts_err
     if (ready <= p->fixed)
         return MTS_OK;
     mts_result rc = mts__stream_par_fixup(c, ready, err);
-    if (rc == MTS_OK) {
-        mts_lod_set_available(&c->lod, p->fixed);
-        rc = mts_lod_set_level(&c->lod, p->fixed < c->stop_level ? p->fixed : c->stop_level, err);
-    }
-    return rc;
+    return rc == MTS_OK ? par_apply(c, err) : rc;
 }
 
 /* Split j on the decode thread: a worker made where a key interval starts,
