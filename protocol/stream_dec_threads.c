@@ -431,6 +431,22 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
     return MTS_OK;
 }
 
+/* Room for n triangle ids and their inverse, grown by doubling. */
+static mts_result ids_reserve(struct mts__stream_par *p, uint32_t n, mts_error *err)
+{
+    if (n <= p->ids_cap)
+        return MTS_OK;
+    uint32_t cap = n > 2 * p->ids_cap ? n : 2 * p->ids_cap;
+    uint32_t *a = realloc(p->ids, (size_t)cap * 4), *b;
+    if (a)
+        p->ids = a;
+    if (!a || !(b = realloc(p->inv, (size_t)cap * 4)))
+        return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for triangle ids");
+    p->inv = b;
+    p->ids_cap = cap;
+    return MTS_OK;
+}
+
 /* Composes the key orders of the intervals up to i into ids (waiting for
  * each worker's key split): what an explicit split's triangle ids, and the
  * next worker, need. */
@@ -452,16 +468,8 @@ static mts_result par_chain(mts_stream_client *c, uint32_t i, mts_error *err)
         } else {
             order = mts_grow_key_order(p->iv[k].w, &count);
         }
-        if (count > p->ids_cap) {
-            uint32_t cap = count > 2 * p->ids_cap ? count : 2 * p->ids_cap;
-            uint32_t *a = realloc(p->ids, (size_t)cap * 4), *b;
-            if (a)
-                p->ids = a;
-            if (!a || !(b = realloc(p->inv, (size_t)cap * 4)))
-                return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for triangle ids");
-            p->inv = b;
-            p->ids_cap = cap;
-        }
+        if ((rc = ids_reserve(p, count, err)) != MTS_OK)
+            return rc;
         /* the triangles born since the last key have the same id in both */
         for (; p->ids_n < count; p->ids_n++)
             p->ids[p->ids_n] = p->ids_n;
@@ -480,16 +488,9 @@ static mts_result par_ids(mts_stream_client *c, mts_error *err)
     struct mts__stream_par *p = c->par;
     mts_grow_figures fig;
     mts_grow_get_figures(c->grow, &fig);
-    if (fig.triangles > p->ids_cap) {
-        uint32_t cap = fig.triangles > 2 * p->ids_cap ? fig.triangles : 2 * p->ids_cap;
-        uint32_t *a = realloc(p->ids, (size_t)cap * 4), *b;
-        if (a)
-            p->ids = a;
-        if (!a || !(b = realloc(p->inv, (size_t)cap * 4)))
-            return mts_error_set(err, MTS_ERR_NOMEM, "out of memory for triangle ids");
-        p->inv = b;
-        p->ids_cap = cap;
-    }
+    mts_result rc = ids_reserve(p, fig.triangles, err);
+    if (rc != MTS_OK)
+        return rc;
     for (; p->ids_n < fig.triangles; p->ids_n++)
         p->ids[p->ids_n] = p->inv[p->ids_n] = p->ids_n;
     return MTS_OK;
