@@ -12,7 +12,8 @@
 # MTS_BENCH_APPLYING_CLIENTS (default 1000) sets the applying
 # mts-stress clients, MTS_BENCH_FILES=0 the stream files on nginx
 # (bench/files.sh), MTS_BENCH_STRESS_FILES=0 the applying mts-stress clients
-# of a stream file on nginx beside mts-server's (bench/stress_files.sh). Exit status 1 when a requested
+# of a stream file on nginx beside mts-server's (bench/stress_files.sh),
+# MTS_BENCH_THREADS=0 the decoder's threads (bench/threads.sh). Exit status 1 when a requested
 # figure could not be measured; absent tools and models are skipped, with a
 # reason, and do not fail the run.
 set -uo pipefail
@@ -177,6 +178,17 @@ else
     echo "bench: the client's cost (a few minutes) ..." >&2
     bench/client_cost.sh "$out" "${client_models[@]}" || status=1
   fi
+fi
+# --- the decoder's threads ------------------------------------------------------
+# apply time against threads on the shared models, the big mesh's model (before
+# it goes) and a Sqrt3-subdivided cow; time to the full picture at 10, 25 and
+# 100 Mbit/s beside Draco from nginx (bench/threads.sh, docs/threads.md)
+rm -f "$out/threads.json"
+if [ "${MTS_BENCH_THREADS:-1}" = 0 ]; then
+  printf '{"skipped": "MTS_BENCH_THREADS=0"}\n' >"$out/threads.json"
+else
+  echo "bench: the decoder's threads (a few minutes) ..." >&2
+  bench/threads.sh "$out" "$shared/models" || status=1
 fi
 rm -f "$big_model" # ~67 MB by-product of the timing; its figures are in the JSON
 
@@ -656,6 +668,29 @@ def load_out(name):
             return json.load(f)
     except (OSError, ValueError):
         return None
+
+# --- the decoder's threads (bench/threads.sh printed the full tables) ---
+thr = load_out("threads.json") or {"skipped": "bench/threads.sh wrote nothing"}
+if list(thr) == ["skipped"]:
+    print(f"\nThreads in the decoder: skipped: {thr['skipped']}")
+else:
+    print(f"\nThreads in the decoder ({thr.get('processors')} processors online): apply time "
+          f"at each count over one thread's (mts-bench-apply, splits form)")
+    for name, m in thr.get("apply", {}).get("models", {}).items():
+        print(f"  {name:<14} 1 thread {m['splits_ms'].get('1', 0):9.2f} ms; " + ", ".join(
+            f"{t}: {r:.2f}x" for t, r in m["over_one_thread"].items() if t != "1"))
+    st = thr.get("stream", {})
+    for key, e in st.get("rates", {}).items():
+        f = lambda w: (e.get(w) or {}).get("full_ms")
+        dr = e.get("draco") or {}
+        cells = [f"{w} {f(w):.1f}" for w in ("splits_t1", "splits_default", "records") if f(w)]
+        cells += [f"Draco {dr['full_ms_' + k]:.1f} ({k})"
+                  for k in ("nginx_limit_rate", "link", "paced_as_mts_server")
+                  if dr.get("full_ms_" + k) is not None]
+        print(f"  {st.get('model')} at {key}, full picture ms: " + ", ".join(cells))
+    for name, why in thr.get("skipped", {}).items():
+        print(f"  {name}: skipped: {why}")
+res["threads"] = thr
 
 # --- the builder at scale ---
 builder = load_out("builder.json") or {"skipped": "bench/builder.sh wrote no figures"}

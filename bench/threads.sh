@@ -1,0 +1,374 @@
+#!/usr/bin/env bash
+# Part of `make bench`: the client's threaded stream decoder (docs/threads.md).
+#   1. Apply time against threads: mts-bench-apply --runs 7 --threads 1,..,P
+#      (P = processors online, the counts alternated within each run) on cow,
+#      bunny00, fandisk_large, the 1.2M mesh (OUT/bunny00_l2.mtsm, which
+#      bench/run.sh makes; built here from OUT/bunny00_l2.off when only that
+#      is left) and cow Sqrt3-subdivided once by OpenMesh, a mesh no test uses.
+#   2. Time to the full picture over loopback: bunny00 from mts-server
+#      --rate-limit at 10, 25 and 100 Mbit/s, fresh mts-client --no-render
+#      --json processes, the splits form at --threads 1 and at the default
+#      and the records form, interleaved, median of 3 (ms_base: first
+#      picture, ms_final: the final level). Beside it Draco: bunny00 encoded
+#      by draco_encoder -cl 7 -qp 14 (the stream's 14-bit grid), downloaded
+#      with curl from nginx at the same rate (nginx limit_rate, which sends
+#      the first second's bytes at once, so the download as mts-server would
+#      pace it is computed beside it), plus draco_decoder's decode time.
+# Usage: bench/threads.sh OUT SHARED_MODELS_DIR. Writes OUT/threads.json and
+# prints the tables. Environment: MTS_BENCH_BIN (default build/bin),
+# MTS_BENCH_BIG=0 leaves out the 1.2M mesh, MTS_BENCH_THREADS_QUICK=1 a
+# quick check (cow alone, 3 runs, one rate, one run each). Absent tools and
+# models are skipped with the reason in the JSON; exit status 1 when a
+# requested figure could not be measured.
+set -uo pipefail
+cd "$(dirname "$0")/.." || exit 1
+out=$1
+shared=$2
+mkdir -p "$out"
+out=$(cd "$out" && pwd) # nginx wants absolute paths
+bin=${MTS_BENCH_BIN:-build/bin}
+quick=${MTS_BENCH_THREADS_QUICK:-0}
+json="$out/threads.json"
+dir="$out/threads"
+rm -rf "$dir" "$json"
+mkdir -p "$dir/models" "$dir/www" "$dir/nginx/tmp"
+status=0
+now() { printf '%s\n' "$EPOCHREALTIME"; }
+elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", b - a }'; }
+free_port() { echo $((20000 + RANDOM % 20000)); }
+skipped="$dir/skipped.txt" # "what reason" lines for the JSON
+: >"$skipped"
+skip() { printf '%s\t%s\n' "$1" "$2" >>"$skipped"; echo "bench: threads: $1 skipped: $2" >&2; }
+# whatever this script started goes with it, interrupted or not
+pids=()
+trap 'kill -TERM "${pids[@]}" 2>/dev/null; wait 2>/dev/null' EXIT
+
+procs=$(getconf _NPROCESSORS_ONLN 2>/dev/null || echo 1)
+counts=""
+for t in 1 2 3 4 5 6 7 8; do # mts-bench-apply times at most 8 counts
+  [ "$t" -le "$procs" ] && counts="$counts${counts:+,}$t"
+done
+if [ "$procs" -gt 8 ]; then
+  counts="1,2,4,8"
+  for t in 16 32 64; do [ "$t" -lt "$procs" ] && counts="$counts,$t"; done
+  counts="$counts,$((procs < 64 ? procs : 64))"
+fi
+runs=7 stream_runs=3 names=(cow bunny00 fandisk_large) rates=(1250000 3125000 12500000)
+stream_model=bunny00
+if [ "$quick" = 1 ]; then
+  runs=3 stream_runs=1 names=(cow) rates=(3125000) stream_model=cow
+fi
+
+# --- the models ---------------------------------------------------------------
+models=()
+build_model() { # NAME MESH
+  if "$bin/mts-build" "$2" -o "$dir/models/$1.mtsm" --quiet 2>"$dir/build_$1.err"; then
+    models+=("$dir/models/$1.mtsm")
+  else
+    skip "$1" "mts-build: $(tail -n 1 "$dir/build_$1.err")"
+    status=1
+  fi
+}
+for m in "${names[@]}"; do
+  if [ -f "$shared/$m.off" ]; then build_model "$m" "$shared/$m.off"; else skip "$m" "$shared/$m.off not found"; fi
+done
+if [ "$quick" = 1 ]; then
+  :
+elif [ "${MTS_BENCH_BIG:-1}" = 0 ]; then
+  skip bunny00_l2 "MTS_BENCH_BIG=0"
+elif [ -f "$out/bunny00_l2.mtsm" ]; then
+  models+=("$out/bunny00_l2.mtsm")
+elif [ -f "$out/bunny00_l2.off" ]; then
+  echo "bench: threads: mts-build $out/bunny00_l2.off (about a minute) ..." >&2
+  build_model bunny00_l2 "$out/bunny00_l2.off"
+else
+  skip bunny00_l2 "neither $out/bunny00_l2.mtsm nor its .off (bench/run.sh makes them)"
+fi
+if [ "$quick" = 1 ]; then
+  :
+elif ! command -v OpenMesh-commandlineSubdivider >/dev/null; then
+  skip cow_sqrt3 "OpenMesh-commandlineSubdivider not installed (Debian libopenmesh-apps)"
+elif [ ! -f "$shared/cow.off" ]; then
+  skip cow_sqrt3 "$shared/cow.off not found"
+elif OpenMesh-commandlineSubdivider -s 1 "$shared/cow.off" "$dir/tmp_sqrt3.off" >"$dir/subdivide.log" 2>&1 &&
+  mv "$dir/tmp_sqrt3.off" "$out/cow_sqrt3.off"; then
+  build_model cow_sqrt3 "$out/cow_sqrt3.off"
+else
+  skip cow_sqrt3 "OpenMesh-commandlineSubdivider failed: $(tail -n 1 "$dir/subdivide.log")"
+  status=1
+fi
+
+# --- 1. apply time against threads ------------------------------------------
+if [ ${#models[@]} -gt 0 ]; then
+  echo "bench: threads: mts-bench-apply --threads $counts on ${#models[@]} model(s) ..." >&2
+  "$bin/mts-bench-apply" "${models[@]}" --runs "$runs" --threads "$counts" \
+    --json "$dir/apply.json" >"$dir/apply.txt" 2>&1 || status=1
+fi
+
+# --- 2. time to the full picture at a rate ------------------------------------
+: >"$dir/stream.txt" # RATE WAY RUN JSON
+: >"$dir/draco.txt"  # RATE WAY RUN SECONDS
+: >"$dir/decode.txt" # MS (draco_decoder's own) WALL_S
+smodel="$dir/models/$stream_model.mtsm"
+wait_listen() { # PORT
+  for _ in $(seq 1 600); do
+    (exec 3<>"/dev/tcp/127.0.0.1/$1") 2>/dev/null && return 0
+    sleep 0.05
+  done
+  return 1
+}
+wait_stream() { # PORT: the splits form encoded, then the records form too
+  local ok=1
+  for _ in $(seq 1 1200); do
+    list=$("$bin/mts-client" "127.0.0.1:$1" --list 2>/dev/null) &&
+      ! printf '%s\n' "$list" | awk '{ print $(NF-2) }' | grep -qx 0 && { ok=0; break; }
+    sleep 0.05
+  done
+  [ "$ok" = 0 ] || return 1
+  for _ in $(seq 1 1200); do
+    "$bin/mts-client" "127.0.0.1:$1" "$stream_model" --records --level 0 --no-render --json 2>/dev/null |
+      grep -q '"form":"records"' && return 0
+    sleep 0.05
+  done
+  return 1
+}
+if [ ! -f "$smodel" ]; then
+  skip stream "$stream_model's model was not built"
+else
+  for rate in "${rates[@]}"; do
+    port=$(free_port)
+    "$bin/mts-server" --model "$stream_model=$smodel" --listen "127.0.0.1:$port" \
+      --rate-limit "$rate" --quiet 2>"$dir/server_$rate.log" &
+    server=$!
+    pids+=("$server")
+    if ! wait_listen "$port" || ! wait_stream "$port"; then
+      skip "stream_$rate" "mts-server did not have the streams ready in 60 s: $(tail -n 1 "$dir/server_$rate.log")"
+      status=1
+    else
+      echo "bench: threads: $stream_model at $rate B/s, $stream_runs run(s) of each form ..." >&2
+      for run in $(seq 1 "$stream_runs"); do # interleaved, so drift hits all alike
+        for way in splits_t1 splits_default records; do
+          case $way in
+          splits_t1) flags=(--threads 1) ;;
+          splits_default) flags=() ;;
+          records) flags=(--records) ;;
+          esac
+          if line=$(timeout 120 "$bin/mts-client" "127.0.0.1:$port" "$stream_model" --no-render \
+            --json "${flags[@]}" 2>>"$dir/client.err"); then
+            echo "$rate $way $run $line" >>"$dir/stream.txt"
+          else
+            echo "bench: threads: mts-client $way at $rate failed: $(tail -n 1 "$dir/client.err")" >&2
+            status=1
+          fi
+        done
+      done
+    fi
+    kill -TERM "$server" 2>/dev/null
+    wait "$server" 2>/dev/null
+  done
+fi
+
+# Draco: the same mesh, single-rate, from nginx at the same rates
+nginx_bin=$(command -v nginx || { [ -x /usr/sbin/nginx ] && echo /usr/sbin/nginx; })
+if [ ! -f "$shared/$stream_model.off" ]; then
+  skip draco "$shared/$stream_model.off not found"
+elif ! command -v draco_encoder >/dev/null || ! command -v draco_decoder >/dev/null; then
+  skip draco "draco_encoder / draco_decoder not installed (Debian draco)"
+elif [ -z "$nginx_bin" ]; then
+  skip draco "nginx not installed (Debian nginx-light)"
+elif ! command -v curl >/dev/null; then
+  skip draco "curl not installed"
+else
+  # OFF to OBJ (positions and triangles only: what the stream carries)
+  awk 'BEGIN { s = 0 }
+       { sub(/#.*/, "") } NF == 0 { next }
+       s == 0 { s = 1; if ($1 == "OFF" && NF == 1) next; if ($1 == "OFF") { $1 = "" ; $0 = $0 } }
+       s == 1 { nv = $1; nf = $2; s = 2; next }
+       s == 2 && nv > 0 { print "v", $1, $2, $3; nv--; next }
+       s == 2 && nf > 0 { for (i = 3; i <= $1; i++) print "f", $2 + 1, $(i) + 1, $(i + 1) + 1; nf-- }' \
+    "$shared/$stream_model.off" >"$dir/$stream_model.obj"
+  drc="$dir/www/$stream_model.drc"
+  if ! draco_encoder -i "$dir/$stream_model.obj" -o "$drc" -cl 7 -qp 14 >"$dir/draco_encoder.log" 2>&1; then
+    skip draco "draco_encoder failed: $(tail -n 1 "$dir/draco_encoder.log")"
+    status=1
+  else
+    for _ in 1 2 3 4 5; do
+      t0=$(now)
+      msg=$(draco_decoder -i "$drc" -o "$dir/decoded.ply" 2>&1)
+      wall=$(elapsed "$t0" "$(now)")
+      ms=$(printf '%s\n' "$msg" | sed -n 's/.*(\([0-9.]*\) ms to decode).*/\1/p')
+      echo "${ms:-none} $wall" >>"$dir/decode.txt"
+    done
+    nport=$(free_port)
+    # shellcheck disable=SC2016 # $arg_rate is nginx's: the rate comes in the URL
+    sed -e "s#@PORT@#$nport#g" -e "s#@ROOT@#$dir/www#g" -e "s#@PREFIX@#$dir/nginx#g" \
+      -e 's#^\( *\)root \(.*\)#\1root \2\n\1limit_rate $arg_rate;#' \
+      bench/nginx-static.conf >"$dir/nginx/nginx.conf"
+    "$nginx_bin" -c "$dir/nginx/nginx.conf" -p "$dir/nginx" 2>"$dir/nginx/stderr.log" &
+    npid=$!
+    pids+=("$npid")
+    if ! wait_listen "$nport"; then
+      skip draco "nginx did not start: $(tail -n 1 "$dir/nginx/stderr.log")"
+      status=1
+    else
+      url="http://127.0.0.1:$nport/$stream_model.drc"
+      for rate in "${rates[@]}"; do
+        for run in $(seq 1 "$stream_runs"); do
+          s=$(curl -sS -o /dev/null -w '%{time_total}' "$url?rate=$rate" 2>>"$dir/curl.err")
+          if [ -n "$s" ]; then echo "$rate nginx $run $s" >>"$dir/draco.txt"; else status=1; fi
+        done
+      done
+    fi
+    kill -TERM "$npid" 2>/dev/null
+    wait "$npid" 2>/dev/null
+  fi
+fi
+
+# --- merge and print ------------------------------------------------------------
+python3 - "$dir" "$json" "$procs" "$counts" "$runs" "$stream_runs" "$stream_model" "$quick" <<'PY' || status=1
+import json, os, sys
+d, dest, procs, counts, runs, sruns, smodel, quick = sys.argv[1:9]
+counts = [int(c) for c in counts.split(",")]
+
+def med(v):
+    v = sorted(x for x in v if x is not None)
+    return v[len(v) // 2] if v else None
+
+def lines(name):
+    try:
+        with open(os.path.join(d, name)) as f:
+            return [l.rstrip("\n") for l in f if l.strip()]
+    except OSError:
+        return []
+
+res = {"processors": procs and int(procs), "quick": quick == "1"}
+skipped = dict(l.split("\t", 1) for l in lines("skipped.txt"))
+if skipped:
+    res["skipped"] = skipped
+
+# 1. apply time against threads
+apply = {"runs": int(runs), "threads": counts, "models": {}}
+try:
+    with open(os.path.join(d, "apply.json")) as f:
+        rows = json.load(f)["models"]
+except (OSError, ValueError):
+    rows = {}
+for row, r in rows.items():
+    name, _, t = row.rpartition("@t")
+    if not name:
+        name, t = row, str(r["threads"])
+    m = apply["models"].setdefault(name, {"triangles": r["triangles"], "splits": r["splits"],
+                                          "records_ms": r["records_ms"], "splits_ms": {},
+                                          "splits_ms_min": {}, "over_one_thread": {}})
+    m["splits_ms"][t] = r["splits_ms"]
+    m["splits_ms_min"][t] = r["splits_ms_min"]
+for m in apply["models"].values():
+    one = m["splits_ms"].get("1")
+    for t, ms in m["splits_ms"].items():
+        m["over_one_thread"][t] = round(ms / one, 3) if one else None
+res["apply"] = apply
+print(f"\nThreads: apply time against the decoder's threads (mts-bench-apply, splits form, "
+      f"median of {runs}, counts alternated in each run; {procs} processors online)")
+hdr = f"{'model':<14} {'triangles':>9} {'splits':>8} " + " ".join(
+    f"{f'{t} thr ms':>10}" for t in counts) + " " + " ".join(
+    f"{f'{t}/1':>6}" for t in counts[1:]) + f" {'records ms':>10}"
+print(hdr)
+print("-" * len(hdr))
+for name, m in apply["models"].items():
+    print(f"{name:<14} {m['triangles']:>9} {m['splits']:>8} " + " ".join(
+        f"{m['splits_ms'].get(str(t), float('nan')):>10.2f}" for t in counts) + " " + " ".join(
+        f"{m['over_one_thread'].get(str(t)) or float('nan'):>6.2f}" for t in counts[1:]) +
+        f" {m['records_ms']:>10.2f}")
+for name, why in skipped.items():
+    if not name.startswith(("stream", "draco")):
+        print(f"{name:<14} skipped: {why}")
+
+# 2. time to the full picture at a rate
+runs_by = {}
+for l in lines("stream.txt"):
+    rate, way, run, js = l.split(" ", 3)
+    try:
+        runs_by.setdefault(rate, {}).setdefault(way, []).append(json.loads(js))
+    except ValueError:
+        pass
+drc = {}
+for l in lines("draco.txt"):
+    rate, way, run, s = l.split()
+    drc.setdefault(rate, {}).setdefault(way, []).append(float(s) * 1e3)
+dec = [l.split() for l in lines("decode.txt")]
+dec_ms = med([float(a) for a, _ in dec if a != "none"])
+dec_wall_ms = med([float(b) * 1e3 for _, b in dec])
+drc_bytes = None
+try:
+    drc_bytes = os.path.getsize(os.path.join(d, "www", smodel + ".drc"))
+except OSError:
+    pass
+stream = {"model": smodel, "runs": int(sruns), "rates": {},
+          "draco": {"bytes": drc_bytes, "encoder": "draco_encoder -cl 7 -qp 14",
+                    "decode_ms": dec_ms, "decoder_process_ms": dec_wall_ms}}
+for rate in sorted(set(runs_by) | set(drc), key=float):
+    mbit = float(rate) * 8 / 1e6
+    e = {"bytes_per_s": float(rate)}
+    for way, rs in runs_by.get(rate, {}).items():
+        e[way] = {"first_ms": med([r.get("ms_base") for r in rs]),
+                  "full_ms": med([r.get("ms_final") for r in rs]),
+                  "apply_ms": med([r.get("ms_apply") for r in rs]),
+                  "bytes": med([r.get("bytes") for r in rs]),
+                  "threads": rs[0].get("threads"), "form": rs[0].get("form"),
+                  "complete": all(r.get("complete") for r in rs),
+                  "checksums": sorted({r.get("checksum") for r in rs if r.get("checksum")}),
+                  "runs": len(rs)}
+    dr = drc.get(rate, {})
+    if dr:
+        e["draco"] = {"download_ms_nginx_limit_rate": med(dr.get("nginx", [])),
+                      "runs": len(dr.get("nginx", []))}
+        if drc_bytes:  # a link at the rate; mts-server's pacing: plus a tenth of a second's burst
+            e["draco"]["download_ms_link"] = drc_bytes / float(rate) * 1e3
+            e["draco"]["download_ms_paced_as_mts_server"] = max(
+                0.0, drc_bytes - 0.1 * float(rate)) / float(rate) * 1e3
+        for way in ("nginx_limit_rate", "link", "paced_as_mts_server"):
+            v = e["draco"].get("download_ms_" + way)
+            e["draco"]["full_ms_" + way] = v + dec_ms if v is not None and dec_ms is not None else None
+    stream["rates"][f"{mbit:g}Mbit"] = e
+stream["same_checksum"] = len({c for e in stream["rates"].values() for w in e.values()
+                                if isinstance(w, dict) for c in w.get("checksums", [])}) <= 1
+res["stream"] = stream
+fmt = lambda v, p=1: f"{v:.{p}f}" if isinstance(v, (int, float)) else "-"
+print(f"\nThreads: time to the full picture, {smodel} from mts-server --rate-limit over loopback, "
+      f"fresh mts-client --no-render, median of {sruns} interleaved; Draco {drc_bytes} B "
+      f"(cl 7, 14 bits) by curl from nginx, plus draco_decoder's {fmt(dec_ms)} ms")
+print(f"{'rate':<9} {'way':<15} {'thr':>3} {'bytes':>9} {'link ms':>8} {'first ms':>9} "
+      f"{'full ms':>9} {'apply ms':>9} {'vs t1':>6}")
+print("-" * 85)
+for key, e in stream["rates"].items():
+    t1 = e.get("splits_t1", {}).get("full_ms")
+    for way in ("splits_t1", "splits_default", "records"):
+        r = e.get(way)
+        if not r:
+            continue
+        link = r["bytes"] / e["bytes_per_s"] * 1e3 if r["bytes"] else None
+        print(f"{key:<9} {way:<15} {r['threads'] or '-':>3} {fmt(r['bytes'], 0):>9} "
+              f"{fmt(link):>8} {fmt(r['first_ms']):>9} {fmt(r['full_ms']):>9} {fmt(r['apply_ms']):>9} "
+              f"{fmt(r['full_ms'] / t1 if t1 and r['full_ms'] else None, 2):>6}")
+    dr = e.get("draco")
+    for way, label in (("nginx_limit_rate", "draco nginx"), ("link", "draco link"),
+                       ("paced_as_mts_server", "draco paced")):
+        v = dr and dr.get("full_ms_" + way)
+        if v is not None:
+            print(f"{key:<9} {label:<15} {'':>3} {fmt(drc_bytes, 0):>9} "
+                  f"{fmt(dr.get('download_ms_link')):>8} {'':>9} {fmt(v):>9} "
+                  f"{'':>9} {fmt(v / t1 if t1 else None, 2):>6}")
+print("  (link: the bytes over the rate; first: ms_base, the base drawn; full: ms_final; Draco's full: download + decode. "
+      "nginx: limit_rate, measured, which sends the first second's bytes at once; link: "
+      "computed, the bytes over the rate; paced: computed as mts-server paces, the rate "
+      "plus a burst of a tenth of a second's bytes)")
+for name, why in skipped.items():
+    if name.startswith(("stream", "draco")):
+        print(f"{name}: skipped: {why}")
+
+with open(dest + ".tmp", "w") as f:
+    json.dump(res, f, indent=2)
+    f.write("\n")
+os.replace(dest + ".tmp", dest)
+PY
+exit "$status"
