@@ -511,7 +511,7 @@ static int colors_table(const char *const *paths, int np, const char *json_path)
         size_t draco[3] = {0};
         for (int k = 0; tris && k < 3; k++) {
             mts_draco_mesh dm = {m.vertex_count, nt, col.model.positions, NULL, tris,
-                                 k ? col.model.colors : NULL};
+                                 k ? col.model.colors : NULL, NULL};
             mts_draco_options dopt = {0};
             dopt.grid = col.grid;
             dopt.compression_level = k == 2 ? 10 : 7;
@@ -643,7 +643,7 @@ int main(int argc, char **argv)
         size_t draco[3] = {0};
         for (int k = 0; k < 3; k++) {
             mts_draco_mesh dm = {mesh.vertex_count, mesh.triangle_count, mesh.positions,
-                                 k == 2 ? mesh.normals : NULL, mesh.triangles, NULL};
+                                 k == 2 ? mesh.normals : NULL, mesh.triangles, NULL, NULL};
             mts_draco_options o = {0};
             o.grid = s.grid;
             o.normal_bits = k == 2 ? 10 : -1;

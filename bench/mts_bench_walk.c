@@ -561,7 +561,7 @@ static int rd_model(FILE *jf, const char *name, const mts_mesh *mesh, const mts_
             break;
         mts_draco_mesh dm = {mesh->vertex_count, mesh->triangle_count, mesh->positions,
                              k == 1 ? mesh->normals : NULL, mesh->triangles,
-                             k == 2 ? fcol : NULL};
+                             k == 2 ? fcol : NULL, NULL};
         mts_draco_options o = {0};
         o.grid = s.grid;
         o.normal_bits = k == 1 ? 10 : -1;

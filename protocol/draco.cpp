@@ -18,6 +18,7 @@
 #include "draco/compression/decode.h"
 #include "draco/compression/encode.h"
 #include "draco/core/decoder_buffer.h"
+#include "draco/core/options.h"
 #include "draco/core/encoder_buffer.h"
 #include "draco/mesh/mesh.h"
 
@@ -95,6 +96,27 @@ mts_result encode_impl(const mts_draco_mesh *in, const mts_draco_options *opts, 
         return mts_error_set(err, MTS_ERR_ARG, "draco encode: compression level %d (1..10, 0 default, -1 fastest)",
                              o.compression_level);
 
+    // Draco keeps an explicit grid's origin and range as option strings
+    // (std::to_string: six decimals) and quantizes against what it parses
+    // back, which is also what its bitstream carries to the decoder. On a
+    // small model (a side under a few centimetres in metres) that moves the
+    // grid by a step or more, so each position is snapped to Draco's grid,
+    // read back through Draco's own option code, not to ours.
+    mts_draco_grid dgrid = grid;
+    {
+        draco::Options rt;
+        rt.SetVector("origin", grid.origin, 3);
+        rt.SetFloat("range", grid.range);
+        if (!rt.GetVector("origin", 3, dgrid.origin))
+            return mts_error_set(err, MTS_ERR_INTERNAL, "draco encode: cannot read the grid's origin back");
+        dgrid.range = rt.GetFloat("range", 0.f);
+        if (!mts_draco_grid_valid(&dgrid))
+            return mts_error_set(err, MTS_ERR_RANGE,
+                                 "draco encode: a grid of range %g is below the 1e-06 Draco keeps of it "
+                                 "(the model is too small in its units: scale it up)",
+                                 grid.range);
+    }
+
     draco::Mesh mesh;
     mesh.set_num_points(nv);
     // One point per vertex, identity mapping: no deduplication anywhere.
@@ -117,12 +139,12 @@ mts_result encode_impl(const mts_draco_mesh *in, const mts_draco_options *opts, 
             return mts_error_set(err, MTS_ERR_RANGE,
                                  "draco encode: vertex %u (%g %g %g) outside the grid (origin %g %g %g, range %g)",
                                  i, p[0], p[1], p[2], grid.origin[0], grid.origin[1], grid.origin[2], grid.range);
-        mts_draco_dequantize(&grid, q, snapped);
-        if (!mts_draco_quantize(&grid, snapped, q2) || q2[0] != q[0] || q2[1] != q[1] || q2[2] != q[2])
+        mts_draco_dequantize(&dgrid, q, snapped);
+        if (!mts_draco_quantize(&dgrid, snapped, q2) || q2[0] != q[0] || q2[1] != q[1] || q2[2] != q[2])
             return mts_error_set(err, MTS_ERR_RANGE,
                                  "draco encode: vertex %u: a %d-bit grid of range %g at origin %g %g %g is finer "
                                  "than float precision",
-                                 i, grid.bits, grid.range, grid.origin[0], grid.origin[1], grid.origin[2]);
+                                 i, grid.bits, dgrid.range, dgrid.origin[0], dgrid.origin[1], dgrid.origin[2]);
         pos_att->SetAttributeValue(draco::AttributeValueIndex(i), snapped);
     }
     if (with_normals) {
@@ -372,6 +394,17 @@ Key3 canonical(uint32_t a, uint32_t b, uint32_t c)
 
 constexpr uint32_t kNone = 0xffffffffu;
 
+/* Original vertex i's grid point: as the caller quantized it, where it says,
+ * else its position quantized on the decoded grid. 0 when off that grid. */
+bool orig_point(const mts_draco_mesh *orig, const mts_draco_grid *grid, uint32_t i, uint32_t q[3])
+{
+    if (!orig->quantized)
+        return mts_draco_quantize(grid, orig->positions + 3 * (size_t)i, q) != 0;
+    const uint32_t maxq = max_quantized(grid->bits);
+    std::memcpy(q, orig->quantized + 3 * (size_t)i, sizeof(uint32_t) * 3);
+    return q[0] <= maxq && q[1] <= maxq && q[2] <= maxq;
+}
+
 mts_result renumber_impl(const mts_draco_mesh *orig, const mts_draco_mesh_out *dec, uint32_t *vmap,
                          uint32_t *fmap, mts_error *err)
 {
@@ -396,7 +429,7 @@ mts_result renumber_impl(const mts_draco_mesh *orig, const mts_draco_mesh_out *d
         bool same = std::memcmp(orig->triangles, dec->triangles, sizeof(uint32_t) * 3 * (size_t)nt) == 0;
         for (uint32_t i = 0; same && i < nv; ++i) {
             uint32_t q[3];
-            same = mts_draco_quantize(&dec->grid, orig->positions + 3 * (size_t)i, q) &&
+            same = orig_point(orig, &dec->grid, i, q) &&
                    std::memcmp(q, dec->quantized + 3 * (size_t)i, sizeof q) == 0;
         }
         if (same) {
@@ -413,7 +446,7 @@ mts_result renumber_impl(const mts_draco_mesh *orig, const mts_draco_mesh_out *d
     std::vector<std::pair<Key3, uint32_t>> os(nv), ds(nv);
     for (uint32_t i = 0; i < nv; ++i) {
         Key3 k;
-        if (!mts_draco_quantize(&dec->grid, orig->positions + 3 * (size_t)i, k.v))
+        if (!orig_point(orig, &dec->grid, i, k.v))
             return mts_error_set(err, MTS_ERR_INVARIANT, "draco renumber: vertex %u lies outside the decoded grid", i);
         os[i] = {k, i};
         Key3 d;

@@ -83,6 +83,12 @@ typedef struct mts_draco_mesh {
     /* 3 per vertex (8-bit r, g, b), or NULL: a COLOR attribute of unsigned
      * bytes, which Draco codes losslessly (see the top) */
     const uint8_t *colors;
+    /* 3 per vertex, or NULL: the grid points the positions were quantized
+     * to, which mts_draco_renumber matches the decoded ones against. Draco
+     * keeps the grid's origin and range to six decimals, so on a small model
+     * the positions quantized again on the decoded grid can land a step
+     * away; NULL quantizes them on it all the same. Not read by encode. */
+    const uint32_t *quantized;
 } mts_draco_mesh;
 
 typedef enum mts_draco_method {
@@ -140,7 +146,7 @@ void mts_draco_mesh_out_free(mts_draco_mesh_out *mesh);
  *
  * Approach: when the decoded mesh is the original in the same order (the
  * sequential method), the identity. Otherwise each original position is
- * quantized on decoded->grid; a vertex
+ * quantized on decoded->grid (or original->quantized taken); a vertex
  * whose quantized position is unique on both sides is matched directly.
  * Vertices sharing a quantized position are matched through connectivity:
  * for an original face (a, b, c) with a and b matched, the decoded face

@@ -204,7 +204,7 @@ static mts_result encode_base(mts_stream *s, int method, uint8_t **draco, size_t
     const int carry_normals = (m->flags & MTS_MODEL_NORMALS_GIVEN) != 0;
     for (int attempt = 0; attempt < 2; attempt++) {
         mts_draco_mesh in = {nb, nt, m->positions, carry_normals ? m->normals : NULL, tris,
-                             m->colors};
+                             m->colors, s->quantized};
         mts_draco_options o = {0};
         o.grid = s->grid;
         o.method = attempt == 0 ? method : MTS_DRACO_SEQUENTIAL;

@@ -1,8 +1,8 @@
 /* Real files: every OFF, OBJ, PLY, STL, glTF and GLB file of Debian's assimp-testmodels
  * (the files assimp's own tests read: exporters' quirks, UTF-16 text, point
  * clouds, broken files) either builds into a model that verifies, through
- * the library calls mts-build makes, or is refused with a message that
- * names the problem. The files expected to be refused are listed below with
+ * the library calls mts-build makes, and streams to its checksum, or is
+ * refused with a message that names the problem. The files expected to be refused are listed below with
  * the words their message must contain; every other file must build, so a
  * reader that starts refusing a real file fails here.
  *
@@ -18,6 +18,7 @@
 #include "build.h"
 #include "clock.h"
 #include "mesh.h"
+#include "stream.h"
 #include "test.h"
 #include "test_proc.h"
 #include "verify.h"
@@ -157,8 +158,43 @@ static const char *refusal_reason(const char *rel)
     return NULL;
 }
 
-/* Loads, builds and verifies one file as mts-build would; 0 with the model's
- * size in *vertices / *triangles, else the error in err. */
+/* The model's stream, what a connection for the full level is sent, fed to
+ * a fresh client in small pieces: it must end at the full level with the
+ * server's checksum, as END states it. */
+static mts_result stream_one(const mts_model *model, mts_error *err)
+{
+    mts_stream s;
+    mts_result r = mts_stream_build(model, "m", NULL, &s, err);
+    if (r != MTS_OK)
+        return r;
+    const uint32_t n = mts_stream_stop_level(&s, MTS_STOP_FULL, 0);
+    mts_buf b = {0};
+    size_t off, len;
+    mts_stream_put_model_info(&s, n, &b);
+    r = mts_stream_range(&s, 0, n, &off, &len, err);
+    if (r == MTS_OK) {
+        mts_buf_put(&b, s.bytes + off, len);
+        mts_stream_put_end(&s, n, (uint32_t)b.size, &b);
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        mts_test_events ev = {0};
+        r = mts_test_feed(&c, b.data, b.size, n, 977, &ev, err);
+        if (r == MTS_OK && !(ev.end == 1 && c.have_lod && c.lod.level == n &&
+                             c.checksum == s.level_checksum[n] && c.end_checksum == c.checksum))
+            r = mts_error_set(err, MTS_ERR_FORMAT,
+                              "streamed to level %u of %u, checksum %016llx, the server's %016llx",
+                              c.have_lod ? c.lod.level : 0, n, (unsigned long long)c.checksum,
+                              (unsigned long long)s.level_checksum[n]);
+        mts_stream_client_free(&c);
+    }
+    mts_buf_free(&b);
+    mts_stream_free(&s);
+    return r;
+}
+
+/* Loads, builds, verifies and streams one file as mts-build and a client
+ * would; 0 with the model's size in *vertices / *triangles, else the error
+ * in err. */
 static mts_result build_one(const char *path, mts_mesh_stats *st, uint32_t *vertices,
                             uint32_t *triangles, int *colors, mts_error *err)
 {
@@ -177,6 +213,8 @@ static mts_result build_one(const char *path, mts_mesh_stats *st, uint32_t *vert
         r = mts_verify_model(&model, &vo, &vr, err);
         if (r == MTS_OK)
             r = mts_verify_growth(&model, &vr, err);
+        if (r == MTS_OK)
+            r = stream_one(&model, err);
         *vertices = model.vertex_count;
         *triangles = model.level_triangles[model.level_count];
         *colors = model.colors != NULL && (model.flags & MTS_MODEL_COLORS);

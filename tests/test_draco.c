@@ -15,7 +15,7 @@
 
 static mts_draco_mesh view(const mts_mesh *m)
 {
-    mts_draco_mesh d = {m->vertex_count, m->triangle_count, m->positions, m->normals, m->triangles, NULL};
+    mts_draco_mesh d = {m->vertex_count, m->triangle_count, m->positions, m->normals, m->triangles, NULL, NULL};
     return d;
 }
 
@@ -339,7 +339,7 @@ static void test_duplicates(mts_test *t)
 {
     static sheet s;
     make_sheet(&s, 7, 6, 1);
-    mts_draco_mesh v = {s.vertex_count, s.triangle_count, s.positions, NULL, s.triangles, NULL};
+    mts_draco_mesh v = {s.vertex_count, s.triangle_count, s.positions, NULL, s.triangles, NULL, NULL};
     mts_draco_options o = {0};
     CHECK(t, round_trip(t, &v, &o, 0) > 0);
     o.method = MTS_DRACO_SEQUENTIAL;
@@ -354,7 +354,7 @@ static void test_duplicates(mts_test *t)
         twice.triangles[3 * nt + i] = twice.triangles[i] + nv;
     twice.vertex_count = 2 * nv;
     twice.triangle_count = 2 * nt;
-    mts_draco_mesh w = {twice.vertex_count, twice.triangle_count, twice.positions, NULL, twice.triangles, NULL};
+    mts_draco_mesh w = {twice.vertex_count, twice.triangle_count, twice.positions, NULL, twice.triangles, NULL, NULL};
     mts_draco_options eb = {0};
     uint8_t *data = NULL;
     size_t size = 0;
@@ -396,7 +396,7 @@ static void test_edgebreaker_limits(mts_test *t)
         {"neighbour flipped", 4, 2, {0, 1, 2, 0, 1, 3}},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        mts_draco_mesh m = {cases[i].vertices, cases[i].triangles, p, NULL, cases[i].tri, NULL};
+        mts_draco_mesh m = {cases[i].vertices, cases[i].triangles, p, NULL, cases[i].tri, NULL, NULL};
         mts_draco_options o = {0};
         uint8_t *data = NULL;
         size_t size = 0;
@@ -431,7 +431,7 @@ static void test_bad_arguments(mts_test *t)
 {
     static sheet s;
     make_sheet(&s, 4, 4, 0);
-    mts_draco_mesh v = {s.vertex_count, s.triangle_count, s.positions, NULL, s.triangles, NULL};
+    mts_draco_mesh v = {s.vertex_count, s.triangle_count, s.positions, NULL, s.triangles, NULL, NULL};
     uint8_t *data = NULL;
     size_t size = 0;
     mts_error err;
@@ -552,7 +552,7 @@ static void test_bad_input(mts_test *t)
         normals[3 * i + 1] = 0.2f;
         normals[3 * i + 2] = 1.f;
     }
-    mts_draco_mesh v = {s.vertex_count, s.triangle_count, s.positions, normals, s.triangles, NULL};
+    mts_draco_mesh v = {s.vertex_count, s.triangle_count, s.positions, normals, s.triangles, NULL, NULL};
     for (int method = 0; method < 2; method++) {
         mts_draco_options o = {0};
         o.method = method;

@@ -2643,7 +2643,7 @@ static void test_gltf_draco_hostile(mts_test *t)
 static void test_gltf_draco_colors(mts_test *t)
 {
     const uint8_t u8[4][3] = {{255, 0, 0}, {0, 255, 0}, {128, 51, 13}, {0, 0, 255}};
-    mts_draco_mesh in = {4, 4, &tet_pos[0][0], NULL, &tet_tri[0][0], &u8[0][0]};
+    mts_draco_mesh in = {4, 4, &tet_pos[0][0], NULL, &tet_tri[0][0], &u8[0][0], NULL};
     mts_draco_options o = {0};
     uint8_t *draco = NULL;
     size_t dn = 0;

@@ -1570,10 +1570,71 @@ static void test_model_without_descriptions_refused(mts_test *t)
     mts_model_free(&m);
 }
 
+/* A small model in its units: cow shrunk to a box of about 8 mm at 9 cm
+ * from the origin (a small part in metres). Draco keeps an explicit grid's
+ * origin and range to six decimals, a step or more of this grid, so the
+ * base's grid points came back off by one (one of them -1) and the stream
+ * could not be built, or a client's checksum would differ. Every stop ends
+ * at the server's checksum, in both methods' fallbacks, for several
+ * offsets. */
+static void test_small_model_in_metres(mts_test *t)
+{
+    static const float offset[][3] = {{0.0418548f, 0.961535f, 0.0939126f},
+                                      {-0.0123457f, 0.f, 1.2345678f},
+                                      {0.f, 0.f, 0.f}};
+    for (size_t k = 0; k < sizeof offset / sizeof offset[0] && !t->case_failed; k++) {
+        mts_error err = {0};
+        mts_mesh mesh = {0};
+        CHECKF(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK, "%s",
+               err.msg);
+        if (t->case_failed)
+            return;
+        float lo[3] = {mesh.positions[0], mesh.positions[1], mesh.positions[2]}, side = 0;
+        for (uint32_t v = 0; v < mesh.vertex_count; v++)
+            for (int c = 0; c < 3; c++)
+                lo[c] = mesh.positions[3 * v + c] < lo[c] ? mesh.positions[3 * v + c] : lo[c];
+        for (uint32_t v = 0; v < mesh.vertex_count; v++)
+            for (int c = 0; c < 3; c++) {
+                float d = mesh.positions[3 * v + c] - lo[c];
+                side = d > side ? d : side;
+            }
+        for (uint32_t v = 0; v < mesh.vertex_count; v++)
+            for (int c = 0; c < 3; c++)
+                mesh.positions[3 * v + c] =
+                    offset[k][c] + (mesh.positions[3 * v + c] - lo[c]) * (0.008f / side);
+        mts_model m;
+        mts_result rc = mts_build_model(&mesh, "cow", NULL, &m, NULL, &err);
+        mts_mesh_free(&mesh);
+        CHECKF(t, rc == MTS_OK, "offset %zu: %s", k, err.msg);
+        if (rc != MTS_OK)
+            return;
+        mts_stream s;
+        rc = mts_stream_build(&m, "cow", NULL, &s, &err);
+        mts_model_free(&m);
+        CHECKF(t, rc == MTS_OK, "offset %zu: stream: %s", k, err.msg);
+        if (rc != MTS_OK)
+            return;
+        const uint32_t n = s.model.level_count;
+        const uint32_t stops[] = {0, n / 2, n};
+        for (size_t i = 0; i < 3; i++) {
+            uint32_t stop;
+            mts_stream_client c;
+            CHECKF(t, receive(&s, MTS_STOP_LEVEL, stops[i], k, &c, &stop, NULL, &err),
+                   "offset %zu, level %u: %s", k, stops[i], err.msg);
+            CHECK(t, c.lod.level == stop && c.checksum == s.level_checksum[stop] &&
+                         c.checksum == c.end_checksum);
+            same_as_server(t, &s, &c);
+            mts_stream_client_free(&c);
+        }
+        mts_stream_free(&s);
+    }
+}
+
 int main(void)
 {
     mts_test t = {0};
     RUN(&t, test_cow_every_stop);
+    RUN(&t, test_small_model_in_metres);
     RUN(&t, test_normals_travel_when_given);
     RUN(&t, test_info_triangles_bounded);
     RUN(&t, test_corrupt_batch_rejected);

@@ -128,7 +128,7 @@ static void test_draco_colors_lossless(mts_test *t)
         for (int l = 0; l < 3; l++)
             for (int with = 0; with < 2; with++) {
                 mts_draco_mesh in = {m.vertex_count, nt, m.positions, NULL, tris,
-                                     with ? m.colors : NULL};
+                                     with ? m.colors : NULL, NULL};
                 mts_draco_options o = {0};
                 o.method = method;
                 o.compression_level = levels[l];
@@ -493,7 +493,7 @@ static void test_colors_cost(mts_test *t)
             for (uint32_t k = m.full.offsets[st]; k + 2 < m.full.offsets[st + 1]; k++)
                 nt += (uint32_t)mts_strip_window(m.full.indices + m.full.offsets[st],
                                                  k - m.full.offsets[st], tris + 3 * (size_t)nt);
-        mts_draco_mesh dm = {m.vertex_count, nt, m.positions, NULL, tris, m.colors};
+        mts_draco_mesh dm = {m.vertex_count, nt, m.positions, NULL, tris, m.colors, NULL};
         mts_draco_options dopt = {0};
         dopt.grid = s.grid;
         dopt.compression_level = 7;
