@@ -378,7 +378,7 @@ static inline void mts_fuzz_draco_seed(mts_fuzz_seeder *sd, const char *name,
         for (uint32_t k = 0; k + 2 < len; k++)
             nt += (uint32_t)mts_strip_window(str, k, tris + 3 * (size_t)nt);
     }
-    mts_draco_mesh in = {m->vertex_count, nt, m->positions, normals ? m->normals : NULL, tris, NULL};
+    mts_draco_mesh in = {m->vertex_count, nt, m->positions, normals ? m->normals : NULL, tris, NULL, NULL};
     mts_draco_options o = {0};
     o.grid = s->grid;
     o.method = method;
