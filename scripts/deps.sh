@@ -9,6 +9,7 @@ packages=(
   libopenmesh-dev        # mesh topology and the quadric decimater
   libopenmesh-apps       # OpenMesh-commandlineSubdivider for the 1M-triangle bench mesh
   libdraco-dev           # base-mesh compression
+  draco                  # `make bench`: draco_encoder/draco_decoder, the Draco anchor of bench/threads.sh
   libtinygltf-dev        # glTF 2.0 / GLB input (builder/gltf_read.cpp; a compiled library, no JSON or image headers needed)
   libcurl4-openssl-dev   # models from http(s) URLs
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri  # headless EGL rendering
