@@ -47,4 +47,4 @@ fi
 kill -TERM "$server"
 wait "$server" || true
 trap - EXIT
-echo "Next: mts-build your own mesh (OFF, OBJ, PLY, STL), or serve a folder: mts-server --models DIR"
+echo "Next: mts-build your own mesh (OFF, OBJ, PLY, STL, glTF/GLB), or serve a folder: mts-server --models DIR"
