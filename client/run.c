@@ -395,7 +395,9 @@ void mts_client_run_json(cli_json *j, const mts_stream_client *c, const mts_sess
                          const mts_client_run *rn)
 {
     cli_json_u64(j, "triangles", mts_client_run_triangles(c));
-    cli_json_u64(j, "threads", rn->threads);
+    /* what decoded, not what was asked: the records form decodes on one */
+    cli_json_u64(j, "threads", mts_stream_client_threads_used(c));
+    cli_json_u64(j, "threads_asked", rn->threads);
     if (c->end_checksum) { /* END came: the mesh checksum at the final level */
         char hex[17];
         snprintf(hex, sizeof hex, "%016llx", (unsigned long long)c->checksum);

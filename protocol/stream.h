@@ -207,6 +207,11 @@ typedef struct mts_stream_client {
 void mts_stream_client_init(mts_stream_client *c);
 void mts_stream_client_free(mts_stream_client *c);
 
+/* The threads that decode this stream, the caller's included: 1 until BASE,
+ * and after it for the records form, a stream without key levels, or where
+ * no thread could be started; otherwise `threads` or as many as have work. */
+uint32_t mts_stream_client_threads_used(const mts_stream_client *c);
+
 /* Bytes to events, for a caller that holds bytes rather than frames: a
  * socket's reads, WebSocket messages, an HTTP download's write callback.
  * feed buffers bytes of the conversation in the order they came, split

@@ -420,15 +420,20 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
                 break;
             p->thread_count++;
         }
-        if (!p->thread_count)
-            rc = mts_error_set(err, MTS_ERR_NOMEM, "cannot start the decoder's threads");
     }
-    if (rc != MTS_OK) {
+    /* no pool thread (a process at its thread limit, a browser without a
+     * free worker): the caller's thread decodes alone, as with one */
+    if (rc != MTS_OK || !p->thread_count) {
         mts__stream_par_free(p);
         return rc;
     }
     c->par = p;
     return MTS_OK;
+}
+
+uint32_t mts_stream_client_threads_used(const mts_stream_client *c)
+{
+    return c->par ? 1 + c->par->thread_count : 1;
 }
 
 /* Room for n triangle ids and their inverse, grown by doubling. */

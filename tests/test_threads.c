@@ -315,6 +315,7 @@ static void model_threads(mts_test *t, const char *path, const char *name, size_
            "%s: one thread: %u batches, %u at the wrong level, %u checksums", name, f1.batches,
            f1.bad_levels, f1.bad_checksums);
     CHECKF(t, one.info.key_count > 0, "%s: no key levels", name);
+    CHECK(t, mts_stream_client_threads_used(&one) == 1);
     const uint32_t threads[2] = {2, 4};
     for (int k = 0; k < 2 && !t->case_failed; k++) {
         for (int pieces = 0; pieces < 2 && !t->case_failed; pieces++) {
@@ -332,6 +333,8 @@ static void model_threads(mts_test *t, const char *path, const char *name, size_
                    f.bad_levels, f.bad_checksums);
             if (rc == MTS_OK)
                 compare(t, what, &s, &one, &c, every_level && pieces == 0);
+            CHECKF(t, mts_stream_client_threads_used(&c) == threads[k], "%s: %u threads used",
+                   what, mts_stream_client_threads_used(&c));
             mts_stream_client_free(&c);
         }
     }
@@ -487,6 +490,50 @@ static void test_damaged_batch(mts_test *t)
 
 /* A server in a child process: each connection gets one HELLO read and b
  * sent; it lives until killed (60 s at most). */
+/* The records form brings its records whole: asked for four threads, the
+ * client decodes it on one, says so, and ends at every batch's checksum. */
+static void test_records_form(mts_test *t)
+{
+    mts_error err = {0};
+    mts_mesh mesh = {0};
+    mts_model m;
+    mts_stream s;
+    CHECKF(t, mts_mesh_load("tests/data/cow.off", NULL, &mesh, NULL, &err) == MTS_OK, "%s",
+           err.msg);
+    if (t->case_failed)
+        return;
+    mts_result rc = mts_build_model(&mesh, "cow", NULL, &m, NULL, &err);
+    mts_mesh_free(&mesh);
+    CHECKF(t, rc == MTS_OK, "build: %s", err.msg);
+    if (rc != MTS_OK)
+        return;
+    mts_stream_options o = {0};
+    o.with_records = 1;
+    rc = mts_stream_build(&m, "cow", &o, &s, &err);
+    mts_model_free(&m);
+    CHECKF(t, rc == MTS_OK && s.records_form, "stream: %s", err.msg);
+    if (rc != MTS_OK)
+        return;
+    if (s.records_form) {
+        mts_buf b = {0};
+        conversation(s.records_form, 0, &b);
+        mts_stream_client c;
+        mts_stream_client_init(&c);
+        c.threads = 4;
+        fed f = {0};
+        rc = feed(&c, s.records_form, &b, 3, 0, &f, &err);
+        CHECKF(t, rc == MTS_OK && f.ended && c.records, "records form: %s", err.msg);
+        CHECKF(t, f.batches == s.batch_count && f.bad_levels == 0 && f.bad_checksums == 0,
+               "records form: %u batches, %u at the wrong level, %u checksums", f.batches,
+               f.bad_levels, f.bad_checksums);
+        CHECKF(t, c.par == NULL && mts_stream_client_threads_used(&c) == 1,
+               "records form: %u threads used", mts_stream_client_threads_used(&c));
+        mts_stream_client_free(&c);
+        mts_buf_free(&b);
+    }
+    mts_stream_free(&s);
+}
+
 static pid_t serve(int lfd, const mts_buf *b)
 {
     pid_t pid = fork();
@@ -562,6 +609,7 @@ int main(int argc, char **argv)
     RUN(&t, test_bunny);
     RUN(&t, test_fandisk);
     RUN(&t, test_explicit);
+    RUN(&t, test_records_form);
     RUN(&t, test_client_program);
     return mts_test_end(&t);
 }
