@@ -398,6 +398,8 @@ void mts_client_run_json(cli_json *j, const mts_stream_client *c, const mts_sess
     /* what decoded, not what was asked: the records form decodes on one */
     cli_json_u64(j, "threads", mts_stream_client_threads_used(c));
     cli_json_u64(j, "threads_asked", rn->threads);
+    if (c->threads_alone_from) /* the threads shared a core: one decoded from here on */
+        cli_json_u64(j, "threads_alone_from", c->threads_alone_from);
     if (c->end_checksum) { /* END came: the mesh checksum at the final level */
         char hex[17];
         snprintf(hex, sizeof hex, "%016llx", (unsigned long long)c->checksum);

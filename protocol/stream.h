@@ -200,6 +200,16 @@ typedef struct mts_stream_client {
      * batch is still applied before its frame returns. A stream whose
      * MODEL_INFO lists no key levels, and the records form, use one. */
     uint32_t threads;
+    /* Two threads pay only where each has a core: sharing one (another
+     * process holds the rest) they take longer than one thread alone. So
+     * after each batch the decoder compares the CPU time both threads spent
+     * with the batch's wall time, and where over a few batches they ran
+     * less than ~1.3 at once, it goes on alone for the rest of the stream
+     * (with the same records). threads_alone_after (tests) makes it do so
+     * after that many batches instead, measuring nothing; 0: by measure. */
+    uint32_t threads_alone_after;
+    uint32_t threads_alone_from; /* the level from which one thread decoded; 0: it did not */
+    uint32_t threads_ran;        /* the most threads that decoded (mts_stream_client_threads_used) */
     struct mts__stream_par *par; /* those threads' state (stream_dec_threads.c), NULL with one */
     mts_wire_reader reader; /* bytes fed, not yet taken as frames (mts_stream_client_feed) */
 } mts_stream_client;
@@ -207,9 +217,10 @@ typedef struct mts_stream_client {
 void mts_stream_client_init(mts_stream_client *c);
 void mts_stream_client_free(mts_stream_client *c);
 
-/* The threads that decode this stream, the caller's included: 1 until BASE,
- * and after it for the records form, a stream without key levels, or where
- * no thread could be started; otherwise `threads` or as many as have work. */
+/* The most threads that decoded this stream, the caller's included: 1
+ * until BASE, and after it for the records form, a stream without key
+ * levels, or where no thread could be started; otherwise `threads` or as
+ * many as have work (threads_alone_from says whether it went on alone). */
 uint32_t mts_stream_client_threads_used(const mts_stream_client *c);
 
 /* Bytes to events, for a caller that holds bytes rather than frames: a

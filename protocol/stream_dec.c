@@ -858,6 +858,8 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
     if ((rc = take_capacities(c, NULL, &d, upto, what, err)) != MTS_OK)
         return rc;
     mts_grow_full full = {.slot_count = m->strip_count};
+    if (c->par)
+        mts__stream_par_batch_start(c);
     rc = take_splits(c, &d, &full, index, first, count, maxq, err);
     free((void *)full.paths);
     /* threads: the batch's records, in order, before it is applied */
@@ -871,6 +873,9 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
         mts_lod_set_available(&c->lod, first);
         (void)mts_lod_set_level(&c->lod, first, &ignored);
     }
+    /* where two threads share a core, the rest of the stream on one */
+    if (rc == MTS_OK && c->par && (rc = mts__stream_par_batch_end(c, index, err)) != MTS_OK)
+        rc = mts_error_prefix(err, "BATCH %u", index);
     if (rc != MTS_OK)
         return rc;
 applied:
@@ -1077,12 +1082,13 @@ mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)
         /* nothing applied yet: start over, keeping only the caller's hooks */
         void (*on_model)(void *, const mts_wire_model_entry *) = c->on_model;
         void *user = c->user;
-        uint32_t resumes = c->resumes, threads = c->threads;
+        uint32_t resumes = c->resumes, threads = c->threads, alone = c->threads_alone_after;
         mts_stream_client_free(c);
         mts_stream_client_init(c);
         c->on_model = on_model;
         c->user = user;
         c->threads = threads;
+        c->threads_alone_after = alone;
         c->resumes = resumes;
         return MTS_OK;
     }

@@ -11,7 +11,13 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <stdio.h>
 #include <time.h>
+#ifdef __linux__
+#include <fcntl.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
 
 #include "words.h"
 
@@ -92,6 +98,12 @@ struct mts__stream_par {
     uint32_t composed;         /* the key orders of intervals 1..composed are in ids */
     uint32_t dec_keys;         /* pipe: the keys at or below the split being decoded */
     uint32_t *ids, *inv;       /* mesh-only triangle -> one grow's, and back */
+    /* pipe: whether the pool thread has a core (mts__stream_par_batch_end) */
+    atomic_int pool_tid;         /* its kernel id, once it runs (0 before) */
+    int delay_fd;                /* its schedstat; -1 unopened, -2 none to read */
+    uint64_t at_wall;            /* the batch's start */
+    uint64_t win_wall, win_delay; /* the window: its batches' wall time, the delay before it */
+    unsigned slow;               /* windows in a row past the line */
     uint32_t ids_n, ids_cap;
     mts_words mapped;          /* an explicit split's moved triangles in mesh-only ids */
 };
@@ -260,6 +272,10 @@ static void par_grow(struct mts__stream_par *p, interval *v)
 static void *par_thread(void *arg)
 {
     struct mts__stream_par *p = arg;
+#ifdef __linux__
+    int expected = 0;
+    atomic_compare_exchange_strong(&p->pool_tid, &expected, (int)syscall(SYS_gettid));
+#endif
     pthread_mutex_lock(&p->mu);
     for (;;) {
         while (!atomic_load(&p->stop) && p->taken >= p->queued)
@@ -286,16 +302,27 @@ static void par_publish(struct mts__stream_par *p, uint32_t n)
     }
 }
 
-void mts__stream_par_free(struct mts__stream_par *p)
+/* Stops and joins the pool threads. */
+static void par_stop(struct mts__stream_par *p)
 {
-    if (!p)
-        return;
     pthread_mutex_lock(&p->mu);
     atomic_store(&p->stop, 1);
     pthread_cond_broadcast(&p->work);
     pthread_mutex_unlock(&p->mu);
     for (uint32_t k = 0; k < p->thread_count; k++)
         pthread_join(p->thread[k], NULL);
+    p->thread_count = 0;
+}
+
+void mts__stream_par_free(struct mts__stream_par *p)
+{
+    if (!p)
+        return;
+    par_stop(p);
+#ifdef __linux__
+    if (p->delay_fd >= 0)
+        close(p->delay_fd);
+#endif
     for (uint32_t k = 0; p->chunk && k < p->chunk_count; k++)
         par_free_chunk(p, k);
     for (uint32_t i = 0; p->iv && i < p->iv_count; i++) {
@@ -379,6 +406,7 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
     pthread_cond_init(&p->work, NULL);
     pthread_cond_init(&p->progress, NULL);
     p->go = *go;
+    p->delay_fd = -1;
     p->pipe = c->threads == 2;
     p->iv_count = p->pipe ? 2 : kc + 2;
     p->chunk_count = n / LOG_CHUNK + 1;
@@ -428,12 +456,67 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
         return rc;
     }
     c->par = p;
+    c->threads_ran = 1 + p->thread_count;
     return MTS_OK;
+}
+
+/* Two threads pay only where each has a core. Sharing one, they take
+ * longer than one thread alone (each hand-over waits for the other to be
+ * scheduled, and both keep the mesh), so the decoder watches the pool
+ * thread's run delay: the time it was ready to run and waited for a core
+ * (Linux's schedstat; elsewhere nothing is measured and two stay two).
+ * With a core each it is near nothing; sharing one with another busy
+ * process, a third of the batch's time or more. CPU time against wall time
+ * would not tell these apart from the batches where one thread sleeps
+ * while the other restripifies a key. A window is at least WINDOW_NS of
+ * batches, so that one preemption does not decide. */
+#define WINDOW_NS 4000000u
+#define SHARED_PERCENT 30u /* of the window's wall time: decides at once */
+#define SLOW_PERCENT 12u   /* in two windows in a row */
+
+/* The pool thread's run delay so far, in ns; 0 where none can be read. */
+static int par_delay(struct mts__stream_par *p, uint64_t *ns)
+{
+#ifdef __linux__
+    if (p->delay_fd == -1) {
+        const int tid = atomic_load(&p->pool_tid);
+        if (!tid)
+            return 0;
+        char path[64];
+        snprintf(path, sizeof path, "/proc/self/task/%d/schedstat", tid);
+        p->delay_fd = open(path, O_RDONLY | O_CLOEXEC);
+        if (p->delay_fd < 0)
+            p->delay_fd = -2;
+    }
+    char buf[96];
+    ssize_t n;
+    if (p->delay_fd < 0 || (n = pread(p->delay_fd, buf, sizeof buf - 1, 0)) <= 0)
+        return 0;
+    buf[n] = 0;
+    /* "run time, run delay, time slices", in ns */
+    unsigned long long run, delay;
+    if (sscanf(buf, "%llu %llu", &run, &delay) != 2)
+        return 0;
+    *ns = delay;
+    return 1;
+#else
+    (void)p;
+    (void)ns;
+    return 0;
+#endif
+}
+
+void mts__stream_par_batch_start(mts_stream_client *c)
+{
+    struct mts__stream_par *p = c->par;
+    if (p->pipe && !p->win_wall && !par_delay(p, &p->win_delay))
+        p->win_delay = UINT64_MAX;
+    p->at_wall = now_ns();
 }
 
 uint32_t mts_stream_client_threads_used(const mts_stream_client *c)
 {
-    return c->par ? 1 + c->par->thread_count : 1;
+    return c->threads_ran ? c->threads_ran : 1;
 }
 
 /* Room for n triangle ids and their inverse, grown by doubling. */
@@ -691,3 +774,47 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
     return mts_grow_split_mesh(c->grow, &ms, err);
 }
 
+
+/* Pipe, every record below `level` kept: the pool thread waits for a split
+ * that will not come. Stopped, its grow is one grow's at `level`, so it
+ * becomes the decoder's (in place of the mesh-only grow) and the rest of
+ * the stream decodes as with one thread. */
+static mts_result par_alone(mts_stream_client *c, uint32_t level)
+{
+    struct mts__stream_par *p = c->par;
+    interval *v = &p->iv[0];
+    if (atomic_load(&v->made) != level || atomic_load(&v->done) || !v->w)
+        return MTS_OK; /* not where the records are (the fix-up saw to it): stay on two */
+    par_stop(p);
+    mts_grow_free(c->grow);
+    c->grow = v->w;
+    v->w = NULL;
+    mts__stream_par_free(p);
+    c->par = NULL;
+    c->threads_alone_from = level;
+    return MTS_OK;
+}
+
+mts_result mts__stream_par_batch_end(mts_stream_client *c, uint32_t index, mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    (void)err;
+    const uint32_t level = p->fixed;
+    /* the full level's split runs on this thread on the pool's grow anyway */
+    if (!p->pipe || level + 1 >= c->model.level_count)
+        return MTS_OK;
+    if (c->threads_alone_after) /* the test's word, not a measure */
+        return index + 1 >= c->threads_alone_after ? par_alone(c, level) : MTS_OK;
+    int alone = 0;
+    p->win_wall += now_ns() - p->at_wall;
+    uint64_t delay;
+    if (p->win_wall >= WINDOW_NS && p->win_delay != UINT64_MAX &&
+        par_delay(p, &delay) && delay >= p->win_delay) {
+        const uint64_t d = delay - p->win_delay;
+        p->slow = d * 100 >= p->win_wall * SLOW_PERCENT ? p->slow + 1 : 0;
+        alone = p->slow >= 2 || d * 100 >= p->win_wall * SHARED_PERCENT;
+    }
+    if (p->win_wall >= WINDOW_NS)
+        p->win_wall = 0;
+    return alone ? par_alone(c, level) : MTS_OK;
+}

@@ -47,4 +47,14 @@ mts_result mts__stream_par_fixup(mts_stream_client *c, uint32_t upto, mts_error 
  * fixed up, kept and applied to the runtime without waiting. */
 mts_result mts__stream_par_catch_up(mts_stream_client *c, uint32_t upto, mts_error *err);
 
+/* Around a splits batch on more than one thread: start samples the wall
+ * clock and both threads' CPU clocks; end (after the batch's records are
+ * kept) adds the batch to the window, and where two threads ran less than
+ * MTS__STREAM_PAR_MIN_OVERLAP at once over two windows in a row (or
+ * c->threads_alone_after batches have passed) stops the pool thread and
+ * takes its grow, whose records are one grow's, as c->grow: the decoder
+ * goes on as with one thread. */
+void mts__stream_par_batch_start(mts_stream_client *c);
+mts_result mts__stream_par_batch_end(mts_stream_client *c, uint32_t index, mts_error *err);
+
 #endif

@@ -256,7 +256,9 @@ static void compare(mts_test *t, const char *what, const mts_stream *s, mts_stre
     mts_error err = {0};
     const mts_model *a = &one->model, *b = &c->model;
     const uint32_t n = a->level_count, nv = a->base_vertex_count + n;
-    CHECKF(t, c->par != NULL, "%s: the threads did not start", what);
+    /* the decoder may go on alone where the threads share a core (a busy
+     * test machine): the records are the same either way */
+    CHECKF(t, c->threads_ran > 1, "%s: the threads did not start", what);
     CHECKF(t,
            b->record_word_count == a->record_word_count &&
                memcmp(b->record_offsets, a->record_offsets, ((size_t)n + 1) * 4) == 0 &&
@@ -318,23 +320,35 @@ static void model_threads(mts_test *t, const char *path, const char *name, size_
     CHECK(t, mts_stream_client_threads_used(&one) == 1);
     const uint32_t threads[2] = {2, 4};
     for (int k = 0; k < 2 && !t->case_failed; k++) {
-        for (int pieces = 0; pieces < 2 && !t->case_failed; pieces++) {
+        /* pieces 2: two threads, then one from a third of the batches on
+         * (as where the threads turn out to share a core) */
+        for (int pieces = 0; pieces < (k == 0 ? 3 : 2) && !t->case_failed; pieces++) {
             char what[96];
             snprintf(what, sizeof what, "%s, %u threads, %s", name, threads[k],
-                     pieces ? "small pieces" : "whole");
+                     pieces == 2 ? "whole, alone after a third"
+                     : pieces    ? "small pieces"
+                                 : "whole");
             mts_stream_client c;
             mts_stream_client_init(&c);
             c.threads = threads[k];
+            if (pieces == 2)
+                c.threads_alone_after = s.batch_count / 3 + 1;
             fed f = {0};
-            mts_result rc = feed(&c, &s, &b, 7 + (uint64_t)k, pieces ? piece : 0, &f, &err);
+            mts_result rc =
+                feed(&c, &s, &b, 7 + (uint64_t)k, pieces == 1 ? piece : 0, &f, &err);
             CHECKF(t, rc == MTS_OK && f.ended, "%s: %s", what, err.msg);
             CHECKF(t, f.batches == s.batch_count && f.bad_levels == 0 && f.bad_checksums == 0,
                    "%s: %u batches, %u at the wrong level, %u checksums", what, f.batches,
                    f.bad_levels, f.bad_checksums);
             if (rc == MTS_OK)
-                compare(t, what, &s, &one, &c, every_level && pieces == 0);
+                compare(t, what, &s, &one, &c, every_level && pieces != 1);
             CHECKF(t, mts_stream_client_threads_used(&c) == threads[k], "%s: %u threads used",
                    what, mts_stream_client_threads_used(&c));
+            if (pieces == 2)
+                CHECKF(t,
+                       c.par == NULL && c.threads_alone_from ==
+                                            mts_wire_batch_first(&c.info, s.batch_count / 3 + 1),
+                       "%s: alone from level %u", what, c.threads_alone_from);
             mts_stream_client_free(&c);
         }
     }
@@ -389,25 +403,40 @@ static void test_resume(mts_test *t)
     mts_stream_client_init(&one);
     fed f1 = {0}, f = {0};
     CHECK(t, feed(&one, &s, &whole, 0, 0, &f1, &err) == MTS_OK && f1.ended);
+    uint32_t batch;
+    uint64_t id;
     /* MODEL_INFO, BASE and the first third of the batches, and half a batch */
     mts_stream_put_model_info(&s, s.model.level_count, &first);
     const uint32_t cut = s.batch_count / 3;
     mts_buf_put(&first, s.bytes, s.batch_offset[cut] + 9);
-    mts_stream_client_init(&c);
-    c.threads = 3;
-    CHECKF(t, feed(&c, &s, &first, 5, 61, &f, &err) == MTS_OK && !f.ended, "%s", err.msg);
-    uint32_t batch;
-    uint64_t id;
-    CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == cut);
-    CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK && c.threads == 3);
-    conversation(&s, batch, &rest);
-    CHECKF(t, feed(&c, &s, &rest, 6, 61, &f, &err) == MTS_OK && f.ended, "%s", err.msg);
-    CHECKF(t, f.batches == s.batch_count && f.bad_levels == 0 && f.bad_checksums == 0,
-           "%u batches, %u at the wrong level, %u checksums", f.batches, f.bad_levels,
-           f.bad_checksums);
-    if (f.ended)
-        compare(t, "cow resumed, 3 threads", &s, &one, &c, 0);
-    mts_stream_client_free(&c);
+    /* on three threads; on two gone on alone before the cut; on two going
+     * on alone after the resume */
+    const uint32_t threads[3] = {3, 2, 2}, alone[3] = {0, cut / 2 + 1, cut + 2};
+    for (int k = 0; k < 3; k++) {
+        char what[64];
+        snprintf(what, sizeof what, "cow resumed, %u threads, alone after %u", threads[k],
+                 alone[k]);
+        mts_stream_client_init(&c);
+        c.threads = threads[k];
+        c.threads_alone_after = alone[k];
+        f = (fed){0};
+        CHECKF(t, feed(&c, &s, &first, 5, 61, &f, &err) == MTS_OK && !f.ended, "%s: %s", what,
+               err.msg);
+        CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == cut);
+        CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK && c.threads == threads[k] &&
+                     c.threads_alone_after == alone[k]);
+        conversation(&s, batch, &rest);
+        CHECKF(t, feed(&c, &s, &rest, 6, 61, &f, &err) == MTS_OK && f.ended, "%s: %s", what,
+               err.msg);
+        CHECKF(t, f.batches == s.batch_count && f.bad_levels == 0 && f.bad_checksums == 0,
+               "%s: %u batches, %u at the wrong level, %u checksums", what, f.batches,
+               f.bad_levels, f.bad_checksums);
+        CHECKF(t, !alone[k] || c.threads_alone_from == mts_wire_batch_first(&c.info, alone[k]),
+               "%s: alone from level %u", what, c.threads_alone_from);
+        if (f.ended)
+            compare(t, what, &s, &one, &c, 0);
+        mts_stream_client_free(&c);
+    }
     /* a preview to a third of the levels, continued to the full level */
     const uint32_t stop = s.model.level_count / 3;
     size_t off, len;
