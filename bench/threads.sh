@@ -105,6 +105,32 @@ if [ ${#models[@]} -gt 0 ]; then
     --json "$dir/apply.json" >"$dir/apply.txt" 2>&1 || status=1
 fi
 
+# --- 1b. the same with every other core busy -----------------------------------
+# A client shares its machine: with all but one core held by busy loops, two
+# threads would share the one left, and the decoder is meant to notice and go
+# on alone (docs/threads.md, "On a busy machine"). bunny00 and fandisk_large
+# (cow in the quick check) at 1 and 2 threads.
+busy_models=()
+for m in bunny00 fandisk_large; do
+  [ -f "$dir/models/$m.mtsm" ] && busy_models+=("$dir/models/$m.mtsm")
+done
+[ ${#busy_models[@]} -gt 0 ] || [ ! -f "$dir/models/cow.mtsm" ] || busy_models=("$dir/models/cow.mtsm")
+if [ "$procs" -lt 2 ]; then
+  skip apply_busy "one processor online"
+elif [ ${#busy_models[@]} -gt 0 ]; then
+  echo "bench: threads: mts-bench-apply --threads 1,2 with $((procs - 1)) core(s) busy ..." >&2
+  busy=()
+  for _ in $(seq 2 "$procs"); do
+    sh -c 'while :; do :; done' &
+    busy+=($!)
+    pids+=($!)
+  done
+  "$bin/mts-bench-apply" "${busy_models[@]}" --runs "$runs" --threads 1,2 \
+    --json "$dir/apply_busy.json" >"$dir/apply_busy.txt" 2>&1 || status=1
+  kill "${busy[@]}" 2>/dev/null
+  wait "${busy[@]}" 2>/dev/null
+fi
+
 # --- 2. time to the full picture at a rate ------------------------------------
 : >"$dir/stream.txt" # RATE WAY RUN JSON
 : >"$dir/draco.txt"  # RATE WAY RUN SECONDS
@@ -282,6 +308,30 @@ for name, m in apply["models"].items():
 for name, why in skipped.items():
     if not name.startswith(("stream", "draco")):
         print(f"{name:<14} skipped: {why}")
+
+# 1b. the same with every other core busy
+try:
+    with open(os.path.join(d, "apply_busy.json")) as f:
+        rows = json.load(f)["models"]
+except (OSError, ValueError):
+    rows = None
+if rows is not None:
+    busy = {"runs": int(runs), "busy_cores": int(procs) - 1, "models": {}}
+    for row, r in rows.items():
+        name, _, t = row.rpartition("@t")
+        m = busy["models"].setdefault(name, {"splits_ms": {}})
+        m["splits_ms"][t] = r["splits_ms"]
+    for m in busy["models"].values():
+        one, two = m["splits_ms"].get("1"), m["splits_ms"].get("2")
+        m["two_over_one"] = round(two / one, 3) if one and two else None
+    res["apply_busy"] = busy
+    print(f"\nThreads with {int(procs) - 1} of {procs} cores held by busy loops "
+          f"(mts-bench-apply --threads 1,2, median of {runs})")
+    print(f"{'model':<14} {'1 thr ms':>10} {'2 thr ms':>10} {'2/1':>6}")
+    for name, m in busy["models"].items():
+        print(f"{name:<14} {m['splits_ms'].get('1', float('nan')):>10.2f} "
+              f"{m['splits_ms'].get('2', float('nan')):>10.2f} "
+              f"{m['two_over_one'] or float('nan'):>6.2f}")
 
 # 2. time to the full picture at a rate
 runs_by = {}
