@@ -259,8 +259,22 @@ WEB_LINK := -sMODULARIZE=1 -sEXPORT_NAME=createMtsWeb -sALLOW_MEMORY_GROWTH=1 \
             -sEXPORTED_RUNTIME_METHODS=UTF8ToString,stringToUTF8,lengthBytesUTF8
 WEB_PAGE := $(patsubst web/%,$(WEB_DIR)/%,$(wildcard web/*.html web/*.js web/*.css))
 
+# The threaded variant beside it (mts_web_mt.js, .wasm, .worker.js): the
+# same sources built with -pthread (shared memory, atomics), the decoder's
+# pool thread a Web Worker made ready before the module resolves
+# (PTHREAD_POOL_SIZE), so pthread_create never waits for the browser; with
+# no worker free it fails (POOL_SIZE_STRICT=2) and the decoder runs on one
+# thread. A page may load it only where it is cross-origin isolated
+# (SharedArrayBuffer): web/mts.js picks.
+WEB_MT_OBJ_DIR := build/web-mt-obj
+WEB_MT_LIB_OBJ := $(patsubst $(WEB_OBJ_DIR)/%,$(WEB_MT_OBJ_DIR)/%,$(WEB_LIB_OBJ))
+WEB_MT_OBJ := $(patsubst $(WEB_OBJ_DIR)/%,$(WEB_MT_OBJ_DIR)/%,$(WEB_OBJ))
+WEB_MT_LINK := $(filter-out -sEXPORT_NAME=% -sENVIRONMENT=%,$(WEB_LINK)) -pthread \
+            -sEXPORT_NAME=createMtsWebMt -sENVIRONMENT=web,worker,node \
+            -sPTHREAD_POOL_SIZE=1 -sPTHREAD_POOL_SIZE_STRICT=2 -Wno-pthreads-mem-growth
+
 .PHONY: web web-if-emcc
-web: $(WEB_DIR)/mts_web.js $(WEB_PAGE) $(WEB_DIR)/draco_decoder_nodejs.js
+web: $(WEB_DIR)/mts_web.js $(WEB_DIR)/mts_web_mt.js $(WEB_PAGE) $(WEB_DIR)/draco_decoder_nodejs.js
 
 $(WEB_OBJ_DIR)/%.o: %.c Makefile
 	@mkdir -p $(dir $@)
@@ -274,6 +288,18 @@ $(WEB_DIR)/mts_web.js: $(WEB_OBJ) $(WEB_OBJ_DIR)/libmts_web.a
 	@mkdir -p $(dir $@)
 	$(WEB_ENV) $(EMCC) -O2 $(WEB_LINK) $^ -o $@
 
+$(WEB_MT_OBJ_DIR)/%.o: %.c Makefile
+	@mkdir -p $(dir $@)
+	$(WEB_ENV) $(EMCC) $(WEB_CFLAGS) -pthread -MMD -MP -c $< -o $@
+
+$(WEB_MT_OBJ_DIR)/libmts_web.a: $(WEB_MT_LIB_OBJ)
+	@rm -f $@
+	$(WEB_ENV) $(EMAR) rcs $@ $^
+
+$(WEB_DIR)/mts_web_mt.js: $(WEB_MT_OBJ) $(WEB_MT_OBJ_DIR)/libmts_web.a
+	@mkdir -p $(dir $@)
+	$(WEB_ENV) $(EMCC) -O2 $(WEB_MT_LINK) $^ -o $@
+
 $(WEB_DIR)/%: web/%
 	@mkdir -p $(dir $@)
 	cp $< $@
@@ -281,7 +307,7 @@ $(WEB_DIR)/%: web/%
 $(WEB_DIR)/draco_decoder_nodejs.js:
 	@scripts/web-deps.sh $(WEB_DIR)
 
--include $(shell find $(WEB_OBJ_DIR) -name '*.d' 2>/dev/null)
+-include $(shell find $(WEB_OBJ_DIR) $(WEB_MT_OBJ_DIR) -name '*.d' 2>/dev/null)
 
 # ---- fuzzing ----
 # `make fuzz` builds the libFuzzer targets of tests/fuzz/ with clang (ASan +

@@ -90,16 +90,121 @@ static double median(double *v, int n)
     return n ? (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2])) : NAN;
 }
 
+/* The decoder on one thread against two, where the page is cross-origin
+ * isolated (web/nginx.conf sends COOP/COEP): each model loaded `runs`
+ * times with &threads=1 (the one-thread build) and with &threads=2 (the
+ * threaded build), alternated, the order swapped every other pair, so
+ * that drift on a shared machine falls on both alike. Every load must end
+ * at the same checksum. */
+#define THREAD_MODELS 8
+typedef struct thread_cmp {
+    char model[64], checksum[64];
+    double final[2], decode[2];
+    long level, threads, isolated;
+    int match;
+} thread_cmp;
+
+static int compare_threads(mts_cdp *c, int port, const char *list, uint32_t runs,
+                           thread_cmp *out, int *count, mts_buf *state)
+{
+    char names[512];
+    snprintf(names, sizeof names, "%s", list);
+    *count = 0;
+    for (char *save = NULL, *m = strtok_r(names, ",", &save); m && *count < THREAD_MODELS;
+         m = strtok_r(NULL, ",", &save)) {
+        thread_cmp *t = &out[(*count)++];
+        memset(t, 0, sizeof *t);
+        snprintf(t->model, sizeof t->model, "%s", m);
+        double final[2][MAX_RUNS], decode[2][MAX_RUNS];
+        char url[2][400];
+        for (int k = 0; k < 2; k++)
+            snprintf(url[k], sizeof url[k], "http://127.0.0.1:%d/?model=%s&bare=1%s", port, m,
+                     k ? "&threads=2" : "&threads=1");
+        t->match = 1;
+        /* one load of each first: scripts and WebAssembly into the cache */
+        for (int k = 0; k < 2; k++)
+            if (!page_run(c, url[k], 60, state))
+                goto failed;
+        for (uint32_t r = 0; r < runs; r++) {
+            for (int j = 0; j < 2; j++) {
+                const int k = (int)(r & 1) ^ j;
+                if (!page_run(c, url[k], 60, state))
+                    goto failed;
+                const char *st = (const char *)state->data;
+                final[k][r] = json_double(st, "ms_final");
+                decode[k][r] = json_double(st, "decode_ms");
+                char sum[64];
+                mts_test_json(st, "checksum", sum, sizeof sum);
+                if (!t->checksum[0])
+                    snprintf(t->checksum, sizeof t->checksum, "%s", sum);
+                t->match &= sum[0] && strcmp(sum, t->checksum) == 0;
+                if (k == 1) {
+                    t->threads = mts_test_json_long(st, "threads");
+                    t->isolated = strstr(st, "\"isolated\":true") != NULL;
+                }
+                t->level = mts_test_json_long(st, "level");
+            }
+        }
+        for (int k = 0; k < 2; k++) {
+            t->final[k] = median(final[k], (int)runs);
+            t->decode[k] = median(decode[k], (int)runs);
+        }
+        continue;
+    failed:
+        fprintf(stderr, "mts-bench-web: %s did not stream: %s\n", m,
+                state->data ? (const char *)state->data : "");
+        return 0;
+    }
+    return 1;
+}
+
+/* The 1-minute load average (what else the machine ran meanwhile), -1
+ * where /proc has none. */
+static double load_average(void)
+{
+    FILE *f = fopen("/proc/loadavg", "r");
+    double v = -1;
+    if (f) {
+        if (fscanf(f, "%lf", &v) != 1)
+            v = -1;
+        fclose(f);
+    }
+    return v;
+}
+
+static void threads_json(FILE *f, const thread_cmp *t, int count, uint32_t runs,
+                         const char *rate, const double load[2])
+{
+    fprintf(f, "\"threads\":{\"runs\":%u,\"rate_limit\":%s,\"load_before\":%.2f,"
+               "\"load_after\":%.2f,\"models\":{",
+            runs, rate && *rate ? rate : "0", load[0], load[1]);
+    for (int i = 0; i < count; i++, t++)
+        fprintf(f,
+                "%s\"%s\":{\"level\":%ld,\"ms_final_1\":%.2f,\"ms_final_2\":%.2f,"
+                "\"ratio\":%.3f,\"decode_ms_1\":%.2f,\"decode_ms_2\":%.2f,\"threads\":%ld,"
+                "\"isolated\":%s,\"checksum\":%s,\"checksum_match\":%s}",
+                i ? "," : "", t->model, t->level, t->final[0], t->final[1],
+                t->final[1] / t->final[0], t->decode[0], t->decode[1], t->threads,
+                t->isolated ? "true" : "false", t->checksum[0] ? t->checksum : "\"\"",
+                t->match ? "true" : "false");
+    fprintf(f, "}}");
+}
+
 static void usage(FILE *f)
 {
     fprintf(f,
             "usage: mts-bench-web MODELS_DIR [--model NAME] [--runs N] [--rate-limit B/s]\n"
             "                     [--levels A,B] [--png-dir DIR] [--web-dir DIR] [--json FILE]\n"
+            "                     [--threads-models A,B,... [--threads-rate-limit B/s] [--threads-only]]\n"
             "The browser client in headless Chromium against mts-servers of this build\n"
             "serving MODELS_DIR (with cow in it) on loopback: connect, first frame and\n"
             "full level (median of --runs, default 5), frames while the model streams at\n"
             "--rate-limit (default 40000 B/s), pictures at levels A, B and the full\n"
             "level (default 1000,8000) into --png-dir (default bench/plots).\n"
+            "--threads-models: the full level of each model with the one-thread decoder\n"
+            "and the threaded one (two threads), --runs loads each, alternated, medians,\n"
+            "from a server paced at --threads-rate-limit (default: not paced);\n"
+            "--threads-only: that alone.\n"
             "Exit status 1 when a figure could not be measured.\n");
 }
 
@@ -108,6 +213,8 @@ int main(int argc, char **argv)
     signal(SIGPIPE, SIG_IGN);
     const char *models = NULL, *model = "bunny00", *json = NULL, *png_dir = "bench/plots";
     const char *web_dir = "build/web", *rate = "40000";
+    const char *thread_models = NULL, *thread_rate = NULL;
+    int threads_only = 0;
     uint32_t runs = 5, levels[2] = {1000, 8000};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -130,6 +237,12 @@ int main(int argc, char **argv)
             png_dir = argv[++i];
         } else if (!strcmp(a, "--web-dir") && i + 1 < argc) {
             web_dir = argv[++i];
+        } else if (!strcmp(a, "--threads-models") && i + 1 < argc) {
+            thread_models = argv[++i];
+        } else if (!strcmp(a, "--threads-rate-limit") && i + 1 < argc) {
+            thread_rate = argv[++i];
+        } else if (!strcmp(a, "--threads-only")) {
+            threads_only = 1;
         } else if (!strcmp(a, "--json") && i + 1 < argc) {
             json = argv[++i];
         } else if (a[0] == '-' || models) {
@@ -157,10 +270,14 @@ int main(int argc, char **argv)
     snprintf(log_fast, sizeof log_fast, "%s/bench_web_server.log", tmp);
     snprintf(log_slow, sizeof log_slow, "%s/bench_web_server_slow.log", tmp);
     snprintf(log_browser, sizeof log_browser, "%s/bench_web_chromium.log", tmp);
-    server fast = {0}, slow = {0};
+    server fast = {0}, slow = {0}, paced = {0};
     mts_cdp c;
     int ok = server_start(bin_dir, models, web_dir, NULL, log_fast, &fast) &&
-             server_start(bin_dir, models, web_dir, rate, log_slow, &slow);
+             (threads_only || server_start(bin_dir, models, web_dir, rate, log_slow, &slow));
+    char log_paced[700];
+    snprintf(log_paced, sizeof log_paced, "%s/bench_web_server_paced.log", tmp);
+    ok = ok && (!thread_models || !thread_rate ||
+                server_start(bin_dir, models, web_dir, thread_rate, log_paced, &paced));
     if (!ok) {
         fprintf(stderr, "mts-bench-web: the servers did not start (%s, %s)\n", log_fast, log_slow);
         goto done_servers;
@@ -172,6 +289,42 @@ int main(int argc, char **argv)
         goto done;
     }
     mts_buf state = {0};
+    thread_cmp tc[THREAD_MODELS];
+    int tc_count = 0;
+    double load[2] = {-1, -1};
+    if (thread_models) {
+        load[0] = load_average();
+        const int port = thread_rate ? paced.web_port : fast.web_port;
+        if (!(ok = compare_threads(&c, port, thread_models, runs, tc, &tc_count, &state)))
+            goto done_state;
+        load[1] = load_average();
+        printf("Browser client, the decoder on one thread and on two (headless Chromium, "
+               "the page cross-origin isolated, loopback%s%s%s, median of %u alternated loads; "
+               "load average %.2f before, %.2f after):\n",
+               thread_rate ? " at " : "", thread_rate ? thread_rate : "",
+               thread_rate ? " B/s" : "", runs, load[0], load[1]);
+        for (int i = 0; i < tc_count; i++)
+            printf("  %s: full level %ld at %.1f ms on one thread, %.1f ms on %ld (%.3fx); "
+                   "decode %.1f / %.1f ms; checksum %s%s\n",
+                   tc[i].model, tc[i].level, tc[i].final[0], tc[i].final[1], tc[i].threads,
+                   tc[i].final[1] / tc[i].final[0], tc[i].decode[0], tc[i].decode[1],
+                   tc[i].checksum, tc[i].match ? " (the same)" : " (DIFFERENT)");
+        for (int i = 0; i < tc_count; i++)
+            ok &= tc[i].match && tc[i].threads == 2 && tc[i].isolated;
+        if (threads_only) {
+            FILE *f = json ? fopen(json, "w") : NULL;
+            if (f) {
+                fprintf(f, "{");
+                threads_json(f, tc, tc_count, runs, thread_rate, load);
+                fprintf(f, "}\n");
+                ok = fclose(f) == 0 && ok;
+            } else if (json) {
+                fprintf(stderr, "mts-bench-web: cannot write %s\n", json);
+                ok = 0;
+            }
+            goto done_state;
+        }
+    }
     char url[800], checksum[64] = "";
     double connect[MAX_RUNS], base[MAX_RUNS], first[MAX_RUNS], final[MAX_RUNS], decode[MAX_RUNS];
     long level = 0, bytes = 0;
@@ -283,7 +436,12 @@ int main(int argc, char **argv)
             fprintf(f, "%s{\"level\":%ld,\"triangles\":%ld,\"strips\":%d,\"path\":\"%s\"}",
                     k ? "," : "", pics[k].level, pics[k].triangles, pics[k].strips,
                     pics[k].path);
-        fprintf(f, "]}\n");
+        fprintf(f, "]");
+        if (tc_count) {
+            fprintf(f, ",");
+            threads_json(f, tc, tc_count, runs, thread_rate, load);
+        }
+        fprintf(f, "}\n");
         ok = fclose(f) == 0 && ok;
     }
 done_state:
@@ -291,7 +449,7 @@ done_state:
 done:
     mts_cdp_stop(&c);
 done_servers:
-    for (server *sv = &fast; sv; sv = sv == &fast ? &slow : NULL) {
+    for (server *sv = &fast; sv; sv = sv == &fast ? &slow : sv == &slow ? &paced : NULL) {
         if (sv->front > 0)
             mts_test_stop(sv->front);
         if (sv->s.pid > 0)

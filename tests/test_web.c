@@ -18,6 +18,11 @@
  *     100 through a geomorph, and far from mts-client --no-colors' grey;
  *   - a server killed mid-stream shows an error on the page, not a frozen
  *     picture;
+ *   - the page is cross-origin isolated (web/nginx.conf sends COOP/COEP),
+ *     and with ?threads=2 decodes on two threads (mts_web_mt.wasm) to
+ *     mts-client's level and checksum, cow, bunny00 (also to a stop) and
+ *     fandisk_large, and a stream file of another origin too; a page that
+ *     is not isolated (docker/nginx-tls.conf's) runs one thread;
  *   - the page reads stream files (?src=) cross-origin over https from
  *     nginx running docker/nginx-tls.conf (a throwaway CA whose server key
  *     Chromium is told to trust): cow and bunny00 to the full level, a
@@ -174,6 +179,10 @@ static void test_node_decoder(mts_test *t)
     CHECK(t, server_stop(&sv) == 0);
 }
 
+static int page_settled(mts_cdp *c, const server *sv, const char *page_query, double seconds,
+                        mts_buf *state);
+static int page_drawn(mts_cdp *c, mts_buf *state);
+
 /* Waits for the page's phase to be one of `phases` (space-separated);
  * its state's JSON into state. */
 static int wait_phase(mts_cdp *c, const char *phases, double seconds, mts_buf *state)
@@ -281,6 +290,77 @@ static void test_page(mts_test *t)
                share);
         mts_buf_free(&state);
     }
+    mts_cdp_stop(&c);
+    CHECK(t, server_stop(&sv) == 0);
+}
+
+/* The threaded decoder (mts_web_mt.wasm, ?threads=2): web/nginx.conf
+ * sends COOP/COEP, so the page is cross-origin isolated and runs two
+ * threads, ending at mts-client's level and checksum as the one-thread
+ * page does; the page's default is one thread. (A page that is not
+ * isolated falls back to one: test_page_stream_file's page over https.) */
+static void test_page_threads(mts_test *t)
+{
+    if (!have_chromium)
+        SKIP(t, "no chromium (scripts/deps.sh installs it): the page is not tested");
+    char path[700];
+    struct stat sb;
+    snprintf(path, sizeof path, "%s/mts_web_mt.js", web_dir);
+    if (stat(path, &sb) != 0) {
+        if (getenv("MTS_TEST_REQUIRE_WEB")) {
+            CHECKF(t, 0, "no %s (make web builds it)", path);
+            return;
+        }
+        SKIP(t, "no %s (make web builds it): the threaded page is not tested", path);
+    }
+    server sv;
+    CHECK(t, server_start(&sv, "threads", NULL));
+    mts_cdp c;
+    char log[700];
+    int up = browser_start(&c, "threads", log, sizeof log);
+    CHECKF(t, up, "chromium did not start (see %s)", log);
+    struct {
+        const char *model, *query, *native_stop;
+        long threads;
+        int shared;
+    } runs[] = {
+        {"cow", "&threads=2", "", 2, 0},
+        {"cow", "", "", 1, 0},
+        {"bunny00", "&threads=2", "", 2, 1},
+        {"bunny00", "&threads=2&level=2000", "--level 2000", 2, 1},
+        {"fandisk_large", "&threads=2", "", 2, 1},
+    };
+    mts_buf state = {0};
+    for (size_t i = 0; up && i < sizeof runs / sizeof runs[0]; i++) {
+        if (runs[i].shared && !have_shared) {
+            fprintf(stderr, "  (%s: no ../shared/models)\n", runs[i].model);
+            continue;
+        }
+        char q[300], native[64], want[96];
+        snprintf(q, sizeof q, "model=%s&bare=1%s", runs[i].model, runs[i].query);
+        int done = page_settled(&c, &sv, q, 120, &state) && page_drawn(&c, &state);
+        const char *st = state.data ? (const char *)state.data : "";
+        native_checksum(&sv, runs[i].model, runs[i].native_stop, native, sizeof native);
+        snprintf(want, sizeof want, "\"checksum\":\"%s\"", native);
+        CHECKF(t, done && native[0] && strstr(st, want) && strstr(st, "\"isolated\":true") &&
+                      mts_test_json_long(st, "threads") == runs[i].threads &&
+                      mts_test_json_long(st, "level") == mts_test_json_long(st, "stop_level"),
+               "%s: mts-client says %s, on %ld threads the page %s", q, native, runs[i].threads,
+               st);
+        /* the pool thread grows the shared memory too: what the page's
+         * thread reads of it (mts.js renews its views) draws the same */
+        if (done && runs[i].threads == 2 && !runs[i].native_stop[0]) {
+            char name[64];
+            snprintf(name, sizeof name, "%s_threads", runs[i].model);
+            double share = picture_share(&sv, &c, runs[i].model, "", name);
+            CHECKF(t, share >= 0 && share <= PIXEL_SHARE, "%s: %.4f", q, share);
+        }
+        char ms[32];
+        mts_test_json(st, "ms_final", ms, sizeof ms);
+        fprintf(stderr, "  %s: %ld thread(s), level %ld at %.8s ms\n", q,
+                mts_test_json_long(st, "threads"), mts_test_json_long(st, "level"), ms);
+    }
+    mts_buf_free(&state);
     mts_cdp_stop(&c);
     CHECK(t, server_stop(&sv) == 0);
 }
@@ -675,11 +755,15 @@ static void test_page_stream_file(mts_test *t)
 
     /* bunny00 over the file and over the WebSocket: the same end */
     if (have_shared) {
-        snprintf(q, sizeof q, "src=%s/bunny00.mts&bare=1", https);
+        /* the page is cross-origin isolated (web/nginx.conf's COEP): the
+         * file of another origin still comes, by its CORS headers, and
+         * the threaded decoder reads it */
+        snprintf(q, sizeof q, "src=%s/bunny00.mts&bare=1&threads=2", https);
         done = up && page_settled(&c, &sv, q, 120, &state) && page_drawn(&c, &state);
         st = state.data ? (const char *)state.data : "";
         long levels = mts_test_json_long(st, "levels");
-        CHECKF(t, done && levels > 0 && same_as_native(&sv, "bunny00", "", levels, st),
+        CHECKF(t, done && levels > 0 && same_as_native(&sv, "bunny00", "", levels, st) &&
+                      strstr(st, "\"isolated\":true") && mts_test_json_long(st, "threads") == 2,
                "bunny00 full: %s", st);
         long file_bytes = mts_test_json_long(st, "bytes");
         char file_ms[32], ws_ms[32];
@@ -700,14 +784,16 @@ static void test_page_stream_file(mts_test *t)
         snprintf(cmd, sizeof cmd, "cp -r %s/. %s/", web_dir, www_dir);
         CHECK(t, mts_test_run(cmd, out, sizeof out) == 0);
         char page[300];
-        snprintf(page, sizeof page, "%s/?src=%s.mts&bare=1", https, same);
+        /* no COOP/COEP there: not isolated, so ?threads=2 runs one */
+        snprintf(page, sizeof page, "%s/?src=%s.mts&bare=1&threads=2", https, same);
         done = up && mts_cdp_navigate(&c, page) &&
                wait_phase(&c, "complete error", 120, &state) &&
                strstr((const char *)state.data, "\"phase\":\"complete\"") &&
                page_drawn(&c, &state);
         st = state.data ? (const char *)state.data : "";
         long levels = mts_test_json_long(st, "levels");
-        CHECKF(t, done && levels > 0 && same_as_native(&sv, same, "", levels, st),
+        CHECKF(t, done && levels > 0 && same_as_native(&sv, same, "", levels, st) &&
+                      strstr(st, "\"isolated\":false") && mts_test_json_long(st, "threads") == 1,
                "the page over https, %s beside it: %s", same, st);
     }
 
@@ -840,7 +926,7 @@ int main(int argc, char **argv)
         if (required)
             t.failed = 1;
         else
-            t.skipped = 7;
+            t.skipped = 8;
         return mts_test_end(&t);
     }
     have_node = have("node --version");
@@ -854,7 +940,7 @@ int main(int argc, char **argv)
     }
     if (!have_nginx) {
         printf("  SKIP: no nginx (scripts/deps.sh installs it): it serves the page\n");
-        t.skipped = 7;
+        t.skipped = 8;
         return mts_test_end(&t);
     }
     char m[600];
@@ -887,6 +973,7 @@ int main(int argc, char **argv)
     RUN(&t, test_page_folder);
     RUN(&t, test_node_decoder);
     RUN(&t, test_page);
+    RUN(&t, test_page_threads);
     RUN(&t, test_page_slider_morph);
     RUN(&t, test_page_colors);
     RUN(&t, test_page_broken_connection);

@@ -26,6 +26,7 @@
     frames: 0, fps: 0, draw_ms_total: 0, draw_ms_max: 0, frames_streaming: 0,
     morphing: false, morph_ms: 0, models: [],
     requests: 0, reconnects: 0, first_batch: 0, colors: false,
+    threads: 0, isolated: self.crossOriginIsolated === true,
   };
   window.mtsState = state;
   const publish = () => { $('state').textContent = JSON.stringify(state); };
@@ -44,6 +45,31 @@
        '/stream');
 
   let M = null;        // the WebAssembly module
+  // The decoder's threads: ?threads=2 runs a pool thread beside the
+  // page's (the threaded build, mts_web_mt.wasm) where the page is
+  // cross-origin isolated, so that its shared memory exists; anything else,
+  // or a page that is not isolated, runs the one-thread build. One is the
+  // default: on the machine measured two were slower in Chromium
+  // (docs/browser.md, "Threads").
+  const threaded = params.get('threads') === '2' && self.crossOriginIsolated === true &&
+      typeof SharedArrayBuffer === 'function';
+  // The module's memory seen from here. The threaded build's pool thread
+  // may grow the shared memory, and emscripten renews the views on M only
+  // where the growing thread runs: a view this thread holds would end at
+  // the old size. So every read goes through these, which renew them once
+  // the memory's buffer is another (never with one thread: no wasmMemory).
+  function heapViews() {
+    const mem = M.wasmMemory;
+    if (mem && M.HEAPU8.buffer !== mem.buffer) {
+      M.HEAPU8 = new Uint8Array(mem.buffer);
+      M.HEAPU32 = new Uint32Array(mem.buffer);
+      M.HEAPF32 = new Float32Array(mem.buffer);
+    }
+    return M;
+  }
+  const heapU8 = () => heapViews().HEAPU8;
+  const heapU32 = () => heapViews().HEAPU32;
+  const heapF32 = () => heapViews().HEAPF32;
   let w = 0;           // its mts_web*
   let ws = null;
   let file = null;     // the stream file's conversation (?src=)
@@ -122,9 +148,9 @@
       morphSerial = -1;
     }
     gl.bindBuffer(gl.ARRAY_BUFFER, vbo);
-    gl.bufferSubData(gl.ARRAY_BUFFER, from * 12, M.HEAPF32.subarray(pos + 3 * from, pos + 3 * nv));
+    gl.bufferSubData(gl.ARRAY_BUFFER, from * 12, heapF32().subarray(pos + 3 * from, pos + 3 * nv));
     gl.bindBuffer(gl.ARRAY_BUFFER, nbo);
-    gl.bufferSubData(gl.ARRAY_BUFFER, from * 12, M.HEAPF32.subarray(nrm + 3 * from, nrm + 3 * nv));
+    gl.bufferSubData(gl.ARRAY_BUFFER, from * 12, heapF32().subarray(nrm + 3 * from, nrm + 3 * nv));
     uploadColors(from, nv);
     uploadedVertices = nv;
   }
@@ -147,7 +173,7 @@
     const c = M._mts_web_colors_rgba(w, from, nv - from);
     if (!c) return;
     gl.bindBuffer(gl.ARRAY_BUFFER, cbo);
-    gl.bufferSubData(gl.ARRAY_BUFFER, from * 4, M.HEAPU8.subarray(c, c + 4 * (nv - from)));
+    gl.bufferSubData(gl.ARRAY_BUFFER, from * 4, heapU8().subarray(c, c + 4 * (nv - from)));
     state.colors = true;
   }
 
@@ -162,13 +188,13 @@
     if (serial === morphSerial || !count) return;
     const first = M._mts_web_morph_first(w), from = M._mts_web_morph_from(w) >> 2;
     gl.bindBuffer(gl.ARRAY_BUFFER, mbo);
-    gl.bufferSubData(gl.ARRAY_BUFFER, first * 12, M.HEAPF32.subarray(from, from + 3 * count));
+    gl.bufferSubData(gl.ARRAY_BUFFER, first * 12, heapF32().subarray(from, from + 3 * count));
     gl.bufferSubData(gl.ARRAY_BUFFER, vertexCapacity * 12 + first * 12,
-                     M.HEAPF32.subarray(from + 3 * count, from + 6 * count));
+                     heapF32().subarray(from + 3 * count, from + 6 * count));
     const c = withColors() ? M._mts_web_morph_from_colors_rgba(w) : 0;
     if (c) {
       gl.bindBuffer(gl.ARRAY_BUFFER, mcbo);
-      gl.bufferSubData(gl.ARRAY_BUFFER, first * 4, M.HEAPU8.subarray(c, c + 4 * count));
+      gl.bufferSubData(gl.ARRAY_BUFFER, first * 4, heapU8().subarray(c, c + 4 * count));
     }
     morphSerial = serial;
   }
@@ -183,7 +209,7 @@
     const p = M._mts_web_indices(w) >> 2;
     indexCount = M._mts_web_index_count(w);
     gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ibo);
-    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, M.HEAPU32.subarray(p, p + indexCount), gl.DYNAMIC_DRAW);
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, heapU32().subarray(p, p + indexCount), gl.DYNAMIC_DRAW);
     packedLevel = level;
     state.level = level;
     state.triangles = M._mts_web_shown_triangles(w);
@@ -218,8 +244,8 @@
     const pg = prog.get(morph, colors);
     gl.useProgram(pg);
     const m = M._mts_web_camera(w, cam.yaw, cam.pitch, cam.zoom, canvas.width / canvas.height) >> 2;
-    gl.uniformMatrix4fv(pg.u.u_mvp, false, M.HEAPF32.subarray(m, m + 16));
-    gl.uniformMatrix3fv(pg.u.u_normal, false, M.HEAPF32.subarray(m + 16, m + 25));
+    gl.uniformMatrix4fv(pg.u.u_mvp, false, heapF32().subarray(m, m + 16));
+    gl.uniformMatrix3fv(pg.u.u_normal, false, heapF32().subarray(m + 16, m + 25));
     gl.uniform3f(pg.u.u_light, style[8], style[9], style[10]);
     gl.uniform1f(pg.u.u_ambient, style[7]);
     gl.uniform1i(pg.u.u_flat, M._mts_web_flat(w));
@@ -258,9 +284,10 @@
       const k = M._mts_web_strip_count(w);
       const first = M._mts_web_strip_first(w) >> 2, len = M._mts_web_strip_length(w) >> 2;
       const rgb = M._mts_web_strip_colors(w) >> 2;
+      const f32 = heapF32(), u32 = heapU32();
       for (let s = 0; s < k; s++) {
-        gl.uniform3f(pg.u.u_color, M.HEAPF32[rgb + 3 * s], M.HEAPF32[rgb + 3 * s + 1], M.HEAPF32[rgb + 3 * s + 2]);
-        gl.drawElements(gl.TRIANGLE_STRIP, M.HEAPU32[len + s], gl.UNSIGNED_INT, 4 * M.HEAPU32[first + s]);
+        gl.uniform3f(pg.u.u_color, f32[rgb + 3 * s], f32[rgb + 3 * s + 1], f32[rgb + 3 * s + 2]);
+        gl.drawElements(gl.TRIANGLE_STRIP, u32[len + s], gl.UNSIGNED_INT, 4 * u32[first + s]);
       }
     } else {
       gl.uniform3f(pg.u.u_color, style[4], style[5], style[6]);
@@ -314,7 +341,7 @@
         c.cap = Math.max(data.length, 65536);
         c.buf = M._malloc(c.cap);
       }
-      M.HEAPU8.set(data, c.buf);
+      heapU8().set(data, c.buf);
       c.onBytes(c.buf, data.length);
     };
     c.end = (ev) => { if (c.buf) M._free(c.buf); c.buf = 0; c.onClose(ev); };
@@ -370,7 +397,7 @@
     const lw = M._mts_web_create();
     connect((sock) => {
       const p = M._mts_web_list(lw);
-      sock.send(M.HEAPU8.slice(p, p + M._mts_web_out_size(lw)));
+      sock.send(heapU8().slice(p, p + M._mts_web_out_size(lw)));
     }, (p, n) => { M._mts_web_feed(lw, p, n); }, () => {
       const text = M.UTF8ToString(M._mts_web_models(lw));
       M._mts_web_destroy(lw);
@@ -397,6 +424,7 @@
     file = null;
     if (w) M._mts_web_destroy(w);
     w = M._mts_web_create();
+    M._mts_web_set_threads(w, threaded ? 2 : 1);
     M._mts_web_set_morph_ms(w, morphMs);
     morphSerial = -1;
     Object.assign(state, {phase: 'connecting', model: name, error: '', level: 0, received: 0,
@@ -405,7 +433,7 @@
                           ms_first_frame: 0, ms_final: 0, decode_ms: 0, frames: 0,
                           draw_ms_total: 0, draw_ms_max: 0, frames_streaming: 0,
                           morphing: false, morph_ms: morphMs, requests: 0, reconnects: 0,
-                          first_batch: 0, colors: false});
+                          first_batch: 0, colors: false, threads: 0});
     $('error').hidden = true;
     uploadedVertices = vertexCapacity = indexCount = colorCapacity = 0;
     packedLevel = -1;
@@ -418,7 +446,10 @@
     state.levels = M._mts_web_level_count(w);
     state.vertices = M._mts_web_vertices(w);
     state.batches = M._mts_web_batches(w);
-    if (!state.ms_base && M._mts_web_state(w) >= 2) state.ms_base = performance.now() - t0;
+    if (!state.ms_base && M._mts_web_state(w) >= 2) {
+      state.ms_base = performance.now() - t0;
+      state.threads = M._mts_web_threads(w); // those the decoder runs, known at the base
+    }
     if (M._mts_web_state(w) === 3) {
       state.phase = 'complete';
       state.ms_final = performance.now() - t0;
@@ -440,7 +471,7 @@
     const hello = M._mts_web_hello(w, nameBuf, stopLevel !== null ? 1 : 0, Number(stopLevel || 0),
                                    0);
     M._free(nameBuf);
-    const helloBytes = M.HEAPU8.slice(hello, hello + M._mts_web_out_size(w));
+    const helloBytes = heapU8().slice(hello, hello + M._mts_web_out_size(w));
     dropInbox();
     ws = connect((sock) => {
       state.ms_connect = performance.now() - t0;
@@ -493,7 +524,7 @@
   // bytes into the module's memory for one call
   function withBytes(data, fn) {
     const p = M._malloc(Math.max(data.length, 1));
-    M.HEAPU8.set(data, p);
+    heapU8().set(data, p);
     try { return fn(p, data.length); } finally { M._free(p); }
   }
 
@@ -738,10 +769,27 @@
   async function main() {
     try {
       const draco = await DracoDecoderModule();
-      M = await createMtsWeb();
+      // The decoder runs here, on the page's thread, in slices of each
+      // animation frame (pump); the threaded build's pool thread is a Web
+      // Worker. This thread may not block (Atomics.wait is refused on a
+      // page's main thread), so where the decoder waits for the pool
+      // thread (at a batch's end, for the records not made yet)
+      // emscripten spins. A decoder in a worker of its own could sleep
+      // there, but every frame's draw would then read the mesh from
+      // another thread's decoder under a lock, and Draco's decoder (this
+      // thread's) would be called across: a redesign that the measured
+      // two threads do not justify (docs/browser.md, "Threads").
+      await new Promise((resolve, reject) => {
+        const s = document.createElement('script');
+        s.src = threaded ? 'mts_web_mt.js' : 'mts_web.js';
+        s.onload = resolve;
+        s.onerror = () => reject(new Error(`cannot load ${s.src}`));
+        document.head.appendChild(s);
+      });
+      M = await (threaded ? createMtsWebMt : createMtsWeb)();
       M.draco = draco;
       const sw = M._mts_web_create(), sp = M._mts_web_style(sw) >> 2;
-      style = Array.from(M.HEAPF32.subarray(sp, sp + 11));
+      style = Array.from(heapF32().subarray(sp, sp + 11));
       M._mts_web_destroy(sw);
       initGL();
     } catch (e) {

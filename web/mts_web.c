@@ -83,6 +83,25 @@ MTS_WEB_API void mts_web_destroy(mts_web *w)
     free(w);
 }
 
+MTS_WEB_API uint32_t mts_web_set_threads(mts_web *w, uint32_t n)
+{
+#ifdef __EMSCRIPTEN_PTHREADS__
+    /* one pool thread: the threaded build makes one worker ready before
+     * the module resolves (PTHREAD_POOL_SIZE), and a thread without one
+     * would start only once the page's thread returned to the browser */
+    w->client.threads = n > 2 ? 2 : n;
+#else
+    (void)n;
+    w->client.threads = 1;
+#endif
+    return w->client.threads ? w->client.threads : 1;
+}
+
+MTS_WEB_API uint32_t mts_web_threads(const mts_web *w)
+{
+    return mts_stream_client_threads_used(&w->client);
+}
+
 MTS_WEB_API const uint8_t *mts_web_hello(mts_web *w, const char *model, uint32_t stop_kind,
                                          uint32_t stop_value, uint32_t flags)
 {

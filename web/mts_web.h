@@ -15,7 +15,9 @@
  * colour by strip.
  *
  * Errors: the calls return an mts_result; mts_web_error says what went
- * wrong. Nothing is printed. One thread. */
+ * wrong. Nothing is printed. The calls are made from one thread; built
+ * with -pthread the decoder may run a pool thread beside it
+ * (mts_web_set_threads). */
 #ifndef MTS_WEB_H
 #define MTS_WEB_H
 
@@ -28,6 +30,15 @@ typedef struct mts_web mts_web;
 
 mts_web *mts_web_create(void);
 void mts_web_destroy(mts_web *w);
+
+/* The stream decoder's threads (mts_stream_client.threads), before the
+ * first bytes: 2 runs a pool thread beside the caller's where the module
+ * was built with -pthread (more are taken as 2; without -pthread, always
+ * 1). Returns the count asked for. The decoder falls back to one thread
+ * where the pool thread cannot start; mts_web_threads says the most that
+ * decoded (mts_stream_client_threads_used; 1 before the base mesh). */
+uint32_t mts_web_set_threads(mts_web *w, uint32_t n);
+uint32_t mts_web_threads(const mts_web *w);
 
 /* The first frame to send: a HELLO for model (stop_kind/stop_value as
  * PROTOCOL.md's HELLO, flags its flags), or a LIST. The bytes stay valid
