@@ -195,7 +195,8 @@ static void usage(FILE *f)
     fprintf(f,
             "usage: mts-bench-web MODELS_DIR [--model NAME] [--runs N] [--rate-limit B/s]\n"
             "                     [--levels A,B] [--png-dir DIR] [--web-dir DIR] [--json FILE]\n"
-            "                     [--threads-models A,B,... [--threads-rate-limit B/s] [--threads-only]]\n"
+            "                     [--threads-models A,B,... [--threads-rate-limit B/s]\n"
+            "                     [--threads-only]]\n"
             "The browser client in headless Chromium against mts-servers of this build\n"
             "serving MODELS_DIR (with cow in it) on loopback: connect, first frame and\n"
             "full level (median of --runs, default 5), frames while the model streams at\n"

@@ -51,7 +51,7 @@
   // or a page that is not isolated, runs the one-thread build. One is the
   // default: on the machine measured two were slower in Chromium
   // (docs/browser.md, "Threads").
-  const threaded = params.get('threads') === '2' && self.crossOriginIsolated === true &&
+  let threaded = params.get('threads') === '2' && self.crossOriginIsolated === true &&
       typeof SharedArrayBuffer === 'function';
   // The module's memory seen from here. The threaded build's pool thread
   // may grow the shared memory, and emscripten renews the views on M only
@@ -779,13 +779,16 @@
       // another thread's decoder under a lock, and Draco's decoder (this
       // thread's) would be called across: a redesign that the measured
       // two threads do not justify (docs/browser.md, "Threads").
-      await new Promise((resolve, reject) => {
+      const load = (name) => new Promise((resolve, reject) => {
         const s = document.createElement('script');
-        s.src = threaded ? 'mts_web_mt.js' : 'mts_web.js';
+        s.src = name;
         s.onload = resolve;
         s.onerror = () => reject(new Error(`cannot load ${s.src}`));
         document.head.appendChild(s);
       });
+      // a server without the threaded build's files: one thread
+      if (threaded) threaded = await load('mts_web_mt.js').then(() => true, () => false);
+      if (!threaded) await load('mts_web.js');
       M = await (threaded ? createMtsWebMt : createMtsWeb)();
       M.draco = draco;
       const sw = M._mts_web_create(), sp = M._mts_web_style(sw) >> 2;
