@@ -205,7 +205,8 @@ typedef struct mts_stream_client {
      * after each batch the decoder compares the CPU time both threads spent
      * with the batch's wall time, and where over a few batches they ran
      * less than ~1.3 at once, it goes on alone for the rest of the stream
-     * (with the same records). threads_alone_after (tests) makes it do so
+     * (with the same records). Two threads do; three or more (key
+     * intervals) keep theirs. threads_alone_after (tests) makes two do so
      * after that many batches instead, measuring nothing; 0: by measure. */
     uint32_t threads_alone_after;
     uint32_t threads_alone_from; /* the level from which one thread decoded; 0: it did not */
