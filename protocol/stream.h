@@ -202,10 +202,10 @@ typedef struct mts_stream_client {
     uint32_t threads;
     /* Two threads pay only where each has a core: sharing one (another
      * process holds the rest) they take longer than one thread alone. So
-     * after each batch the decoder compares the CPU time both threads spent
-     * with the batch's wall time, and where over a few batches they ran
-     * less than ~1.3 at once, it goes on alone for the rest of the stream
-     * (with the same records). Two threads do; three or more (key
+     * after each batch the decoder reads how long its pool thread waited
+     * for a core (Linux), and where that passes 15% of three windows of
+     * batches in a row, it goes on alone for the rest of the stream (with
+     * the same records). Two threads do; three or more (key
      * intervals) keep theirs. threads_alone_after (tests) makes two do so
      * after that many batches instead, measuring nothing; 0: by measure. */
     uint32_t threads_alone_after;

@@ -469,10 +469,13 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
  * process, a third of the batch's time or more. CPU time against wall time
  * would not tell these apart from the batches where one thread sleeps
  * while the other restripifies a key. A window is at least WINDOW_NS of
- * batches, so that one preemption does not decide. */
+ * batches, and it takes three in a row: on an idle machine about one window
+ * in a hundred reads 15% or more, at times two in a row (another process
+ * woken for some 8 ms), and the switch is for the rest of the stream; a
+ * busy machine reads 45% to 85% in every window. */
 #define WINDOW_NS 4000000u
-#define SHARED_PERCENT 30u /* of the window's wall time: decides at once */
-#define SLOW_PERCENT 12u   /* in two windows in a row */
+#define SLOW_PERCENT 15u /* of the window's wall time */
+#define SLOW_WINDOWS 3u  /* in a row */
 
 /* The pool thread's run delay so far, in ns; 0 where none can be read. */
 static int par_delay(struct mts__stream_par *p, uint64_t *ns)
@@ -812,7 +815,7 @@ mts_result mts__stream_par_batch_end(mts_stream_client *c, uint32_t index, mts_e
         par_delay(p, &delay) && delay >= p->win_delay) {
         const uint64_t d = delay - p->win_delay;
         p->slow = d * 100 >= p->win_wall * SLOW_PERCENT ? p->slow + 1 : 0;
-        alone = p->slow >= 2 || d * 100 >= p->win_wall * SHARED_PERCENT;
+        alone = p->slow >= SLOW_WINDOWS;
     }
     if (p->win_wall >= WINDOW_NS)
         p->win_wall = 0;
