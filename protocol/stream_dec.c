@@ -874,8 +874,8 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
         (void)mts_lod_set_level(&c->lod, first, &ignored);
     }
     /* where two threads share a core, the rest of the stream on one */
-    if (rc == MTS_OK && c->par && (rc = mts__stream_par_batch_end(c, index, err)) != MTS_OK)
-        rc = mts_error_prefix(err, "BATCH %u", index);
+    if (rc == MTS_OK && c->par)
+        mts__stream_par_batch_end(c, index);
     if (rc != MTS_OK)
         return rc;
 applied:

@@ -782,12 +782,12 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
  * that will not come. Stopped, its grow is one grow's at `level`, so it
  * becomes the decoder's (in place of the mesh-only grow) and the rest of
  * the stream decodes as with one thread. */
-static mts_result par_alone(mts_stream_client *c, uint32_t level)
+static void par_alone(mts_stream_client *c, uint32_t level)
 {
     struct mts__stream_par *p = c->par;
     interval *v = &p->iv[0];
     if (atomic_load(&v->made) != level || atomic_load(&v->done) || !v->w)
-        return MTS_OK; /* not where the records are (the fix-up saw to it): stay on two */
+        return; /* not where the records are (the fix-up saw to it): stay on two */
     par_stop(p);
     mts_grow_free(c->grow);
     c->grow = v->w;
@@ -795,19 +795,20 @@ static mts_result par_alone(mts_stream_client *c, uint32_t level)
     mts__stream_par_free(p);
     c->par = NULL;
     c->threads_alone_from = level;
-    return MTS_OK;
 }
 
-mts_result mts__stream_par_batch_end(mts_stream_client *c, uint32_t index, mts_error *err)
+void mts__stream_par_batch_end(mts_stream_client *c, uint32_t index)
 {
     struct mts__stream_par *p = c->par;
-    (void)err;
     const uint32_t level = p->fixed;
     /* the full level's split runs on this thread on the pool's grow anyway */
     if (!p->pipe || level + 1 >= c->model.level_count)
-        return MTS_OK;
-    if (c->threads_alone_after) /* the test's word, not a measure */
-        return index + 1 >= c->threads_alone_after ? par_alone(c, level) : MTS_OK;
+        return;
+    if (c->threads_alone_after) { /* the test's word, not a measure */
+        if (index + 1 >= c->threads_alone_after)
+            par_alone(c, level);
+        return;
+    }
     int alone = 0;
     p->win_wall += now_ns() - p->at_wall;
     uint64_t delay;
@@ -819,5 +820,6 @@ mts_result mts__stream_par_batch_end(mts_stream_client *c, uint32_t index, mts_e
     }
     if (p->win_wall >= WINDOW_NS)
         p->win_wall = 0;
-    return alone ? par_alone(c, level) : MTS_OK;
+    if (alone)
+        par_alone(c, level);
 }

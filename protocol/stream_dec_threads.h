@@ -55,6 +55,6 @@ mts_result mts__stream_par_catch_up(mts_stream_client *c, uint32_t upto, mts_err
  * takes its grow, whose records are one grow's, as c->grow: the decoder
  * goes on as with one thread. */
 void mts__stream_par_batch_start(mts_stream_client *c);
-mts_result mts__stream_par_batch_end(mts_stream_client *c, uint32_t index, mts_error *err);
+void mts__stream_par_batch_end(mts_stream_client *c, uint32_t index);
 
 #endif
