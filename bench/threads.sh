@@ -5,18 +5,18 @@
 #      bunny00, fandisk_large, the 1.2M mesh (OUT/bunny00_l2.mtsm, which
 #      bench/run.sh makes; built here from OUT/bunny00_l2.off when only that
 #      is left) and cow Sqrt3-subdivided once by OpenMesh, a mesh no test uses.
-#   2. Time to the full picture over loopback: bunny00 from mts-server
-#      --rate-limit at 10, 25 and 100 Mbit/s, fresh mts-client --no-render
-#      --json processes, the splits form at --threads 1 and at the default
-#      and the records form, interleaved, median of 3 (ms_base: first
-#      picture, ms_final: the final level). Beside it Draco: bunny00 encoded
-#      by draco_encoder -cl 7 -qp 14 (the stream's 14-bit grid), downloaded
-#      with curl from nginx at the same rate (nginx limit_rate, which sends
-#      the first second's bytes at once, so the download as mts-server would
-#      pace it is computed beside it), plus draco_decoder's decode time.
+#   2. Time to the full picture over loopback at 10, 25 and 100 Mbit/s:
+#      bunny00 from mts-server, fresh mts-client --no-render --json
+#      processes, the splits form at --threads 1 and at the default and the
+#      records form, interleaved, median of 3 (ms_base: first picture,
+#      ms_final: the final level). Beside it Draco: bunny00 encoded by
+#      draco_encoder -cl 7 -qp 14 (the stream's 14-bit grid), downloaded with
+#      curl from nginx at the same rate, plus draco_decoder's decode time.
+#      Both meet the same link where one can be made (below, part 2).
 # Usage: bench/threads.sh OUT SHARED_MODELS_DIR. Writes OUT/threads.json and
 # prints the tables. Environment: MTS_BENCH_BIN (default build/bin),
-# MTS_BENCH_BIG=0 leaves out the 1.2M mesh, MTS_BENCH_THREADS_QUICK=1 a
+# MTS_BENCH_BIG=0 leaves out the 1.2M mesh, MTS_BENCH_LINK=0 paces part 2
+# with the servers' own limits, not a shaped link, MTS_BENCH_THREADS_QUICK=1 a
 # quick check (cow alone, 3 runs, one rate, one run each). Absent tools and
 # models are skipped with the reason in the JSON; exit status 1 when a
 # requested figure could not be measured.
@@ -132,10 +132,19 @@ elif [ ${#busy_models[@]} -gt 0 ]; then
 fi
 
 # --- 2. time to the full picture at a rate ------------------------------------
+# Both streams meet the same link. Where this runs as root with unshare and
+# tc, this part runs in a network namespace of its own whose loopback (MTU
+# 1500) is shaped to the rate by Linux's tbf qdisc, a link emulator both
+# servers send into as fast as they can. Elsewhere mts-server --rate-limit
+# paces ours (the rate from the first byte, in 5 ms quanta) and nginx's
+# limit_rate Draco's, which lets the first second's bytes go at once, so
+# Draco's download over a link is also computed (the bytes over the rate).
 : >"$dir/stream.txt" # RATE WAY RUN JSON
 : >"$dir/draco.txt"  # RATE WAY RUN SECONDS
 : >"$dir/decode.txt" # MS (draco_decoder's own) WALL_S
 smodel="$dir/models/$stream_model.mtsm"
+drc="$dir/www/$stream_model.drc"
+nginx_bin=$(command -v nginx || { [ -x /usr/sbin/nginx ] && echo /usr/sbin/nginx; })
 wait_listen() { # PORT
   for _ in $(seq 1 600); do
     (exec 3<>"/dev/tcp/127.0.0.1/$1") 2>/dev/null && return 0
@@ -158,44 +167,105 @@ wait_stream() { # PORT: the splits form encoded, then the records form too
   done
   return 1
 }
-if [ ! -f "$smodel" ]; then
-  skip stream "$stream_model's model was not built"
-else
+shape() { # RATE (bytes/s): the namespace's loopback becomes a link at that rate
+  tc qdisc replace dev lo root tbf rate "$(($1 * 8))bit" burst 6000 latency 200ms
+}
+clients() { # PORT RATE: the three ways, interleaved, so drift hits all alike
+  echo "bench: threads: $stream_model at $2 B/s ($how), $stream_runs run(s) of each form ..." >&2
+  for run in $(seq 1 "$stream_runs"); do
+    for way in splits_t1 splits_default records; do
+      case $way in
+      splits_t1) flags=(--threads 1) ;;
+      splits_default) flags=() ;;
+      records) flags=(--records) ;;
+      esac
+      if line=$(timeout 120 "$bin/mts-client" "127.0.0.1:$1" "$stream_model" --no-render \
+        --json "${flags[@]}" 2>>"$dir/client.err"); then
+        echo "$2 $way $run $line" >>"$dir/stream.txt"
+      else
+        echo "bench: threads: mts-client $way at $2 failed: $(tail -n 1 "$dir/client.err")" >&2
+        echo 1 >"$dir/stream_failed"
+      fi
+    done
+  done
+}
+streams() { # the mts-server part, paced by the link or by --rate-limit
+  local port server
+  if [ "$how" = link ]; then
+    port=$(free_port)
+    "$bin/mts-server" --model "$stream_model=$smodel" --listen "127.0.0.1:$port" \
+      --quiet 2>"$dir/server.log" &
+    server=$!
+    if ! wait_listen "$port" || ! wait_stream "$port"; then
+      skip stream "mts-server did not have the streams ready in 60 s: $(tail -n 1 "$dir/server.log")"
+      echo 1 >"$dir/stream_failed"
+    else
+      for rate in "${rates[@]}"; do
+        shape "$rate" && clients "$port" "$rate"
+      done
+    fi
+    kill -TERM "$server" 2>/dev/null
+    wait "$server" 2>/dev/null
+    return
+  fi
   for rate in "${rates[@]}"; do
     port=$(free_port)
     "$bin/mts-server" --model "$stream_model=$smodel" --listen "127.0.0.1:$port" \
       --rate-limit "$rate" --quiet 2>"$dir/server_$rate.log" &
     server=$!
-    pids+=("$server")
     if ! wait_listen "$port" || ! wait_stream "$port"; then
       skip "stream_$rate" "mts-server did not have the streams ready in 60 s: $(tail -n 1 "$dir/server_$rate.log")"
-      status=1
+      echo 1 >"$dir/stream_failed"
     else
-      echo "bench: threads: $stream_model at $rate B/s, $stream_runs run(s) of each form ..." >&2
-      for run in $(seq 1 "$stream_runs"); do # interleaved, so drift hits all alike
-        for way in splits_t1 splits_default records; do
-          case $way in
-          splits_t1) flags=(--threads 1) ;;
-          splits_default) flags=() ;;
-          records) flags=(--records) ;;
-          esac
-          if line=$(timeout 120 "$bin/mts-client" "127.0.0.1:$port" "$stream_model" --no-render \
-            --json "${flags[@]}" 2>>"$dir/client.err"); then
-            echo "$rate $way $run $line" >>"$dir/stream.txt"
-          else
-            echo "bench: threads: mts-client $way at $rate failed: $(tail -n 1 "$dir/client.err")" >&2
-            status=1
-          fi
-        done
-      done
+      clients "$port" "$rate"
     fi
     kill -TERM "$server" 2>/dev/null
     wait "$server" 2>/dev/null
   done
-fi
+}
+downloads() { # Draco's file by curl from nginx, through the link or limit_rate
+  local nport npid
+  nport=$(free_port)
+  # shellcheck disable=SC2016 # $arg_rate is nginx's: the rate comes in the URL
+  sed -e "s#@PORT@#$nport#g" -e "s#@ROOT@#$dir/www#g" -e "s#@PREFIX@#$dir/nginx#g" \
+    -e 's#^\( *\)root \(.*\)#\1root \2\n\1limit_rate $arg_rate;#' \
+    bench/nginx-static.conf >"$dir/nginx/nginx.conf"
+  "$nginx_bin" -c "$dir/nginx/nginx.conf" -p "$dir/nginx" 2>"$dir/nginx/stderr.log" &
+  npid=$!
+  if ! wait_listen "$nport"; then
+    skip draco "nginx did not start: $(tail -n 1 "$dir/nginx/stderr.log")"
+    echo 1 >"$dir/stream_failed"
+  else
+    for rate in "${rates[@]}"; do
+      # through the link, nginx sends as fast as it can (limit_rate 0)
+      local q=$rate
+      [ "$how" = link ] && { shape "$rate" || continue; q=0; }
+      for run in $(seq 1 "$stream_runs"); do
+        s=$(curl -sS -o /dev/null -w '%{time_total}' "http://127.0.0.1:$nport/$stream_model.drc?rate=$q" \
+          2>>"$dir/curl.err")
+        if [ -n "$s" ]; then echo "$rate $how $run $s" >>"$dir/draco.txt"; else echo 1 >"$dir/stream_failed"; fi
+      done
+    done
+  fi
+  kill -TERM "$npid" 2>/dev/null
+  wait "$npid" 2>/dev/null
+}
+stream_part() { # in the namespace (how=link) or not (how=pace)
+  trap 'kill -TERM $(jobs -p) 2>/dev/null; wait 2>/dev/null' EXIT
+  if [ "$how" = link ]; then
+    if ! ip link set lo up || ! ip link set lo mtu 1500; then
+      echo 1 >"$dir/stream_failed"
+      return
+    fi
+  fi
+  [ -f "$smodel" ] && streams
+  [ -f "$drc" ] && [ -n "$nginx_bin" ] && downloads
+}
 
-# Draco: the same mesh, single-rate, from nginx at the same rates
-nginx_bin=$(command -v nginx || { [ -x /usr/sbin/nginx ] && echo /usr/sbin/nginx; })
+if [ ! -f "$smodel" ]; then
+  skip stream "$stream_model's model was not built"
+fi
+# Draco: the same mesh, single-rate, encoded and decoded here
 if [ ! -f "$shared/$stream_model.off" ]; then
   skip draco "$shared/$stream_model.off not found"
 elif ! command -v draco_encoder >/dev/null || ! command -v draco_decoder >/dev/null; then
@@ -213,9 +283,9 @@ else
        s == 2 && nv > 0 { print "v", $1, $2, $3; nv--; next }
        s == 2 && nf > 0 { for (i = 3; i <= $1; i++) print "f", $2 + 1, $(i) + 1, $(i + 1) + 1; nf-- }' \
     "$shared/$stream_model.off" >"$dir/$stream_model.obj"
-  drc="$dir/www/$stream_model.drc"
   if ! draco_encoder -i "$dir/$stream_model.obj" -o "$drc" -cl 7 -qp 14 >"$dir/draco_encoder.log" 2>&1; then
     skip draco "draco_encoder failed: $(tail -n 1 "$dir/draco_encoder.log")"
+    rm -f "$drc"
     status=1
   else
     for _ in 1 2 3 4 5; do
@@ -225,30 +295,27 @@ else
       ms=$(printf '%s\n' "$msg" | sed -n 's/.*(\([0-9.]*\) ms to decode).*/\1/p')
       echo "${ms:-none} $wall" >>"$dir/decode.txt"
     done
-    nport=$(free_port)
-    # shellcheck disable=SC2016 # $arg_rate is nginx's: the rate comes in the URL
-    sed -e "s#@PORT@#$nport#g" -e "s#@ROOT@#$dir/www#g" -e "s#@PREFIX@#$dir/nginx#g" \
-      -e 's#^\( *\)root \(.*\)#\1root \2\n\1limit_rate $arg_rate;#' \
-      bench/nginx-static.conf >"$dir/nginx/nginx.conf"
-    "$nginx_bin" -c "$dir/nginx/nginx.conf" -p "$dir/nginx" 2>"$dir/nginx/stderr.log" &
-    npid=$!
-    pids+=("$npid")
-    if ! wait_listen "$nport"; then
-      skip draco "nginx did not start: $(tail -n 1 "$dir/nginx/stderr.log")"
-      status=1
-    else
-      url="http://127.0.0.1:$nport/$stream_model.drc"
-      for rate in "${rates[@]}"; do
-        for run in $(seq 1 "$stream_runs"); do
-          s=$(curl -sS -o /dev/null -w '%{time_total}' "$url?rate=$rate" 2>>"$dir/curl.err")
-          if [ -n "$s" ]; then echo "$rate nginx $run $s" >>"$dir/draco.txt"; else status=1; fi
-        done
-      done
-    fi
-    kill -TERM "$npid" 2>/dev/null
-    wait "$npid" 2>/dev/null
   fi
 fi
+how=pace
+if [ "${MTS_BENCH_LINK:-1}" != 0 ] && [ "$(id -u)" = 0 ] && command -v unshare >/dev/null && command -v tc >/dev/null &&
+  unshare -n sh -c 'ip link set lo up && tc qdisc add dev lo root tbf rate 10mbit burst 6000 latency 200ms' \
+    2>"$dir/link_probe.err"; then
+  how="link"
+else
+  echo "bench: threads: no link emulation (needs root, unshare and tc's tbf: $(tail -n 1 "$dir/link_probe.err" 2>/dev/null)); mts-server --rate-limit and nginx limit_rate pace instead" >&2
+fi
+echo "$how" >"$dir/how"
+if [ "$how" = link ]; then
+  export -f stream_part streams downloads clients shape wait_listen wait_stream skip free_port
+  export bin dir smodel drc nginx_bin stream_model stream_runs how skipped
+  export rates_list="${rates[*]}"
+  # shellcheck disable=SC2016 # expanded by the bash in the namespace
+  unshare -n bash -c 'read -r -a rates <<<"$rates_list"; stream_part'
+else
+  (stream_part)
+fi
+[ -f "$dir/stream_failed" ] && status=1
 
 # --- merge and print ------------------------------------------------------------
 python3 - "$dir" "$json" "$procs" "$counts" "$runs" "$stream_runs" "$stream_model" "$quick" <<'PY' || status=1
@@ -353,7 +420,12 @@ try:
     drc_bytes = os.path.getsize(os.path.join(d, "www", smodel + ".drc"))
 except OSError:
     pass
+how = (lines("how") or ["pace"])[0]
 stream = {"model": smodel, "runs": int(sruns), "rates": {},
+          "paced_by": {"link": "a link: a network namespace whose loopback Linux's tbf qdisc "
+                               "shapes to the rate (MTU 1500), mts-server and nginx unpaced",
+                       "pace": "mts-server --rate-limit (the rate from the first byte, 5 ms "
+                               "quanta) and nginx limit_rate (the first second's bytes at once)"}[how],
           "draco": {"bytes": drc_bytes, "encoder": "draco_encoder -cl 7 -qp 14",
                     "decode_ms": dec_ms, "decoder_process_ms": dec_wall_ms}}
 for rate in sorted(set(runs_by) | set(drc), key=float):
@@ -369,22 +441,19 @@ for rate in sorted(set(runs_by) | set(drc), key=float):
                   "checksums": sorted({r.get("checksum") for r in rs if r.get("checksum")}),
                   "runs": len(rs)}
     dr = drc.get(rate, {})
-    if dr:
-        e["draco"] = {"download_ms_nginx_limit_rate": med(dr.get("nginx", [])),
-                      "runs": len(dr.get("nginx", []))}
-        if drc_bytes:  # a link at the rate; mts-server's pacing: plus a tenth of a second's burst
-            e["draco"]["download_ms_link"] = drc_bytes / float(rate) * 1e3
-            e["draco"]["download_ms_paced_as_mts_server"] = max(
-                0.0, drc_bytes - 0.1 * float(rate)) / float(rate) * 1e3
-        for way in ("nginx_limit_rate", "link", "paced_as_mts_server"):
-            v = e["draco"].get("download_ms_" + way)
+    if dr or drc_bytes:
+        got = dr.get(how, [])
+        e["draco"] = {"download_ms_measured": med(got), "runs": len(got),
+                      "download_ms_link": drc_bytes / float(rate) * 1e3 if drc_bytes else None}
+        for way in ("measured", "link"):
+            v = e["draco"]["download_ms_" + way]
             e["draco"]["full_ms_" + way] = v + dec_ms if v is not None and dec_ms is not None else None
     stream["rates"][f"{mbit:g}Mbit"] = e
 stream["same_checksum"] = len({c for e in stream["rates"].values() for w in e.values()
                                 if isinstance(w, dict) for c in w.get("checksums", [])}) <= 1
 res["stream"] = stream
 fmt = lambda v, p=1: f"{v:.{p}f}" if isinstance(v, (int, float)) else "-"
-print(f"\nThreads: time to the full picture, {smodel} from mts-server --rate-limit over loopback, "
+print(f"\nThreads: time to the full picture, {smodel} from mts-server over loopback ({how}), "
       f"fresh mts-client --no-render, median of {sruns} interleaved; Draco {drc_bytes} B "
       f"(cl 7, 14 bits) by curl from nginx, plus draco_decoder's {fmt(dec_ms)} ms")
 print(f"{'rate':<9} {'way':<15} {'thr':>3} {'bytes':>9} {'link ms':>8} {'first ms':>9} "
@@ -401,17 +470,15 @@ for key, e in stream["rates"].items():
               f"{fmt(link):>8} {fmt(r['first_ms']):>9} {fmt(r['full_ms']):>9} {fmt(r['apply_ms']):>9} "
               f"{fmt(r['full_ms'] / t1 if t1 and r['full_ms'] else None, 2):>6}")
     dr = e.get("draco")
-    for way, label in (("nginx_limit_rate", "draco nginx"), ("link", "draco link"),
-                       ("paced_as_mts_server", "draco paced")):
+    for way, label in (("measured", "draco " + how), ("link", "draco computed")):
         v = dr and dr.get("full_ms_" + way)
         if v is not None:
             print(f"{key:<9} {label:<15} {'':>3} {fmt(drc_bytes, 0):>9} "
                   f"{fmt(dr.get('download_ms_link')):>8} {'':>9} {fmt(v):>9} "
                   f"{'':>9} {fmt(v / t1 if t1 else None, 2):>6}")
-print("  (link: the bytes over the rate; first: ms_base, the base drawn; full: ms_final; Draco's full: download + decode. "
-      "nginx: limit_rate, measured, which sends the first second's bytes at once; link: "
-      "computed, the bytes over the rate; paced: computed as mts-server paces, the rate "
-      "plus a burst of a tenth of a second's bytes)")
+print("  (link ms: the bytes over the rate; first: ms_base, the base drawn; full: ms_final; "
+      "Draco's full: download + decode. Paced by " + stream["paced_by"] + "; draco "
+      + how + ": curl's download measured so, draco computed: the bytes over the rate)")
 for name, why in skipped.items():
     if name.startswith(("stream", "draco")):
         print(f"{name}: skipped: {why}")

@@ -522,13 +522,23 @@ int mts__conn_input(mts__conn *c, const uint8_t *buf, size_t n)
     return 1;
 }
 
+/* A paced connection is a preview of a link at the rate: bytes leave at the
+ * rate from the first one, a tick's worth at a time (the loop ticks every
+ * 5 ms while any connection is paced), at least 4 KiB so writes are not
+ * tiny. A larger head start would let a small stream arrive all at once:
+ * a tenth of a second at 10 Mbit/s is 125 KB, most of a mesh's stream. */
+#define PACE_TICK 0.005
+static double pace_quantum(double rate)
+{
+    return rate * PACE_TICK > 4096 ? rate * PACE_TICK : 4096;
+}
+
 /* Bytes a paced connection may send now: its rate since it was answered,
- * plus a burst of a tenth of a second so writes are not tiny. */
+ * plus one quantum. */
 static size_t pace_allowance(const mts_server *s, const mts__conn *c, double now)
 {
     double rate = s->opts.rate_limit;
-    double burst = rate * 0.1 > 4096 ? rate * 0.1 : 4096;
-    double allowed = rate * (now - c->answered) + burst - (double)c->sent;
+    double allowed = rate * (now - c->answered) + pace_quantum(rate) - (double)c->sent;
     return allowed > 0 ? (size_t)allowed : 0;
 }
 
@@ -581,10 +591,8 @@ void mts__conn_write(mts__conn *c)
             double now = mts_clock_seconds();
             size_t allow = pace_allowance(s, c, now);
             if (allow == 0) {
-                /* over its rate: stop watching output until a useful
-                 * amount is due (at least 4 KiB or 50 ms of its rate) */
-                double chunk = s->opts.rate_limit * 0.05 > 4096 ? s->opts.rate_limit * 0.05 : 4096;
-                paced_add(s, c, now + chunk / s->opts.rate_limit);
+                /* over its rate: stop watching output until a quantum is due */
+                paced_add(s, c, now + pace_quantum(s->opts.rate_limit) / s->opts.rate_limit);
                 c->last_progress = now; /* pacing is not stalling */
                 mts__conn_watch_out(c, 0);
                 return;
