@@ -18,8 +18,11 @@
 #include "modelfile.h"
 #include "stream.h"
 
-/* Seconds to take every frame of b into a fresh client; 0 on an error. */
-static double apply(const mts_buf *b, uint32_t threads, uint64_t *checksum, mts_error *err)
+/* Seconds to take every frame of b into a fresh client; 0 on an error.
+ * *alone counts the runs whose two threads went on as one (stream.h,
+ * threads_alone_from), so that a row's figure says what it measured. */
+static double apply(const mts_buf *b, uint32_t threads, uint64_t *checksum, int *alone,
+                    mts_error *err)
 {
     mts_stream_client c;
     mts_stream_client_init(&c);
@@ -32,6 +35,7 @@ static double apply(const mts_buf *b, uint32_t threads, uint64_t *checksum, mts_
     double t = cli_now() - t0;
     ok = ok && got == 0 && c.end_checksum != 0;
     *checksum = c.checksum;
+    *alone += c.threads_alone_from != 0;
     mts_stream_client_free(&c);
     return ok ? t : 0;
 }
@@ -110,11 +114,11 @@ int main(int argc, char **argv)
         fprintf(js, "{\"runs\":%d,\"models\":{", runs);
     printf("\nApplying a stream: both forms in one process, memory warm, median of %d\n",
            runs);
-    printf("%-14s %9s %9s %10s %11s %10s %11s %7s %9s %9s\n", "model", "triangles", "splits",
+    printf("%-14s %9s %9s %10s %11s %10s %11s %7s %9s %9s %5s\n", "model", "triangles", "splits",
            "splits ms", "splits M/s", "records ms", "records M/s", "ratio", "ns/split",
-           "encode s");
+           "encode s", "alone");
     printf("%s\n", "----------------------------------------------------------------------------"
-                   "------------------------------");
+                   "------------------------------------");
     int status = CLI_EXIT_OK, first = 1;
     for (int k = 0; k < npaths; k++) {
         char name[128];
@@ -140,16 +144,17 @@ int main(int argc, char **argv)
         mts_buf a = {0}, r = {0};
         double ta[8][99], tr[99];
         uint64_t ca[8] = {0}, cr = 0;
+        int alone[8] = {0}, unused = 0;
         int ok = bench_connection_bytes(&s, s.model.level_count, &a) &&
                  bench_connection_bytes(s.records_form, s.records_form->model.level_count, &r);
         /* a first run of each: first-touch page faults are not decoding */
-        ok = ok && apply(&r, 1, &cr, &err) > 0;
+        ok = ok && apply(&r, 1, &cr, &unused, &err) > 0;
         for (int x = 0; ok && x < nthreads; x++)
-            ok = apply(&a, threads[x], &ca[x], &err) > 0;
+            ok = apply(&a, threads[x], &ca[x], &unused, &err) > 0;
         for (int i = 0; ok && i < runs; i++) { /* alternated, so drift hits all */
             for (int x = 0; ok && x < nthreads; x++)
-                ok = (ta[x][i] = apply(&a, threads[x], &ca[x], &err)) > 0;
-            ok = ok && (tr[i] = apply(&r, 1, &cr, &err)) > 0;
+                ok = (ta[x][i] = apply(&a, threads[x], &ca[x], &alone[x], &err)) > 0;
+            ok = ok && (tr[i] = apply(&r, 1, &cr, &unused, &err)) > 0;
         }
         for (int x = 0; x < nthreads; x++)
             ok = ok && ca[x] == cr;
@@ -169,19 +174,19 @@ int main(int argc, char **argv)
             qsort(tx, (size_t)runs, sizeof *tx, bench_cmp_double);
             const double sa = tx[runs / 2], sr = tr[runs / 2], n = m.level_count;
             const uint32_t tris = m.level_triangles[m.level_count];
-            printf("%-14s %9u %9u %10.2f %11.3f %10.2f %11.3f %7.2f %9.0f %9.2f\n", row, tris,
+            printf("%-14s %9u %9u %10.2f %11.3f %10.2f %11.3f %7.2f %9.0f %9.2f %5d\n", row, tris,
                    m.level_count, sa * 1e3, n / sa / 1e6, sr * 1e3, n / sr / 1e6, sa / sr,
-                   sa / n * 1e9, encode);
+                   sa / n * 1e9, encode, alone[x]);
             if (js)
                 fprintf(js,
                         "%s\"%s\":{\"triangles\":%u,\"splits\":%u,\"splits_bytes\":%zu,"
                         "\"records_bytes\":%zu,\"splits_ms\":%.3f,\"splits_per_s\":%.0f,"
                         "\"records_ms\":%.3f,\"records_per_s\":%.0f,\"ratio\":%.3f,"
                         "\"ns_per_split\":%.1f,\"splits_ms_min\":%.3f,\"records_ms_min\":%.3f,"
-                        "\"encode_s\":%.3f,\"threads\":%u}",
+                        "\"encode_s\":%.3f,\"threads\":%u,\"alone_runs\":%d}",
                         first ? "" : ",", row, tris, m.level_count, a.size, r.size, sa * 1e3,
                         n / sa, sr * 1e3, n / sr, sa / sr, sa / n * 1e9, tx[0] * 1e3,
-                        tr[0] * 1e3, encode, threads[x]);
+                        tr[0] * 1e3, encode, threads[x], alone[x]);
             first = 0;
         }
         mts_buf_free(&a);
@@ -189,7 +194,8 @@ int main(int argc, char **argv)
         mts_stream_free(&s);
         mts_model_free(&m);
     }
-    printf("(ratio: splits form / records form; ns/split: the splits form's)\n");
+    printf("(ratio: splits form / records form; ns/split: the splits form's; alone: the timed "
+           "runs whose two threads went on as one, finding the pool thread without a core)\n");
     if (js) {
         fprintf(js, "}}\n");
         fclose(js);

@@ -352,9 +352,11 @@ for row, r in rows.items():
         name, t = row, str(r["threads"])
     m = apply["models"].setdefault(name, {"triangles": r["triangles"], "splits": r["splits"],
                                           "records_ms": r["records_ms"], "splits_ms": {},
-                                          "splits_ms_min": {}, "over_one_thread": {}})
+                                          "splits_ms_min": {}, "over_one_thread": {},
+                                          "alone_runs": {}})
     m["splits_ms"][t] = r["splits_ms"]
     m["splits_ms_min"][t] = r["splits_ms_min"]
+    m["alone_runs"][t] = r.get("alone_runs")
 for m in apply["models"].values():
     one = m["splits_ms"].get("1")
     for t, ms in m["splits_ms"].items():
@@ -364,14 +366,14 @@ print(f"\nThreads: apply time against the decoder's threads (mts-bench-apply, sp
       f"median of {runs}, counts alternated in each run; {procs} processors online)")
 hdr = f"{'model':<14} {'triangles':>9} {'splits':>8} " + " ".join(
     f"{f'{t} thr ms':>10}" for t in counts) + " " + " ".join(
-    f"{f'{t}/1':>6}" for t in counts[1:]) + f" {'records ms':>10}"
+    f"{f'{t}/1':>6}" for t in counts[1:]) + f" {'records ms':>10} {'alone':>5}"
 print(hdr)
 print("-" * len(hdr))
 for name, m in apply["models"].items():
     print(f"{name:<14} {m['triangles']:>9} {m['splits']:>8} " + " ".join(
         f"{m['splits_ms'].get(str(t), float('nan')):>10.2f}" for t in counts) + " " + " ".join(
         f"{m['over_one_thread'].get(str(t)) or float('nan'):>6.2f}" for t in counts[1:]) +
-        f" {m['records_ms']:>10.2f}")
+        f" {m['records_ms']:>10.2f} {m['alone_runs'].get('2') or 0:>5}")
 for name, why in skipped.items():
     if not name.startswith(("stream", "draco")):
         print(f"{name:<14} skipped: {why}")
@@ -386,19 +388,22 @@ if rows is not None:
     busy = {"runs": int(runs), "busy_cores": int(procs) - 1, "models": {}}
     for row, r in rows.items():
         name, _, t = row.rpartition("@t")
-        m = busy["models"].setdefault(name, {"splits_ms": {}})
+        m = busy["models"].setdefault(name, {"splits_ms": {}, "alone_runs": {}})
         m["splits_ms"][t] = r["splits_ms"]
+        m["alone_runs"][t] = r.get("alone_runs")
     for m in busy["models"].values():
         one, two = m["splits_ms"].get("1"), m["splits_ms"].get("2")
         m["two_over_one"] = round(two / one, 3) if one and two else None
     res["apply_busy"] = busy
     print(f"\nThreads with {int(procs) - 1} of {procs} cores held by busy loops "
           f"(mts-bench-apply --threads 1,2, median of {runs})")
-    print(f"{'model':<14} {'1 thr ms':>10} {'2 thr ms':>10} {'2/1':>6}")
+    print(f"{'model':<14} {'1 thr ms':>10} {'2 thr ms':>10} {'2/1':>6} {'alone':>5}")
     for name, m in busy["models"].items():
         print(f"{name:<14} {m['splits_ms'].get('1', float('nan')):>10.2f} "
               f"{m['splits_ms'].get('2', float('nan')):>10.2f} "
-              f"{m['two_over_one'] or float('nan'):>6.2f}")
+              f"{m['two_over_one'] or float('nan'):>6.2f} {m['alone_runs'].get('2') or 0:>5}")
+print(f"  (alone: of the {runs} timed runs at 2 threads, those that went on as one thread, "
+      "finding the pool thread without a core)")
 
 # 2. time to the full picture at a rate
 runs_by = {}
@@ -439,6 +444,7 @@ for rate in sorted(set(runs_by) | set(drc), key=float):
                   "threads": rs[0].get("threads"), "form": rs[0].get("form"),
                   "complete": all(r.get("complete") for r in rs),
                   "checksums": sorted({r.get("checksum") for r in rs if r.get("checksum")}),
+                  "alone_runs": sum(1 for r in rs if r.get("threads_alone_from")),
                   "runs": len(rs)}
     dr = drc.get(rate, {})
     if dr or drc_bytes:
@@ -457,8 +463,8 @@ print(f"\nThreads: time to the full picture, {smodel} from mts-server over loopb
       f"fresh mts-client --no-render, median of {sruns} interleaved; Draco {drc_bytes} B "
       f"(cl 7, 14 bits) by curl from nginx, plus draco_decoder's {fmt(dec_ms)} ms")
 print(f"{'rate':<9} {'way':<15} {'thr':>3} {'bytes':>9} {'link ms':>8} {'first ms':>9} "
-      f"{'full ms':>9} {'apply ms':>9} {'vs t1':>6}")
-print("-" * 85)
+      f"{'full ms':>9} {'apply ms':>9} {'vs t1':>6} {'alone':>5}")
+print("-" * 91)
 for key, e in stream["rates"].items():
     t1 = e.get("splits_t1", {}).get("full_ms")
     for way in ("splits_t1", "splits_default", "records"):
@@ -468,7 +474,8 @@ for key, e in stream["rates"].items():
         link = r["bytes"] / e["bytes_per_s"] * 1e3 if r["bytes"] else None
         print(f"{key:<9} {way:<15} {r['threads'] or '-':>3} {fmt(r['bytes'], 0):>9} "
               f"{fmt(link):>8} {fmt(r['first_ms']):>9} {fmt(r['full_ms']):>9} {fmt(r['apply_ms']):>9} "
-              f"{fmt(r['full_ms'] / t1 if t1 and r['full_ms'] else None, 2):>6}")
+              f"{fmt(r['full_ms'] / t1 if t1 and r['full_ms'] else None, 2):>6} "
+              f"{r['alone_runs'] if r['threads'] == 2 else '':>5}")
     dr = e.get("draco")
     for way, label in (("measured", "draco " + how), ("link", "draco computed")):
         v = dr and dr.get("full_ms_" + way)
