@@ -104,6 +104,7 @@ struct mts__stream_par {
     uint64_t at_wall;            /* the batch's start */
     uint64_t win_wall, win_delay; /* the window: its batches' wall time, the delay before it */
     unsigned slow;               /* windows in a row past the line */
+    uint64_t slow_idle;          /* the cores' idle ticks when that run began */
     uint32_t ids_n, ids_cap;
     mts_words mapped;          /* an explicit split's moved triangles in mesh-only ids */
 };
@@ -509,6 +510,49 @@ static int par_delay(struct mts__stream_par *p, uint64_t *ns)
 #endif
 }
 
+/* The idle time so far of the processors this thread may run on, in
+ * /proc/stat's ticks (USER_HZ, 10 ms on Linux), idle and iowait; 0 where
+ * none can be read. The pool thread's run delay says it waited for a core,
+ * not that none was free: on a virtual machine the scheduler may keep both
+ * threads on one processor for tens of milliseconds while the other idles
+ * (a halted virtual processor looks busy to it), and a fresh process
+ * often starts so. Going alone is for a machine with no core free. */
+static int cores_idle(uint64_t *ticks)
+{
+#ifdef __linux__
+    unsigned long mask[16] = {0}; /* 1024 processors */
+    long got = syscall(SYS_sched_getaffinity, 0, sizeof mask, mask);
+    FILE *f = fopen("/proc/stat", "re");
+    if (got <= 0 || !f) {
+        if (f)
+            fclose(f);
+        return 0;
+    }
+    char line[256];
+    uint64_t sum = 0;
+    int any = 0;
+    const unsigned bits = 8 * sizeof mask[0];
+    while (fgets(line, sizeof line, f)) {
+        unsigned cpu;
+        unsigned long long user, nice, sys, idle, iowait;
+        if (strncmp(line, "cpu", 3) != 0)
+            break; /* the per-processor lines come first */
+        if (sscanf(line, "cpu%u %llu %llu %llu %llu %llu", &cpu, &user, &nice, &sys, &idle,
+                   &iowait) != 6 ||
+            cpu >= 8 * (unsigned)sizeof mask || !(mask[cpu / bits] >> (cpu % bits) & 1))
+            continue;
+        sum += idle + iowait;
+        any = 1;
+    }
+    fclose(f);
+    *ticks = sum;
+    return any;
+#else
+    (void)ticks;
+    return 0;
+#endif
+}
+
 void mts__stream_par_batch_start(mts_stream_client *c)
 {
     struct mts__stream_par *p = c->par;
@@ -816,7 +860,17 @@ void mts__stream_par_batch_end(mts_stream_client *c, uint32_t index)
         par_delay(p, &delay) && delay >= p->win_delay) {
         const uint64_t d = delay - p->win_delay;
         p->slow = d * 100 >= p->win_wall * SLOW_PERCENT ? p->slow + 1 : 0;
-        alone = p->slow >= SLOW_WINDOWS;
+        uint64_t idle = 0;
+        if (p->slow == 1 && !cores_idle(&p->slow_idle))
+            p->slow_idle = UINT64_MAX;
+        if (p->slow >= SLOW_WINDOWS) {
+            /* a core idled for a tick or more of those windows (12 ms at
+             * least): the threads were placed badly, not crowded out */
+            if (p->slow_idle != UINT64_MAX && cores_idle(&idle) && idle > p->slow_idle)
+                p->slow = 0;
+            else
+                alone = 1;
+        }
     }
     if (p->win_wall >= WINDOW_NS)
         p->win_wall = 0;
