@@ -685,9 +685,10 @@ else:
         dr = e.get("draco") or {}
         cells = [f"{w} {f(w):.1f}" for w in ("splits_t1", "splits_default", "records") if f(w)]
         cells += [f"Draco {dr['full_ms_' + k]:.1f} ({k})"
-                  for k in ("nginx_limit_rate", "link", "paced_as_mts_server")
-                  if dr.get("full_ms_" + k) is not None]
+                  for k in ("measured", "link") if dr.get("full_ms_" + k) is not None]
         print(f"  {st.get('model')} at {key}, full picture ms: " + ", ".join(cells))
+    if st.get("paced_by"):
+        print(f"  (paced by {st['paced_by']})")
     for name, why in thr.get("skipped", {}).items():
         print(f"  {name}: skipped: {why}")
 res["threads"] = thr
