@@ -513,10 +513,11 @@ static int par_delay(struct mts__stream_par *p, uint64_t *ns)
 /* The idle time so far of the processors this thread may run on, in
  * /proc/stat's ticks (USER_HZ, 10 ms on Linux), idle and iowait; 0 where
  * none can be read. The pool thread's run delay says it waited for a core,
- * not that none was free: on a virtual machine the scheduler may keep both
- * threads on one processor for tens of milliseconds while the other idles
- * (a halted virtual processor looks busy to it), and a fresh process
- * often starts so. Going alone is for a machine with no core free. */
+ * not that none was free: the scheduler may keep both threads on one
+ * processor for tens of milliseconds while another idles (seen on a
+ * virtual machine, each thread woken onto the other's processor), and a
+ * fresh process often starts so. Going alone is for a machine with no core
+ * free. */
 static int cores_idle(uint64_t *ticks)
 {
 #ifdef __linux__
@@ -537,6 +538,8 @@ static int cores_idle(uint64_t *ticks)
         unsigned long long user, nice, sys, idle, iowait;
         if (strncmp(line, "cpu", 3) != 0)
             break; /* the per-processor lines come first */
+        if (line[3] < '0' || line[3] > '9')
+            continue; /* the machine's total */
         if (sscanf(line, "cpu%u %llu %llu %llu %llu %llu", &cpu, &user, &nice, &sys, &idle,
                    &iowait) != 6 ||
             cpu >= 8 * (unsigned)sizeof mask || !(mask[cpu / bits] >> (cpu % bits) & 1))
