@@ -204,8 +204,8 @@ typedef struct mts_stream_client {
      * process holds the rest) they take longer than one thread alone. So
      * after each batch the decoder reads how long its pool thread waited
      * for a core (Linux), and where that passes 15% of three windows of
-     * batches in a row, it goes on alone for the rest of the stream (with
-     * the same records). Two threads do; three or more (key
+     * batches in a row while no core it may use idled, it goes on alone
+     * for the rest of the stream (with the same records). Two threads do; three or more (key
      * intervals) keep theirs. threads_alone_after (tests) makes two do so
      * after that many batches instead, measuring nothing; 0: by measure. */
     uint32_t threads_alone_after;
