@@ -588,11 +588,18 @@ void mts__conn_write(mts__conn *c)
             return;
         }
         if (s->opts.rate_limit > 0 && c->stream) {
-            double now = mts_clock_seconds();
-            size_t allow = pace_allowance(s, c, now);
-            if (allow == 0) {
-                /* over its rate: stop watching output until a quantum is due */
-                paced_add(s, c, now + pace_quantum(s->opts.rate_limit) / s->opts.rate_limit);
+            const double now = mts_clock_seconds(), rate = s->opts.rate_limit,
+                         quantum = pace_quantum(rate);
+            size_t allow = pace_allowance(s, c, now), left = 0;
+            for (int k = 1; k < n; k++)
+                left += iov[k].iov_len;
+            if (allow < left && allow < (size_t)quantum) {
+                /* over its rate, or nearly: stop watching output until a
+                 * quantum is due. Writing what a few microseconds allow
+                 * would send the rest in thousands of writes of a few bytes
+                 * (over WebSocket, each its own message, which a page then
+                 * takes one event at a time). */
+                paced_add(s, c, now + (quantum - (double)allow) / rate);
                 c->last_progress = now; /* pacing is not stalling */
                 mts__conn_watch_out(c, 0);
                 return;

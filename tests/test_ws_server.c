@@ -151,6 +151,33 @@ static mts_result ws_unwrap(const mts_buf *raw, uint64_t max_message, mts_buf *o
     return rc;
 }
 
+/* The data frames (binary, continuation) among the server's frames in raw;
+ * -1 where one runs past the end. */
+static long data_frames(const mts_buf *raw)
+{
+    long count = 0;
+    size_t at = 0;
+    while (at + 2 <= raw->size) {
+        const uint8_t op = raw->data[at] & 0x0f;
+        uint64_t len = raw->data[at + 1] & 0x7f;
+        size_t head = 2;
+        if (len >= 126) {
+            const size_t ext = len == 126 ? 2 : 8;
+            if (at + 2 + ext > raw->size)
+                return -1;
+            len = 0;
+            for (size_t k = 0; k < ext; k++)
+                len = len << 8 | raw->data[at + 2 + k];
+            head += ext;
+        }
+        if (len > raw->size - at - head)
+            return -1;
+        count += op == MTS_WS_BINARY || op == MTS_WS_CONTINUATION;
+        at += head + (size_t)len;
+    }
+    return count;
+}
+
 /* The client's checksums after the stream in data[0..n); 0 when it did not
  * end well. */
 static int stream_checksums(const mts_buf *data, uint64_t *ours, uint64_t *theirs)
@@ -236,6 +263,12 @@ static void test_stream_matches_tcp(mts_test *t)
         CHECK(t, raw.size > 4 && raw.data[0] == (0x80 | MTS_WS_PONG) && raw.data[2] == 'p');
         CHECKF(t, inner.size == tcp.size && memcmp(inner.data, tcp.data, tcp.size) == 0,
                "stop %d: %zu bytes over WebSocket, %zu over TCP", k, inner.size, tcp.size);
+        /* paced, a message is a quantum (4 KiB here) but where the stream
+         * or a 32 KiB message ends: not the few bytes a microsecond of the
+         * rate allows, each an event for a page */
+        const long frames = data_frames(&raw), most = (long)(inner.size / 4096) * 2 + 4;
+        CHECKF(t, frames > 0 && frames <= most, "stop %d: %zu bytes in %ld messages (at most %ld)",
+               k, inner.size, frames, most);
         uint64_t ours = 0, theirs = 0;
         CHECK(t, stream_checksums(&inner, &ours, &theirs) && ours == theirs && ours != 0);
         mts_buf_free(&tcp);
