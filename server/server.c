@@ -535,10 +535,9 @@ static double pace_quantum(double rate)
 
 /* Bytes a paced connection may send now: its rate since it was answered,
  * plus one quantum. */
-static size_t pace_allowance(const mts_server *s, const mts__conn *c, double now)
+static size_t pace_allowance(const mts__conn *c, double rate, double quantum, double now)
 {
-    double rate = s->opts.rate_limit;
-    double allowed = rate * (now - c->answered) + pace_quantum(rate) - (double)c->sent;
+    double allowed = rate * (now - c->answered) + quantum - (double)c->sent;
     return allowed > 0 ? (size_t)allowed : 0;
 }
 
@@ -590,7 +589,7 @@ void mts__conn_write(mts__conn *c)
         if (s->opts.rate_limit > 0 && c->stream) {
             const double now = mts_clock_seconds(), rate = s->opts.rate_limit,
                          quantum = pace_quantum(rate);
-            size_t allow = pace_allowance(s, c, now), left = 0;
+            size_t allow = pace_allowance(c, rate, quantum, now), left = 0;
             for (int k = 1; k < n; k++)
                 left += iov[k].iov_len;
             if (allow < left && allow < (size_t)quantum) {
