@@ -18,21 +18,32 @@
 #include "modelfile.h"
 #include "stream.h"
 
+/* The processor time of every thread of this process so far, seconds:
+ * beside the wall time it says how much work a run's threads did together,
+ * which bounds what any split of that work between them could reach. */
+static double process_cpu(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
 /* Seconds to take every frame of b into a fresh client; 0 on an error.
- * *alone counts the runs whose two threads went on as one (stream.h,
+ * *cpu gets the processor seconds all threads spent on it. *alone counts the runs whose two threads went on as one (stream.h,
  * threads_alone_from), so that a row's figure says what it measured. */
-static double apply(const mts_buf *b, uint32_t threads, uint64_t *checksum, int *alone,
-                    mts_error *err)
+static double apply(const mts_buf *b, uint32_t threads, uint64_t *checksum, double *cpu,
+                    int *alone, mts_error *err)
 {
     mts_stream_client c;
     mts_stream_client_init(&c);
     c.threads = threads;
-    double t0 = cli_now();
+    double c0 = process_cpu(), t0 = cli_now();
     int ok = mts_stream_client_feed(&c, b->data, b->size, err) == MTS_OK, got = 0;
     mts_stream_event ev;
     while (ok && (got = mts_stream_client_next(&c, &ev, err)) > 0)
         ;
     double t = cli_now() - t0;
+    *cpu = process_cpu() - c0;
     ok = ok && got == 0 && c.end_checksum != 0;
     *checksum = c.checksum;
     *alone += c.threads_alone_from != 0;
@@ -114,9 +125,9 @@ int main(int argc, char **argv)
         fprintf(js, "{\"runs\":%d,\"models\":{", runs);
     printf("\nApplying a stream: both forms in one process, memory warm, median of %d\n",
            runs);
-    printf("%-14s %9s %9s %10s %11s %10s %11s %7s %9s %9s %5s\n", "model", "triangles", "splits",
-           "splits ms", "splits M/s", "records ms", "records M/s", "ratio", "ns/split",
-           "encode s", "alone");
+    printf("%-14s %9s %9s %10s %8s %11s %10s %11s %7s %9s %9s %5s\n", "model", "triangles",
+           "splits", "splits ms", "cpu ms", "splits M/s", "records ms", "records M/s", "ratio",
+           "ns/split", "encode s", "alone");
     printf("%s\n", "----------------------------------------------------------------------------"
                    "------------------------------------");
     int status = CLI_EXIT_OK, first = 1;
@@ -142,19 +153,19 @@ int main(int argc, char **argv)
         }
         double encode = cli_now() - e0;
         mts_buf a = {0}, r = {0};
-        double ta[8][99], tr[99];
+        double ta[8][99], tr[99], cpu[8][99], scratch = 0;
         uint64_t ca[8] = {0}, cr = 0;
         int alone[8] = {0}, unused = 0;
         int ok = bench_connection_bytes(&s, s.model.level_count, &a) &&
                  bench_connection_bytes(s.records_form, s.records_form->model.level_count, &r);
         /* a first run of each: first-touch page faults are not decoding */
-        ok = ok && apply(&r, 1, &cr, &unused, &err) > 0;
+        ok = ok && apply(&r, 1, &cr, &scratch, &unused, &err) > 0;
         for (int x = 0; ok && x < nthreads; x++)
-            ok = apply(&a, threads[x], &ca[x], &unused, &err) > 0;
+            ok = apply(&a, threads[x], &ca[x], &scratch, &unused, &err) > 0;
         for (int i = 0; ok && i < runs; i++) { /* alternated, so drift hits all */
             for (int x = 0; ok && x < nthreads; x++)
-                ok = (ta[x][i] = apply(&a, threads[x], &ca[x], &alone[x], &err)) > 0;
-            ok = ok && (tr[i] = apply(&r, 1, &cr, &unused, &err)) > 0;
+                ok = (ta[x][i] = apply(&a, threads[x], &ca[x], &cpu[x][i], &alone[x], &err)) > 0;
+            ok = ok && (tr[i] = apply(&r, 1, &cr, &scratch, &unused, &err)) > 0;
         }
         for (int x = 0; x < nthreads; x++)
             ok = ok && ca[x] == cr;
@@ -172,10 +183,12 @@ int main(int argc, char **argv)
             else
                 snprintf(row, sizeof row, "%s", name);
             qsort(tx, (size_t)runs, sizeof *tx, bench_cmp_double);
+            qsort(cpu[x], (size_t)runs, sizeof cpu[x][0], bench_cmp_double);
+            const double cx = cpu[x][runs / 2];
             const double sa = tx[runs / 2], sr = tr[runs / 2], n = m.level_count;
             const uint32_t tris = m.level_triangles[m.level_count];
-            printf("%-14s %9u %9u %10.2f %11.3f %10.2f %11.3f %7.2f %9.0f %9.2f %5d\n", row, tris,
-                   m.level_count, sa * 1e3, n / sa / 1e6, sr * 1e3, n / sr / 1e6, sa / sr,
+            printf("%-14s %9u %9u %10.2f %8.2f %11.3f %10.2f %11.3f %7.2f %9.0f %9.2f %5d\n", row,
+                   tris, m.level_count, sa * 1e3, cx * 1e3, n / sa / 1e6, sr * 1e3, n / sr / 1e6, sa / sr,
                    sa / n * 1e9, encode, alone[x]);
             if (js)
                 fprintf(js,
@@ -183,10 +196,10 @@ int main(int argc, char **argv)
                         "\"records_bytes\":%zu,\"splits_ms\":%.3f,\"splits_per_s\":%.0f,"
                         "\"records_ms\":%.3f,\"records_per_s\":%.0f,\"ratio\":%.3f,"
                         "\"ns_per_split\":%.1f,\"splits_ms_min\":%.3f,\"records_ms_min\":%.3f,"
-                        "\"encode_s\":%.3f,\"threads\":%u,\"alone_runs\":%d}",
+                        "\"encode_s\":%.3f,\"threads\":%u,\"alone_runs\":%d,\"cpu_ms\":%.3f}",
                         first ? "" : ",", row, tris, m.level_count, a.size, r.size, sa * 1e3,
                         n / sa, sr * 1e3, n / sr, sa / sr, sa / n * 1e9, tx[0] * 1e3,
-                        tr[0] * 1e3, encode, threads[x], alone[x]);
+                        tr[0] * 1e3, encode, threads[x], alone[x], cx * 1e3);
             first = 0;
         }
         mts_buf_free(&a);
@@ -195,7 +208,8 @@ int main(int argc, char **argv)
         mts_model_free(&m);
     }
     printf("(ratio: splits form / records form; ns/split: the splits form's; alone: the timed "
-           "runs whose two threads went on as one, finding the pool thread without a core)\n");
+           "runs whose two threads went on as one, finding the pool thread without a core;\n"
+           " cpu ms: the splits form's processor time, all threads together, median)\n");
     if (js) {
         fprintf(js, "}}\n");
         fclose(js);

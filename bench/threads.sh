@@ -353,27 +353,38 @@ for row, r in rows.items():
     m = apply["models"].setdefault(name, {"triangles": r["triangles"], "splits": r["splits"],
                                           "records_ms": r["records_ms"], "splits_ms": {},
                                           "splits_ms_min": {}, "over_one_thread": {},
-                                          "alone_runs": {}})
+                                          "alone_runs": {}, "cpu_ms": {},
+                                          "balanced_over_one": {}})
     m["splits_ms"][t] = r["splits_ms"]
     m["splits_ms_min"][t] = r["splits_ms_min"]
     m["alone_runs"][t] = r.get("alone_runs")
+    m["cpu_ms"][t] = r.get("cpu_ms")
 for m in apply["models"].values():
     one = m["splits_ms"].get("1")
     for t, ms in m["splits_ms"].items():
         m["over_one_thread"][t] = round(ms / one, 3) if one else None
+        # the work of all T threads spread evenly over them, against one
+        # thread: no schedule of that work on T cores does better
+        cpu = m["cpu_ms"].get(t)
+        m["balanced_over_one"][t] = round(cpu / int(t) / one, 3) if one and cpu else None
 res["apply"] = apply
 print(f"\nThreads: apply time against the decoder's threads (mts-bench-apply, splits form, "
       f"median of {runs}, counts alternated in each run; {procs} processors online)")
 hdr = f"{'model':<14} {'triangles':>9} {'splits':>8} " + " ".join(
     f"{f'{t} thr ms':>10}" for t in counts) + " " + " ".join(
-    f"{f'{t}/1':>6}" for t in counts[1:]) + f" {'records ms':>10} {'alone':>5}"
+    f"{f'{t}/1':>6}" for t in counts[1:]) + " " + " ".join(
+    f"{f'{t} even':>6}" for t in counts[1:]) + f" {'records ms':>10} {'alone':>5}"
 print(hdr)
 print("-" * len(hdr))
 for name, m in apply["models"].items():
     print(f"{name:<14} {m['triangles']:>9} {m['splits']:>8} " + " ".join(
         f"{m['splits_ms'].get(str(t), float('nan')):>10.2f}" for t in counts) + " " + " ".join(
-        f"{m['over_one_thread'].get(str(t)) or float('nan'):>6.2f}" for t in counts[1:]) +
+        f"{m['over_one_thread'].get(str(t)) or float('nan'):>6.2f}" for t in counts[1:]) + " " +
+        " ".join(f"{m['balanced_over_one'].get(str(t)) or float('nan'):>6.2f}"
+                 for t in counts[1:]) +
         f" {m['records_ms']:>10.2f} {m['alone_runs'].get('2') or 0:>5}")
+print("  (T even: the processor time of all T threads, spread evenly over T cores, over one "
+      "thread's time: the least any schedule of that work could take)")
 for name, why in skipped.items():
     if not name.startswith(("stream", "draco")):
         print(f"{name:<14} skipped: {why}")
