@@ -815,56 +815,131 @@ static mts_result take_records(mts_stream_client *c, const uint8_t *p, size_t n,
     return MTS_OK;
 }
 
+/* A batch's header: its index (`expect`), the slots it announces, its splits. */
+typedef struct batch_head {
+    uint32_t index, more, first, count;
+    mts_cursor cur; /* past the header */
+} batch_head;
+
+static mts_result take_head(mts_stream_client *c, const uint8_t *p, size_t n, uint32_t expect,
+                            uint32_t splits, batch_head *h, mts_error *err)
+{
+    /* the CRC has checked out (mts_stream_client_frame) */
+    h->cur = mts_cursor_make(p, n - 4);
+    h->index = mts_cursor_varint(&h->cur);
+    h->more = mts_cursor_varint(&h->cur);
+    if (!h->cur.ok)
+        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH: truncated header");
+    if (h->index != expect || h->index >= c->info.batch_count)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "BATCH %u out of order: expected batch %u of %u", h->index, expect,
+                             c->info.batch_count);
+    /* MODEL_INFO's sizes add up to the levels (mts_wire_parse_model_info) */
+    h->first = mts_wire_batch_first(&c->info, h->index);
+    h->count = mts_wire_batch_splits(&c->info, h->index);
+    if (h->first != splits || h->count > c->model.level_count - h->first)
+        return mts_error_set(err, MTS_ERR_INTERNAL, "BATCH %u: the client is at split %u, not %u",
+                             h->index, splits, h->first);
+    if (h->more > c->model.strip_count - c->announced)
+        return mts_error_set(err, MTS_ERR_FORMAT,
+                             "BATCH %u announces %u slots, past the %u there are (%u so far)",
+                             h->index, h->more, c->model.strip_count, c->announced);
+    return MTS_OK;
+}
+
+/* A splits batch's body after its header: the capacities, then the coded
+ * splits (with the full strips' description in the last batch), each
+ * split's record derived (one thread) or the split logged for the pool. */
+static mts_result take_coded(mts_stream_client *c, batch_head *h, mts_error *err)
+{
+    char what[32];
+    snprintf(what, sizeof what, "BATCH %u", h->index);
+    mts_rc_decoder d;
+    if (!mts_rc_decoder_init(&d, h->cur.p, mts_cursor_left(&h->cur)))
+        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: no coded splits", h->index);
+    mts_result rc = take_capacities(c, NULL, &d, c->announced + h->more, what, err);
+    if (rc != MTS_OK)
+        return rc;
+    mts_grow_full full = {.slot_count = c->model.strip_count};
+    rc = take_splits(c, &d, &full, h->index, h->first, h->count,
+                     (uint32_t)((1ull << c->grid.bits) - 1), err);
+    free((void *)full.paths);
+    return rc;
+}
+
+/* Threads, while the pool derives batch `index`'s records: the batches
+ * after it that the reader already holds whole, decoded now (their splits
+ * logged for the pool) rather than when their frames are taken, so that
+ * the pool never waits for the caller between two frames. Each is still
+ * applied only once its own frame is taken (take_batch); a frame that fails
+ * its CRC or is no batch stops this and is taken as it comes. */
+static void decode_ahead(mts_stream_client *c, uint32_t index, uint32_t upto)
+{
+    uint32_t ahead;
+    while (mts__stream_par_ahead_wanted(c, upto, &ahead)) {
+        uint8_t type;
+        const uint8_t *p;
+        size_t n;
+        if (!mts_wire_reader_peek(&c->reader, ahead, &type, &p, &n) || type != MTS_MSG_BATCH ||
+            !crc_ok(p, n))
+            return;
+        const uint32_t expect = index + 1 + ahead;
+        if (expect >= c->info.batch_count)
+            return; /* more batches than announced: refused when taken */
+        batch_head h;
+        mts_error e = {0};
+        mts_result rc =
+            take_head(c, p, n, expect, mts_wire_batch_first(&c->info, expect), &h, &e);
+        if (rc == MTS_OK)
+            rc = take_coded(c, &h, &e);
+        mts__stream_par_ahead_done(c, rc, &e);
+        if (rc != MTS_OK)
+            return;
+    }
+}
+
 /* A batch: its header, then either (splits form) the full strips'
  * description in the last batch and the splits, all range-coded, or
  * (records form) the records and vertices. */
 static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
 {
-    /* the CRC has checked out (mts_stream_client_frame) */
-    mts_model *m = &c->model;
-    mts_cursor cur = mts_cursor_make(p, n - 4);
-    const uint32_t index = mts_cursor_varint(&cur), more = mts_cursor_varint(&cur);
-    if (!cur.ok)
-        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH: truncated header");
-    if (index != c->batches || index >= c->info.batch_count)
-        return mts_error_set(err, MTS_ERR_FORMAT,
-                             "BATCH %u out of order: expected batch %u of %u", index, c->batches,
-                             c->info.batch_count);
-    /* MODEL_INFO's sizes add up to the levels (mts_wire_parse_model_info) */
-    const uint32_t first = mts_wire_batch_first(&c->info, index),
-                   count = mts_wire_batch_splits(&c->info, index);
-    if (first != c->splits || count > m->level_count - first)
-        return mts_error_set(err, MTS_ERR_INTERNAL, "BATCH %u: the client is at split %u, not %u",
-                             index, c->splits, first);
-    if (more > m->strip_count - c->announced)
-        return mts_error_set(err, MTS_ERR_FORMAT,
-                             "BATCH %u announces %u slots, past the %u there are (%u so far)",
-                             index, more, m->strip_count, c->announced);
-    const uint32_t upto = c->announced + more;
-    char what[32];
-    snprintf(what, sizeof what, "BATCH %u", index);
-    const uint32_t maxq = (uint32_t)((1ull << c->grid.bits) - 1);
+    batch_head h;
     mts_result rc = MTS_OK;
+    if (c->par)
+        mts__stream_par_batch_start(c);
+    /* threads: decoded already while the batch before was derived */
+    const int ahead = c->par ? mts__stream_par_ahead_take(c, &rc, err) : 0;
+    if (ahead && rc != MTS_OK)
+        return rc;
+    if (ahead) {
+        mts_cursor cur = mts_cursor_make(p, n - 4);
+        h.index = mts_cursor_varint(&cur);
+        h.first = mts_wire_batch_first(&c->info, h.index);
+        h.count = mts_wire_batch_splits(&c->info, h.index);
+    } else if ((rc = take_head(c, p, n, c->batches, c->splits, &h, err)) != MTS_OK) {
+        return rc;
+    }
+    const uint32_t index = h.index, first = h.first, count = h.count;
+    /* the runtime goes no further than this batch before it returns */
+    if (c->par)
+        mts__stream_par_apply_upto(c, first + count);
     if (c->records) {
-        if ((rc = take_capacities(c, &cur, NULL, upto, what, err)) != MTS_OK ||
-            (rc = take_records(c, cur.p, mts_cursor_left(&cur), index, first, count, maxq, err)) !=
-                MTS_OK)
+        const uint32_t maxq = (uint32_t)((1ull << c->grid.bits) - 1);
+        char what[32];
+        snprintf(what, sizeof what, "BATCH %u", index);
+        if ((rc = take_capacities(c, &h.cur, NULL, c->announced + h.more, what, err)) != MTS_OK ||
+            (rc = take_records(c, h.cur.p, mts_cursor_left(&h.cur), index, first, count, maxq,
+                               err)) != MTS_OK)
             return rc;
         goto applied;
     }
-    mts_rc_decoder d;
-    if (!mts_rc_decoder_init(&d, cur.p, mts_cursor_left(&cur)))
-        return mts_error_set(err, MTS_ERR_FORMAT, "BATCH %u: no coded splits", index);
-    if ((rc = take_capacities(c, NULL, &d, upto, what, err)) != MTS_OK)
-        return rc;
-    mts_grow_full full = {.slot_count = m->strip_count};
-    if (c->par)
-        mts__stream_par_batch_start(c);
-    rc = take_splits(c, &d, &full, index, first, count, maxq, err);
-    free((void *)full.paths);
-    /* threads: the batch's records, in order, before it is applied */
-    if (rc == MTS_OK && c->par && (rc = mts__stream_par_fixup(c, first + count, err)) != MTS_OK)
-        rc = mts_error_prefix(err, "BATCH %u", index);
+    rc = ahead ? MTS_OK : take_coded(c, &h, err);
+    if (rc == MTS_OK && c->par) {
+        decode_ahead(c, index, first + count);
+        /* the batch's records, in order, before it is applied */
+        if ((rc = mts__stream_par_fixup(c, first + count, err)) != MTS_OK)
+            rc = mts_error_prefix(err, "BATCH %u", index);
+    }
     if (rc != MTS_OK && c->par && c->lod.level > first && !c->lod.broken) {
         /* the runtime went up with the splits (mts__stream_par_catch_up):
          * a batch that fails leaves it where the batch before did, as one
@@ -1091,6 +1166,18 @@ mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)
         c->threads_alone_after = alone;
         c->resumes = resumes;
         return MTS_OK;
+    }
+    /* batches decoded ahead (threads) are in the decoder already: they are
+     * taken now, so that the resume asks for what comes after them (their
+     * frames are whole in the reader, which is about to go) */
+    while (mts__stream_par_ahead_pending(c)) {
+        mts_stream_event ev;
+        int got = mts_stream_client_next(c, &ev, err);
+        if (got < 0)
+            return err ? err->code : MTS_ERR_FORMAT;
+        if (got == 0)
+            return fail(c, mts_error_set(err, MTS_ERR_INTERNAL,
+                                         "stream: a batch decoded ahead is no longer buffered"));
     }
     /* from ST_BATCHES, ST_SKIP_BASE, or ST_INFO of a resume broken again */
     c->state = ST_INFO;

@@ -107,6 +107,18 @@ struct mts__stream_par {
     uint64_t slow_idle;          /* the cores' idle ticks when that run began */
     uint32_t ids_n, ids_cap;
     mts_words mapped;          /* an explicit split's moved triangles in mesh-only ids */
+    /* pipe: decoding ahead (stream_dec_threads.h) */
+    uint32_t apply_cap;        /* the runtime goes no further before the frame returns */
+    uint32_t ahead;            /* batches decoded ahead, not yet taken */
+    int ahead_failed;          /* the one after them failed, so: */
+    mts_result ahead_rc;
+    mts_error ahead_err;
+    int want_alone;            /* go on alone once nothing is decoded ahead */
+    /* pipe: the full level's split, made on a worker (iv[1].w) as soon as
+     * it is decoded; its record, in that worker's tokens, becomes the real
+     * one once the pool's grow is done (mts__stream_par_fixup) */
+    const uint32_t *full_rec;
+    uint32_t full_words, full_parent;
 };
 
 static logged_split *par_entry(struct mts__stream_par *p, uint32_t j)
@@ -651,12 +663,39 @@ static mts_result par_retire(struct mts__stream_par *p, uint32_t k, mts_error *e
 /* The records kept so far, applied to the runtime (up to the stop). */
 static mts_result par_apply(mts_stream_client *c, mts_error *err)
 {
-    const uint32_t fixed = c->par->fixed;
+    const uint32_t cap = c->par->apply_cap;
+    const uint32_t fixed = c->par->fixed < cap ? c->par->fixed : cap;
     const uint32_t to = fixed < c->stop_level ? fixed : c->stop_level;
     if (c->lod.level >= to)
         return MTS_OK;
     mts_lod_set_available(&c->lod, fixed);
     return mts_lod_set_level(&c->lod, to, err);
+}
+
+/* Pipe, every record below the full level kept: the full level's record,
+ * made on its worker against empty slots, turned into the real one against
+ * the strips the pool's grow ends with (mts_grow_fixup, with tokens being
+ * slots at the full level), and kept. */
+static mts_result par_full(mts_stream_client *c, mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    const uint32_t j = p->iv[1].first;
+    const uint32_t *o;
+    uint32_t ow;
+    mts_result rc = MTS_OK;
+    if (!p->iv[1].w)
+        return mts_error_set(err, MTS_ERR_INTERNAL, "stream: the full level's split is not made");
+    if ((rc = par_apply(c, err)) != MTS_OK || (rc = par_wait(p, 0, 0, 1, err)) != MTS_OK ||
+        (rc = mts_grow_fixup_end(p->fix, p->iv[0].w, err)) != MTS_OK ||
+        (rc = mts_grow_fixup_key(p->fix, p->full_rec, p->full_words, p->full_parent,
+                                 c->model.base_vertex_count + j, 1, &o, &ow, err)) != MTS_OK ||
+        (rc = mts__stream_keep_record(c, j, o, ow, err)) != MTS_OK)
+        return rc;
+    p->fixed = j + 1;
+    mts_grow_free(p->iv[1].w);
+    p->iv[1].w = NULL;
+    p->full_rec = NULL;
+    return MTS_OK;
 }
 
 mts_result mts__stream_par_fixup(mts_stream_client *c, uint32_t upto, mts_error *err)
@@ -669,6 +708,8 @@ mts_result mts__stream_par_fixup(mts_stream_client *c, uint32_t upto, mts_error 
             p->fix_iv++;
         const uint32_t i = p->fix_iv;
         mts_result rc = MTS_OK;
+        if (p->pipe && i == 1)
+            return par_full(c, err);
         /* about to wait: what is kept is applied meanwhile, so that the
          * batch's end is left only with what the pool makes last */
         if (p->iv[i].seen <= j && atomic_load(&p->iv[i].made) <= j &&
@@ -740,7 +781,7 @@ mts_result mts__stream_par_catch_up(mts_stream_client *c, uint32_t upto, mts_err
  * the split logged for it (or, the full level's, derived here), and the
  * mesh-only grow split. *lists (an explicit split's) passes to the log. */
 mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_grow_split *sp,
-                            uint32_t **lists, const mts_grow_full *full, mts_error *err)
+                                 uint32_t **lists, const mts_grow_full *full, mts_error *err)
 {
     struct mts__stream_par *p = c->par;
     while (p->dec_iv + 1 < p->iv_count && j >= p->iv[p->dec_iv + 1].first)
@@ -773,16 +814,16 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
         ms.moved = p->mapped.w;
     }
     if (starts && p->pipe) {
-        /* the full level, here: the pool's grow once it has made every
-         * record before (its records are the real ones) */
-        const uint32_t *r;
-        uint32_t rw;
-        if ((rc = mts__stream_par_fixup(c, j, err)) != MTS_OK ||
-            (rc = par_wait(p, 0, 0, 1, err)) != MTS_OK ||
-            (rc = mts_grow_next(p->iv[0].w, sp, full, &r, &rw, err)) != MTS_OK ||
-            (rc = mts__stream_keep_record(c, j, r, rw, err)) != MTS_OK)
+        /* the full level, on a worker made here from the mesh-only grow, so
+         * that its walk (which reads this batch's coder) need not wait for
+         * the pool to finish; par_full makes its record the real one */
+        if ((rc = par_chain(c, keys, err)) != MTS_OK || (rc = par_ids(c, err)) != MTS_OK ||
+            (rc = mts_grow_create_worker(c->grow, p->composed ? p->ids : NULL, &p->go,
+                                         &p->iv[1].w, err)) != MTS_OK ||
+            (rc = mts_grow_next(p->iv[1].w, sp, full, &p->full_rec, &p->full_words, err)) !=
+                MTS_OK)
             return rc;
-        p->fixed = j + 1;
+        p->full_parent = sp->parent;
     } else if (starts) {
         mts_grow *w = NULL;
         if ((rc = par_ids(c, err)) != MTS_OK ||
@@ -825,6 +866,58 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
 }
 
 
+void mts__stream_par_apply_upto(mts_stream_client *c, uint32_t upto)
+{
+    c->par->apply_cap = upto;
+}
+
+int mts__stream_par_ahead_wanted(mts_stream_client *c, uint32_t upto, uint32_t *ahead)
+{
+    struct mts__stream_par *p = c->par;
+    *ahead = p->ahead;
+    /* the test's switch comes after the batch it names, none decoded past it */
+    const uint32_t next = c->batches + 1 + p->ahead;
+    if (!p->pipe || p->ahead_failed || p->want_alone ||
+        (c->threads_alone_after && next >= c->threads_alone_after))
+        return 0;
+    return p->ahead == 0 || atomic_load(&p->iv[0].made) < upto;
+}
+
+void mts__stream_par_ahead_done(mts_stream_client *c, mts_result rc, const mts_error *e)
+{
+    struct mts__stream_par *p = c->par;
+    if (rc == MTS_OK) {
+        p->ahead++;
+        return;
+    }
+    p->ahead_failed = 1;
+    p->ahead_rc = rc;
+    p->ahead_err = *e;
+}
+
+int mts__stream_par_ahead_take(mts_stream_client *c, mts_result *rc, mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    *rc = MTS_OK;
+    if (p->ahead) {
+        p->ahead--;
+        return 1;
+    }
+    if (!p->ahead_failed)
+        return 0;
+    p->ahead_failed = 0;
+    *rc = p->ahead_rc;
+    if (err)
+        *err = p->ahead_err;
+    return 1;
+}
+
+uint32_t mts__stream_par_ahead_pending(const mts_stream_client *c)
+{
+    const struct mts__stream_par *p = c->par;
+    return p ? p->ahead + (p->ahead_failed != 0) : 0;
+}
+
 /* Pipe, every record below `level` kept: the pool thread waits for a split
  * that will not come. Stopped, its grow is one grow's at `level`, so it
  * becomes the decoder's (in place of the mesh-only grow) and the rest of
@@ -844,19 +937,11 @@ static void par_alone(mts_stream_client *c, uint32_t level)
     c->threads_alone_from = level;
 }
 
-void mts__stream_par_batch_end(mts_stream_client *c, uint32_t index)
+/* Pipe, after a batch: whether the pool thread waited for a core for
+ * SLOW_PERCENT of SLOW_WINDOWS windows in a row while no core idled. */
+static int par_crowded(struct mts__stream_par *p)
 {
-    struct mts__stream_par *p = c->par;
-    const uint32_t level = p->fixed;
-    /* the full level's split runs on this thread on the pool's grow anyway */
-    if (!p->pipe || level + 1 >= c->model.level_count)
-        return;
-    if (c->threads_alone_after) { /* the test's word, not a measure */
-        if (index + 1 >= c->threads_alone_after)
-            par_alone(c, level);
-        return;
-    }
-    int alone = 0;
+    int crowded = 0;
     p->win_wall += now_ns() - p->at_wall;
     uint64_t delay;
     if (p->win_wall >= WINDOW_NS && p->win_delay != UINT64_MAX &&
@@ -872,11 +957,29 @@ void mts__stream_par_batch_end(mts_stream_client *c, uint32_t index)
             if (p->slow_idle != UINT64_MAX && cores_idle(&idle) && idle > p->slow_idle)
                 p->slow = 0;
             else
-                alone = 1;
+                crowded = 1;
         }
     }
     if (p->win_wall >= WINDOW_NS)
         p->win_wall = 0;
-    if (alone)
+    return crowded;
+}
+
+void mts__stream_par_batch_end(mts_stream_client *c, uint32_t index)
+{
+    struct mts__stream_par *p = c->par;
+    const uint32_t level = p->fixed;
+    /* after the last batch nothing is left to go on with */
+    if (!p->pipe || level + 1 >= c->model.level_count)
+        return;
+    if (c->threads_alone_after) { /* the test's word, not a measure */
+        if (index + 1 >= c->threads_alone_after)
+            p->want_alone = 1;
+    } else if (!p->want_alone && par_crowded(p)) {
+        p->want_alone = 1;
+    }
+    /* once the batches decoded ahead are taken: the pool's grow is then
+     * where the records are, and no split waits in the log */
+    if (p->want_alone && !p->ahead && !p->ahead_failed)
         par_alone(c, level);
 }

@@ -47,6 +47,27 @@ mts_result mts__stream_par_fixup(mts_stream_client *c, uint32_t upto, mts_error 
  * fixed up, kept and applied to the runtime without waiting. */
 mts_result mts__stream_par_catch_up(mts_stream_client *c, uint32_t upto, mts_error *err);
 
+/* Decoding ahead (two threads): stream_dec.c decodes the batches the
+ * reader holds whole while the pool derives the batch being taken, so that
+ * the pool never waits between frames; each is applied only when its own
+ * frame is taken.
+ *  - apply_upto: the batch being taken ends at split upto; the runtime goes
+ *    no further before its frame returns.
+ *  - ahead_wanted: whether to decode one more now (the pool has not made
+ *    the batch's records yet, or nothing is decoded ahead); *ahead: the
+ *    batches decoded ahead so far (the next to decode is that many frames
+ *    on in the reader).
+ *  - ahead_done: one more decoded ahead with rc (an error is kept for when
+ *    that frame is taken, and nothing more is decoded ahead).
+ *  - ahead_take: 1 when the frame being taken was decoded ahead (*rc its
+ *    result, err filled if it failed), 0 when it is to be decoded now.
+ *  - ahead_pending: frames decoded ahead and not yet taken. */
+void mts__stream_par_apply_upto(mts_stream_client *c, uint32_t upto);
+int mts__stream_par_ahead_wanted(mts_stream_client *c, uint32_t upto, uint32_t *ahead);
+void mts__stream_par_ahead_done(mts_stream_client *c, mts_result rc, const mts_error *e);
+int mts__stream_par_ahead_take(mts_stream_client *c, mts_result *rc, mts_error *err);
+uint32_t mts__stream_par_ahead_pending(const mts_stream_client *c);
+
 /* Around a splits batch on more than one thread: start samples the wall
  * clock and both threads' CPU clocks; end (after the batch's records are
  * kept) adds the batch to the window, and where two threads ran less than

@@ -461,3 +461,25 @@ int mts_wire_reader_next(mts_wire_reader *r, uint8_t *type, const uint8_t **payl
     r->start += 4 + (size_t)len;
     return 1;
 }
+
+int mts_wire_reader_peek(const mts_wire_reader *r, uint32_t skip, uint8_t *type,
+                         const uint8_t **payload, size_t *size)
+{
+    size_t at = r->start;
+    for (uint32_t k = 0;; k++) {
+        if (r->len - at < 4)
+            return 0;
+        const uint8_t *p = r->buf + at;
+        uint32_t len = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
+                       (uint32_t)p[3] << 24;
+        if (len == 0 || len > MTS_WIRE_MAX_FRAME || r->len - at - 4 < len)
+            return 0;
+        if (k == skip) {
+            *type = p[4];
+            *payload = p + 5;
+            *size = len - 1;
+            return 1;
+        }
+        at += 4 + (size_t)len;
+    }
+}

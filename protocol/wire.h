@@ -195,5 +195,10 @@ mts_result mts_wire_reader_feed(mts_wire_reader *r, const void *data, size_t siz
  * 0: more bytes needed; -1: a bad frame header (err says why). */
 int mts_wire_reader_next(mts_wire_reader *r, uint8_t *type, const uint8_t **payload,
                          size_t *size, mts_error *err);
+/* The frame after the next `skip` ones, left in place for next to take:
+ * 1 when it is all there (payload valid until the next feed or next call),
+ * 0 when it is not, or a header on the way is bad (next reports that). */
+int mts_wire_reader_peek(const mts_wire_reader *r, uint32_t skip, uint8_t *type,
+                         const uint8_t **payload, size_t *size);
 
 #endif

@@ -437,6 +437,34 @@ static void test_resume(mts_test *t)
             compare(t, what, &s, &one, &c, 0);
         mts_stream_client_free(&c);
     }
+    /* two threads cut while batches decoded ahead wait in the reader,
+     * untaken: the resume goes on after them (no switch to one thread, so
+     * that decoding ahead is not turned off by a measure) */
+    mts_stream_client_init(&c);
+    c.threads = 2;
+    c.threads_alone_after = UINT32_MAX;
+    f = (fed){0};
+    CHECK(t, mts_stream_client_feed(&c, first.data, first.size, &err) == MTS_OK);
+    mts_stream_event ev;
+    while (f.batches < cut / 2 && mts_stream_client_next(&c, &ev, &err) > 0)
+        f.batches += ev == MTS_EV_BATCH;
+    CHECKF(t, f.batches == cut / 2 && c.batches == cut / 2, "cut ahead: %u batches: %s",
+           f.batches, err.msg);
+    CHECKF(t, mts_stream_client_reconnected(&c, &err) == MTS_OK, "cut ahead: %s", err.msg);
+    CHECK(t, mts_stream_client_resume_point(&c, &batch, &id));
+    CHECKF(t, batch > cut / 2 && batch <= cut && c.lod.level == c.splits &&
+                  mts_stream_checksum_colors(&c.lod, c.quantized, c.model.colors) ==
+                      s.level_checksum[c.lod.level],
+           "cut ahead: resumes at batch %u of %u taken, level %u", batch, cut / 2, c.lod.level);
+    conversation(&s, batch, &rest);
+    f = (fed){0};
+    CHECKF(t, feed(&c, &s, &rest, 0, 0, &f, &err) == MTS_OK && f.ended, "cut ahead: %s",
+           err.msg);
+    CHECKF(t, f.bad_levels == 0 && f.bad_checksums == 0, "cut ahead: %u levels, %u checksums",
+           f.bad_levels, f.bad_checksums);
+    if (f.ended)
+        compare(t, "cow cut with batches decoded ahead, 2 threads", &s, &one, &c, 0);
+    mts_stream_client_free(&c);
     /* a preview to a third of the levels, continued to the full level */
     const uint32_t stop = s.model.level_count / 3;
     size_t off, len;
@@ -495,6 +523,7 @@ static void test_damaged_batch(mts_test *t)
         pl[flen - 1 - 4 + k] = (uint8_t)(crc >> (8 * k));
     const uint32_t threads[3] = {1, 2, 4};
     mts_result first_rc = MTS_OK;
+    char first_msg[sizeof(((mts_error *)0)->msg)] = "";
     for (int k = 0; k < 3; k++) {
         mts_stream_client c;
         mts_stream_client_init(&c);
@@ -505,10 +534,13 @@ static void test_damaged_batch(mts_test *t)
         CHECKF(t, rc != MTS_OK && !f.ended && f.batches == target &&
                       strncmp(err.msg, "BATCH ", 6) == 0,
                "%u threads: %s after %u batches", threads[k], err.msg, f.batches);
-        if (k == 0)
+        if (k == 0) {
             first_rc = rc;
-        CHECKF(t, rc == first_rc, "%u threads: result %d, one thread %d", threads[k], rc,
-               first_rc);
+            snprintf(first_msg, sizeof first_msg, "%s", err.msg);
+        }
+        CHECKF(t, rc == first_rc && strcmp(err.msg, first_msg) == 0,
+               "%u threads: result %d (%s), one thread %d (%s)", threads[k], rc, err.msg,
+               first_rc, first_msg);
         mts_stream_client_free(&c);
     }
     mts_buf_free(&b);
