@@ -197,7 +197,9 @@ typedef struct mts_stream_client {
      * With more, the caller's thread decodes the splits and the vertices
      * while the others derive each key interval's records (docs/threads.md);
      * the records, strips and events are the same whatever the count, and a
-     * batch is still applied before its frame returns. A stream whose
+     * batch is still applied before its frame returns. With two, the batches
+     * the client holds whole are decoded while the one before is derived
+     * (mts_stream_client_reconnected applies those first). A stream whose
      * MODEL_INFO lists no key levels, and the records form, use one. */
     uint32_t threads;
     /* Two threads pay only where each has a core: sharing one (another
@@ -278,7 +280,8 @@ mts_result mts_stream_client_frame(mts_stream_client *c, uint8_t type, const uin
  * that arrived intact: the client holds the base and batches 0..batches-1.
  *
  * resume_point says what the next HELLO asks for: *resume_batch is
- * c->batches once the base is in (0 before: that is a fresh start), and
+ * c->batches once the base is in (0 before: that is a fresh start), plus
+ * the batches two threads decoded ahead, which reconnected applies, and
  * *stream_id the first MODEL_INFO's when *resume_batch > 0 (else 0). Returns
  * 0 when a new conversation would not help: the stream ended (END, ERROR or
  * MODELS) or failed (a frame refused past its CRC, or bytes that are not

@@ -1126,7 +1126,8 @@ int mts_stream_client_resume_point(const mts_stream_client *c, uint32_t *resume_
     if (c->state == ST_DONE || c->state == ST_FAILED)
         return 0;
     if (c->have_lod && c->batches > 0) {
-        *resume_batch = c->batches;
+        /* with those decoded ahead, which reconnected applies */
+        *resume_batch = c->batches + mts__stream_par_ahead_batches(c);
         *stream_id = c->info.stream_id;
     }
     return 1;
@@ -1170,7 +1171,8 @@ mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)
     /* batches decoded ahead (threads) are in the decoder already: they are
      * taken now, so that the resume asks for what comes after them (their
      * frames are whole in the reader, which is about to go) */
-    while (mts__stream_par_ahead_pending(c)) {
+    mts__stream_par_ahead_hold(c, 1); /* those alone, not the whole frames after them */
+    while (mts__stream_par_ahead_batches(c)) {
         mts_stream_event ev;
         int got = mts_stream_client_next(c, &ev, err);
         if (got < 0)
@@ -1179,6 +1181,7 @@ mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)
             return fail(c, mts_error_set(err, MTS_ERR_INTERNAL,
                                          "stream: a batch decoded ahead is no longer buffered"));
     }
+    mts__stream_par_ahead_hold(c, 0);
     /* from ST_BATCHES, ST_SKIP_BASE, or ST_INFO of a resume broken again */
     c->state = ST_INFO;
     c->resuming = 1;

@@ -114,6 +114,7 @@ struct mts__stream_par {
     mts_result ahead_rc;
     mts_error ahead_err;
     int want_alone;            /* go on alone once nothing is decoded ahead */
+    int ahead_held;            /* decode nothing ahead (mts__stream_par_ahead_hold) */
     /* pipe: the full level's split, made on a worker (iv[1].w) as soon as
      * it is decoded; its record, in that worker's tokens, becomes the real
      * one once the pool's grow is done (mts__stream_par_fixup) */
@@ -877,7 +878,7 @@ int mts__stream_par_ahead_wanted(mts_stream_client *c, uint32_t upto, uint32_t *
     *ahead = p->ahead;
     /* the test's switch comes after the batch it names, none decoded past it */
     const uint32_t next = c->batches + 1 + p->ahead;
-    if (!p->pipe || p->ahead_failed || p->want_alone ||
+    if (!p->pipe || p->ahead_failed || p->want_alone || p->ahead_held ||
         (c->threads_alone_after && next >= c->threads_alone_after))
         return 0;
     return p->ahead == 0 || atomic_load(&p->iv[0].made) < upto;
@@ -912,10 +913,15 @@ int mts__stream_par_ahead_take(mts_stream_client *c, mts_result *rc, mts_error *
     return 1;
 }
 
-uint32_t mts__stream_par_ahead_pending(const mts_stream_client *c)
+void mts__stream_par_ahead_hold(mts_stream_client *c, int hold)
 {
-    const struct mts__stream_par *p = c->par;
-    return p ? p->ahead + (p->ahead_failed != 0) : 0;
+    if (c->par)
+        c->par->ahead_held = hold;
+}
+
+uint32_t mts__stream_par_ahead_batches(const mts_stream_client *c)
+{
+    return c->par ? c->par->ahead : 0;
 }
 
 /* Pipe, every record below `level` kept: the pool thread waits for a split

@@ -61,12 +61,15 @@ mts_result mts__stream_par_catch_up(mts_stream_client *c, uint32_t upto, mts_err
  *    that frame is taken, and nothing more is decoded ahead).
  *  - ahead_take: 1 when the frame being taken was decoded ahead (*rc its
  *    result, err filled if it failed), 0 when it is to be decoded now.
- *  - ahead_pending: frames decoded ahead and not yet taken. */
+ *  - ahead_batches: batches decoded ahead, not yet taken, that did not
+ *    fail (one that failed keeps its error for when it comes again).
+ *  - ahead_hold: while hold is 1, nothing more is decoded ahead. */
+void mts__stream_par_ahead_hold(mts_stream_client *c, int hold);
 void mts__stream_par_apply_upto(mts_stream_client *c, uint32_t upto);
 int mts__stream_par_ahead_wanted(mts_stream_client *c, uint32_t upto, uint32_t *ahead);
 void mts__stream_par_ahead_done(mts_stream_client *c, mts_result rc, const mts_error *e);
 int mts__stream_par_ahead_take(mts_stream_client *c, mts_result *rc, mts_error *err);
-uint32_t mts__stream_par_ahead_pending(const mts_stream_client *c);
+uint32_t mts__stream_par_ahead_batches(const mts_stream_client *c);
 
 /* Around a splits batch on more than one thread: start samples the wall
  * clock and both threads' CPU clocks; end (after the batch's records are

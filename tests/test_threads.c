@@ -450,8 +450,11 @@ static void test_resume(mts_test *t)
         f.batches += ev == MTS_EV_BATCH;
     CHECKF(t, f.batches == cut / 2 && c.batches == cut / 2, "cut ahead: %u batches: %s",
            f.batches, err.msg);
+    /* the resume point is the same before the reconnection as after it */
+    uint32_t before = 0;
+    CHECK(t, mts_stream_client_resume_point(&c, &before, &id));
     CHECKF(t, mts_stream_client_reconnected(&c, &err) == MTS_OK, "cut ahead: %s", err.msg);
-    CHECK(t, mts_stream_client_resume_point(&c, &batch, &id));
+    CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == before);
     CHECKF(t, batch > cut / 2 && batch <= cut && c.lod.level == c.splits &&
                   mts_stream_checksum_colors(&c.lod, c.quantized, c.model.colors) ==
                       s.level_checksum[c.lod.level],
