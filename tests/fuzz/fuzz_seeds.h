@@ -102,6 +102,11 @@ static inline void mts_fuzz_stream_seeds(mts_fuzz_seeder *sd, const char *tag, c
             mts_fuzz_emit_mode(sd, "stream_client", name, 0, b.data, b.size / 2);
             snprintf(name, sizeof name, "%s-level%u-cut-before-end", tag, stops[i]);
             mts_fuzz_emit_mode(sd, "stream_client", name, 0, b.data, b.size - 3);
+            /* two threads (mode bit 7), whole and in pieces: batches decoded ahead */
+            snprintf(name, sizeof name, "%s-level%u-threads", tag, stops[i]);
+            mts_fuzz_emit_mode(sd, "stream_client", name, 0x80, b.data, b.size);
+            snprintf(name, sizeof name, "%s-level%u-threads-pieces", tag, stops[i]);
+            mts_fuzz_emit_mode(sd, "stream_client", name, 0x80 | 2 * 9, b.data, b.size);
         }
         mts_buf_free(&b);
     }
@@ -152,6 +157,15 @@ static inline void mts_fuzz_resume_seeds(mts_fuzz_seeder *sd, const char *tag, c
             sd->failed = 1;
         else
             mts_fuzz_emit_mode(sd, "stream_client", name, 0, b.data, b.size);
+        /* on two threads, in pieces; and breaking with whole frames left
+         * untaken, some decoded ahead (that one may resume elsewhere than
+         * the recorded server does, and end refused) */
+        snprintf(name, sizeof name, "%s-%s-threads", tag, cases[i].name);
+        if (!b.failed)
+            mts_fuzz_emit_mode(sd, "stream_client", name, 0x80 | 2 * 9, b.data, b.size);
+        snprintf(name, sizeof name, "%s-%s-threads-backlog", tag, cases[i].name);
+        if (!b.failed)
+            mts_fuzz_emit_mode(sd, "stream_client", name, 0xc0 | 2 * 9, b.data, b.size);
         mts_buf_free(&b);
     }    /* continued past the stop (PROTOCOL.md, "Continuing"): to a stop inside
      * batch 2, then from the batches held to the full level */

@@ -6,9 +6,17 @@
  *   bit 0     1: leave the frames' CRCs as they are; 0: rewrite the CRC of
  *             every BASE and BATCH frame first, so that mutations reach the
  *             Draco, strip and record decoders behind it
- *   bits 1-7  k: 0 feeds all bytes at once; else pieces of 1 .. 2^(k % 17)
+ *   bits 1-5  k: 0 feeds all bytes at once; else pieces of 1 .. 2^(k % 17)
  *             bytes from a generator seeded with the mode, so frames arrive
  *             split anywhere, as from a socket
+ *   bit 6     with bit 7: a connection that breaks leaves the whole frames
+ *             it did not take in the reader (a session's backlog), some
+ *             decoded ahead, for reconnected to deal with; without it every
+ *             whole frame is taken before the break
+ *   bit 7     1: the decoder on two threads, fed through its own reader
+ *             (mts_stream_client_feed/next) so that it decodes whole
+ *             batches ahead, taking 1 to 4 frames a piece as a session's
+ *             time slice does
  * MTS_FUZZ_CUT (8 bytes) in the bytes is a broken connection: what follows is
  * the next connection's, which the client resumes as session.c does
  * (mts_stream_client_resume_point, then mts_stream_client_reconnected and a
@@ -29,6 +37,58 @@ static void mts_fuzz_on_model(void *user, const mts_wire_model_entry *m)
     size_t *count = user;
     MTS_FUZZ_CHECK(mts_wire_valid_name(m->name, strlen(m->name)));
     ++*count;
+}
+
+/* One event's checks; 1 when it ends the conversation. */
+static int mts_fuzz_event(mts_stream_client *c, mts_stream_event ev, int *ended)
+{
+    if (ev == MTS_EV_BASE || ev == MTS_EV_BATCH) {
+        MTS_FUZZ_CHECK(c->have_lod);
+        MTS_FUZZ_CHECK(c->lod.level <= c->stop_level && c->lod.level <= c->splits);
+    }
+    if (ev == MTS_EV_END || ev == MTS_EV_MODELS)
+        *ended = 1;
+    return ev == MTS_EV_END || ev == MTS_EV_MODELS || ev == MTS_EV_ERROR;
+}
+
+/* One connection's bytes into the client's own reader (two threads): each
+ * piece fed, then at most 1 to 4 frames taken, so whole frames wait in the
+ * reader, some decoded ahead; at the end every whole frame is taken, but
+ * for a `backlog` break. */
+static int mts_fuzz_connection_fed(mts_stream_client *c, const uint8_t *bytes, size_t size,
+                                   size_t max_piece, uint64_t *seed, int *ended, int backlog)
+{
+    mts_error err = {0};
+    int done = 0, failed = 0;
+    size_t at = 0;
+    const int last = !backlog;
+    while (!done && !failed && (at < size || last)) {
+        *seed = *seed * 6364136223846793005ull + 1442695040888963407ull;
+        size_t piece = 1 + (size_t)((*seed >> 33) % max_piece);
+        if (piece > size - at)
+            piece = size - at;
+        if (piece && mts_stream_client_feed(c, bytes + at, piece, &err) != MTS_OK) {
+            MTS_FUZZ_CHECK(err.msg[0] != 0);
+            failed = 1;
+            break;
+        }
+        at += piece;
+        unsigned budget = at < size || !last ? 1 + (unsigned)((*seed >> 20) % 4) : ~0u;
+        int got = 0;
+        for (; budget && !done; budget--) {
+            mts_stream_event ev;
+            if ((got = mts_stream_client_next(c, &ev, &err)) <= 0)
+                break;
+            done = mts_fuzz_event(c, ev, ended);
+        }
+        if (got < 0) {
+            MTS_FUZZ_CHECK(err.msg[0] != 0);
+            failed = 1;
+        }
+        if (at == size && (got == 0 || !last))
+            break;
+    }
+    return done || failed;
 }
 
 /* One connection's bytes through a new frame reader; returns 1 when the
@@ -66,14 +126,7 @@ static int mts_fuzz_connection(mts_stream_client *c, const uint8_t *bytes, size_
                 MTS_FUZZ_CHECK(err.msg[0] != 0 && err.code == rc);
                 break;
             }
-            if (ev == MTS_EV_BASE || ev == MTS_EV_BATCH) {
-                MTS_FUZZ_CHECK(c->have_lod);
-                MTS_FUZZ_CHECK(c->lod.level <= c->stop_level && c->lod.level <= c->splits);
-            }
-            if (ev == MTS_EV_END || ev == MTS_EV_MODELS)
-                *ended = 1;
-            if (ev == MTS_EV_END || ev == MTS_EV_MODELS || ev == MTS_EV_ERROR)
-                done = 1;
+            done = mts_fuzz_event(c, ev, ended);
         }
     }
     mts_wire_reader_free(&r);
@@ -96,12 +149,13 @@ int mts_fuzz_stream_client_ended(const uint8_t *data, size_t size, int *ended)
     uint8_t *bytes = malloc(size ? size : 1);
     MTS_FUZZ_CHECK(bytes != NULL);
     memcpy(bytes, data + 1, size);
-    const unsigned split = mode >> 1;
+    const unsigned split = (mode >> 1) & 31;
     const size_t max_piece = split ? (size_t)1 << (split % 17) : (size ? size : 1);
     uint64_t seed = mode * 0x9e3779b97f4a7c15ull + 1;
 
     mts_stream_client c;
     mts_stream_client_init(&c);
+    c.threads = mode & 0x80 ? 2 : 1;
     size_t listed = 0;
     c.on_model = mts_fuzz_on_model;
     c.user = &listed;
@@ -125,15 +179,22 @@ int mts_fuzz_stream_client_ended(const uint8_t *data, size_t size, int *ended)
             uint64_t id;
             if (!mts_stream_client_resume_point(&c, &batch, &id))
                 break;
-            MTS_FUZZ_CHECK(batch == 0 || (c.have_lod && batch == c.batches && id == c.info.stream_id));
+            /* two threads also count the batches they decoded ahead */
+            MTS_FUZZ_CHECK(batch == 0 || (c.have_lod && batch >= c.batches && id == c.info.stream_id));
             if (mts_stream_client_reconnected(&c, &err) != MTS_OK) {
                 MTS_FUZZ_CHECK(err.msg[0] != 0);
                 break;
             }
+            /* ... which reconnected applied */
+            MTS_FUZZ_CHECK(batch == 0 || !c.have_lod || c.batches == batch);
         }
         if (!(mode & 1))
             mts_fuzz_fix_stream_crcs(bytes + at, len);
-        int stopped = mts_fuzz_connection(&c, bytes + at, len, max_piece, &seed, &end_seen);
+        int stopped = c.threads > 1 ? mts_fuzz_connection_fed(&c, bytes + at, len, max_piece,
+                                                              &seed, &end_seen,
+                                                              cut && (mode & 0x40))
+                                    : mts_fuzz_connection(&c, bytes + at, len, max_piece, &seed,
+                                                          &end_seen);
         if (!cut)
             break;
         /* after END more bytes are a continuation; after a refusal, nothing */
