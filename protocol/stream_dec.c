@@ -912,8 +912,14 @@ static mts_result take_batch(mts_stream_client *c, const uint8_t *p, size_t n, m
     if (ahead && rc != MTS_OK)
         return rc;
     if (ahead) {
+        /* the frame decode_ahead peeked at, now taken in its turn (a
+         * caller that hands frames in itself past the reader is refused) */
         mts_cursor cur = mts_cursor_make(p, n - 4);
         h.index = mts_cursor_varint(&cur);
+        if (!cur.ok || h.index != c->batches)
+            return mts_error_set(err, MTS_ERR_INTERNAL,
+                                 "BATCH: batch %u was decoded ahead, not this frame",
+                                 c->batches);
         h.first = mts_wire_batch_first(&c->info, h.index);
         h.count = mts_wire_batch_splits(&c->info, h.index);
     } else if ((rc = take_head(c, p, n, c->batches, c->splits, &h, err)) != MTS_OK) {
