@@ -439,22 +439,30 @@ mts_result mts_wire_reader_feed(mts_wire_reader *r, const void *data, size_t siz
     return MTS_OK;
 }
 
+/* The frame at r->buf + at: 1 whole (*len its length field: type and
+ * payload), 0 not all there, -1 a length that cannot be. */
+static int frame_at(const mts_wire_reader *r, size_t at, uint32_t *len)
+{
+    if (r->len - at < 4)
+        return 0;
+    const uint8_t *p = r->buf + at;
+    *len = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+    if (*len == 0 || *len > MTS_WIRE_MAX_FRAME)
+        return -1;
+    return r->len - at - 4 >= *len;
+}
+
 int mts_wire_reader_next(mts_wire_reader *r, uint8_t *type, const uint8_t **payload,
                          size_t *size, mts_error *err)
 {
-    size_t avail = r->len - r->start;
-    if (avail < 4)
-        return 0;
-    const uint8_t *p = r->buf + r->start;
-    uint32_t len = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-                   (uint32_t)p[3] << 24;
-    if (len == 0 || len > MTS_WIRE_MAX_FRAME) {
+    uint32_t len = 0;
+    const int got = frame_at(r, r->start, &len);
+    if (got < 0)
         mts_error_set(err, MTS_ERR_FORMAT, "frame of %u bytes (1..%u allowed)", len,
                       MTS_WIRE_MAX_FRAME);
-        return -1;
-    }
-    if (avail < 4 + (size_t)len)
-        return 0;
+    if (got <= 0)
+        return got;
+    const uint8_t *p = r->buf + r->start;
     *type = p[4];
     *payload = p + 5;
     *size = len - 1;
@@ -466,20 +474,14 @@ int mts_wire_reader_peek(const mts_wire_reader *r, uint32_t skip, uint8_t *type,
                          const uint8_t **payload, size_t *size)
 {
     size_t at = r->start;
-    for (uint32_t k = 0;; k++) {
-        if (r->len - at < 4)
-            return 0;
-        const uint8_t *p = r->buf + at;
-        uint32_t len = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-                       (uint32_t)p[3] << 24;
-        if (len == 0 || len > MTS_WIRE_MAX_FRAME || r->len - at - 4 < len)
-            return 0;
+    uint32_t len = 0;
+    for (uint32_t k = 0; frame_at(r, at, &len) > 0; k++, at += 4 + (size_t)len) {
         if (k == skip) {
-            *type = p[4];
-            *payload = p + 5;
+            *type = r->buf[at + 4];
+            *payload = r->buf + at + 5;
             *size = len - 1;
             return 1;
         }
-        at += 4 + (size_t)len;
     }
+    return 0;
 }

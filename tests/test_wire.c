@@ -402,6 +402,44 @@ static void test_reader_any_split(mts_test *t)
     mts_buf_free(&b);
 }
 
+/* Peeking: the frame `skip` frames on, only once it is whole, left for
+ * next; a bad length on the way gives 0 (next then refuses it). */
+static void test_reader_peek(mts_test *t)
+{
+    mts_buf b = {0};
+    mts_wire_hello h = sample_hello();
+    mts_wire_put_hello(&b, &h);
+    mts_wire_put_list(&b);
+    mts_wire_put_error(&b, 1, "bye");
+    mts_wire_reader r = {0};
+    mts_error err = {0};
+    uint8_t type = 0;
+    const uint8_t *p;
+    size_t n;
+    /* all but the last byte: the first two frames whole, the third not */
+    CHECK(t, mts_wire_reader_feed(&r, b.data, b.size - 1, &err) == MTS_OK);
+    CHECK(t, mts_wire_reader_peek(&r, 0, &type, &p, &n) == 1 && type == MTS_MSG_HELLO);
+    CHECK(t, mts_wire_reader_peek(&r, 1, &type, &p, &n) == 1 && type == MTS_MSG_LIST);
+    CHECK(t, mts_wire_reader_peek(&r, 2, &type, &p, &n) == 0);
+    CHECK(t, mts_wire_reader_feed(&r, b.data + b.size - 1, 1, &err) == MTS_OK);
+    CHECK(t, mts_wire_reader_peek(&r, 2, &type, &p, &n) == 1 && type == MTS_MSG_ERROR);
+    const uint8_t *peeked = p;
+    size_t peeked_n = n;
+    /* next takes them in order, the same bytes as peeked */
+    CHECK(t, mts_wire_reader_next(&r, &type, &p, &n, &err) == 1 && type == MTS_MSG_HELLO);
+    CHECK(t, mts_wire_reader_peek(&r, 1, &type, &p, &n) == 1 && p == peeked && n == peeked_n);
+    CHECK(t, mts_wire_reader_peek(&r, 2, &type, &p, &n) == 0);
+    mts_wire_reader_free(&r);
+    /* a zero length after the first frame: peeking past it finds nothing */
+    const uint8_t zero[5] = {0, 0, 0, 0, 1};
+    CHECK(t, mts_wire_reader_feed(&r, b.data, 4 + (size_t)b.data[0], &err) == MTS_OK);
+    CHECK(t, mts_wire_reader_feed(&r, zero, 5, &err) == MTS_OK);
+    CHECK(t, mts_wire_reader_peek(&r, 0, &type, &p, &n) == 1);
+    CHECK(t, mts_wire_reader_peek(&r, 1, &type, &p, &n) == 0);
+    mts_wire_reader_free(&r);
+    mts_buf_free(&b);
+}
+
 static void test_reader_refuses_bad_lengths(mts_test *t)
 {
     mts_wire_reader r = {0};
@@ -473,6 +511,7 @@ int main(void)
     RUN(&t, test_model_info_records_flag);
     RUN(&t, test_small_messages);
     RUN(&t, test_reader_any_split);
+    RUN(&t, test_reader_peek);
     RUN(&t, test_reader_refuses_bad_lengths);
     RUN(&t, test_reader_two_big_frames);
     return mts_test_end(&t);
