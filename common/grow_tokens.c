@@ -172,6 +172,61 @@ const uint32_t *mts_grow_key_order(const mts_grow *w, uint32_t *count)
     return w->key_order.n ? w->key_order.w : NULL;
 }
 
+/* ---- rings handed across ---- */
+
+const uint32_t *mts_grow_ring_at_hand(const mts_grow *g, uint32_t u, uint32_t *count,
+                                      int *closed)
+{
+    /* corner.c's ring cache: valid for the split about to be made */
+    if (g->ring_level != g->level + 1 || g->ring_u != u || !g->ring_count)
+        return NULL;
+    *count = g->ring_count;
+    *closed = g->ring_closed;
+    return g->ring.w;
+}
+
+int mts_grow_take_ring(mts_grow *g, uint32_t u, const uint32_t *corners, uint32_t count,
+                       int closed, const uint32_t *ids, uint32_t ids_count)
+{
+    const uint32_t tris = g->tri_count;
+    g->ring_level = 0; /* whatever it held is overwritten */
+    g->ring.n = 0;
+    if (!count || count > tris || u >= g->nb + g->level || g->vhead[u] == NONE ||
+        !mts_words_reserve(&g->ring, count))
+        return 0;
+    uint32_t *r = g->ring.w;
+    for (uint32_t k = 0; k < count; k++) {
+        const uint32_t t = corners[k] / 3;
+        const uint32_t x = ids && t < ids_count ? ids[t] : t;
+        if (x >= tris)
+            return 0;
+        r[k] = 3 * x + corners[k] % 3;
+    }
+    /* what ring() in corner.c would give: each corner's next round u is
+     * the one after it, the two ends are where its walk starts and stops,
+     * and u's listed corner is on it (a vertex where two fans meet has a
+     * ring for each). Every load below has its address from r, so the
+     * misses overlap where the walk takes them one after another. */
+    const uint32_t head = g->vhead[u];
+    int listed = 0;
+    for (uint32_t k = 0; k < count; k++) {
+        if (g->tri[r[k] / 3].v[r[k] % 3] != u)
+            return 0;
+        const uint32_t next = mts__corner_fwd(g, r[k]);
+        if (next != (k + 1 < count ? r[k + 1] : closed ? r[0] : NONE))
+            return 0;
+        listed |= r[k] == head;
+    }
+    if (!listed || (closed ? r[0] != head : mts__corner_back(g, r[0]) != NONE))
+        return 0;
+    g->ring.n = count;
+    g->ring_u = u;
+    g->ring_count = count;
+    g->ring_closed = closed;
+    g->ring_level = g->level + 1;
+    return 1;
+}
+
 /* ---- the in-order fix-up ---- */
 
 struct mts_grow_fixup {

@@ -70,6 +70,29 @@ const uint32_t *mts_grow_key_order(const mts_grow *worker, uint32_t *count);
  * another thread than it decodes on maps an explicit split's ids with it. */
 void mts_grow_keep_key_order(mts_grow *g);
 
+/* Rings handed across: two grows of one mesh (a mesh-only grow and the
+ * grow whose records are derived on another thread) both walk round the
+ * parent of every fan split, a chase of one cache miss a triangle, and the
+ * walk is a fifth of a client's time on a large mesh. The grow that walks
+ * first hands its ring to the other, which checks it with loads that do not
+ * wait on each other in place of walking.
+ *
+ * The ring of u that g's next split's fan was found in (mts_grow_fan_decode
+ * or mts_grow_fan_encode at this level), as corners of g's triangles (3t +
+ * corner); NULL when g has no ring of u at hand. Valid until g changes. */
+const uint32_t *mts_grow_ring_at_hand(const mts_grow *g, uint32_t u, uint32_t *count,
+                                      int *closed);
+
+/* Hands g the ring of u for its next split, as another grow of the same mesh
+ * found it (mts_grow_ring_at_hand), that grow's triangle t being g's ids[t]
+ * (t itself from ids_count on; the renumbering g made at its keys). It is
+ * taken only where it is, corner for corner and in order, the ring g's own
+ * walk would give (every corner u's, each one's next round u the one after,
+ * a closed ring from u's listed corner, an open one from border to border):
+ * 1 then, and the split does not walk; 0 otherwise, and it walks as ever. */
+int mts_grow_take_ring(mts_grow *g, uint32_t u, const uint32_t *corners, uint32_t count,
+                       int closed, const uint32_t *ids, uint32_t ids_count);
+
 /* The in-order state: each slot's indices and capacity as the intervals
  * derived so far leave them, and the current worker's tokens. The free
  * slots are not part of it: a key empties them and refills them with its

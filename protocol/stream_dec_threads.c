@@ -32,16 +32,24 @@
  * applied before its frame returns. The full level's split reads the
  * batch's coder as it walks, so its worker runs on the decode thread.
  * With one pool thread (two threads in all) there is one worker, a grow
- * from the base that takes every split, and nothing to fix up (`pipe`). */
+ * from the base that takes every split, and nothing to fix up (`pipe`);
+ * it takes each fan's ring from the log, as the decode thread walked it for
+ * the fan code, in place of walking it again (mts_grow_take_ring). */
 
 #define LOG_CHUNK 4096u /* splits a log chunk holds: freed once fixed up */
 #define REC_BLOCK 65536u /* words of a worker's record block */
+
+#define RING_MAX 14u /* corners of a ring the log carries: all but a few */
 
 typedef struct logged_split {
     mts_grow_split sp;   /* as one grow takes it: explicit lists in its ids */
     uint32_t *lists;     /* what sp's explicit lists point into (owned) */
     const uint32_t *rec; /* the worker's record, in its tokens (in its blocks) */
     uint32_t rec_words;
+    /* pipe: the parent's ring as the mesh-only grow walked it, in its ids
+     * (mts_grow_take_ring); ring_n 0 where none is handed over */
+    uint32_t ring_n, ring_closed;
+    uint32_t ring[RING_MAX];
 } logged_split;
 
 /* Records are appended to blocks that never move, so the decode thread
@@ -58,6 +66,7 @@ typedef struct interval {
     atomic_uint made;    /* records made, first..made-1 */
     uint32_t seen;       /* made as the decode thread last read it (its own) */
     atomic_int done;     /* the worker has finished with w */
+    atomic_uint want;    /* made, as the decode thread sleeps for it; UINT32_MAX: done */
     mts_result rc;       /* how (written before done) */
     mts_error err;
     /* oldest first: the worker appends at tail, the decode thread frees
@@ -90,6 +99,7 @@ struct mts__stream_par {
      * is kept in orders (for explicit splits' ids). */
     int pipe;
     uint32_t **orders, *order_n; /* written by the pool before the key's record is made */
+    uint32_t *pool_ids, pool_ids_n; /* the pool's alone: mesh-only triangle -> its grow's */
     /* the decode thread's alone */
     mts_grow_options go;
     mts_grow_fixup *fix;
@@ -209,15 +219,40 @@ static uint32_t par_wait_logged(struct mts__stream_par *p, uint32_t j)
     return n;
 }
 
-/* A pool thread: interval v's records below n are made. */
+/* A pool thread: interval v's records below n are made. The decode thread
+ * is woken only once it has what it sleeps for: woken at every record, it
+ * would make the pool pay a futex call a record while the decode thread
+ * waits for a key thousands of splits on (the last key's order, which the
+ * full level's worker needs), a tenth of the pool's time on a large mesh.
+ * A worker that ends wakes it anyway (par_grow). */
 static void par_made(struct mts__stream_par *p, interval *v, uint32_t n)
 {
     atomic_store(&v->made, n);
-    if (atomic_load(&p->dec_sleeping)) {
+    if (atomic_load(&p->dec_sleeping) && n >= atomic_load(&v->want)) {
         pthread_mutex_lock(&p->mu);
         pthread_cond_broadcast(&p->progress);
         pthread_mutex_unlock(&p->mu);
     }
+}
+
+/* The pool thread (pipe): its grow renumbered its triangles at a key, t
+ * becoming order[t] (count of them), so the ids the mesh-only grow's
+ * triangles have in it are composed with that; those born since the last
+ * key have the same id in both. 0 when out of memory. */
+static int par_pool_ids(struct mts__stream_par *p, const uint32_t *order, uint32_t count)
+{
+    if (count > p->pool_ids_n) {
+        uint32_t *a = realloc(p->pool_ids, (size_t)count * 4);
+        if (!a)
+            return 0;
+        p->pool_ids = a;
+        for (uint32_t x = p->pool_ids_n; x < count; x++)
+            a[x] = x;
+        p->pool_ids_n = count;
+    }
+    for (uint32_t x = 0; x < count; x++)
+        p->pool_ids[x] = order[p->pool_ids[x]];
+    return 1;
 }
 
 /* A pool thread's interval: each logged split in turn, its record kept in
@@ -237,6 +272,9 @@ static void par_grow(struct mts__stream_par *p, interval *v)
             logged_split *ls = par_entry(p, j);
             const uint32_t *r;
             uint32_t rw;
+            if (ls->ring_n)
+                mts_grow_take_ring(v->w, ls->sp.parent, ls->ring, ls->ring_n, ls->ring_closed,
+                                   p->pool_ids, p->pool_ids_n);
             rc = mts_grow_next(v->w, &ls->sp, NULL, &r, &rw, &v->err);
             if (rc != MTS_OK)
                 break;
@@ -244,7 +282,8 @@ static void par_grow(struct mts__stream_par *p, interval *v)
                 /* the renumbering of the key just made, before the next */
                 uint32_t count;
                 const uint32_t *order = mts_grow_key_order(v->w, &count);
-                if (order && !(p->orders[key] = malloc((size_t)count * 4 + 4))) {
+                if (order && (!(p->orders[key] = malloc((size_t)count * 4 + 4)) ||
+                              !par_pool_ids(p, order, count))) {
                     rc = mts_error_set(&v->err, MTS_ERR_NOMEM, "out of memory for a key's order");
                     break;
                 }
@@ -352,6 +391,7 @@ void mts__stream_par_free(struct mts__stream_par *p)
     free(p->iv);
     free(p->ids);
     free(p->inv);
+    free(p->pool_ids);
     free(p->mapped.w);
     for (uint32_t k = 0; p->orders && k < p->go.key_count; k++)
         free(p->orders[k]);
@@ -381,12 +421,16 @@ static mts_result par_wait(struct mts__stream_par *p, uint32_t i, uint32_t upto,
         }
     }
     if (!done && (whole || made < upto)) {
-        /* as par_wait_logged, the other way round */
+        /* as par_wait_logged, the other way round; what it waits for is
+         * stored before it counts itself, so a pool thread that sees the
+         * count sees that too */
         pthread_mutex_lock(&p->mu);
+        atomic_store(&v->want, whole ? UINT32_MAX : upto);
         atomic_fetch_add(&p->dec_sleeping, 1);
         while (!(done = atomic_load(&v->done)) && (whole || (made = atomic_load(&v->made)) < upto))
             pthread_cond_wait(&p->progress, &p->mu);
         atomic_fetch_sub(&p->dec_sleeping, 1);
+        atomic_store(&v->want, UINT32_MAX);
         pthread_mutex_unlock(&p->mu);
     }
     /* records made are as good as made, but a worker that failed fails its
@@ -433,6 +477,8 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
         rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the decoder's threads");
     /* interval i: the splits from key i's (none for i = 0) to the next
      * key's; the last one the full level's split alone */
+    for (uint32_t i = 0; rc == MTS_OK && i < p->iv_count; i++)
+        atomic_init(&p->iv[i].want, UINT32_MAX);
     for (uint32_t i = 0; rc == MTS_OK && i < kc + 2; i++) {
         const uint32_t first = i == 0 ? 0 : i <= kc ? c->info.key_levels[i - 1] - 1 : n - 1;
         const uint32_t end = i < kc ? c->info.key_levels[i] - 1 : i == kc ? n - 1 : n;
@@ -861,6 +907,16 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
         ls->sp = *sp;
         ls->lists = *lists;
         *lists = NULL;
+        /* the ring the fan code was decoded in, for the pool not to walk */
+        uint32_t rn = 0;
+        int closed = 0;
+        const uint32_t *ring =
+            p->pipe && !sp->moved_count ? mts_grow_ring_at_hand(c->grow, sp->parent, &rn, &closed)
+                                        : NULL;
+        ls->ring_n = ring && rn <= RING_MAX ? rn : 0;
+        ls->ring_closed = (uint32_t)closed;
+        if (ls->ring_n)
+            memcpy(ls->ring, ring, (size_t)rn * 4);
         par_publish(p, j + 1);
     }
     return mts_grow_split_mesh(c->grow, &ms, err);

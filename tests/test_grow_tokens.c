@@ -10,8 +10,13 @@
  *    described (a client), and on cow with every fourth split explicit
  *    (triangle ids, mapped to the mesh-only grow's). Each worker's rings
  *    are the mesh-only grow's too.
+ *  - a grow handed every ring the mesh-only grow walked, through its own
+ *    renumbering at the keys, takes each one and gives one grow's records
+ *    word for word, and refuses a ring turned by one corner, run backwards
+ *    or with a corner of another vertex.
  * And the calls refuse what they cannot work on. */
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "build.h"
@@ -84,10 +89,18 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
     go.key_levels = m->key_levels;
     go.key_count = m->key_count;
     const mts_grow_full given = {.strips = &m->full};
-    mts_grow *g = NULL, *h = NULL;
+    mts_grow *g = NULL, *h = NULL, *k = NULL;
     CHECKF(t, mts_grow_create(&m->base, m->base_vertex_count, m->level_count, &go, &g, &err) ==
                   MTS_OK,
            "%s", err.msg);
+    /* k: a grow that takes h's rings, its ids kept as mesh-only -> k's */
+    CHECKF(t, mts_grow_create(&m->base, m->base_vertex_count, m->level_count, &go, &k, &err) ==
+                  MTS_OK,
+           "%s", err.msg);
+    if (k)
+        mts_grow_keep_key_order(k);
+    uint32_t *kids = NULL, kids_n = 0, taken = 0, fans = 0, refused = 0, tries = 0;
+    uint32_t wrong[64];
     CHECKF(t, mts_grow_create_mesh(&m->base, m->base_vertex_count, m->level_count, &h, &err) ==
                   MTS_OK,
            "%s", err.msg);
@@ -96,7 +109,7 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
            explicit_splits(m));
     uint32_t bad = 0, keys = 0, renumbered = 0;
     uint64_t positions = 0;
-    for (uint32_t j = 0; g && h && j < m->level_count && bad < 5; j++) {
+    for (uint32_t j = 0; g && h && k && j < m->level_count && bad < 5; j++) {
         mts_grow_split sg, sh;
         if (!mts_grow_model_split(g, m, j, &sg) || !mts_grow_model_split(h, m, j, &sh)) {
             CHECKF(t, 0, "%s: split %u does not decode", name, j);
@@ -129,13 +142,55 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
                 break;
             }
         }
-        const uint32_t *r;
-        uint32_t w;
+        /* h's ring handed to k: now and then a wrong one first */
+        uint32_t hn = 0;
+        int hc = 0;
+        const uint32_t *hr = mts_grow_ring_at_hand(h, sh.parent, &hn, &hc);
+        fans += j + 1 < m->level_count;
+        if (hr && hn >= 2 && hn <= 64 && j % 5 == 0) {
+            const uint32_t how = j / 5 % 3;
+            for (uint32_t x = 0; x < hn; x++)
+                wrong[x] = how == 0 ? hr[(x + 1) % hn] : how == 1 ? hr[hn - 1 - x] : hr[x];
+            if (how == 2) /* another corner of the first one's triangle */
+                wrong[0] = hr[0] / 3 * 3 + (hr[0] % 3 + 1) % 3;
+            tries++;
+            if (!mts_grow_take_ring(k, sh.parent, wrong, hn, hc, kids, kids_n))
+                refused++;
+            else
+                CHECKF(t, 0, "%s: split %u: a wrong ring (%u) was taken", name, j, how);
+        }
+        if (hr && j + 1 < m->level_count)
+            taken += (uint32_t)mts_grow_take_ring(k, sh.parent, hr, hn, hc, kids, kids_n);
+        const uint32_t *r, *rk;
+        uint32_t w, wk;
+        if (mts_grow_next(k, &sg, &given, &rk, &wk, &err) != MTS_OK) {
+            CHECKF(t, 0, "%s: split %u, the grow handed rings: %s", name, j, err.msg);
+            bad++;
+            break;
+        }
         if (mts_grow_next(g, &sg, &given, &r, &w, &err) != MTS_OK ||
             mts_grow_split_mesh(h, &sh, &err) != MTS_OK) {
             CHECKF(t, 0, "%s: split %u: %s", name, j, err.msg);
             bad++;
             break;
+        }
+        if (w != wk || memcmp(r, rk, (size_t)w * 4) != 0) {
+            CHECKF(t, 0, "%s: split %u: the grow handed rings makes another record", name, j);
+            bad++;
+        }
+        uint32_t kc = 0;
+        const uint32_t *ko = is_key(m, j + 1) ? mts_grow_key_order(k, &kc) : NULL;
+        if (ko && j + 1 < m->level_count) {
+            /* k renumbered: mesh-only ids through it (born since: the same) */
+            uint32_t *a = realloc(kids, (size_t)kc * 4 + 4);
+            CHECK(t, a != NULL);
+            if (!a)
+                break;
+            kids = a;
+            for (; kids_n < kc; kids_n++)
+                kids[kids_n] = kids_n;
+            for (uint32_t x = 0; x < kc; x++)
+                kids[x] = ko[kids[x]];
         }
         const uint32_t *ag, *ah;
         uint32_t ng, nh;
@@ -167,8 +222,15 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
     CHECKF(t, bad == 0 && keys == m->key_count + 1 && renumbered + 1 >= keys && positions > 0,
            "%s: %u differences, %u keys (%u renumbered), %llu ring positions", name, bad, keys,
            renumbered, (unsigned long long)positions);
+    /* every fan's ring is at hand after its code is decoded; handed over,
+     * all are taken, through the renumbering of every key */
+    CHECKF(t, fans > 0 && taken == fans && tries > 30 && refused == tries,
+           "%s: %u of %u rings taken, %u of %u wrong ones refused", name, taken, fans, refused,
+           tries);
+    free(kids);
     mts_grow_free(g);
     mts_grow_free(h);
+    mts_grow_free(k);
 }
 
 static void test_mesh_only_cow(mts_test *t)
