@@ -28,22 +28,34 @@ static double process_cpu(void)
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
+/* The processor time of the calling thread so far, seconds: the decode
+ * thread's, since the client decodes on its caller's thread. */
+static double thread_cpu(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
 /* Seconds to take every frame of b into a fresh client; 0 on an error.
- * *cpu gets the processor seconds all threads spent on it. *alone counts the runs whose two threads went on as one (stream.h,
+ * *cpu gets the processor seconds all threads spent on it, *dec the decode
+ * thread's alone (the rest is the pool's: which of the two bounds a run).
+ * *alone counts the runs whose two threads went on as one (stream.h,
  * threads_alone_from), so that a row's figure says what it measured. */
 static double apply(const mts_buf *b, uint32_t threads, uint64_t *checksum, double *cpu,
-                    int *alone, mts_error *err)
+                    double *dec, int *alone, mts_error *err)
 {
     mts_stream_client c;
     mts_stream_client_init(&c);
     c.threads = threads;
-    double c0 = process_cpu(), t0 = cli_now();
+    double c0 = process_cpu(), d0 = thread_cpu(), t0 = cli_now();
     int ok = mts_stream_client_feed(&c, b->data, b->size, err) == MTS_OK, got = 0;
     mts_stream_event ev;
     while (ok && (got = mts_stream_client_next(&c, &ev, err)) > 0)
         ;
     double t = cli_now() - t0;
     *cpu = process_cpu() - c0;
+    *dec = thread_cpu() - d0;
     ok = ok && got == 0 && c.end_checksum != 0;
     *checksum = c.checksum;
     *alone += c.threads_alone_from != 0;
@@ -125,9 +137,9 @@ int main(int argc, char **argv)
         fprintf(js, "{\"runs\":%d,\"models\":{", runs);
     printf("\nApplying a stream: both forms in one process, memory warm, median of %d\n",
            runs);
-    printf("%-14s %9s %9s %10s %8s %11s %10s %11s %7s %9s %9s %5s\n", "model", "triangles",
-           "splits", "splits ms", "cpu ms", "splits M/s", "records ms", "records M/s", "ratio",
-           "ns/split", "encode s", "alone");
+    printf("%-14s %9s %9s %10s %8s %8s %11s %10s %11s %7s %9s %9s %5s\n", "model", "triangles",
+           "splits", "splits ms", "cpu ms", "dec ms", "splits M/s", "records ms", "records M/s",
+           "ratio", "ns/split", "encode s", "alone");
     printf("%s\n", "----------------------------------------------------------------------------"
                    "------------------------------------");
     int status = CLI_EXIT_OK, first = 1;
@@ -153,19 +165,20 @@ int main(int argc, char **argv)
         }
         double encode = cli_now() - e0;
         mts_buf a = {0}, r = {0};
-        double ta[8][99], tr[99], cpu[8][99], scratch = 0;
+        double ta[8][99], tr[99], cpu[8][99], dec[8][99], scratch = 0, scratch2 = 0;
         uint64_t ca[8] = {0}, cr = 0;
         int alone[8] = {0}, unused = 0;
         int ok = bench_connection_bytes(&s, s.model.level_count, &a) &&
                  bench_connection_bytes(s.records_form, s.records_form->model.level_count, &r);
         /* a first run of each: first-touch page faults are not decoding */
-        ok = ok && apply(&r, 1, &cr, &scratch, &unused, &err) > 0;
+        ok = ok && apply(&r, 1, &cr, &scratch, &scratch2, &unused, &err) > 0;
         for (int x = 0; ok && x < nthreads; x++)
-            ok = apply(&a, threads[x], &ca[x], &scratch, &unused, &err) > 0;
+            ok = apply(&a, threads[x], &ca[x], &scratch, &scratch2, &unused, &err) > 0;
         for (int i = 0; ok && i < runs; i++) { /* alternated, so drift hits all */
             for (int x = 0; ok && x < nthreads; x++)
-                ok = (ta[x][i] = apply(&a, threads[x], &ca[x], &cpu[x][i], &alone[x], &err)) > 0;
-            ok = ok && (tr[i] = apply(&r, 1, &cr, &scratch, &unused, &err)) > 0;
+                ok = (ta[x][i] = apply(&a, threads[x], &ca[x], &cpu[x][i], &dec[x][i], &alone[x],
+                                         &err)) > 0;
+            ok = ok && (tr[i] = apply(&r, 1, &cr, &scratch, &scratch2, &unused, &err)) > 0;
         }
         for (int x = 0; x < nthreads; x++)
             ok = ok && ca[x] == cr;
@@ -184,22 +197,24 @@ int main(int argc, char **argv)
                 snprintf(row, sizeof row, "%s", name);
             qsort(tx, (size_t)runs, sizeof *tx, bench_cmp_double);
             qsort(cpu[x], (size_t)runs, sizeof cpu[x][0], bench_cmp_double);
-            const double cx = cpu[x][runs / 2];
+            qsort(dec[x], (size_t)runs, sizeof dec[x][0], bench_cmp_double);
+            const double cx = cpu[x][runs / 2], dx = dec[x][runs / 2];
             const double sa = tx[runs / 2], sr = tr[runs / 2], n = m.level_count;
             const uint32_t tris = m.level_triangles[m.level_count];
-            printf("%-14s %9u %9u %10.2f %8.2f %11.3f %10.2f %11.3f %7.2f %9.0f %9.2f %5d\n", row,
-                   tris, m.level_count, sa * 1e3, cx * 1e3, n / sa / 1e6, sr * 1e3, n / sr / 1e6, sa / sr,
-                   sa / n * 1e9, encode, alone[x]);
+            printf("%-14s %9u %9u %10.2f %8.2f %8.2f %11.3f %10.2f %11.3f %7.2f %9.0f %9.2f %5d\n",
+                   row, tris, m.level_count, sa * 1e3, cx * 1e3, dx * 1e3, n / sa / 1e6, sr * 1e3,
+                   n / sr / 1e6, sa / sr, sa / n * 1e9, encode, alone[x]);
             if (js)
                 fprintf(js,
                         "%s\"%s\":{\"triangles\":%u,\"splits\":%u,\"splits_bytes\":%zu,"
                         "\"records_bytes\":%zu,\"splits_ms\":%.3f,\"splits_per_s\":%.0f,"
                         "\"records_ms\":%.3f,\"records_per_s\":%.0f,\"ratio\":%.3f,"
                         "\"ns_per_split\":%.1f,\"splits_ms_min\":%.3f,\"records_ms_min\":%.3f,"
-                        "\"encode_s\":%.3f,\"threads\":%u,\"alone_runs\":%d,\"cpu_ms\":%.3f}",
+                        "\"encode_s\":%.3f,\"threads\":%u,\"alone_runs\":%d,\"cpu_ms\":%.3f,"
+                        "\"decode_cpu_ms\":%.3f}",
                         first ? "" : ",", row, tris, m.level_count, a.size, r.size, sa * 1e3,
                         n / sa, sr * 1e3, n / sr, sa / sr, sa / n * 1e9, tx[0] * 1e3,
-                        tr[0] * 1e3, encode, threads[x], alone[x], cx * 1e3);
+                        tr[0] * 1e3, encode, threads[x], alone[x], cx * 1e3, dx * 1e3);
             first = 0;
         }
         mts_buf_free(&a);
@@ -209,7 +224,8 @@ int main(int argc, char **argv)
     }
     printf("(ratio: splits form / records form; ns/split: the splits form's; alone: the timed "
            "runs whose two threads went on as one, finding the pool thread without a core;\n"
-           " cpu ms: the splits form's processor time, all threads together, median)\n");
+           " cpu ms: the splits form's processor time, all threads together, median;\n"
+           " dec ms: the decode thread's alone, the caller's: cpu ms less it is the pool's)\n");
     if (js) {
         fprintf(js, "}}\n");
         fclose(js);

@@ -354,11 +354,12 @@ for row, r in rows.items():
                                           "records_ms": r["records_ms"], "splits_ms": {},
                                           "splits_ms_min": {}, "over_one_thread": {},
                                           "alone_runs": {}, "cpu_ms": {},
-                                          "balanced_over_one": {}})
+                                          "decode_cpu_ms": {}, "balanced_over_one": {}})
     m["splits_ms"][t] = r["splits_ms"]
     m["splits_ms_min"][t] = r["splits_ms_min"]
     m["alone_runs"][t] = r.get("alone_runs")
     m["cpu_ms"][t] = r.get("cpu_ms")
+    m["decode_cpu_ms"][t] = r.get("decode_cpu_ms")
 for m in apply["models"].values():
     one = m["splits_ms"].get("1")
     for t, ms in m["splits_ms"].items():
