@@ -288,7 +288,13 @@ int32_t mts_grow_fan(const mts_grow *g, uint32_t u, uint32_t left, uint32_t righ
 /* The parent's corners in ring order (grow.h: from the border when it is on
  * one, else from its listed corner, turning as the fan does), of the
  * fan its first corner lies in; cached until the next split. -1 when they
- * do not form a simple fan. */
+ * do not form a simple fan.
+ *
+ * Each step round is a load whose address the step before gave, and on a
+ * mesh past the caches each is a miss, so the walk goes both ways from the
+ * listed corner at once, forward into `out` and backward into scratch:
+ * two chains whose misses overlap, meeting half way round an inner vertex
+ * (twins pair both ways, so a step back undoes a step forward). */
 static int32_t ring(mts_grow *g, uint32_t u)
 {
     if (g->ring_level == g->level + 1 && g->ring_u == u)
@@ -296,43 +302,61 @@ static int32_t ring(mts_grow *g, uint32_t u)
     g->ring_level = 0;
     if (u >= g->nb + g->level || g->vhead[u] == NONE)
         return -1;
-    mts_words *out = &g->ring;
+    mts_words *out = &g->ring, *back = &g->scratch; /* scratch: free between splits */
     const uint32_t c0 = g->vhead[u];
-    if (!mts_words_reserve(out, 16))
+    out->n = back->n = 0;
+    if (!mts_words_reserve(out, 16) || !mts_words_reserve(back, 16))
         return -1;
-    /* forward from the listed corner: round to it (an inner vertex, the
-     * ring starts there), or to a border */
-    uint32_t c = c0;
-    out->n = 0;
-    for (;;) {
-        if (out->n >= g->tri_count || (out->n == out->cap && !mts_words_reserve(out, 1)))
-            return -1;
-        out->w[out->n++] = c;
-        c = mts__corner_fwd(g, c);
-        if (c == NONE || c == c0)
-            break;
+    out->w[out->n++] = c0;
+    /* fe, be: the last corner each way (be is c0 until a step back) */
+    uint32_t fe = c0, be = c0;
+    int fdone = 0, bdone = 0, closed = 0;
+    /* no ring has more corners than there are triangles */
+    while (!(fdone && bdone)) {
+        if (!fdone) {
+            const uint32_t c = mts__corner_fwd(g, fe);
+            if (c == be) {
+                closed = 1;
+                break;
+            }
+            if (c == NONE) {
+                fdone = 1;
+            } else {
+                if (out->n + back->n >= g->tri_count ||
+                    (out->n == out->cap && !mts_words_reserve(out, 1)))
+                    return -1;
+                out->w[out->n++] = fe = c;
+            }
+        }
+        if (!bdone) {
+            const uint32_t c = mts__corner_back(g, be);
+            if (c == fe) {
+                closed = 1;
+                break;
+            }
+            if (c == NONE) {
+                bdone = 1;
+            } else {
+                if (out->n + back->n >= g->tri_count ||
+                    (back->n == back->cap && !mts_words_reserve(back, 1)))
+                    return -1;
+                back->w[back->n++] = be = c;
+            }
+        }
     }
-    int closed = c == c0;
-    if (!closed) {
-        /* on a border: the ring starts at the other one, behind c0 */
-        size_t ahead = out->n;
-        for (c = mts__corner_back(g, c0); c != NONE; c = mts__corner_back(g, c)) {
-            if (out->n >= g->tri_count || (out->n == out->cap && !mts_words_reserve(out, 1)))
-                return -1;
-            out->w[out->n++] = c;
-        }
-        /* out: c0 .. border, then the corners behind c0 nearest first */
-        size_t behind = out->n - ahead;
-        if (behind) {
-            mts_words *t = &g->scratch; /* free between splits */
-            t->n = 0;
-            if (!mts_words_reserve(t, out->n))
-                return -1;
-            for (size_t i = 0; i < behind; i++)
-                t->w[i] = out->w[out->n - 1 - i];
-            memcpy(t->w + behind, out->w, ahead * 4);
-            memcpy(out->w, t->w, out->n * 4);
-        }
+    /* closed: c0 .. forward, then the corners behind c0 farthest first;
+     * on a border: those behind c0 farthest first, then c0 .. the border */
+    const size_t ahead = out->n, behind = back->n;
+    if (behind) {
+        if (!mts_words_reserve(out, behind))
+            return -1;
+        uint32_t *w = out->w;
+        if (!closed)
+            memmove(w + behind, w, ahead * 4);
+        uint32_t *to = closed ? w + ahead : w;
+        for (size_t i = 0; i < behind; i++)
+            to[i] = back->w[behind - 1 - i];
+        out->n = ahead + behind;
     }
     g->ring_u = u;
     g->ring_count = (uint32_t)out->n;
