@@ -227,6 +227,52 @@ int mts_grow_take_ring(mts_grow *g, uint32_t u, const uint32_t *corners, uint32_
     return 1;
 }
 
+void mts_grow_prefetch_ring(const mts_grow *g, unsigned ahead, uint32_t u,
+                            const uint32_t *corners, uint32_t count, const uint32_t *ids,
+                            uint32_t ids_count)
+{
+    const uint32_t tris = g->tri_count;
+    if (ahead == 3) {
+        for (uint32_t k = 0; k < count; k++) {
+            const uint32_t t = corners[k] / 3;
+            if (ids && t < ids_count)
+                __builtin_prefetch(ids + t);
+        }
+        if (u < g->nb + g->level)
+            __builtin_prefetch(g->vhead + u);
+        return;
+    }
+    for (uint32_t k = 0; k < count; k++) {
+        const uint32_t t = corners[k] / 3;
+        const uint32_t x = ids && t < ids_count ? ids[t] : t;
+        if (x >= tris)
+            continue;
+        if (ahead == 2) {
+            __builtin_prefetch(g->tri + x);
+            continue;
+        }
+        const int32_t s = g->tri[x].slot;
+        if (s < 0 || (uint32_t)s >= g->slot_count)
+            continue;
+        if (ahead == 1) {
+            __builtin_prefetch(g->slot + s);
+            continue;
+        }
+        /* a split scans the slot from both ends for u: its first and last
+         * lines, and all of a short one */
+        const uint32_t *w = g->slot[s].seq.w;
+        const size_t n = g->slot[s].seq.n;
+        for (size_t i = 0; i < n && i < 64; i += 16) {
+            __builtin_prefetch(w + i);
+            if (n > 64)
+                __builtin_prefetch(w + n - 1 - i);
+        }
+    }
+    if (ahead == 2 && u < g->nb + g->level && g->vhead[u] != MTS_GROW_NONE &&
+        g->vhead[u] / 3 < tris)
+        __builtin_prefetch(g->tri + g->vhead[u] / 3);
+}
+
 /* ---- the in-order fix-up ---- */
 
 struct mts_grow_fixup {

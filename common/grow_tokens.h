@@ -93,6 +93,17 @@ const uint32_t *mts_grow_ring_at_hand(const mts_grow *g, uint32_t u, uint32_t *c
 int mts_grow_take_ring(mts_grow *g, uint32_t u, const uint32_t *corners, uint32_t count,
                        int closed, const uint32_t *ids, uint32_t ids_count);
 
+/* The grow that takes the rings knows them splits before it grows them, and
+ * what a split reads (the ring's triangles, their strips' slots, the slots'
+ * indices) is a chain of misses it would take one after another. Each call
+ * asks for one link of that chain for the split `ahead` splits on (3: the
+ * ids, 2: the triangles, 1: the slots, 0: the slots' indices, as each link
+ * needs the one before it in cache), so that by its turn its data is near.
+ * Only hints: it reads what g holds now, in bounds, and changes nothing. */
+void mts_grow_prefetch_ring(const mts_grow *g, unsigned ahead, uint32_t u,
+                            const uint32_t *corners, uint32_t count, const uint32_t *ids,
+                            uint32_t ids_count);
+
 /* The in-order state: each slot's indices and capacity as the intervals
  * derived so far leave them, and the current worker's tokens. The free
  * slots are not part of it: a key empties them and refills them with its

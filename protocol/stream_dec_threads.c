@@ -272,6 +272,14 @@ static void par_grow(struct mts__stream_par *p, interval *v)
             logged_split *ls = par_entry(p, j);
             const uint32_t *r;
             uint32_t rw;
+            /* the splits logged after this one, each a link further on
+             * (mts_grow_prefetch_ring) */
+            for (uint32_t d = 1; p->pipe && d <= 4 && j + d < avail && j + d < v->end; d++) {
+                const logged_split *next = par_entry(p, j + d);
+                if (next->ring_n)
+                    mts_grow_prefetch_ring(v->w, d - 1, next->sp.parent, next->ring,
+                                           next->ring_n, p->pool_ids, p->pool_ids_n);
+            }
             if (ls->ring_n)
                 mts_grow_take_ring(v->w, ls->sp.parent, ls->ring, ls->ring_n, ls->ring_closed,
                                    p->pool_ids, p->pool_ids_n);
