@@ -242,6 +242,7 @@ void mts_grow_prefetch_ring(const mts_grow *g, unsigned ahead, uint32_t u,
             __builtin_prefetch(g->vhead + u);
         return;
     }
+    int32_t last = -1;
     for (uint32_t k = 0; k < count; k++) {
         const uint32_t t = corners[k] / 3;
         const uint32_t x = ids && t < ids_count ? ids[t] : t;
@@ -251,15 +252,18 @@ void mts_grow_prefetch_ring(const mts_grow *g, unsigned ahead, uint32_t u,
             __builtin_prefetch(g->tri + x);
             continue;
         }
+        /* the triangles round u mostly lie on one or two strips */
         const int32_t s = g->tri[x].slot;
-        if (s < 0 || (uint32_t)s >= g->slot_count)
+        if (s < 0 || (uint32_t)s >= g->slot_count || s == last)
             continue;
+        last = s;
         if (ahead == 1) {
             __builtin_prefetch(g->slot + s);
             continue;
         }
-        /* a split scans the slot from both ends for u: its first and last
-         * lines, and all of a short one */
+        /* a split scans the slot for u from both ends: four lines at each
+         * end, all of a short one (the ends alone left the pool 1.06x
+         * slower on the 1.2M mesh) */
         const uint32_t *w = g->slot[s].seq.w;
         const size_t n = g->slot[s].seq.n;
         for (size_t i = 0; i < n && i < 64; i += 16) {

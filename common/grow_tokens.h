@@ -99,7 +99,9 @@ int mts_grow_take_ring(mts_grow *g, uint32_t u, const uint32_t *corners, uint32_
  * asks for one link of that chain for the split `ahead` splits on (3: the
  * ids, 2: the triangles, 1: the slots, 0: the slots' indices, as each link
  * needs the one before it in cache), so that by its turn its data is near.
- * Only hints: it reads what g holds now, in bounds, and changes nothing. */
+ * Only hints: it reads what g holds now, in bounds, and changes nothing.
+ * A mesh that stays in the caches gains nothing and pays for them: the
+ * caller asks only past that. */
 void mts_grow_prefetch_ring(const mts_grow *g, unsigned ahead, uint32_t u,
                             const uint32_t *corners, uint32_t count, const uint32_t *ids,
                             uint32_t ids_count);

@@ -159,8 +159,13 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
             else
                 CHECKF(t, 0, "%s: split %u: a wrong ring (%u) was taken", name, j, how);
         }
-        if (hr && j + 1 < m->level_count)
+        if (hr && j + 1 < m->level_count) {
+            /* every link of the hints the pool gives (they must change
+             * nothing: the records are compared below) */
+            for (unsigned d = 0; d < 4; d++)
+                mts_grow_prefetch_ring(k, d, sh.parent, hr, hn, kids, kids_n);
             taken += (uint32_t)mts_grow_take_ring(k, sh.parent, hr, hn, hc, kids, kids_n);
+        }
         const uint32_t *r, *rk;
         uint32_t w, wk;
         if (mts_grow_next(k, &sg, &given, &rk, &wk, &err) != MTS_OK) {
