@@ -285,6 +285,26 @@ int32_t mts_grow_fan(const mts_grow *g, uint32_t u, uint32_t left, uint32_t righ
     return count ? (int32_t)count : -1;
 }
 
+/* One step of ring()'s walk, forward or back from *end into `to` (the
+ * other way holding `other_n`): 1 when it meets the other way's end, the
+ * ring closed; 0 otherwise (*done at a border); -1 when out of room or
+ * past as many corners as there are triangles. */
+static inline int ring_step(const mts_grow *g, int forward, uint32_t *end, uint32_t other_end,
+                            mts_words *to, size_t other_n, int *done)
+{
+    const uint32_t c = forward ? mts__corner_fwd(g, *end) : mts__corner_back(g, *end);
+    if (c == other_end)
+        return 1;
+    if (c == NONE) {
+        *done = 1;
+        return 0;
+    }
+    if (to->n + other_n >= g->tri_count || (to->n == to->cap && !mts_words_reserve(to, 1)))
+        return -1;
+    to->w[to->n++] = *end = c;
+    return 0;
+}
+
 /* The parent's corners in ring order (grow.h: from the border when it is on
  * one, else from its listed corner, turning as the fan does), of the
  * fan its first corner lies in; cached until the next split. -1 when they
@@ -310,40 +330,16 @@ static int32_t ring(mts_grow *g, uint32_t u)
     out->w[out->n++] = c0;
     /* fe, be: the last corner each way (be is c0 until a step back) */
     uint32_t fe = c0, be = c0;
-    int fdone = 0, bdone = 0, closed = 0;
-    /* no ring has more corners than there are triangles */
-    while (!(fdone && bdone)) {
-        if (!fdone) {
-            const uint32_t c = mts__corner_fwd(g, fe);
-            if (c == be) {
-                closed = 1;
-                break;
-            }
-            if (c == NONE) {
-                fdone = 1;
-            } else {
-                if (out->n + back->n >= g->tri_count ||
-                    (out->n == out->cap && !mts_words_reserve(out, 1)))
-                    return -1;
-                out->w[out->n++] = fe = c;
-            }
-        }
-        if (!bdone) {
-            const uint32_t c = mts__corner_back(g, be);
-            if (c == fe) {
-                closed = 1;
-                break;
-            }
-            if (c == NONE) {
-                bdone = 1;
-            } else {
-                if (out->n + back->n >= g->tri_count ||
-                    (back->n == back->cap && !mts_words_reserve(back, 1)))
-                    return -1;
-                back->w[back->n++] = be = c;
-            }
-        }
+    int fdone = 0, bdone = 0, r = 0;
+    while (!r && !(fdone && bdone)) {
+        if (!fdone)
+            r = ring_step(g, 1, &fe, be, out, back->n, &fdone);
+        if (!r && !bdone)
+            r = ring_step(g, 0, &be, fe, back, out->n, &bdone);
     }
+    if (r < 0)
+        return -1;
+    const int closed = r;
     /* closed: c0 .. forward, then the corners behind c0 farthest first;
      * on a border: those behind c0 farthest first, then c0 .. the border */
     const size_t ahead = out->n, behind = back->n;
