@@ -712,43 +712,102 @@ static int32_t cand_at(const mts_grow *g, const uint32_t *o, uint32_t k, uint32_
  * may change (its entering edge is read the other way round when the
  * stretch before it changed), but the strip leaves it as before. The
  * stretch is found in the old indices: t_first's window ends at the first
- * u (lo), t_last's starts at the last (hi). 0 when the slot does not look
- * like that (it is then derived whole). */
-static int local_region(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32_t hi,
-                        splice *sp)
+ * u (lo), t_last's starts at the last (hi).
+ *
+ * A strip often passes u twice, along two rows of the fan, with a row's
+ * triangles between; none of those has corner u, and a split only changes
+ * links between triangles that had it, so their indices stay and only each
+ * pass is derived (half the triangles walked on real meshes). A pass ends
+ * where the next u is `gap` or more indices on; the one stretch of old is
+ * the case gap = UINT32_MAX. 1 done, 0 not such a slot (it is then derived
+ * whole), -1 no memory, 2 a later pass is not what it seems (try as one
+ * stretch). */
+static int local_passes(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32_t hi,
+                        uint32_t gap, splice *sp)
 {
     const uint32_t *o = g->slot[s].seq.w;
     const uint32_t L = (uint32_t)g->slot[s].seq.n;
-    int32_t t, unused;
-    uint32_t a = 0, c = 0;
-    int first = lo < 3;
-    if (first) {
-        sp->p0 = 0;
-        t = g->slot[s].head;
-    } else {
-        sp->p0 = lo - (o[lo - 1] == o[lo - 3]); /* t_first's swap, if it has one */
-        a = o[sp->p0 - 2];
-        c = o[sp->p0 - 1];
-        t = cand_at(g, o, lo - 2, u, &unused);
-        if (t < 0 || g->tri[t].slot != (int32_t)s)
-            return 0;
-    }
-    int32_t tn = -1;
-    sp->p1 = L;
-    if (hi + 3 < L) {
-        if (cand_at(g, o, hi, u, &tn) < 0 || tn < 0)
-            return 0;
-        sp->p1 = hi + 4 + (hi + 4 < L && o[hi + 3] == o[hi + 1]);
-    }
     mts_words *r = &g->scratch;
     r->n = 0;
-    int met;
-    if (!derive_run(g, t, first, tn, &a, &c, r, &met))
-        return -1;
-    sp->suffix = met;
     sp->r = r;
-    /* the strip leaves t_n as it did, or the stretch is not what it seems */
-    return !met || (a == o[sp->p1 - 2] && c == o[sp->p1 - 1]);
+    uint32_t end = 0; /* where the pass before left the old indices */
+    for (uint32_t pass = 0, at = lo;; pass++) {
+        const int not_local = pass ? 2 : 0;
+        uint32_t last = hi, next = hi + 1;
+        if (gap != UINT32_MAX) {
+            last = at;
+            for (uint32_t k = at + 1; k <= hi; k++) {
+                if (o[k] != u)
+                    continue;
+                if (k - last >= gap) {
+                    next = k;
+                    break;
+                }
+                last = k;
+            }
+        }
+        int32_t t, unused;
+        uint32_t a = 0, c = 0, p0 = 0;
+        int first = at < 3;
+        if (first) {
+            t = g->slot[s].head;
+        } else {
+            p0 = at - (o[at - 1] == o[at - 3]); /* t_first's swap, if it has one */
+            a = o[p0 - 2];
+            c = o[p0 - 1];
+            t = cand_at(g, o, at - 2, u, &unused);
+            if (t < 0 || g->tri[t].slot != (int32_t)s)
+                return not_local;
+        }
+        if (pass == 0) {
+            sp->p0 = p0;
+        } else {
+            /* the stretch between two passes, as it was */
+            if (p0 < end)
+                return 2;
+            if (!mts_words_reserve(r, p0 - end))
+                return -1;
+            memcpy(r->w + r->n, o + end, (size_t)(p0 - end) * 4);
+            r->n += p0 - end;
+        }
+        int32_t tn = -1;
+        uint32_t p1 = L;
+        if (last + 3 < L) {
+            if (cand_at(g, o, last, u, &tn) < 0 || tn < 0)
+                return not_local;
+            p1 = last + 4 + (last + 4 < L && o[last + 3] == o[last + 1]);
+        }
+        int met;
+        if (!derive_run(g, t, first, tn, &a, &c, r, &met))
+            return -1;
+        if (!met) { /* the path ends before t_n: derived to its end */
+            sp->suffix = 0;
+            sp->p1 = L;
+            return 1;
+        }
+        /* the strip leaves t_n as it did, or the stretch is not what it seems */
+        if (a != o[p1 - 2] || c != o[p1 - 1])
+            return not_local;
+        if (next > hi) {
+            sp->suffix = 1;
+            sp->p1 = p1;
+            return 1;
+        }
+        end = p1;
+        at = next;
+    }
+}
+
+/* Two passes of a strip past u: the u's of one are at most 4 indices apart
+ * (a triangle and a swap), and 6 on the stretch between them holds one
+ * triangle without u at least, so the passes never overlap. */
+enum { PASS_GAP = 6 };
+
+static int local_region(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32_t hi,
+                        splice *sp)
+{
+    int rc = local_passes(g, s, u, lo, hi, PASS_GAP, sp);
+    return rc == 2 ? local_passes(g, s, u, lo, hi, UINT32_MAX, sp) : rc;
 }
 
 /* A slot whose path kept every link, where every triangle with corner u
