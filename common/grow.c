@@ -705,6 +705,12 @@ static int32_t cand_at(const mts_grow *g, const uint32_t *o, uint32_t k, uint32_
     return -1;
 }
 
+/* Where one pass of a strip past u ends and the next begins: a u 6 or more
+ * indices after the last leaves three windows without u between them, and
+ * a pass replaces at most 5 indices past its last u and 1 before its
+ * first, so two passes never overlap. */
+enum { PASS_GAP = 6 };
+
 /* The new indices of slot s where its path runs past u: from the first
  * triangle with corner u (t_first) to the one after the last (t_n), the
  * only stretch a split changes. Before t_first the path is as it was (t_first
@@ -718,12 +724,10 @@ static int32_t cand_at(const mts_grow *g, const uint32_t *o, uint32_t k, uint32_
  * triangles between; none of those has corner u, and a split only changes
  * links between triangles that had it, so their indices stay and only each
  * pass is derived (half the triangles walked on real meshes). A pass ends
- * where the next u is `gap` or more indices on; the one stretch of old is
- * the case gap = UINT32_MAX. 1 done, 0 not such a slot (it is then derived
- * whole), -1 no memory, 2 a later pass is not what it seems (try as one
- * stretch). */
-static int local_passes(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32_t hi,
-                        uint32_t gap, splice *sp)
+ * where the next u is PASS_GAP or more indices on. 1 done, 0 not such a
+ * slot (it is then derived whole), -1 no memory. */
+static int local_region(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32_t hi,
+                        splice *sp)
 {
     const uint32_t *o = g->slot[s].seq.w;
     const uint32_t L = (uint32_t)g->slot[s].seq.n;
@@ -732,19 +736,15 @@ static int local_passes(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32
     sp->r = r;
     uint32_t end = 0; /* where the pass before left the old indices */
     for (uint32_t pass = 0, at = lo;; pass++) {
-        const int not_local = pass ? 2 : 0;
-        uint32_t last = hi, next = hi + 1;
-        if (gap != UINT32_MAX) {
-            last = at;
-            for (uint32_t k = at + 1; k <= hi; k++) {
-                if (o[k] != u)
-                    continue;
-                if (k - last >= gap) {
-                    next = k;
-                    break;
-                }
-                last = k;
+        uint32_t last = at, next = hi + 1;
+        for (uint32_t k = at + 1; k <= hi; k++) {
+            if (o[k] != u)
+                continue;
+            if (k - last >= PASS_GAP) {
+                next = k;
+                break;
             }
+            last = k;
         }
         int32_t t, unused;
         uint32_t a = 0, c = 0, p0 = 0;
@@ -757,14 +757,14 @@ static int local_passes(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32
             c = o[p0 - 1];
             t = cand_at(g, o, at - 2, u, &unused);
             if (t < 0 || g->tri[t].slot != (int32_t)s)
-                return not_local;
+                return 0;
         }
         if (pass == 0) {
             sp->p0 = p0;
         } else {
             /* the stretch between two passes, as it was */
             if (p0 < end)
-                return 2;
+                return 0;
             if (!mts_words_reserve(r, p0 - end))
                 return -1;
             memcpy(r->w + r->n, o + end, (size_t)(p0 - end) * 4);
@@ -774,7 +774,7 @@ static int local_passes(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32
         uint32_t p1 = L;
         if (last + 3 < L) {
             if (cand_at(g, o, last, u, &tn) < 0 || tn < 0)
-                return not_local;
+                return 0;
             p1 = last + 4 + (last + 4 < L && o[last + 3] == o[last + 1]);
         }
         int met;
@@ -787,7 +787,7 @@ static int local_passes(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32
         }
         /* the strip leaves t_n as it did, or the stretch is not what it seems */
         if (a != o[p1 - 2] || c != o[p1 - 1])
-            return not_local;
+            return 0;
         if (next > hi) {
             sp->suffix = 1;
             sp->p1 = p1;
@@ -796,18 +796,6 @@ static int local_passes(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32
         end = p1;
         at = next;
     }
-}
-
-/* Two passes of a strip past u: the u's of one are at most 4 indices apart
- * (a triangle and a swap), and 6 on the stretch between them holds one
- * triangle without u at least, so the passes never overlap. */
-enum { PASS_GAP = 6 };
-
-static int local_region(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32_t hi,
-                        splice *sp)
-{
-    int rc = local_passes(g, s, u, lo, hi, PASS_GAP, sp);
-    return rc == 2 ? local_passes(g, s, u, lo, hi, UINT32_MAX, sp) : rc;
 }
 
 /* A slot whose path kept every link, where every triangle with corner u
