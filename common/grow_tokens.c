@@ -185,6 +185,22 @@ const uint32_t *mts_grow_ring_at_hand(const mts_grow *g, uint32_t u, uint32_t *c
     return g->ring.w;
 }
 
+uint32_t mts_grow_ring_vertices(const mts_grow *g, uint32_t u, uint32_t *out, uint32_t cap)
+{
+    uint32_t count, n = 0;
+    int closed;
+    const uint32_t *r = mts_grow_ring_at_hand(g, u, &count, &closed);
+    for (uint32_t k = 0; r && k < count && n < cap; k++) {
+        const uint32_t c = r[k];
+        out[n++] = g->tri[c / 3].v[mts__grow_nx[c % 3]];
+    }
+    if (r && !closed && n < cap) {
+        const uint32_t c = r[count - 1];
+        out[n++] = g->tri[c / 3].v[mts__grow_pv[c % 3]];
+    }
+    return n;
+}
+
 int mts_grow_take_ring(mts_grow *g, uint32_t u, const uint32_t *corners, uint32_t count,
                        int closed, const uint32_t *ids, uint32_t ids_count)
 {

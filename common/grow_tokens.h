@@ -83,6 +83,13 @@ void mts_grow_keep_key_order(mts_grow *g);
 const uint32_t *mts_grow_ring_at_hand(const mts_grow *g, uint32_t u, uint32_t *count,
                                       int *closed);
 
+/* The vertices round u on that ring (each triangle's corner after u, and
+ * the last one's before u where the ring is open), at most cap of them into
+ * out: the vertices a split of u reads the positions of, known before its
+ * fan code is, so that a decoder can ask for those positions early. 0 when
+ * g has no ring of u at hand. */
+uint32_t mts_grow_ring_vertices(const mts_grow *g, uint32_t u, uint32_t *out, uint32_t cap);
+
 /* Hands g the ring of u for its next split, as another grow of the same mesh
  * found it (mts_grow_ring_at_hand), that grow's triangle t being g's ids[t]
  * (t itself from ids_count on; the renumbering g made at its keys). It is

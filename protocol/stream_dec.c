@@ -650,6 +650,12 @@ static mts_result take_splits(mts_stream_client *c, mts_rc_decoder *d, mts_grow_
         } else {
             mts_grow_fan_code fc = {0, 0, sides};
             const unsigned fctx = mts__stream_fan_context(c->grow, sp.parent);
+            /* the new vertex's position is predicted from these: asked for
+             * now, they come while the fan is decoded and the split made */
+            uint32_t near[16];
+            const uint32_t near_count = mts_grow_ring_vertices(c->grow, sp.parent, near, 16);
+            for (uint32_t i = 0; i < near_count; i++)
+                __builtin_prefetch(c->quantized + 3 * (size_t)near[i]);
             fc.start = mts_rc_decode_uint(d, &md->start[fctx]);
             fc.count = mts_rc_decode_uint(d, &md->count[fctx]);
             if (!d->ok || !mts_grow_fan_decode(c->grow, sp.parent, &fc, &sp.left, &sp.right))

@@ -26,7 +26,10 @@
 #include "model.h"
 #include "test.h"
 
-static int build_path(mts_test *t, const char *path, mts_model *m)
+/* Builds the mesh at path; with `holes`, first drops every holes-th
+ * triangle that shares no vertex with one dropped before, so that rings
+ * open on the borders that leaves (the shared meshes are closed). */
+static int build_holed(mts_test *t, const char *path, uint32_t holes, mts_model *m)
 {
     mts_error err = {0};
     mts_mesh mesh = {0};
@@ -34,10 +37,30 @@ static int build_path(mts_test *t, const char *path, mts_model *m)
         CHECKF(t, 0, "load %s: %s", path, err.msg);
         return 0;
     }
+    uint8_t *gone = holes ? calloc(mesh.vertex_count, 1) : NULL;
+    if (holes && gone) {
+        uint32_t kept = 0;
+        for (uint32_t f = 0; f < mesh.triangle_count; f++) {
+            const uint32_t *x = mesh.triangles + 3 * (size_t)f;
+            if (f % holes == 0 && !gone[x[0]] && !gone[x[1]] && !gone[x[2]]) {
+                gone[x[0]] = gone[x[1]] = gone[x[2]] = 1;
+                continue;
+            }
+            memmove(mesh.triangles + 3 * (size_t)kept++, x, 12);
+        }
+        CHECKF(t, kept < mesh.triangle_count, "%s: no triangle dropped", path);
+        mesh.triangle_count = kept;
+    }
+    free(gone);
     mts_result rc = mts_build_model(&mesh, path, NULL, m, NULL, &err);
     CHECKF(t, rc == MTS_OK, "build %s: %s", path, err.msg);
     mts_mesh_free(&mesh);
     return rc == MTS_OK;
+}
+
+static int build_path(mts_test *t, const char *path, mts_model *m)
+{
+    return build_holed(t, path, 0, m);
 }
 
 /* The shared models are built once (bunny00 takes seconds). */
@@ -107,7 +130,7 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
     CHECKF(t, explicit_splits(m) == 0,
            "%s: %u explicit splits (they name triangle ids: this test maps none)", name,
            explicit_splits(m));
-    uint32_t bad = 0, keys = 0, renumbered = 0;
+    uint32_t bad = 0, keys = 0, renumbered = 0, ringed = 0;
     uint64_t positions = 0;
     for (uint32_t j = 0; g && h && k && j < m->level_count && bad < 5; j++) {
         mts_grow_split sg, sh;
@@ -159,6 +182,13 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
             else
                 CHECKF(t, 0, "%s: split %u: a wrong ring (%u) was taken", name, j, how);
         }
+        /* the vertices a decoder asks the positions of early: checked
+         * below against what the split's prediction reads */
+        uint32_t near[64], near_n = hr ? mts_grow_ring_vertices(h, sh.parent, near, 64) : 0;
+        if (hr && hn < 64)
+            CHECKF(t, near_n == hn + !hc,
+                   "%s: split %u: %u ring vertices of %u triangles (closed %d)", name, j, near_n,
+                   hn, hc);
         if (hr && j + 1 < m->level_count) {
             /* every link of the hints the pool gives (they must change
              * nothing: the records are compared below) */
@@ -206,6 +236,18 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
                    name, j, ng, nh);
             bad++;
         }
+        for (uint32_t x = 0; hr && hn < 64 && x < nh; x++) {
+            uint32_t y = 0;
+            while (y < near_n && near[y] != ah[x])
+                y++;
+            if (ah[x] != sh.parent && y == near_n) {
+                CHECKF(t, 0, "%s: split %u: vertex %u round the new one was not on u's ring",
+                       name, j, ah[x]);
+                bad++;
+                break;
+            }
+        }
+        ringed += hr && hn < 64;
         if (is_key(m, j + 1)) {
             keys++;
             CHECKF(t, mts_grow_check(h, &err) == MTS_OK, "%s: at key %u: %s", name, j + 1,
@@ -232,6 +274,7 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
     CHECKF(t, fans > 0 && taken == fans && tries > 30 && refused == tries,
            "%s: %u of %u rings taken, %u of %u wrong ones refused", name, taken, fans, refused,
            tries);
+    CHECKF(t, ringed + 1 >= fans, "%s: %u of %u fans' ring vertices checked", name, ringed, fans);
     free(kids);
     mts_grow_free(g);
     mts_grow_free(h);
@@ -244,6 +287,11 @@ static void test_mesh_only_cow(mts_test *t)
     if (build_path(t, "tests/data/cow.off", &m))
         mesh_only_matches(t, &m, "cow");
     mts_model_free(&m);
+    /* with holes: open rings on their borders */
+    mts_model h = {0};
+    if (build_holed(t, "tests/data/cow.off", 101, &h))
+        mesh_only_matches(t, &h, "cow with holes");
+    mts_model_free(&h);
 }
 
 static void test_mesh_only_bunny(mts_test *t)
