@@ -265,7 +265,10 @@ void mts_grow_prefetch_ring(const mts_grow *g, unsigned ahead, uint32_t u,
         if (x >= tris)
             continue;
         if (ahead == 2) {
+            /* and where each comes from on its path: the fan's ends check
+             * that link */
             __builtin_prefetch(g->tri + x);
+            __builtin_prefetch(g->prev + x);
             continue;
         }
         /* the triangles round u mostly lie on one or two strips */
