@@ -34,7 +34,8 @@
  * With one pool thread (two threads in all) there is one worker, a grow
  * from the base that takes every split, and nothing to fix up (`pipe`);
  * it takes each fan's ring from the log, as the decode thread walked it for
- * the fan code, in place of walking it again (mts_grow_take_ring). */
+ * the fan code, in place of walking it again (mts_grow_take_ring), and the
+ * decode thread makes the full level's split on it once it is done. */
 
 #define LOG_CHUNK 4096u /* splits a log chunk holds: freed once fixed up */
 #define REC_BLOCK 65536u /* words of a worker's record block */
@@ -127,11 +128,11 @@ struct mts__stream_par {
     mts_error ahead_err;
     int want_alone;            /* go on alone once nothing is decoded ahead */
     int ahead_held;            /* decode nothing ahead (mts__stream_par_ahead_hold) */
-    /* pipe: the full level's split, made on a worker (iv[1].w) as soon as
-     * it is decoded; its record, in that worker's tokens, becomes the real
-     * one once the pool's grow is done (mts__stream_par_fixup) */
+    /* pipe: the full level's record, made on the pool's grow (iv[0].w)
+     * once it has grown every split before; kept in level order
+     * (mts__stream_par_fixup) */
     const uint32_t *full_rec;
-    uint32_t full_words, full_parent;
+    uint32_t full_words;
 };
 
 static logged_split *par_entry(struct mts__stream_par *p, uint32_t j)
@@ -734,28 +735,19 @@ static mts_result par_apply(mts_stream_client *c, mts_error *err)
     return mts_lod_set_level(&c->lod, to, err);
 }
 
-/* Pipe, every record below the full level kept: the full level's record,
- * made on its worker against empty slots, turned into the real one against
- * the strips the pool's grow ends with (mts_grow_fixup, with tokens being
- * slots at the full level), and kept. */
+/* Pipe, every record below the full level kept: the full level's, made
+ * on the pool's grow, whose slots are the real ones, is kept as it is. */
 static mts_result par_full(mts_stream_client *c, mts_error *err)
 {
     struct mts__stream_par *p = c->par;
     const uint32_t j = p->iv[1].first;
-    const uint32_t *o;
-    uint32_t ow;
     mts_result rc = MTS_OK;
-    if (!p->iv[1].w)
+    if (!p->full_rec)
         return mts_error_set(err, MTS_ERR_INTERNAL, "stream: the full level's split is not made");
-    if ((rc = par_apply(c, err)) != MTS_OK || (rc = par_wait(p, 0, 0, 1, err)) != MTS_OK ||
-        (rc = mts_grow_fixup_end(p->fix, p->iv[0].w, err)) != MTS_OK ||
-        (rc = mts_grow_fixup_key(p->fix, p->full_rec, p->full_words, p->full_parent,
-                                 c->model.base_vertex_count + j, 1, &o, &ow, err)) != MTS_OK ||
-        (rc = mts__stream_keep_record(c, j, o, ow, err)) != MTS_OK)
+    if ((rc = par_apply(c, err)) != MTS_OK ||
+        (rc = mts__stream_keep_record(c, j, p->full_rec, p->full_words, err)) != MTS_OK)
         return rc;
     p->fixed = j + 1;
-    mts_grow_free(p->iv[1].w);
-    p->iv[1].w = NULL;
     p->full_rec = NULL;
     return MTS_OK;
 }
@@ -876,16 +868,16 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
         ms.moved = p->mapped.w;
     }
     if (starts && p->pipe) {
-        /* the full level, on a worker made here from the mesh-only grow, so
-         * that its walk (which reads this batch's coder) need not wait for
-         * the pool to finish; par_full makes its record the real one */
-        if ((rc = par_chain(c, keys, err)) != MTS_OK || (rc = par_ids(c, err)) != MTS_OK ||
-            (rc = mts_grow_create_worker(c->grow, p->composed ? p->ids : NULL, &p->go,
-                                         &p->iv[1].w, err)) != MTS_OK ||
-            (rc = mts_grow_next(p->iv[1].w, sp, full, &p->full_rec, &p->full_words, err)) !=
+        /* the full level, on the pool's grow once it is done: its walk
+         * reads this batch's coder, so it runs here. A worker copied from
+         * the mesh-only grow could start sooner, but only after the pool's
+         * last key (for its ids), by when the pool is done all but ~40 ms
+         * (1.2M mesh); the copy took longer, and turning its record into
+         * the real one took longer again. */
+        if ((rc = par_wait(p, 0, 0, 1, err)) != MTS_OK ||
+            (rc = mts_grow_next(p->iv[0].w, sp, full, &p->full_rec, &p->full_words, err)) !=
                 MTS_OK)
             return rc;
-        p->full_parent = sp->parent;
     } else if (starts) {
         mts_grow *w = NULL;
         if ((rc = par_ids(c, err)) != MTS_OK ||
