@@ -509,7 +509,7 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
         p->iv[0].end = p->iv[1].first = n - 1;
         p->iv[1].end = n;
     }
-    if (rc == MTS_OK)
+    if (rc == MTS_OK && !p->pipe) /* pipe: every record is the pool's grow's own */
         rc = mts_grow_fixup_create(&p->fix, err);
     if (rc == MTS_OK)
         rc = mts_grow_create(&m->base, m->base_vertex_count, n, go, &p->iv[0].w, err);
