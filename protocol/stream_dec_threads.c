@@ -42,6 +42,8 @@
 
 #define PREFETCH_MIN_TRIANGLES (1u << 18) /* 8 MB of triangle records */
 
+#define KEEP_CHUNK 4096u /* records kept at a time while waiting for the pool */
+
 #define RING_MAX 14u /* corners of a ring the log carries: all but a few */
 
 typedef struct logged_split {
@@ -831,6 +833,26 @@ mts_result mts__stream_par_catch_up(mts_stream_client *c, uint32_t upto, mts_err
     return rc == MTS_OK ? par_apply(c, err) : rc;
 }
 
+/* Pipe: waits for the pool's grow to be done, keeping (and applying, as
+ * far as the batch being taken allows) its records as they come, which the
+ * batch's end would otherwise do after the full split: on the 1.2M mesh
+ * the pool makes 30K to 95K of them while the decode thread waits here. */
+static mts_result par_keep_until_done(mts_stream_client *c, mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    for (;;) {
+        const int done = atomic_load(&p->iv[0].done);
+        const uint32_t made = atomic_load(&p->iv[0].made);
+        mts_result rc = made > p->fixed ? mts__stream_par_catch_up(c, made, err) : MTS_OK;
+        if (rc != MTS_OK || done)
+            return rc == MTS_OK ? par_wait(p, 0, 0, 1, err) : rc;
+        const uint32_t end = p->iv[0].end;
+        if ((rc = par_wait(p, 0, end - made > KEEP_CHUNK ? made + KEEP_CHUNK : end, 0, err)) !=
+            MTS_OK)
+            return rc;
+    }
+}
+
 /* Split j on the decode thread: a worker made where a key interval starts,
  * the split logged for it (or, the full level's, derived here), and the
  * mesh-only grow split. *lists (an explicit split's) passes to the log. */
@@ -874,7 +896,7 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
          * last key (for its ids), by when the pool is done all but ~40 ms
          * (1.2M mesh); the copy took longer, and turning its record into
          * the real one took longer again. */
-        if ((rc = par_wait(p, 0, 0, 1, err)) != MTS_OK ||
+        if ((rc = par_keep_until_done(c, err)) != MTS_OK ||
             (rc = mts_grow_next(p->iv[0].w, sp, full, &p->full_rec, &p->full_words, err)) !=
                 MTS_OK)
             return rc;
