@@ -458,9 +458,13 @@ static mts_result par_wait(struct mts__stream_par *p, uint32_t i, uint32_t upto,
     v->seen = made;
     if (ok)
         return MTS_OK;
+    if (v->rc == MTS_OK) /* a worker done short of what was waited for */
+        return mts_error_set(err, MTS_ERR_INTERNAL,
+                             "stream: waited for %u records of an interval that made %u", upto,
+                             made);
     if (err)
         *err = v->err;
-    return v->rc != MTS_OK ? v->rc : MTS_ERR_INTERNAL;
+    return v->rc;
 }
 
 /* Sets the state up after BASE: the log, the intervals, the fix-up, the
