@@ -21,8 +21,7 @@
 /* Room for the per-triangle arrays: cache-line aligned (two triangles a
  * line), and past a huge page on huge pages, since every walk round a
  * vertex and along a strip lands somewhere else in them: a 1.2M-triangle
- * mesh's triangles take 38 MB, far past what the TLB covers in 4 KB pages
- * (one thread 0.95x on it). */
+ * mesh's triangles take 38 MB, far past what the TLB covers in 4 KB pages. */
 enum { HUGE_PAGE = 2 << 20 };
 
 static void *tri_array(size_t bytes)

@@ -734,8 +734,8 @@ static int local_region(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32
     mts_words *r = &g->scratch;
     r->n = 0;
     sp->r = r;
-    uint32_t end = 0; /* where the pass before left the old indices */
-    for (uint32_t pass = 0, at = lo;; pass++) {
+    uint32_t end = 0; /* where the pass before left the old indices; 0 before the first */
+    for (uint32_t at = lo;;) {
         uint32_t last = at, next = hi + 1;
         for (uint32_t k = at + 1; k <= hi; k++) {
             if (o[k] != u)
@@ -759,7 +759,7 @@ static int local_region(mts_grow *g, uint32_t s, uint32_t u, uint32_t lo, uint32
             if (t < 0 || g->tri[t].slot != (int32_t)s)
                 return 0;
         }
-        if (pass == 0) {
+        if (end == 0) {
             sp->p0 = p0;
         } else {
             /* the stretch between two passes, as it was */
