@@ -495,19 +495,51 @@ static int fit_slots(mts_grow *g)
 static mts_result restrip(mts_grow *g, mts_error *err)
 {
     uint32_t n = g->tri_count, count = 0;
-    uint32_t *order = malloc(((size_t)n + 1) * 4), *starts = malloc(((size_t)n + 2) * 4);
-    mts_result rc = order && starts ? MTS_OK
-                                    : mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
-    if (rc == MTS_OK)
-        rc = mts_greedy_paths(n, g->tri[0].tw, sizeof *g->tri / 4, MTS_STRIPIFY_MAX_STRIP, order,
-                              starts, &count, err);
+    const int given = g->given_order && g->given_level == g->level;
+    uint32_t *order = given ? NULL : malloc(((size_t)n + 1) * 4);
+    uint32_t *starts = given ? NULL : malloc(((size_t)n + 2) * 4);
+    mts_result rc = given || (order && starts)
+                        ? MTS_OK
+                        : mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    const uint32_t *po = order, *ps = starts;
+    if (rc == MTS_OK && given) {
+        /* another grow's greedy.c, on the same mesh (grow_tokens.h) */
+        po = g->given_order;
+        ps = g->given_starts;
+        count = g->given_count;
+        if (g->given_triangles != n || count > n || ps[0] != 0 || ps[count] != n)
+            rc = mts_error_set(err, MTS_ERR_INTERNAL,
+                               "grow: key paths of %u triangles in %u given for %u at level %u",
+                               g->given_triangles, count, n, g->level);
+        for (uint32_t k = 0; rc == MTS_OK && k < count; k++) {
+            if (ps[k + 1] <= ps[k])
+                rc = mts_error_set(err, MTS_ERR_INTERNAL, "grow: given key path %u is empty", k);
+        }
+    } else if (rc == MTS_OK) {
+        rc = mts_greedy_paths(n, g->tri[0].tw, sizeof *g->tri / 4, NULL, MTS_STRIPIFY_MAX_STRIP,
+                              order, starts, &count, err);
+    }
+    g->given_order = NULL;
     if (rc == MTS_OK) {
         uint32_t *perm = malloc(((size_t)n + 1) * 4);
-        if (perm) {
+        if (perm && given) {
+            /* a permutation, or nothing is renumbered */
+            memset(perm, 0xff, (size_t)n * 4);
+            for (uint32_t i = 0; i < n && rc == MTS_OK; i++) {
+                if (po[i] >= n || perm[po[i]] != UINT32_MAX)
+                    rc = mts_error_set(err, MTS_ERR_INTERNAL,
+                                       "grow: given key paths hold triangle %u twice or none "
+                                       "such",
+                                       po[i]);
+                else
+                    perm[po[i]] = i;
+            }
+        } else if (perm) {
             for (uint32_t i = 0; i < n; i++)
-                perm[order[i]] = i;
+                perm[po[i]] = i;
         }
-        if (!perm || !mts__corner_renumber(g, perm) || !mts__grow_paths_reset(g, count))
+        if (rc == MTS_OK &&
+            (!perm || !mts__corner_renumber(g, perm) || !mts__grow_paths_reset(g, count)))
             rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
         if (rc == MTS_OK && g->keep_order) {
             g->key_order.n = 0;
@@ -520,13 +552,13 @@ static mts_result restrip(mts_grow *g, mts_error *err)
         free(perm);
     }
     for (uint32_t k = 0; rc == MTS_OK && k < count; k++) {
-        for (uint32_t i = starts[k]; i < starts[k + 1]; i++) {
+        for (uint32_t i = ps[k]; i < ps[k + 1]; i++) {
             g->tri[i].slot = (int32_t)k;
-            g->prev[i] = i > starts[k] ? (int32_t)i - 1 : -1;
-            mts__grow_set_next(g, i, i + 1 < starts[k + 1] ? (int32_t)i + 1 : -1);
+            g->prev[i] = i > ps[k] ? (int32_t)i - 1 : -1;
+            mts__grow_set_next(g, i, i + 1 < ps[k + 1] ? (int32_t)i + 1 : -1);
         }
-        g->slot[k].head = (int32_t)starts[k];
-        g->slot[k].ntri = starts[k + 1] - starts[k];
+        g->slot[k].head = (int32_t)ps[k];
+        g->slot[k].ntri = ps[k + 1] - ps[k];
     }
     if (rc == MTS_OK) {
         mts__grow_slots_free_unused(g, count);
@@ -1055,6 +1087,48 @@ fail:
     return rc;
 }
 
+/* The full level's strips walked already (mts_grow_full.derived): slot s
+ * takes strip s whole, as emit_record would after the walk (every slot
+ * fresh, in slot order), and the record is made here. Their paths are not
+ * set: nothing grows past the full level, so the grow keeps its mesh and
+ * its slots' indices only. */
+static mts_result take_derived(mts_grow *g, const mts_strips *d, uint32_t u, uint32_t v,
+                               mts_error *err)
+{
+    const uint32_t vertices = g->nb + g->level;
+    if (d->offsets[0] != 0 || d->offsets[d->strip_count] != d->index_count)
+        return mts_error_set(err, MTS_ERR_ARG, "grow: the full strips given are malformed");
+    for (uint32_t s = 0; s < d->strip_count; s++) {
+        if (d->offsets[s + 1] < d->offsets[s])
+            return mts_error_set(err, MTS_ERR_ARG, "grow: full strip %u given is malformed", s);
+    }
+    for (uint32_t i = 0; i < d->index_count; i++) {
+        if (d->indices[i] >= vertices)
+            return mts_error_set(err, MTS_ERR_ARG,
+                                 "grow: a full strip given names vertex %u of %u", d->indices[i],
+                                 vertices);
+    }
+    g->rec.n = 0;
+    if (!mts__grow_slots_reserve(g, d->strip_count) || !mts_words_reserve(&g->rec, 1))
+        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    g->rec.n = 1;
+    uint32_t edits = 0;
+    for (uint32_t s = 0; s < g->slot_count; s++) {
+        const uint32_t at = s < d->strip_count ? d->offsets[s] : 0;
+        const mts_words r = {d->indices + at, s < d->strip_count ? d->offsets[s + 1] - at : 0, 0};
+        if (!mts__grow_splice_whole(g, s, &r, u, v, &edits))
+            return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+        g->slot[s].head = -1;
+        g->slot[s].ntri = 0;
+    }
+    g->rec.w[0] = edits;
+    g->touched_count = 0;
+    g->free_count = 0;
+    g->stamp_now++;
+    g->mesh_only = 1;
+    return MTS_OK;
+}
+
 static int is_key(mts_grow *g)
 {
     if (g->level == g->n)
@@ -1105,7 +1179,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
                              "grow: split %u (vertex %u, parent %u, %u, %u) names a vertex out "
                              "of range",
                              g->level, v, u, sp->left, sp->right);
-    if (g->level + 1 == g->n && (!full || (!full->strips && !full->paths)))
+    if (g->level + 1 == g->n && (!full || (!full->strips && !full->paths && !full->derived)))
         return mts_error_set(err, MTS_ERR_ARG, "grow: the last split needs the full strips");
     if (!mts__corner_vhead_reserve(g, v + 1))
         goto nomem;
@@ -1123,9 +1197,12 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
         return rc;
     g->level++;
 
+    int emitted = 0;
     if (is_key(g)) {
         if (g->level < g->n)
             rc = restrip(g, err);
+        else if ((emitted = full->derived != NULL))
+            rc = take_derived(g, full->derived, u, v, err);
         else if (full->strips)
             rc = adopt_strips(g, full->strips, 0, err);
         else
@@ -1159,7 +1236,7 @@ mts_result mts_grow_next(mts_grow *g, const mts_grow_split *sp, const mts_grow_f
                 goto nomem;
         }
     }
-    if (!emit_record(g, u, v))
+    if (!emitted && !emit_record(g, u, v))
         goto nomem;
     if (g->rec.n > UINT32_MAX)
         return mts_error_set(err, MTS_ERR_LIMIT, "grow: a record of %zu words", g->rec.n);

@@ -111,11 +111,35 @@ typedef struct mts_grow_full {
      * there (paths' first and rotation are then not read): handed the
      * triangles next to the strip before that no strip holds yet, in a
      * fixed order (a strip of tunnelled strips often starts among them).
-     * Sets *first and *rotation, returns 0 when the source is broken. */
-    int (*start)(void *user, const uint32_t *near, uint32_t near_count, uint32_t *first,
-                 uint32_t *rotation);
+     * Sets *near_at to the start's place among them, or leaves it
+     * MTS_GROW_NONE and sets *first to the start's id; and *rotation.
+     * Returns 0 when the source is broken. */
+    int (*start)(void *user, const uint32_t *near, uint32_t near_count, uint32_t *near_at,
+                 uint32_t *first, uint32_t *rotation);
     void *user;
+    /* A start's id from `start` names a triangle of another grow of this
+     * mesh: the walked grow's triangle first_ids[first] (first itself from
+     * first_id_count on). NULL: the walked grow's own ids. */
+    const uint32_t *first_ids;
+    uint32_t first_id_count;
+    /* or the strips already walked, as growth derives them, one a slot
+     * (mts_grow_full_strips, on another grow of this mesh): the slots take
+     * them as they are, and the grow keeps no paths past the full level
+     * (mts_grow_check then checks its mesh only). */
+    const mts_strips *derived;
 } mts_grow_full;
+
+/* Walks a description of the full strips (paths and swap bits as above, as
+ * a client receives them) over g's mesh at the full level -- a mesh-only
+ * grow's too (grow_tokens.h) -- into the strips growth derives from it, one
+ * a slot (f->slot_count, an empty slot empty): what mts_grow_next makes the
+ * slots at the full level, for a grow of the same mesh to take as
+ * mts_grow_full.derived. They name vertices only, so a mesh in other
+ * triangle ids gives the same. out's arrays are allocated (mts_strips_free).
+ * MTS_ERR_FORMAT as the last split gives it on a broken description;
+ * MTS_ERR_ARG when g is not at the full level. */
+mts_result mts_grow_full_strips(const mts_grow *g, const mts_grow_full *f, mts_strips *out,
+                                mts_error *err);
 
 /* Describes the full strips (in the form growth derives, as the builder
  * left them in the model) as a client can resolve them on its own mesh:

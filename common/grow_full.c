@@ -41,8 +41,13 @@ static inline unsigned full_open(const mts_grow *g, uint32_t u, uint32_t e, uint
     unsigned open = 0;
     for (unsigned k = 0; k < 2; k++) {
         uint32_t x = TWIN(g, full_exit(g, u, e, k ? a : c));
-        if (x != NONE && !claimed[x / 3])
+        if (x != NONE && !claimed[x / 3]) {
             open |= 1u << k;
+            /* the walk goes on into one of them: a miss a triangle, in a
+             * mesh whose ids do not follow its strips, otherwise waited
+             * for after the bit is decoded */
+            __builtin_prefetch(&g->tri[x / 3]);
+        }
     }
     return open;
 }
@@ -80,7 +85,8 @@ static int full_near(const mts_grow *g, const mts_words *prev, const uint8_t *cl
  * each swap byte in f->swaps marked forced (bit 1); with `resolve` (g
  * itself), the paths become g's. */
 static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow_full *f,
-                            mts_grow_full_path *describe, mts_error *err)
+                            mts_grow_full_path *describe, mts_words *derived, uint32_t *offsets,
+                            mts_error *err)
 {
     uint8_t *claimed = calloc((size_t)g->tri_count + 1, 1);
     uint32_t *seen = calloc((size_t)g->tri_count + 1, 4);
@@ -92,23 +98,38 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
     unsigned last = 0;
     for (uint32_t s = 0, stamp = 1; s < f->slot_count && rc == MTS_OK; s++) {
         const mts_grow_full_path *p = &f->paths[s];
+        if (offsets)
+            offsets[s] = (uint32_t)derived->n;
         if (!p->triangles)
             continue;
         if ((f->start || describe) && !full_near(g, &prev, claimed, seen, stamp++, &near)) {
             rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
             break;
         }
-        uint32_t t = p->first, r = p->rotation;
-        if (f->start && !f->start(f->user, near.w, (uint32_t)near.n, &t, &r)) {
+        uint32_t t = p->first, r = p->rotation, at = NONE;
+        if (f->start && (!f->start(f->user, near.w, (uint32_t)near.n, &at, &t, &r) ||
+                         (at != NONE && at >= near.n))) {
             rc = mts_error_set(err, MTS_ERR_FORMAT, "full strips: strip %u's start is malformed",
                                s);
             break;
         }
-        if (t >= g->tri_count || r > 2 || claimed[t]) {
+        /* the messages name no id of g's: a grow of the same mesh in other
+         * ids must fail the same way */
+        const uint32_t named = t;
+        if (at != NONE)
+            t = near.w[at];
+        else if (f->first_ids && t < f->first_id_count)
+            t = f->first_ids[t];
+        if (r > 2) {
+            rc = mts_error_set(err, MTS_ERR_FORMAT, "full strips: strip %u starts at corner %u",
+                               s, r);
+            break;
+        }
+        if (t >= g->tri_count || claimed[t]) {
             rc = mts_error_set(err, MTS_ERR_FORMAT,
-                               "full strips: strip %u starts at corner %u of triangle %u, which "
-                               "is none of the %u or one a strip holds",
-                               s, r, t, g->tri_count);
+                               "full strips: strip %u starts on triangle %u, which is none of "
+                               "the %u or one a strip holds",
+                               s, named, g->tri_count);
             break;
         }
         if (describe) {
@@ -119,7 +140,9 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
         }
         claimed[t] = 1;
         cur.n = 0;
-        if (!mts_words_reserve(&cur, p->triangles)) {
+        /* a strip's derived indices: three, then at most two a triangle */
+        if (!mts_words_reserve(&cur, p->triangles) ||
+            (derived && !mts_words_reserve(derived, 2 * (size_t)p->triangles + 1))) {
             rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
             break;
         }
@@ -131,6 +154,16 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
         }
         /* the strip's last two indices (a, c) and the half-edge between them */
         uint32_t a = g->tri[t].v[NX[r]], c = g->tri[t].v[PV[r]], h = 3 * t + NX[r];
+        if (derived) {
+            /* as grow.c derives a path: a lone triangle as its corners
+             * stand, else from the corner its exit edge is opposite */
+            uint32_t *o = derived->w + derived->n;
+            const unsigned r0 = p->triangles == 1 ? 0 : r;
+            o[0] = g->tri[t].v[r0];
+            o[1] = g->tri[t].v[NX[r0]];
+            o[2] = g->tri[t].v[PV[r0]];
+            derived->n += 3;
+        }
         for (uint32_t i = 1; i < p->triangles; i++) {
             uint32_t o = TWIN(g, h);
             if (o == NONE) {
@@ -141,9 +174,9 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
             uint32_t u = o / 3, e = o % 3;
             if (claimed[u]) {
                 rc = mts_error_set(err, MTS_ERR_FORMAT,
-                                   "full strips: strip %u crosses into triangle %u, which a strip "
-                                   "holds",
-                                   s, u);
+                                   "full strips: strip %u crosses, at its triangle %u, into one a "
+                                   "strip holds",
+                                   s, i);
                 break;
             }
             claimed[u] = 1;
@@ -181,6 +214,12 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
                 last = (unsigned)swap;
             }
             h = full_exit(g, u, e, swap ? a : c);
+            if (derived) {
+                /* a swap repeats a, as grow.c's derivation writes it */
+                if (swap)
+                    derived->w[derived->n++] = a;
+                derived->w[derived->n++] = w;
+            }
             if (swap) {
                 c = w;
             } else {
@@ -196,6 +235,8 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
     if (rc == MTS_OK && f->swaps && bit != f->swap_count)
         rc = mts_error_set(err, MTS_ERR_FORMAT, "full strips: %llu swap bits for %llu",
                            (unsigned long long)f->swap_count, (unsigned long long)bit);
+    if (rc == MTS_OK && offsets)
+        offsets[f->slot_count] = (uint32_t)derived->n;
     free(claimed);
     free(seen);
     free(prev.w);
@@ -208,22 +249,68 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
  * the current (full) mesh straight into paths, slot by slot: each strip
  * leaves a triangle across the edge of its last two indices, and a swap
  * bit says which of them stays. */
-mts_result mts__grow_resolve_full(mts_grow *g, const mts_grow_full *f, mts_error *err)
+/* What every walk of a description checks first: *triangles, its sum. */
+static mts_result full_check(const mts_grow *g, const mts_grow_full *f, uint64_t *triangles,
+                             mts_error *err)
 {
     uint64_t tris = 0;
     for (uint32_t s = 0; s < f->slot_count; s++)
         tris += f->paths[s].triangles;
+    *triangles = tris;
     if (tris > g->tri_count)
         return mts_error_set(err, MTS_ERR_FORMAT, "full strips: %llu triangles of %u",
                              (unsigned long long)tris, g->tri_count);
     if (!f->swaps && !f->swap_bit)
         return mts_error_set(err, MTS_ERR_ARG, "full strips: no swap bits");
+    return MTS_OK;
+}
+
+mts_result mts__grow_resolve_full(mts_grow *g, const mts_grow_full *f, mts_error *err)
+{
+    uint64_t tris;
+    mts_result rc = full_check(g, f, &tris, err);
+    if (rc != MTS_OK)
+        return rc;
     if (!mts__grow_paths_reset(g, f->slot_count))
         return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
-    mts_result rc = full_walk(g, g, f, NULL, err);
+    rc = full_walk(g, g, f, NULL, NULL, NULL, err);
     if (rc == MTS_OK)
         mts__grow_slots_free_unused(g, f->slot_count);
     return rc;
+}
+
+mts_result mts_grow_full_strips(const mts_grow *g, const mts_grow_full *f, mts_strips *out,
+                                mts_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (g->level != g->n)
+        return mts_error_set(err, MTS_ERR_ARG,
+                             "grow: the full strips walked at level %u of %u", g->level, g->n);
+    if (!f->paths)
+        return mts_error_set(err, MTS_ERR_ARG, "full strips: no description");
+    uint64_t tris;
+    mts_result rc = full_check(g, f, &tris, err);
+    if (rc != MTS_OK)
+        return rc;
+    /* the indices: three a strip, then at most two a triangle */
+    mts_words idx = {0};
+    uint32_t *offsets = malloc(((size_t)f->slot_count + 1) * 4);
+    if (!offsets || !mts_words_reserve(&idx, 2 * (size_t)tris + f->slot_count + 1))
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
+    if (rc == MTS_OK)
+        rc = full_walk(g, NULL, f, NULL, &idx, offsets, err);
+    if (rc == MTS_OK && idx.n > UINT32_MAX)
+        rc = mts_error_set(err, MTS_ERR_LIMIT, "full strips: %zu indices", idx.n);
+    if (rc != MTS_OK) {
+        free(offsets);
+        free(idx.w);
+        return rc;
+    }
+    out->strip_count = f->slot_count;
+    out->index_count = (uint32_t)idx.n;
+    out->offsets = offsets;
+    out->indices = idx.w;
+    return MTS_OK;
 }
 
 /* ---- describing ---- */
@@ -299,5 +386,5 @@ mts_result mts_grow_full_describe(const mts_grow *g, const mts_strips *full,
                              .swaps = swaps,
                              .swap_count = *swap_count,
                              .slot_count = full->strip_count};
-    return full_walk(g, NULL, &f, paths, err);
+    return full_walk(g, NULL, &f, paths, NULL, NULL, err);
 }

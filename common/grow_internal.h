@@ -82,6 +82,10 @@ struct mts_grow {
      * keeps each key's renumbering (old id -> new) for the next worker */
     int mesh_only, keep_order;
     mts_words key_order;
+    /* paths for the restripification at given_level, greedy.c's on another
+     * grow of this mesh (mts_grow_give_key_paths), the caller's memory */
+    const uint32_t *given_order, *given_starts;
+    uint32_t given_level, given_triangles, given_count;
 };
 
 /* ---- paths on the dual graph ---- */

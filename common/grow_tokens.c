@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "corner.h"
+#include "greedy.h"
 #include "grow_internal.h"
 #include "model.h"
 #include "words.h"
@@ -170,6 +171,25 @@ const uint32_t *mts_grow_key_order(const mts_grow *w, uint32_t *count)
 {
     *count = (uint32_t)w->key_order.n;
     return w->key_order.n ? w->key_order.w : NULL;
+}
+
+/* ---- key paths handed across ---- */
+
+mts_result mts_grow_key_paths(const mts_grow *g, const uint32_t *seed_order, uint32_t *order,
+                              uint32_t *starts, uint32_t *path_count, mts_error *err)
+{
+    return mts_greedy_paths(g->tri_count, g->tri[0].tw, sizeof *g->tri / 4, seed_order,
+                            MTS_STRIPIFY_MAX_STRIP, order, starts, path_count, err);
+}
+
+void mts_grow_give_key_paths(mts_grow *g, uint32_t level, uint32_t triangles,
+                             const uint32_t *order, const uint32_t *starts, uint32_t path_count)
+{
+    g->given_order = order;
+    g->given_starts = starts;
+    g->given_level = level;
+    g->given_triangles = triangles;
+    g->given_count = path_count;
 }
 
 /* ---- rings handed across ---- */

@@ -70,6 +70,28 @@ const uint32_t *mts_grow_key_order(const mts_grow *worker, uint32_t *count);
  * another thread than it decodes on maps an explicit split's ids with it. */
 void mts_grow_keep_key_order(mts_grow *g);
 
+/* Key paths handed across: a key's restripification (greedy.c) reads the
+ * mesh at the key only, which a decoder's mesh-only grow reaches long before
+ * the grow that derives the records does, and greedy.c is a sixth of that
+ * grow's time on a large mesh. The grow that gets there first stripifies
+ * for the other.
+ *
+ * greedy.c's paths of g's mesh as it is now, seeded as another grow of the
+ * same mesh seeds its own (that grow's triangle i is g's seed_order[i], a
+ * permutation; NULL: the same ids): the paths that grow's restripification
+ * makes here, in g's ids. order: a triangle count's entries, starts one
+ * more (mts_grow_get_figures). MTS_ERR_NOMEM. */
+mts_result mts_grow_key_paths(const mts_grow *g, const uint32_t *seed_order, uint32_t *order,
+                              uint32_t *starts, uint32_t *path_count, mts_error *err);
+
+/* Hands g the paths of its restripification at `level` (its next split's
+ * key), in g's ids, for `triangles` triangles: that split renumbers by them
+ * in place of stripifying. They stay the caller's, read during that split.
+ * Paths that are not a partition of g's triangles there fail that split
+ * with MTS_ERR_INTERNAL (and leave g unusable, as any failed split does). */
+void mts_grow_give_key_paths(mts_grow *g, uint32_t level, uint32_t triangles,
+                             const uint32_t *order, const uint32_t *starts, uint32_t path_count);
+
 /* Rings handed across: two grows of one mesh (a mesh-only grow and the
  * grow whose records are derived on another thread) both walk round the
  * parent of every fan split, a chase of one cache miss a triangle, and the

@@ -532,14 +532,15 @@ static unsigned swap_from_coder(void *user, unsigned previous)
 }
 
 static int start_from_coder(void *user, const uint32_t *near, uint32_t near_count,
-                            uint32_t *first, uint32_t *rotation)
+                            uint32_t *near_at, uint32_t *first, uint32_t *rotation)
 {
     full_source *x = user;
+    (void)near;
     if (near_count && mts_rc_decode_bit(x->d, &x->md->full_near)) {
         const uint32_t k = mts_rc_decode_uint(x->d, &x->md->full_near_at);
         if (k >= near_count)
             return 0;
-        *first = near[k];
+        *near_at = k;
     } else {
         *first = mts_rc_decode_direct(x->d, x->id_bits);
     }

@@ -135,7 +135,16 @@ struct mts__stream_par {
      * (mts__stream_par_fixup) */
     const uint32_t *full_rec;
     uint32_t full_words;
+    /* pipe: the last key's paths in the pool's grow's ids, made on the
+     * decode thread where it gets there with the key before's order at
+     * hand (par_last_key); the pool takes them, or makes its own where it
+     * got there first (KP_POOL) */
+    atomic_int key_paths;
+    uint32_t *kp_order, *kp_starts, kp_count, kp_triangles;
+    uint32_t keys_below; /* the keys below the full level (which may be listed) */
 };
+
+enum { KP_OPEN, KP_GIVEN, KP_POOL };
 
 static logged_split *par_entry(struct mts__stream_par *p, uint32_t j)
 {
@@ -293,7 +302,16 @@ static void par_grow(struct mts__stream_par *p, interval *v)
             if (ls->ring_n)
                 mts_grow_take_ring(v->w, ls->sp.parent, ls->ring, ls->ring_n, ls->ring_closed,
                                    p->pool_ids, p->pool_ids_n);
+            int expect = KP_OPEN;
+            const int last_key =
+                p->pipe && key + 1 == p->keys_below && p->go.key_levels[key] == j + 1;
+            if (last_key && !atomic_compare_exchange_strong(&p->key_paths, &expect, KP_POOL) &&
+                expect == KP_GIVEN)
+                mts_grow_give_key_paths(v->w, j + 1, p->kp_triangles, p->kp_order, p->kp_starts,
+                                        p->kp_count);
             rc = mts_grow_next(v->w, &ls->sp, NULL, &r, &rw, &v->err);
+            if (last_key) /* read in that split only */
+                mts_grow_give_key_paths(v->w, 0, 0, NULL, NULL, 0);
             if (rc != MTS_OK)
                 break;
             if (p->pipe && key < p->go.key_count && p->go.key_levels[key] == j + 1) {
@@ -410,6 +428,8 @@ void mts__stream_par_free(struct mts__stream_par *p)
     free(p->ids);
     free(p->inv);
     free(p->pool_ids);
+    free(p->kp_order);
+    free(p->kp_starts);
     free(p->mapped.w);
     for (uint32_t k = 0; p->orders && k < p->go.key_count; k++)
         free(p->orders[k]);
@@ -514,6 +534,8 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
     if (rc == MTS_OK && p->pipe) {
         p->iv[0].end = p->iv[1].first = n - 1;
         p->iv[1].end = n;
+        while (p->keys_below < kc && c->info.key_levels[p->keys_below] < n)
+            p->keys_below++;
     }
     if (rc == MTS_OK && !p->pipe) /* pipe: every record is the pool's grow's own */
         rc = mts_grow_fixup_create(&p->fix, err);
@@ -857,6 +879,91 @@ static mts_result par_keep_until_done(mts_stream_client *c, mts_error *err)
     }
 }
 
+/* Pipe, the mesh-only grow at the last key: its restripification, which
+ * the pool's grow would make there, made here where the key before's order
+ * is at hand (the pool past it), while the pool grows on (on the 1.2M mesh
+ * it reaches the key 200 to 300 ms later). The pool takes the paths if it
+ * gets there after them. Either way the decode thread then knows the ids
+ * through the last key, which the full level's walk needs, without waiting
+ * for the pool to get there. */
+static mts_result par_last_key(mts_stream_client *c, mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    const uint32_t k = p->keys_below - 1;
+    if ((k > 0 && atomic_load(&p->iv[0].made) < p->go.key_levels[k - 1]) ||
+        atomic_load(&p->key_paths) != KP_OPEN)
+        return MTS_OK;
+    mts_result rc = par_chain(c, k, err);
+    if (rc == MTS_OK)
+        rc = par_ids(c, err);
+    if (rc != MTS_OK)
+        return rc;
+    /* seeded in the pool's ids (inv), found in the mesh-only grow's */
+    const uint32_t n = p->ids_n;
+    uint32_t *mine = malloc((size_t)n * 4 + 4), count = 0;
+    p->kp_order = malloc((size_t)n * 4 + 4);
+    p->kp_starts = malloc((size_t)n * 4 + 8);
+    if (!mine || !p->kp_order || !p->kp_starts)
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the last key's paths");
+    if (rc == MTS_OK)
+        rc = mts_grow_key_paths(c->grow, p->inv, mine, p->kp_starts, &count, err);
+    if (rc == MTS_OK) {
+        for (uint32_t i = 0; i < n; i++)
+            p->kp_order[i] = p->ids[mine[i]];
+        p->kp_count = count;
+        p->kp_triangles = n;
+        int expect = KP_OPEN;
+        atomic_compare_exchange_strong(&p->key_paths, &expect, KP_GIVEN);
+        /* the key's renumbering, composed: what the pool's order would add */
+        for (uint32_t i = 0; i < n; i++) {
+            p->ids[mine[i]] = i;
+            p->inv[i] = mine[i];
+        }
+        p->composed = k + 1;
+    }
+    free(mine);
+    return rc;
+}
+
+/* Pipe, the full level's split: its walk reads this batch's coder, so it
+ * runs here, on the mesh-only grow (the start ids it reads mapped through
+ * the keys), while the pool finishes; the pool's grow then takes the
+ * strips walked, once it is done. An error of the pool's, at an earlier
+ * split, is the one to give. */
+static mts_result par_full_split(mts_stream_client *c, const mts_grow_split *sp,
+                                 const mts_grow_split *ms, const mts_grow_full *full,
+                                 mts_error *err)
+{
+    struct mts__stream_par *p = c->par;
+    mts_error werr = {0};
+    mts_strips walked = {0};
+    mts_result wrc = par_chain(c, p->keys_below, err);
+    if (wrc != MTS_OK)
+        return wrc;
+    if ((wrc = mts_grow_split_mesh(c->grow, ms, &werr)) == MTS_OK &&
+        (wrc = par_ids(c, &werr)) == MTS_OK) {
+        mts_grow_full f = *full;
+        f.first_ids = p->inv;
+        f.first_id_count = p->ids_n;
+        wrc = mts_grow_full_strips(c->grow, &f, &walked, &werr);
+    }
+    mts_result rc = par_keep_until_done(c, err);
+    if (rc == MTS_OK && wrc != MTS_OK) {
+        rc = wrc;
+        if (err)
+            *err = werr;
+    }
+    free(p->kp_order);
+    free(p->kp_starts);
+    p->kp_order = p->kp_starts = NULL;
+    if (rc == MTS_OK) {
+        const mts_grow_full taken = {.derived = &walked};
+        rc = mts_grow_next(p->iv[0].w, sp, &taken, &p->full_rec, &p->full_words, err);
+    }
+    mts_strips_free(&walked);
+    return rc;
+}
+
 /* Split j on the decode thread: a worker made where a key interval starts,
  * the split logged for it (or, the full level's, derived here), and the
  * mesh-only grow split. *lists (an explicit split's) passes to the log. */
@@ -894,16 +1001,7 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
         ms.moved = p->mapped.w;
     }
     if (starts && p->pipe) {
-        /* the full level, on the pool's grow once it is done: its walk
-         * reads this batch's coder, so it runs here. A worker copied from
-         * the mesh-only grow could start sooner, but only after the pool's
-         * last key (for its ids), by when the pool is done all but ~40 ms
-         * (1.2M mesh); the copy took longer, and turning its record into
-         * the real one took longer again. */
-        if ((rc = par_keep_until_done(c, err)) != MTS_OK ||
-            (rc = mts_grow_next(p->iv[0].w, sp, full, &p->full_rec, &p->full_words, err)) !=
-                MTS_OK)
-            return rc;
+        return par_full_split(c, sp, &ms, full, err);
     } else if (starts) {
         mts_grow *w = NULL;
         if ((rc = par_ids(c, err)) != MTS_OK ||
@@ -952,7 +1050,10 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
             memcpy(ls->ring, ring, (size_t)rn * 4);
         par_publish(p, j + 1);
     }
-    return mts_grow_split_mesh(c->grow, &ms, err);
+    rc = mts_grow_split_mesh(c->grow, &ms, err);
+    if (rc == MTS_OK && p->pipe && p->keys_below && j + 1 == p->go.key_levels[p->keys_below - 1])
+        rc = par_last_key(c, err);
+    return rc;
 }
 
 

@@ -330,10 +330,11 @@ typedef struct described {
     uint32_t slots, slot;
 } described;
 
-static int next_start(void *user, const uint32_t *near, uint32_t near_count, uint32_t *first,
-                      uint32_t *rotation)
+static int next_start(void *user, const uint32_t *near, uint32_t near_count, uint32_t *near_at,
+                      uint32_t *first, uint32_t *rotation)
 {
     described *d = user;
+    (void)near;
     while (d->slot < d->slots && d->paths[d->slot].triangles == 0)
         d->slot++;
     if (d->slot >= d->slots)
@@ -342,7 +343,7 @@ static int next_start(void *user, const uint32_t *near, uint32_t near_count, uin
     if (p->near != MTS_GROW_NONE) {
         if (p->near >= near_count)
             return 0;
-        *first = near[p->near];
+        *near_at = p->near;
     } else {
         *first = p->first;
     }
@@ -602,6 +603,140 @@ static void test_intervals_fandisk(mts_test *t)
     intervals_match(t, m, "fandisk_large", 1, 0);
 }
 
+/* As a two-thread decoder grows (docs/threads.md): one grow from the base
+ * derives the records, a mesh-only grow (never renumbered) goes ahead of
+ * it. At every key the mesh-only grow stripifies, seeded in the one grow's
+ * ids, and hands the paths over; at the full level it walks the described
+ * strips (its start ids mapped from the one grow's) and the one grow takes
+ * them as they are. Every record must be the model's. `spoil`: key paths
+ * with a triangle twice must fail the key's split. */
+static void handed_across_match(mts_test *t, const mts_model *m, const char *name, int spoil)
+{
+    mts_error err = {0};
+    mts_grow_options go = {0};
+    go.key_levels = m->key_levels;
+    go.key_count = m->key_count;
+    mts_grow *mesh = NULL, *g = NULL;
+    /* ids: the mesh-only grow's triangle x is the one grow's ids[x] (x from
+     * ids_n on); inv the other way */
+    uint32_t *ids = NULL, *inv = NULL, *mine = NULL, *order = NULL, *starts = NULL;
+    uint32_t ids_n = 0, bad = 0, keys = 0;
+    uint32_t *lr = malloc(((size_t)m->level_count + 1) * 8);
+    described d = {0};
+    mts_strips walked = {0};
+    if (!first_pass(t, m, lr, &d))
+        goto done;
+    if (mts_grow_create_mesh(&m->base, m->base_vertex_count, m->level_count, &mesh, &err) !=
+            MTS_OK ||
+        mts_grow_create(&m->base, m->base_vertex_count, m->level_count, &go, &g, &err) != MTS_OK) {
+        CHECKF(t, 0, "%s: %s", name, err.msg);
+        goto done;
+    }
+    mts_grow_keep_key_order(g);
+    for (uint32_t j = 0; j < m->level_count && bad < 3; j++) {
+        mts_grow_split sp = {m->parents[j], lr[2 * j], lr[2 * j + 1], 0, NULL, 0, NULL};
+        const uint32_t *r;
+        uint32_t rw;
+        mts_result rc = mts_grow_split_mesh(mesh, &sp, &err);
+        mts_grow_figures fig;
+        mts_grow_get_figures(mesh, &fig);
+        const uint32_t n = fig.triangles;
+        if (rc == MTS_OK && (is_key(m, j + 1) || j + 1 == m->level_count)) {
+            ids = realloc(ids, (size_t)n * 4);
+            inv = realloc(inv, (size_t)n * 4);
+            for (; ids_n < n; ids_n++)
+                ids[ids_n] = inv[ids_n] = ids_n;
+        }
+        if (rc == MTS_OK && is_key(m, j + 1) && j + 1 < m->level_count) {
+            mine = realloc(mine, (size_t)n * 4);
+            order = realloc(order, (size_t)n * 4);
+            starts = realloc(starts, ((size_t)n + 1) * 4);
+            uint32_t count = 0;
+            rc = mts_grow_key_paths(mesh, inv, mine, starts, &count, &err);
+            for (uint32_t i = 0; rc == MTS_OK && i < n; i++)
+                order[i] = ids[mine[i]];
+            if (spoil && rc == MTS_OK) {
+                order[n - 1] = order[0];
+                mts_grow_give_key_paths(g, j + 1, n, order, starts, count);
+                CHECKF(t, mts_grow_next(g, &sp, NULL, &r, &rw, &err) == MTS_ERR_INTERNAL,
+                       "%s: key paths with a triangle twice taken (%s)", name, err.msg);
+                goto done;
+            }
+            mts_grow_give_key_paths(g, j + 1, n, order, starts, count);
+            rc = rc == MTS_OK ? mts_grow_next(g, &sp, NULL, &r, &rw, &err) : rc;
+            for (uint32_t i = 0; rc == MTS_OK && i < n; i++) {
+                ids[mine[i]] = i;
+                inv[i] = mine[i];
+            }
+            /* the one grow renumbered by what it was given */
+            uint32_t count2 = 0, same = 1;
+            const uint32_t *kept = mts_grow_key_order(g, &count2);
+            for (uint32_t i = 0; rc == MTS_OK && kept && count2 == n && i < n; i++)
+                same &= kept[order[i]] == i;
+            CHECKF(t, rc != MTS_OK || (kept && count2 == n && same),
+                   "%s: key at level %u renumbered otherwise than its paths say", name, j + 1);
+            keys++;
+        } else if (rc == MTS_OK && j + 1 == m->level_count) {
+            d.at = d.slot = 0;
+            const mts_grow_full told = {.paths = d.paths,
+                                        .slot_count = m->strip_count,
+                                        .swap_bit = next_free_bit,
+                                        .start = next_start,
+                                        .user = &d,
+                                        .first_ids = inv,
+                                        .first_id_count = n},
+                                taken = {.derived = &walked};
+            rc = mts_grow_full_strips(mesh, &told, &walked, &err);
+            if (rc == MTS_OK)
+                rc = mts_grow_next(g, &sp, &taken, &r, &rw, &err);
+            if (rc == MTS_OK) /* the mesh is kept, the paths are not */
+                rc = mts_grow_check(g, &err);
+        } else if (rc == MTS_OK) {
+            rc = mts_grow_next(g, &sp, NULL, &r, &rw, &err);
+        }
+        if (rc != MTS_OK) {
+            CHECKF(t, 0, "%s: split %u: %s", name, j, err.msg);
+            break;
+        }
+        const uint32_t want = m->record_offsets[j + 1] - m->record_offsets[j];
+        if (rw != want || memcmp(r, m->record_data + m->record_offsets[j], (size_t)rw * 4) != 0) {
+            CHECKF(t, 0, "%s: split %u (%s) derives a record of %u words, the model has %u", name,
+                   j, is_key(m, j + 1) ? "key" : "between keys", rw, want);
+            bad++;
+        }
+    }
+    uint32_t below = 0; /* the full level may be listed as a key too */
+    for (uint32_t k = 0; k < m->key_count; k++)
+        below += m->key_levels[k] < m->level_count;
+    CHECKF(t, spoil || (bad == 0 && keys == below && walked.strip_count == m->strip_count),
+           "%s: %u records differ, %u keys handed across of %u", name, bad, keys, below);
+done:
+    mts_grow_free(mesh);
+    mts_grow_free(g);
+    mts_strips_free(&walked);
+    free(ids);
+    free(inv);
+    free(mine);
+    free(order);
+    free(starts);
+    free(lr);
+    free(d.paths);
+    free(d.swaps);
+}
+
+static void test_handed_across(mts_test *t)
+{
+    mts_model m = {0};
+    if (build_path(t, "tests/data/cow.off", &m)) {
+        handed_across_match(t, &m, "cow", 0);
+        handed_across_match(t, &m, "cow, key paths spoilt", 1);
+    }
+    mts_model_free(&m);
+    const mts_model *b = shared_model(t, 0);
+    if (b)
+        handed_across_match(t, b, "bunny00", 0);
+}
+
 /* ---- refusals ---- */
 
 static void test_refusals(mts_test *t)
@@ -672,6 +807,7 @@ int main(void)
     RUN(&t, test_mesh_only_bunny);
     RUN(&t, test_intervals_bunny);
     RUN(&t, test_intervals_fandisk);
+    RUN(&t, test_handed_across);
     for (int k = 0; k < 2; k++)
         mts_model_free(&shared[k]);
     return mts_test_end(&t);
