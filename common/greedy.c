@@ -33,7 +33,6 @@ typedef struct ctx {
     uint32_t n;
     const uint32_t *twin;
     size_t stride;
-    const uint32_t *seed_order; /* NULL: id order */
     uint8_t *flag;
     uint32_t *bucket[3]; /* seed candidates by degree 0..2 (stacks, lazily updated) */
     uint32_t bucket_len[3];
@@ -128,10 +127,9 @@ static uint32_t next_seed(ctx *c)
                 return t;
         }
     }
-    const uint32_t *so = c->seed_order;
-    while (c->cursor < c->n && c->flag[so ? so[c->cursor] : c->cursor] != 3)
+    while (c->cursor < c->n && c->flag[c->cursor] != 3)
         c->cursor++;
-    return c->cursor < c->n ? (so ? so[c->cursor] : c->cursor) : NONE;
+    return c->cursor < c->n ? c->cursor : NONE;
 }
 
 /* t joins a path: its free neighbours have one free neighbour fewer. */
@@ -148,9 +146,9 @@ static void commit(ctx *c, uint32_t t)
     }
 }
 
-mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride,
-                            const uint32_t *seed_order, uint32_t max_path, uint32_t *order,
-                            uint32_t *starts, uint32_t *path_count, mts_error *err)
+mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uint32_t max_path,
+                            uint32_t *order, uint32_t *starts, uint32_t *path_count,
+                            mts_error *err)
 {
     *path_count = 0;
     starts[0] = 0;
@@ -169,7 +167,6 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride,
     c.n = n;
     c.twin = twin;
     c.stride = stride;
-    c.seed_order = seed_order;
     c.flag = malloc(n);
     for (int d = 0; d < 3; d++)
         c.bucket[d] = malloc((size_t)n * sizeof *c.bucket[d]);
@@ -178,10 +175,7 @@ mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride,
         rc = mts_error_set(err, MTS_ERR_NOMEM, "greedy: out of memory for %u triangles", n);
         goto done;
     }
-    /* the seeds' stacks filled in seed order, so that the first in it
-     * pops first (mts__buckets_lowest_first) */
-    for (uint32_t i = 0; i < n; i++) {
-        const uint32_t t = seed_order ? seed_order[i] : i;
+    for (uint32_t t = 0; t < n; t++) {
         unsigned d = 0;
         for (unsigned e = 0; e < 3; e++)
             d += twin_of(&c, t, e) != NONE;

@@ -33,15 +33,9 @@
  * at most max_path (>= 1) long, consecutive triangles neighbours. A path is
  * meant to be read from order[starts[k]]: the first triangle leaves towards
  * the second without a swap, as strips.h's derived form does. order holds
- * n entries, starts n + 1. Deterministic. MTS_ERR_NOMEM.
- *
- * Only the seeds depend on the ids: ties go to the lowest. seed_order
- * (NULL: 0..n-1), a permutation of the triangles, stands for that order:
- * the paths are the ones the mesh renumbered so that seed_order[i] becomes
- * i would give, in the ids given. A client that keeps the same mesh in two
- * numberings (grow_tokens.h) stripifies either as the other would. */
-mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride,
-                            const uint32_t *seed_order, uint32_t max_path, uint32_t *order,
-                            uint32_t *starts, uint32_t *path_count, mts_error *err);
+ * n entries, starts n + 1. Deterministic. MTS_ERR_NOMEM. */
+mts_result mts_greedy_paths(uint32_t n, const uint32_t *twin, size_t stride, uint32_t max_path,
+                            uint32_t *order, uint32_t *starts, uint32_t *path_count,
+                            mts_error *err);
 
 #endif

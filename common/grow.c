@@ -516,8 +516,8 @@ static mts_result restrip(mts_grow *g, mts_error *err)
                 rc = mts_error_set(err, MTS_ERR_INTERNAL, "grow: given key path %u is empty", k);
         }
     } else if (rc == MTS_OK) {
-        rc = mts_greedy_paths(n, g->tri[0].tw, sizeof *g->tri / 4, NULL, MTS_STRIPIFY_MAX_STRIP,
-                              order, starts, &count, err);
+        rc = mts_greedy_paths(n, g->tri[0].tw, sizeof *g->tri / 4, MTS_STRIPIFY_MAX_STRIP, order,
+                              starts, &count, err);
     }
     g->given_order = NULL;
     if (rc == MTS_OK) {

@@ -175,11 +175,29 @@ const uint32_t *mts_grow_key_order(const mts_grow *w, uint32_t *count)
 
 /* ---- key paths handed across ---- */
 
-mts_result mts_grow_key_paths(const mts_grow *g, const uint32_t *seed_order, uint32_t *order,
-                              uint32_t *starts, uint32_t *path_count, mts_error *err)
+mts_result mts_grow_key_paths(const mts_grow *g, const uint32_t *ids, const uint32_t *inv,
+                              uint32_t *order, uint32_t *starts, uint32_t *path_count,
+                              mts_error *err)
 {
-    return mts_greedy_paths(g->tri_count, g->tri[0].tw, sizeof *g->tri / 4, seed_order,
-                            MTS_STRIPIFY_MAX_STRIP, order, starts, path_count, err);
+    const uint32_t n = g->tri_count;
+    if (!ids)
+        return mts_greedy_paths(n, g->tri[0].tw, sizeof *g->tri / 4, MTS_STRIPIFY_MAX_STRIP,
+                                order, starts, path_count, err);
+    /* the twins gathered in the other grow's ids first: greedy.c then reads
+     * them in the order that grow keeps them (its strips of the key before,
+     * side by side), where g's birth order would be a miss a triangle */
+    uint32_t *tw = malloc((size_t)n * 12 + 12);
+    if (!tw)
+        return mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory for %u triangles", n);
+    for (uint32_t i = 0; i < n; i++) {
+        const uint32_t *x = g->tri[inv[i]].tw;
+        for (unsigned e = 0; e < 3; e++)
+            tw[3 * i + e] = x[e] == NONE ? NONE : 3 * ids[x[e] / 3] + x[e] % 3;
+    }
+    mts_result rc =
+        mts_greedy_paths(n, tw, 3, MTS_STRIPIFY_MAX_STRIP, order, starts, path_count, err);
+    free(tw);
+    return rc;
 }
 
 void mts_grow_give_key_paths(mts_grow *g, uint32_t level, uint32_t triangles,

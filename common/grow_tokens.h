@@ -76,13 +76,14 @@ void mts_grow_keep_key_order(mts_grow *g);
  * grow's time on a large mesh. The grow that gets there first stripifies
  * for the other.
  *
- * greedy.c's paths of g's mesh as it is now, seeded as another grow of the
- * same mesh seeds its own (that grow's triangle i is g's seed_order[i], a
- * permutation; NULL: the same ids): the paths that grow's restripification
- * makes here, in g's ids. order: a triangle count's entries, starts one
- * more (mts_grow_get_figures). MTS_ERR_NOMEM. */
-mts_result mts_grow_key_paths(const mts_grow *g, const uint32_t *seed_order, uint32_t *order,
-                              uint32_t *starts, uint32_t *path_count, mts_error *err);
+ * greedy.c's paths of g's mesh as it is now, as another grow of the same
+ * mesh would make them in its restripification here: g's triangle t is
+ * that grow's ids[t], and its triangle i g's inv[i] (a permutation and its
+ * inverse; both NULL: the same ids). order, in that grow's ids: a triangle
+ * count's entries; starts one more (mts_grow_get_figures). MTS_ERR_NOMEM. */
+mts_result mts_grow_key_paths(const mts_grow *g, const uint32_t *ids, const uint32_t *inv,
+                              uint32_t *order, uint32_t *starts, uint32_t *path_count,
+                              mts_error *err);
 
 /* Hands g the paths of its restripification at `level` (its next split's
  * key), in g's ids, for `triangles` triangles: that split renumbers by them

@@ -880,25 +880,27 @@ static mts_result par_keep_until_done(mts_stream_client *c, mts_error *err)
 }
 
 /* Pipe, the mesh-only grow at the last key: its restripification, which
- * the pool's grow would make there, made here where the key before's order
- * is at hand (the pool past it), while the pool grows on (on the 1.2M mesh
- * it reaches the key 200 to 300 ms later). The pool takes the paths if it
- * gets there after them. Either way the decode thread then knows the ids
- * through the last key, which the full level's walk needs, without waiting
- * for the pool to get there. */
+ * the pool's grow makes there, made here too where the key before's order
+ * is at hand (the pool past it). Where the pool is behind (on the 1.2M mesh
+ * up to 300 ms), it takes the paths if it gets there after them. Either way
+ * the decode thread then knows the ids through the last key, which the
+ * full level's walk needs, without waiting for the pool's whole key split
+ * (the renumbering and the key's record after the stripification: where
+ * the pool got there at the same time, this is done some 40 ms sooner). */
 static mts_result par_last_key(mts_stream_client *c, mts_error *err)
 {
     struct mts__stream_par *p = c->par;
-    const uint32_t k = p->keys_below - 1;
-    if ((k > 0 && atomic_load(&p->iv[0].made) < p->go.key_levels[k - 1]) ||
-        atomic_load(&p->key_paths) != KP_OPEN)
+    const uint32_t k = p->keys_below - 1, made = atomic_load(&p->iv[0].made);
+    if (k > 0 && made < p->go.key_levels[k - 1])
+        return MTS_OK;
+    if (made >= p->go.key_levels[k]) /* the pool's order is at hand already */
         return MTS_OK;
     mts_result rc = par_chain(c, k, err);
     if (rc == MTS_OK)
         rc = par_ids(c, err);
     if (rc != MTS_OK)
         return rc;
-    /* seeded in the pool's ids (inv), found in the mesh-only grow's */
+    /* in the pool's ids; mine: the same in the mesh-only grow's */
     const uint32_t n = p->ids_n;
     uint32_t *mine = malloc((size_t)n * 4 + 4), count = 0;
     p->kp_order = malloc((size_t)n * 4 + 4);
@@ -906,10 +908,10 @@ static mts_result par_last_key(mts_stream_client *c, mts_error *err)
     if (!mine || !p->kp_order || !p->kp_starts)
         rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the last key's paths");
     if (rc == MTS_OK)
-        rc = mts_grow_key_paths(c->grow, p->inv, mine, p->kp_starts, &count, err);
+        rc = mts_grow_key_paths(c->grow, p->ids, p->inv, p->kp_order, p->kp_starts, &count, err);
     if (rc == MTS_OK) {
         for (uint32_t i = 0; i < n; i++)
-            p->kp_order[i] = p->ids[mine[i]];
+            mine[i] = p->inv[p->kp_order[i]];
         p->kp_count = count;
         p->kp_triangles = n;
         int expect = KP_OPEN;

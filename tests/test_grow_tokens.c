@@ -652,9 +652,9 @@ static void handed_across_match(mts_test *t, const mts_model *m, const char *nam
             order = realloc(order, (size_t)n * 4);
             starts = realloc(starts, ((size_t)n + 1) * 4);
             uint32_t count = 0;
-            rc = mts_grow_key_paths(mesh, inv, mine, starts, &count, &err);
+            rc = mts_grow_key_paths(mesh, ids, inv, order, starts, &count, &err);
             for (uint32_t i = 0; rc == MTS_OK && i < n; i++)
-                order[i] = ids[mine[i]];
+                mine[i] = inv[order[i]];
             if (spoil && rc == MTS_OK) {
                 order[n - 1] = order[0];
                 mts_grow_give_key_paths(g, j + 1, n, order, starts, count);
