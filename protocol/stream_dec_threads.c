@@ -34,8 +34,11 @@
  * With one pool thread (two threads in all) there is one worker, a grow
  * from the base that takes every split, and nothing to fix up (`pipe`);
  * it takes each fan's ring from the log, as the decode thread walked it for
- * the fan code, in place of walking it again (mts_grow_take_ring), and the
- * decode thread makes the full level's split on it once it is done. */
+ * the fan code, in place of walking it again (mts_grow_take_ring). The
+ * decode thread stripifies the last key on its own mesh too, for the pool
+ * if it gets there first and for the ids it needs either way, walks the
+ * full level's strips on its own mesh while the pool finishes, and the
+ * pool's grow takes them once it is done. */
 
 #define LOG_CHUNK 4096u /* splits a log chunk holds: freed once fixed up */
 #define REC_BLOCK 65536u /* words of a worker's record block */
@@ -891,7 +894,7 @@ static mts_result par_last_key(mts_stream_client *c, mts_error *err)
 {
     struct mts__stream_par *p = c->par;
     const uint32_t k = p->keys_below - 1, made = atomic_load(&p->iv[0].made);
-    if (k > 0 && made < p->go.key_levels[k - 1])
+    if ((k > 0 && made < p->go.key_levels[k - 1]) || p->composed > k || p->kp_order)
         return MTS_OK;
     if (made >= p->go.key_levels[k]) /* the pool's order is at hand already */
         return MTS_OK;
