@@ -56,23 +56,28 @@ static inline unsigned full_open(const mts_grow *g, uint32_t u, uint32_t e, uint
  * no strip holds yet: per triangle of it, across its edges 0, 1, 2, each
  * once. Where strips lie side by side, as tunnelled ones do, the next
  * strip often starts among them (grow.h, mts_grow_full_path.near). */
-static int full_near(const mts_grow *g, const mts_words *prev, const uint8_t *claimed,
-                     uint32_t *seen, uint32_t stamp, mts_words *out)
+static int full_near(const mts_grow *g, const mts_words *prev, uint8_t *claimed, mts_words *out)
 {
     out->n = 0;
-    for (size_t k = 0; k < prev->n; k++) {
+    int ok = 1;
+    for (size_t k = 0; k < prev->n && ok; k++) {
         const uint32_t *tw = g->tri[prev->w[k]].tw;
         for (unsigned e = 0; e < 3; e++) {
             const uint32_t x = tw[e] == NONE ? NONE : tw[e] / 3;
-            if (x == NONE || claimed[x] || seen[x] == stamp)
+            if (x == NONE || claimed[x])
                 continue;
-            seen[x] = stamp;
-            if (!mts_words_reserve(out, 1))
-                return 0;
+            /* listed once: marked in the byte the walk reads anyway (a
+             * separate array was a miss a neighbour on a large mesh),
+             * unmarked below */
+            if (!(ok = mts_words_reserve(out, 1)))
+                break;
+            claimed[x] = 2;
             out->w[out->n++] = x;
         }
     }
-    return 1;
+    for (size_t k = 0; k < out->n; k++)
+        claimed[out->w[k]] = 0;
+    return ok;
 }
 
 /* Walks the described full strips over g's mesh (at the full level), slot
@@ -89,20 +94,19 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
                             mts_error *err)
 {
     uint8_t *claimed = calloc((size_t)g->tri_count + 1, 1);
-    uint32_t *seen = calloc((size_t)g->tri_count + 1, 4);
     mts_words prev = {0}, cur = {0}, near = {0};
-    mts_result rc = claimed && seen ? MTS_OK
+    mts_result rc = claimed ? MTS_OK
                                     : mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
     uint8_t *mark = describe ? (uint8_t *)f->swaps : NULL;
     uint64_t bit = 0;
     unsigned last = 0;
-    for (uint32_t s = 0, stamp = 1; s < f->slot_count && rc == MTS_OK; s++) {
+    for (uint32_t s = 0; s < f->slot_count && rc == MTS_OK; s++) {
         const mts_grow_full_path *p = &f->paths[s];
         if (offsets)
             offsets[s] = (uint32_t)derived->n;
         if (!p->triangles)
             continue;
-        if ((f->start || describe) && !full_near(g, &prev, claimed, seen, stamp++, &near)) {
+        if ((f->start || describe) && !full_near(g, &prev, claimed, &near)) {
             rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");
             break;
         }
@@ -238,7 +242,6 @@ static mts_result full_walk(const mts_grow *g, mts_grow *resolve, const mts_grow
     if (rc == MTS_OK && offsets)
         offsets[f->slot_count] = (uint32_t)derived->n;
     free(claimed);
-    free(seen);
     free(prev.w);
     free(cur.w);
     free(near.w);
