@@ -883,25 +883,27 @@ static mts_result par_keep_until_done(mts_stream_client *c, mts_error *err)
 }
 
 /* Pipe, the mesh-only grow at the last key: its restripification, which
- * the pool's grow makes there, made here too where the key before's order
- * is at hand (the pool past it). Where the pool is behind (on the 1.2M mesh
- * up to 300 ms), it takes the paths if it gets there after them. Either way
- * the decode thread then knows the ids through the last key, which the
- * full level's walk needs, without waiting for the pool's whole key split
- * (the renumbering and the key's record after the stripification: where
- * the pool got there at the same time, this is done some 40 ms sooner). */
+ * the pool's grow makes there, made here too, in the pool's ids (those of
+ * the key before: waited for where the pool is not past it yet, as the
+ * batch's end would wait for its records). Where the pool is behind (on
+ * the 1.2M mesh up to 300 ms, or a whole interval), it takes the paths if
+ * it gets there after them. Either way the decode thread then knows the
+ * ids through the last key, which the full level's walk needs, without
+ * waiting for the pool's whole key split (the renumbering and the key's
+ * record after the stripification: where the pool got there at the same
+ * time, this is done some 40 ms sooner). */
 static mts_result par_last_key(mts_stream_client *c, mts_error *err)
 {
     struct mts__stream_par *p = c->par;
     const uint32_t k = p->keys_below - 1, made = atomic_load(&p->iv[0].made);
-    if ((k > 0 && made < p->go.key_levels[k - 1]) || p->composed > k || p->kp_order)
+    if (p->composed > k || p->kp_order)
         return MTS_OK;
     if (made >= p->go.key_levels[k]) /* the pool's order is at hand already */
         return MTS_OK;
     mts_result rc = par_chain(c, k, err);
-    if (rc == MTS_OK)
-        rc = par_ids(c, err);
-    if (rc != MTS_OK)
+    if (rc != MTS_OK || atomic_load(&p->iv[0].made) >= p->go.key_levels[k])
+        return rc;
+    if ((rc = par_ids(c, err)) != MTS_OK)
         return rc;
     /* in the pool's ids; mine: the same in the mesh-only grow's */
     const uint32_t n = p->ids_n;
