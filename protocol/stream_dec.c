@@ -1167,12 +1167,14 @@ mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)
         void (*on_model)(void *, const mts_wire_model_entry *) = c->on_model;
         void *user = c->user;
         uint32_t resumes = c->resumes, threads = c->threads, alone = c->threads_alone_after;
+        const int hand = c->threads_hand_key_paths;
         mts_stream_client_free(c);
         mts_stream_client_init(c);
         c->on_model = on_model;
         c->user = user;
         c->threads = threads;
         c->threads_alone_after = alone;
+        c->threads_hand_key_paths = hand;
         c->resumes = resumes;
         return MTS_OK;
     }

@@ -145,6 +145,7 @@ struct mts__stream_par {
     atomic_int key_paths;
     uint32_t *kp_order, *kp_starts, kp_count, kp_triangles;
     uint32_t keys_below; /* the keys below the full level (which may be listed) */
+    int hand;            /* mts_stream_client.threads_hand_key_paths */
 };
 
 enum { KP_OPEN, KP_GIVEN, KP_POOL };
@@ -308,6 +309,10 @@ static void par_grow(struct mts__stream_par *p, interval *v)
             int expect = KP_OPEN;
             const int last_key =
                 p->pipe && key + 1 == p->keys_below && p->go.key_levels[key] == j + 1;
+            for (unsigned k = 1; last_key && p->hand && atomic_load(&p->key_paths) == KP_OPEN &&
+                                 !atomic_load(&p->stop);
+                 k++)
+                spin_turn(k); /* the test's word: the decode thread makes them */
             if (last_key && !atomic_compare_exchange_strong(&p->key_paths, &expect, KP_POOL) &&
                 expect == KP_GIVEN)
                 mts_grow_give_key_paths(v->w, j + 1, p->kp_triangles, p->kp_order, p->kp_starts,
@@ -511,6 +516,7 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
     p->go = *go;
     p->delay_fd = -1;
     p->pipe = c->threads == 2;
+    p->hand = c->threads_hand_key_paths;
     p->iv_count = p->pipe ? 2 : kc + 2;
     p->chunk_count = n / LOG_CHUNK + 1;
     mts_result rc = MTS_OK;
@@ -883,25 +889,24 @@ static mts_result par_keep_until_done(mts_stream_client *c, mts_error *err)
 }
 
 /* Pipe, the mesh-only grow at the last key: its restripification, which
- * the pool's grow makes there, made here too, in the pool's ids (those of
- * the key before: waited for where the pool is not past it yet, as the
- * batch's end would wait for its records). Where the pool is behind (on
- * the 1.2M mesh up to 300 ms, or a whole interval), it takes the paths if
- * it gets there after them. Either way the decode thread then knows the
- * ids through the last key, which the full level's walk needs, without
- * waiting for the pool's whole key split (the renumbering and the key's
- * record after the stripification: where the pool got there at the same
- * time, this is done some 40 ms sooner). */
+ * the pool's grow makes there, made here too where the pool is behind, in
+ * the pool's ids (those of the key before: waited for where the pool is
+ * not past it yet, as the batch's end would wait for its records). The
+ * pool takes the paths if it gets there after them, and the decode thread
+ * then knows the ids through the last key, which the full level's walk
+ * needs. Within a tenth of the key's splits the pool gets there before
+ * them (greedy.c here costs about what the pool's splits do in that
+ * tenth, on bunny00 and on the 1.2M mesh): the decode thread goes on, and
+ * takes the ids from the pool's order at the full level. */
 static mts_result par_last_key(mts_stream_client *c, mts_error *err)
 {
     struct mts__stream_par *p = c->par;
-    const uint32_t k = p->keys_below - 1, made = atomic_load(&p->iv[0].made);
-    if (p->composed > k || p->kp_order)
-        return MTS_OK;
-    if (made >= p->go.key_levels[k]) /* the pool's order is at hand already */
+    const uint32_t k = p->keys_below - 1, made = atomic_load(&p->iv[0].made),
+                   level = p->go.key_levels[k];
+    if (p->composed > k || p->kp_order || (made >= level - level / 10 && !p->hand))
         return MTS_OK;
     mts_result rc = par_chain(c, k, err);
-    if (rc != MTS_OK || atomic_load(&p->iv[0].made) >= p->go.key_levels[k])
+    if (rc != MTS_OK || (atomic_load(&p->iv[0].made) >= level - level / 10 && !p->hand))
         return rc;
     if ((rc = par_ids(c, err)) != MTS_OK)
         return rc;
@@ -955,6 +960,8 @@ static mts_result par_full_split(mts_stream_client *c, const mts_grow_split *sp,
         wrc = mts_grow_full_strips(c->grow, &f, &walked, &werr);
     }
     mts_result rc = par_keep_until_done(c, err);
+    /* the pool, done, reached the last key: it took the paths or made its own */
+    c->threads_key_paths_handed = atomic_load(&p->key_paths) == KP_GIVEN;
     if (rc == MTS_OK && wrc != MTS_OK) {
         rc = wrc;
         if (err)
@@ -1178,7 +1185,7 @@ void mts__stream_par_batch_end(mts_stream_client *c, uint32_t index)
     if (c->threads_alone_after) { /* the test's word, not a measure */
         if (index + 1 >= c->threads_alone_after)
             p->want_alone = 1;
-    } else if (!p->want_alone && par_crowded(p)) {
+    } else if (!p->want_alone && !p->hand && par_crowded(p)) {
         p->want_alone = 1;
     }
     /* once the batches decoded ahead are taken: the pool's grow is then

@@ -322,17 +322,21 @@ static void model_threads(mts_test *t, const char *path, const char *name, size_
     for (int k = 0; k < 2 && !t->case_failed; k++) {
         /* pieces 2: two threads, then one from a third of the batches on
          * (as where the threads turn out to share a core) */
-        for (int pieces = 0; pieces < (k == 0 ? 3 : 2) && !t->case_failed; pieces++) {
+        /* pieces 3: two threads, the last key's paths made by the decode
+         * thread and taken by the pool, as where the pool is well behind */
+        for (int pieces = 0; pieces < (k == 0 ? 4 : 2) && !t->case_failed; pieces++) {
             char what[96];
             snprintf(what, sizeof what, "%s, %u threads, %s", name, threads[k],
-                     pieces == 2 ? "whole, alone after a third"
-                     : pieces    ? "small pieces"
-                                 : "whole");
+                     pieces == 3   ? "whole, the last key's paths handed across"
+                     : pieces == 2 ? "whole, alone after a third"
+                     : pieces      ? "small pieces"
+                                   : "whole");
             mts_stream_client c;
             mts_stream_client_init(&c);
             c.threads = threads[k];
             if (pieces == 2)
                 c.threads_alone_after = s.batch_count / 3 + 1;
+            c.threads_hand_key_paths = pieces == 3;
             fed f = {0};
             mts_result rc =
                 feed(&c, &s, &b, 7 + (uint64_t)k, pieces == 1 ? piece : 0, &f, &err);
@@ -349,6 +353,8 @@ static void model_threads(mts_test *t, const char *path, const char *name, size_
                        c.par == NULL && c.threads_alone_from ==
                                             mts_wire_batch_first(&c.info, s.batch_count / 3 + 1),
                        "%s: alone from level %u", what, c.threads_alone_from);
+            if (pieces == 3)
+                CHECKF(t, c.threads_key_paths_handed, "%s: the pool made its own", what);
             mts_stream_client_free(&c);
         }
     }
