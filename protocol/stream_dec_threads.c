@@ -888,25 +888,38 @@ static mts_result par_keep_until_done(mts_stream_client *c, mts_error *err)
     }
 }
 
+/* Whether the decode thread, at the last key (`level`) with the pool at
+ * `made`, makes the key's paths. In units of the pool's splits, measured on
+ * bunny00 and the 1.2M mesh alike: greedy.c here costs some 8% of the key's
+ * splits, the pool's whole key split some 11%. So the pool takes the paths
+ * where it is a tenth behind; and where the decode thread, going on to the
+ * full level (its splits past the key), would wait there for the pool's
+ * key, it waits less making them itself (it then knows the ids through the
+ * key). Elsewhere (the pool close behind, many splits left) it goes on. */
+static int par_key_paths_pay(const struct mts__stream_par *p, uint32_t level, uint32_t made,
+                             uint32_t n)
+{
+    const uint64_t behind = level - (made < level ? made : level);
+    return p->hand || behind > level / 10 || behind + level / 32 > n - level;
+}
+
 /* Pipe, the mesh-only grow at the last key: its restripification, which
- * the pool's grow makes there, made here too where the pool is behind, in
- * the pool's ids (those of the key before: waited for where the pool is
- * not past it yet, as the batch's end would wait for its records). The
- * pool takes the paths if it gets there after them, and the decode thread
- * then knows the ids through the last key, which the full level's walk
- * needs. Within a tenth of the key's splits the pool gets there before
- * them (greedy.c here costs about what the pool's splits do in that
- * tenth, on bunny00 and on the 1.2M mesh): the decode thread goes on, and
- * takes the ids from the pool's order at the full level. */
+ * the pool's grow makes there, made here too where it pays
+ * (par_key_paths_pay), in the pool's ids (those of the key before: waited
+ * for where the pool is not past it yet, as the batch's end would wait for
+ * its records). The pool takes the paths if it gets there after them, and
+ * the decode thread then knows the ids through the last key, which the
+ * full level's walk needs; else it takes them from the pool's order at the
+ * full level. */
 static mts_result par_last_key(mts_stream_client *c, mts_error *err)
 {
     struct mts__stream_par *p = c->par;
     const uint32_t k = p->keys_below - 1, made = atomic_load(&p->iv[0].made),
-                   level = p->go.key_levels[k];
-    if (p->composed > k || p->kp_order || (made >= level - level / 10 && !p->hand))
+                   level = p->go.key_levels[k], levels = c->model.level_count;
+    if (p->composed > k || p->kp_order || !par_key_paths_pay(p, level, made, levels))
         return MTS_OK;
     mts_result rc = par_chain(c, k, err);
-    if (rc != MTS_OK || (atomic_load(&p->iv[0].made) >= level - level / 10 && !p->hand))
+    if (rc != MTS_OK || !par_key_paths_pay(p, level, atomic_load(&p->iv[0].made), levels))
         return rc;
     if ((rc = par_ids(c, err)) != MTS_OK)
         return rc;
