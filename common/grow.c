@@ -538,6 +538,9 @@ static mts_result restrip(mts_grow *g, mts_error *err)
             for (uint32_t i = 0; i < n; i++)
                 perm[po[i]] = i;
         }
+        /* known now; renumbering and the key's record take as long again */
+        if (rc == MTS_OK && perm && g->on_key_order)
+            g->on_key_order(g->on_key_user, perm, n);
         if (rc == MTS_OK &&
             (!perm || !mts__corner_renumber(g, perm) || !mts__grow_paths_reset(g, count)))
             rc = mts_error_set(err, MTS_ERR_NOMEM, "grow: out of memory");

@@ -86,6 +86,9 @@ struct mts_grow {
      * grow of this mesh (mts_grow_give_key_paths), the caller's memory */
     const uint32_t *given_order, *given_starts;
     uint32_t given_level, given_triangles, given_count;
+    /* told each key's renumbering once it is known (mts_grow_on_key_order) */
+    void (*on_key_order)(void *user, const uint32_t *order, uint32_t count);
+    void *on_key_user;
 };
 
 /* ---- paths on the dual graph ---- */

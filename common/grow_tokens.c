@@ -173,6 +173,14 @@ const uint32_t *mts_grow_key_order(const mts_grow *w, uint32_t *count)
     return w->key_order.n ? w->key_order.w : NULL;
 }
 
+void mts_grow_on_key_order(mts_grow *g, void (*fn)(void *user, const uint32_t *order,
+                                                   uint32_t count),
+                           void *user)
+{
+    g->on_key_order = fn;
+    g->on_key_user = user;
+}
+
 /* ---- key paths handed across ---- */
 
 mts_result mts_grow_key_paths(const mts_grow *g, const uint32_t *ids, const uint32_t *inv,

@@ -70,6 +70,16 @@ const uint32_t *mts_grow_key_order(const mts_grow *worker, uint32_t *count);
  * another thread than it decodes on maps an explicit split's ids with it. */
 void mts_grow_keep_key_order(mts_grow *g);
 
+/* Tells fn each renumbering g makes at a restripified key (old id t
+ * becomes order[t], count of them) as soon as it is known, before g
+ * renumbers: a decoder on another thread maps its own mesh's ids through
+ * it, and the rest of the key split (the renumbering, the key's record)
+ * takes about as long again. Called on the thread that grows g, inside
+ * mts_grow_next; order is valid during the call only. */
+void mts_grow_on_key_order(mts_grow *g, void (*fn)(void *user, const uint32_t *order,
+                                                   uint32_t count),
+                           void *user);
+
 /* Key paths handed across: a key's restripification (greedy.c) reads the
  * mesh at the key only, which a decoder's mesh-only grow reaches long before
  * the grow that derives the records does, and greedy.c is a sixth of that

@@ -145,6 +145,11 @@ struct mts__stream_par {
     atomic_int key_paths;
     uint32_t *kp_order, *kp_starts, kp_count, kp_triangles;
     uint32_t keys_below; /* the keys below the full level (which may be listed) */
+    /* pipe: orders[0..orders_ready) are written (par_key_order, on the pool
+     * thread, inside its key split); pool_key: the key it is at */
+    atomic_uint orders_ready;
+    uint32_t pool_key;
+    int order_nomem;
     int hand;            /* mts_stream_client.threads_hand_key_paths */
 };
 
@@ -273,6 +278,29 @@ static int par_pool_ids(struct mts__stream_par *p, const uint32_t *order, uint32
     return 1;
 }
 
+/* Pipe, on the pool thread inside its key split: the key's renumbering,
+ * kept for the decode thread as soon as it is known (mts_grow_on_key_order),
+ * about half the key split before the split returns. */
+static void par_key_order(void *user, const uint32_t *order, uint32_t count)
+{
+    struct mts__stream_par *p = user;
+    const uint32_t k = p->pool_key;
+    if (k >= p->go.key_count || p->orders[k])
+        return;
+    if (!(p->orders[k] = malloc((size_t)count * 4 + 4))) {
+        p->order_nomem = 1;
+        return;
+    }
+    memcpy(p->orders[k], order, (size_t)count * 4);
+    p->order_n[k] = count;
+    atomic_store(&p->orders_ready, k + 1);
+    if (atomic_load(&p->dec_sleeping)) {
+        pthread_mutex_lock(&p->mu);
+        pthread_cond_broadcast(&p->progress);
+        pthread_mutex_unlock(&p->mu);
+    }
+}
+
 /* A pool thread's interval: each logged split in turn, its record kept in
  * the interval's blocks and published. */
 static void par_grow(struct mts__stream_par *p, interval *v)
@@ -317,23 +345,21 @@ static void par_grow(struct mts__stream_par *p, interval *v)
                 expect == KP_GIVEN)
                 mts_grow_give_key_paths(v->w, j + 1, p->kp_triangles, p->kp_order, p->kp_starts,
                                         p->kp_count);
+            p->pool_key = key;
             rc = mts_grow_next(v->w, &ls->sp, NULL, &r, &rw, &v->err);
             if (last_key) /* read in that split only */
                 mts_grow_give_key_paths(v->w, 0, 0, NULL, NULL, 0);
             if (rc != MTS_OK)
                 break;
             if (p->pipe && key < p->go.key_count && p->go.key_levels[key] == j + 1) {
-                /* the renumbering of the key just made, before the next */
-                uint32_t count;
-                const uint32_t *order = mts_grow_key_order(v->w, &count);
-                if (order && (!(p->orders[key] = malloc((size_t)count * 4 + 4)) ||
-                              !par_pool_ids(p, order, count))) {
+                /* the renumbering of the key just made (par_key_order), for
+                 * the rings of the splits after it */
+                if (p->order_nomem || !p->orders[key] ||
+                    !par_pool_ids(p, p->orders[key], p->order_n[key])) {
                     rc = mts_error_set(&v->err, MTS_ERR_NOMEM, "out of memory for a key's order");
                     break;
                 }
-                if (order)
-                    memcpy(p->orders[key], order, (size_t)count * 4);
-                p->order_n[key++] = order ? count : 0;
+                key++;
             }
             rec_block *b = v->tail;
             if (!b || b->cap - b->used < rw) {
@@ -495,6 +521,38 @@ static mts_result par_wait(struct mts__stream_par *p, uint32_t i, uint32_t upto,
     return v->rc;
 }
 
+/* Pipe: until the pool's key k - 1 order is written (par_key_order), or
+ * its grow is done: its error then, if it did not get there. */
+static mts_result par_wait_order(struct mts__stream_par *p, uint32_t k, mts_error *err)
+{
+    interval *v = &p->iv[0];
+    if (atomic_load(&p->orders_ready) >= k)
+        return MTS_OK;
+    const uint64_t until = now_ns() + SPIN_NS;
+    for (unsigned s = 1; atomic_load(&p->orders_ready) < k && !atomic_load(&v->done); s++) {
+        spin_turn(s);
+        if (s % 32 == 0 && now_ns() > until) {
+            /* as par_wait: counted before the check, woken by the writer */
+            pthread_mutex_lock(&p->mu);
+            atomic_fetch_add(&p->dec_sleeping, 1);
+            while (atomic_load(&p->orders_ready) < k && !atomic_load(&v->done))
+                pthread_cond_wait(&p->progress, &p->mu);
+            atomic_fetch_sub(&p->dec_sleeping, 1);
+            pthread_mutex_unlock(&p->mu);
+            break;
+        }
+    }
+    if (atomic_load(&p->orders_ready) >= k)
+        return MTS_OK;
+    if (v->rc == MTS_OK)
+        return mts_error_set(err, MTS_ERR_INTERNAL,
+                             "stream: waited for key %u's order of a grow that made %u records",
+                             k, atomic_load(&v->made));
+    if (err)
+        *err = v->err;
+    return v->rc;
+}
+
 /* Sets the state up after BASE: the log, the intervals, the fix-up, the
  * first worker (a grow from the base, whose slots are the real ones) and
  * the pool. MTS_OK with c->par NULL where one thread it is. */
@@ -551,7 +609,7 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
     if (rc == MTS_OK)
         rc = mts_grow_create(&m->base, m->base_vertex_count, n, go, &p->iv[0].w, err);
     if (rc == MTS_OK && p->pipe)
-        mts_grow_keep_key_order(p->iv[0].w);
+        mts_grow_on_key_order(p->iv[0].w, par_key_order, p);
     if (rc == MTS_OK) {
         p->queued = 1;
         /* more threads than intervals would wait for nothing */
@@ -705,8 +763,9 @@ static mts_result par_chain(mts_stream_client *c, uint32_t i, mts_error *err)
     struct mts__stream_par *p = c->par;
     for (; p->composed < i; p->composed++) {
         const uint32_t k = p->composed + 1;
-        /* the key split of interval k, split key_levels[k - 1] - 1, made */
-        mts_result rc = p->pipe ? par_wait(p, 0, c->info.key_levels[k - 1], 0, err)
+        /* the key split of interval k, split key_levels[k - 1] - 1, made
+         * (pipe: its order known, half way through that split) */
+        mts_result rc = p->pipe ? par_wait_order(p, k, err)
                                 : par_wait(p, k, p->iv[k].first + 1, 0, err);
         if (rc != MTS_OK)
             return rc;
@@ -1155,6 +1214,7 @@ static void par_alone(mts_stream_client *c, uint32_t level)
     mts_grow_free(c->grow);
     c->grow = v->w;
     v->w = NULL;
+    mts_grow_on_key_order(c->grow, NULL, NULL); /* p is freed below */
     mts__stream_par_free(p);
     c->par = NULL;
     c->threads_alone_from = level;
