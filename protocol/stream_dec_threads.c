@@ -345,7 +345,8 @@ static void par_grow(struct mts__stream_par *p, interval *v)
                 expect == KP_GIVEN)
                 mts_grow_give_key_paths(v->w, j + 1, p->kp_triangles, p->kp_order, p->kp_starts,
                                         p->kp_count);
-            p->pool_key = key;
+            if (p->pipe) /* one pool thread: par_key_order's */
+                p->pool_key = key;
             rc = mts_grow_next(v->w, &ls->sp, NULL, &r, &rw, &v->err);
             if (last_key) /* read in that split only */
                 mts_grow_give_key_paths(v->w, 0, 0, NULL, NULL, 0);
