@@ -162,11 +162,6 @@ fail:
     return rc;
 }
 
-void mts_grow_keep_key_order(mts_grow *g)
-{
-    g->keep_order = 1;
-}
-
 const uint32_t *mts_grow_key_order(const mts_grow *w, uint32_t *count)
 {
     *count = (uint32_t)w->key_order.n;

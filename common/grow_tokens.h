@@ -65,11 +65,6 @@ mts_result mts_grow_create_worker(const mts_grow *mesh, const uint32_t *ids,
  * worker started with, and the same id for those its key split brought. */
 const uint32_t *mts_grow_key_order(const mts_grow *worker, uint32_t *count);
 
-/* Makes a grow from the base (mts_grow_create) keep its renumbering at each
- * restripified key too, for mts_grow_key_order: a client that grows on
- * another thread than it decodes on maps an explicit split's ids with it. */
-void mts_grow_keep_key_order(mts_grow *g);
-
 /* Tells fn each renumbering g makes at a restripified key (old id t
  * becomes order[t], count of them) as soon as it is known, before g
  * renumbers: a decoder on another thread maps its own mesh's ids through

@@ -99,6 +99,23 @@ static uint32_t explicit_splits(const mts_model *m)
     return count;
 }
 
+/* A grow's last renumbering, as mts_grow_on_key_order tells it (n 0 until
+ * one, or when out of memory). */
+typedef struct told_order {
+    uint32_t *w, n;
+} told_order;
+
+static void keep_told(void *user, const uint32_t *order, uint32_t count)
+{
+    told_order *o = user;
+    uint32_t *w = realloc(o->w, (size_t)count * 4 + 4);
+    o->n = w ? count : 0;
+    if (w) {
+        o->w = w;
+        memcpy(w, order, (size_t)count * 4);
+    }
+}
+
 /* ---- the mesh-only grow ---- */
 
 /* Every split's ring and fan, and the triangles round its vertex after,
@@ -120,8 +137,9 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
     CHECKF(t, mts_grow_create(&m->base, m->base_vertex_count, m->level_count, &go, &k, &err) ==
                   MTS_OK,
            "%s", err.msg);
+    told_order kt = {0};
     if (k)
-        mts_grow_keep_key_order(k);
+        mts_grow_on_key_order(k, keep_told, &kt);
     uint32_t *kids = NULL, kids_n = 0, taken = 0, fans = 0, refused = 0, tries = 0;
     uint32_t wrong[64];
     CHECKF(t, mts_grow_create_mesh(&m->base, m->base_vertex_count, m->level_count, &h, &err) ==
@@ -213,9 +231,8 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
             CHECKF(t, 0, "%s: split %u: the grow handed rings makes another record", name, j);
             bad++;
         }
-        uint32_t kc = 0;
-        const uint32_t *ko = is_key(m, j + 1) ? mts_grow_key_order(k, &kc) : NULL;
-        if (ko && j + 1 < m->level_count) {
+        const uint32_t kc = kt.n, *ko = is_key(m, j + 1) ? kt.w : NULL;
+        if (ko && kc && j + 1 < m->level_count) {
             /* k renumbered: mesh-only ids through it (born since: the same) */
             uint32_t *a = realloc(kids, (size_t)kc * 4 + 4);
             CHECK(t, a != NULL);
@@ -276,6 +293,7 @@ static void mesh_only_matches(mts_test *t, const mts_model *m, const char *name)
            tries);
     CHECKF(t, ringed + 1 >= fans, "%s: %u of %u fans' ring vertices checked", name, ringed, fans);
     free(kids);
+    free(kt.w);
     mts_grow_free(g);
     mts_grow_free(h);
     mts_grow_free(k);
@@ -624,6 +642,7 @@ static void handed_across_match(mts_test *t, const mts_model *m, const char *nam
     uint32_t *lr = malloc(((size_t)m->level_count + 1) * 8);
     described d = {0};
     mts_strips walked = {0};
+    told_order gt = {0}; /* the one grow's renumberings */
     if (!first_pass(t, m, lr, &d))
         goto done;
     if (mts_grow_create_mesh(&m->base, m->base_vertex_count, m->level_count, &mesh, &err) !=
@@ -632,7 +651,7 @@ static void handed_across_match(mts_test *t, const mts_model *m, const char *nam
         CHECKF(t, 0, "%s: %s", name, err.msg);
         goto done;
     }
-    mts_grow_keep_key_order(g);
+    mts_grow_on_key_order(g, keep_told, &gt);
     for (uint32_t j = 0; j < m->level_count && bad < 3; j++) {
         mts_grow_split sp = {m->parents[j], lr[2 * j], lr[2 * j + 1], 0, NULL, 0, NULL};
         const uint32_t *r;
@@ -669,8 +688,8 @@ static void handed_across_match(mts_test *t, const mts_model *m, const char *nam
                 inv[i] = mine[i];
             }
             /* the one grow renumbered by what it was given */
-            uint32_t count2 = 0, same = 1;
-            const uint32_t *kept = mts_grow_key_order(g, &count2);
+            uint32_t count2 = gt.n, same = 1;
+            const uint32_t *kept = gt.n ? gt.w : NULL;
             for (uint32_t i = 0; rc == MTS_OK && kept && count2 == n && i < n; i++)
                 same &= kept[order[i]] == i;
             CHECKF(t, rc != MTS_OK || (kept && count2 == n && same),
@@ -719,6 +738,7 @@ done:
     free(mine);
     free(order);
     free(starts);
+    free(gt.w);
     free(lr);
     free(d.paths);
     free(d.swaps);
