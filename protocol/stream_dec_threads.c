@@ -473,6 +473,51 @@ void mts__stream_par_free(struct mts__stream_par *p)
     free(p);
 }
 
+/* What the decode thread waits for from interval v: its worker done, and
+ * before that, with `orders`, the pool's first that many key orders
+ * (par_key_order), else (but `whole`) its records below upto. */
+typedef struct par_want {
+    interval *v;
+    uint32_t upto, orders;
+    int whole;
+} par_want;
+
+static int par_wanted(struct mts__stream_par *p, const par_want *w)
+{
+    if (atomic_load(&w->v->done))
+        return 1;
+    if (w->orders)
+        return atomic_load(&p->orders_ready) >= w->orders;
+    return !w->whole && atomic_load(&w->v->made) >= w->upto;
+}
+
+/* The decode thread: spins a while, then sleeps, until par_wanted. */
+static void par_await(struct mts__stream_par *p, const par_want *w)
+{
+    if (par_wanted(p, w))
+        return;
+    const uint64_t until = now_ns() + SPIN_NS;
+    for (unsigned k = 1;; k++) {
+        spin_turn(k);
+        if (par_wanted(p, w))
+            return;
+        if (k % 32 == 0 && now_ns() > until)
+            break;
+    }
+    /* as par_wait_logged, the other way round; what it waits for is stored
+     * before it counts itself, so a pool thread that sees the count sees
+     * that too. A record count is woken for only once it is reached
+     * (par_made); orders and the worker's end wake it as they come. */
+    pthread_mutex_lock(&p->mu);
+    atomic_store(&w->v->want, w->orders || w->whole ? UINT32_MAX : w->upto);
+    atomic_fetch_add(&p->dec_sleeping, 1);
+    while (!par_wanted(p, w))
+        pthread_cond_wait(&p->progress, &p->mu);
+    atomic_fetch_sub(&p->dec_sleeping, 1);
+    atomic_store(&w->v->want, UINT32_MAX);
+    pthread_mutex_unlock(&p->mu);
+}
+
 /* Until interval i has made its records below `upto` or its worker is
  * done: its error then, if it did not get there. */
 static mts_result par_wait(struct mts__stream_par *p, uint32_t i, uint32_t upto, int whole,
@@ -481,34 +526,12 @@ static mts_result par_wait(struct mts__stream_par *p, uint32_t i, uint32_t upto,
     interval *v = &p->iv[i];
     if (!whole && v->seen >= upto)
         return MTS_OK;
-    int done = atomic_load(&v->done);
-    uint32_t made = atomic_load(&v->made);
-    if (!done && (whole || made < upto)) {
-        const uint64_t until = now_ns() + SPIN_NS;
-        for (unsigned k = 1;; k++) {
-            spin_turn(k);
-            done = atomic_load(&v->done);
-            made = atomic_load(&v->made);
-            if (done || (!whole && made >= upto) || (k % 32 == 0 && now_ns() > until))
-                break;
-        }
-    }
-    if (!done && (whole || made < upto)) {
-        /* as par_wait_logged, the other way round; what it waits for is
-         * stored before it counts itself, so a pool thread that sees the
-         * count sees that too */
-        pthread_mutex_lock(&p->mu);
-        atomic_store(&v->want, whole ? UINT32_MAX : upto);
-        atomic_fetch_add(&p->dec_sleeping, 1);
-        while (!(done = atomic_load(&v->done)) && (whole || (made = atomic_load(&v->made)) < upto))
-            pthread_cond_wait(&p->progress, &p->mu);
-        atomic_fetch_sub(&p->dec_sleeping, 1);
-        atomic_store(&v->want, UINT32_MAX);
-        pthread_mutex_unlock(&p->mu);
-    }
+    par_await(p, &(par_want){.v = v, .upto = upto, .whole = whole});
     /* records made are as good as made, but a worker that failed fails its
-     * whole interval, as one grow would have stopped there */
-    made = atomic_load(&v->made);
+     * whole interval, as one grow would have stopped there (done is read
+     * first: the worker stores its last count, then done) */
+    const int done = atomic_load(&v->done);
+    const uint32_t made = atomic_load(&v->made);
     const int ok = (!done || v->rc == MTS_OK) && (whole ? done : made >= upto);
     v->seen = made;
     if (ok)
@@ -529,20 +552,7 @@ static mts_result par_wait_order(struct mts__stream_par *p, uint32_t k, mts_erro
     interval *v = &p->iv[0];
     if (atomic_load(&p->orders_ready) >= k)
         return MTS_OK;
-    const uint64_t until = now_ns() + SPIN_NS;
-    for (unsigned s = 1; atomic_load(&p->orders_ready) < k && !atomic_load(&v->done); s++) {
-        spin_turn(s);
-        if (s % 32 == 0 && now_ns() > until) {
-            /* as par_wait: counted before the check, woken by the writer */
-            pthread_mutex_lock(&p->mu);
-            atomic_fetch_add(&p->dec_sleeping, 1);
-            while (atomic_load(&p->orders_ready) < k && !atomic_load(&v->done))
-                pthread_cond_wait(&p->progress, &p->mu);
-            atomic_fetch_sub(&p->dec_sleeping, 1);
-            pthread_mutex_unlock(&p->mu);
-            break;
-        }
-    }
+    par_await(p, &(par_want){.v = v, .orders = k});
     if (atomic_load(&p->orders_ready) >= k)
         return MTS_OK;
     if (v->rc == MTS_OK)
