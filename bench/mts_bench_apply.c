@@ -5,7 +5,8 @@
  * per split, and how long a server takes to encode the stream. Models are
  * .mtsm files, or meshes built first. Used by bench/client_cost.sh. With
  * --threads listing several counts, the splits form is timed at each,
- * alternated within each run, a row each. */
+ * alternated within each run, a row each; --json adds each count's time
+ * over the first count's, run by run (its quartiles: over_first_paired). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -186,6 +187,15 @@ int main(int argc, char **argv)
             printf("%-14s FAILED: %s\n", name, ca[0] != cr ? "the forms end in other meshes" : err.msg);
             status = CLI_EXIT_FAIL;
         }
+        /* each count's time over the first count's in the same run: the
+         * machine's drift cancels in a run's pair, so their spread is the
+         * noise the medians' ratio carries */
+        double paired[8][99];
+        for (int x = 0; ok && x < nthreads; x++) {
+            for (int i = 0; i < runs; i++)
+                paired[x][i] = ta[x][i] / ta[0][i];
+            qsort(paired[x], (size_t)runs, sizeof paired[x][0], bench_cmp_double);
+        }
         if (ok)
             qsort(tr, (size_t)runs, sizeof *tr, bench_cmp_double);
         for (int x = 0; ok && x < nthreads; x++) {
@@ -211,10 +221,11 @@ int main(int argc, char **argv)
                         "\"records_ms\":%.3f,\"records_per_s\":%.0f,\"ratio\":%.3f,"
                         "\"ns_per_split\":%.1f,\"splits_ms_min\":%.3f,\"records_ms_min\":%.3f,"
                         "\"encode_s\":%.3f,\"threads\":%u,\"alone_runs\":%d,\"cpu_ms\":%.3f,"
-                        "\"decode_cpu_ms\":%.3f}",
+                        "\"decode_cpu_ms\":%.3f,\"over_first_paired\":[%.3f,%.3f,%.3f]}",
                         first ? "" : ",", row, tris, m.level_count, a.size, r.size, sa * 1e3,
                         n / sa, sr * 1e3, n / sr, sa / sr, sa / n * 1e9, tx[0] * 1e3,
-                        tr[0] * 1e3, encode, threads[x], alone[x], cx * 1e3, dx * 1e3);
+                        tr[0] * 1e3, encode, threads[x], alone[x], cx * 1e3, dx * 1e3,
+                        paired[x][runs / 4], paired[x][runs / 2], paired[x][(3 * runs) / 4]);
             first = 0;
         }
         mts_buf_free(&a);

@@ -354,12 +354,15 @@ for row, r in rows.items():
                                           "records_ms": r["records_ms"], "splits_ms": {},
                                           "splits_ms_min": {}, "over_one_thread": {},
                                           "alone_runs": {}, "cpu_ms": {},
-                                          "decode_cpu_ms": {}, "balanced_over_one": {}})
+                                          "decode_cpu_ms": {}, "balanced_over_one": {},
+                                          "over_one_paired": {}})
     m["splits_ms"][t] = r["splits_ms"]
     m["splits_ms_min"][t] = r["splits_ms_min"]
     m["alone_runs"][t] = r.get("alone_runs")
     m["cpu_ms"][t] = r.get("cpu_ms")
     m["decode_cpu_ms"][t] = r.get("decode_cpu_ms")
+    # T over one thread run by run (counts alternate from 1): q1, median, q3
+    m["over_one_paired"][t] = r.get("over_first_paired") if counts[0] == 1 else None
 for m in apply["models"].values():
     one = m["splits_ms"].get("1")
     for t, ms in m["splits_ms"].items():
@@ -369,12 +372,19 @@ for m in apply["models"].values():
         cpu = m["cpu_ms"].get(t)
         m["balanced_over_one"][t] = round(cpu / int(t) / one, 3) if one and cpu else None
 res["apply"] = apply
+
+
+def paired_cell(q):
+    return f"{q[1]:.2f} [{q[0]:.2f}-{q[2]:.2f}]" if q else "-"
+
+
 print(f"\nThreads: apply time against the decoder's threads (mts-bench-apply, splits form, "
       f"median of {runs}, counts alternated in each run; {procs} processors online)")
 hdr = f"{'model':<14} {'triangles':>9} {'splits':>8} " + " ".join(
     f"{f'{t} thr ms':>10}" for t in counts) + " " + " ".join(
     f"{f'{t}/1':>6}" for t in counts[1:]) + " " + " ".join(
-    f"{f'{t} even':>6}" for t in counts[1:]) + f" {'records ms':>10} {'alone':>5}"
+    f"{f'{t} even':>6}" for t in counts[1:]) + " " + " ".join(
+    f"{f'{t}/1 by run':>15}" for t in counts[1:]) + f" {'records ms':>10} {'alone':>5}"
 print(hdr)
 print("-" * len(hdr))
 for name, m in apply["models"].items():
@@ -382,10 +392,13 @@ for name, m in apply["models"].items():
         f"{m['splits_ms'].get(str(t), float('nan')):>10.2f}" for t in counts) + " " + " ".join(
         f"{m['over_one_thread'].get(str(t)) or float('nan'):>6.2f}" for t in counts[1:]) + " " +
         " ".join(f"{m['balanced_over_one'].get(str(t)) or float('nan'):>6.2f}"
-                 for t in counts[1:]) +
+                 for t in counts[1:]) + " " +
+        " ".join(f"{paired_cell(m['over_one_paired'].get(str(t))):>15}" for t in counts[1:]) +
         f" {m['records_ms']:>10.2f} {m['alone_runs'].get('2') or 0:>5}")
 print("  (T even: the processor time of all T threads, spread evenly over T cores, over one "
-      "thread's time: the least any schedule of that work could take)")
+      "thread's time: the least any schedule of that work could take;\n"
+      "   T/1 by run: T threads over one within each run, median [quartiles]: the spread is "
+      "the noise the medians' ratio carries)")
 for name, why in skipped.items():
     if not name.startswith(("stream", "draco")):
         print(f"{name:<14} skipped: {why}")
