@@ -211,11 +211,12 @@ typedef struct mts_stream_client {
      * intervals) keep theirs. threads_alone_after (tests) makes two do so
      * after that many batches instead, measuring nothing; 0: by measure. */
     uint32_t threads_alone_after;
-    /* Two threads: the decode thread makes the last key's paths for the
-     * pool where the pool is well behind (a tenth of the key's splits);
-     * threads_hand_key_paths (tests) makes it so whatever the pace, the pool
-     * waiting for them, and the two never go on alone.
-     * threads_key_paths_handed: at the full level, the pool took them. */
+    /* Two threads: the decode thread makes a key's paths for the pool where
+     * the pool is well behind (a tenth of the key's splits) and the ids of
+     * the key before are known; threads_hand_key_paths (tests) makes it so
+     * at every key whatever the pace, the pool waiting for them, and the two
+     * never go on alone. threads_key_paths_handed: at the full level, the
+     * pool took the last key's. */
     int threads_hand_key_paths, threads_key_paths_handed;
     uint32_t threads_alone_from; /* the level from which one thread decoded; 0: it did not */
     uint32_t threads_ran;        /* the most threads that decoded (mts_stream_client_threads_used) */

@@ -35,10 +35,10 @@
  * from the base that takes every split, and nothing to fix up (`pipe`);
  * it takes each fan's ring from the log, as the decode thread walked it for
  * the fan code, in place of walking it again (mts_grow_take_ring). The
- * decode thread stripifies the last key on its own mesh too, for the pool
- * if it gets there first and for the ids it needs either way, walks the
- * full level's strips on its own mesh while the pool finishes, and the
- * pool's grow takes them once it is done. */
+ * decode thread stripifies a key on its own mesh too where that pays (the
+ * pool well behind), for the pool and for the ids it needs, walks the full
+ * level's strips on its own mesh while the pool finishes, and the pool's
+ * grow takes them once it is done. */
 
 #define LOG_CHUNK 4096u /* splits a log chunk holds: freed once fixed up */
 #define REC_BLOCK 65536u /* words of a worker's record block */
@@ -48,6 +48,16 @@
 #define KEEP_CHUNK 4096u /* records kept at a time while waiting for the pool */
 
 #define RING_MAX 14u /* corners of a ring the log carries: all but a few */
+
+/* Pipe: a key's paths in the pool's grow's ids, made on the decode thread
+ * where it gets there well ahead of the pool (par_key_paths); the pool
+ * takes them, or makes its own where it got there first (KP_POOL). One
+ * compare-and-swap on state decides, so the arrays are written before
+ * KP_GIVEN and read only after it. */
+typedef struct key_paths {
+    atomic_int state;
+    uint32_t *order, *starts, count, triangles;
+} key_paths;
 
 typedef struct logged_split {
     mts_grow_split sp;   /* as one grow takes it: explicit lists in its ids */
@@ -138,12 +148,10 @@ struct mts__stream_par {
      * (mts__stream_par_fixup) */
     const uint32_t *full_rec;
     uint32_t full_words;
-    /* pipe: the last key's paths in the pool's grow's ids, made on the
-     * decode thread where it gets there with the key before's order at
-     * hand (par_last_key); the pool takes them, or makes its own where it
-     * got there first (KP_POOL) */
-    atomic_int key_paths;
-    uint32_t *kp_order, *kp_starts, kp_count, kp_triangles;
+    /* pipe: each key's paths where the decode thread made them; those
+     * below kp_freed are freed (the pool is past them) */
+    key_paths *kp;
+    uint32_t kp_freed;
     uint32_t keys_below; /* the keys below the full level (which may be listed) */
     /* pipe: orders[0..orders_ready) are written (par_key_order, on the pool
      * thread, inside its key split); pool_key: the key it is at */
@@ -335,20 +343,21 @@ static void par_grow(struct mts__stream_par *p, interval *v)
                 mts_grow_take_ring(v->w, ls->sp.parent, ls->ring, ls->ring_n, ls->ring_closed,
                                    p->pool_ids, p->pool_ids_n);
             int expect = KP_OPEN;
-            const int last_key =
-                p->pipe && key + 1 == p->keys_below && p->go.key_levels[key] == j + 1;
-            for (unsigned k = 1; last_key && p->hand && atomic_load(&p->key_paths) == KP_OPEN &&
+            key_paths *kp = p->pipe && key < p->keys_below && p->go.key_levels[key] == j + 1
+                                ? &p->kp[key]
+                                : NULL;
+            for (unsigned k = 1; kp && p->hand && atomic_load(&kp->state) == KP_OPEN &&
                                  !atomic_load(&p->stop);
                  k++)
                 spin_turn(k); /* the test's word: the decode thread makes them */
-            if (last_key && !atomic_compare_exchange_strong(&p->key_paths, &expect, KP_POOL) &&
+            if (kp && !atomic_compare_exchange_strong(&kp->state, &expect, KP_POOL) &&
                 expect == KP_GIVEN)
-                mts_grow_give_key_paths(v->w, j + 1, p->kp_triangles, p->kp_order, p->kp_starts,
-                                        p->kp_count);
+                mts_grow_give_key_paths(v->w, j + 1, kp->triangles, kp->order, kp->starts,
+                                        kp->count);
             if (p->pipe) /* one pool thread: par_key_order's */
                 p->pool_key = key;
             rc = mts_grow_next(v->w, &ls->sp, NULL, &r, &rw, &v->err);
-            if (last_key) /* read in that split only */
+            if (kp) /* read in that split only */
                 mts_grow_give_key_paths(v->w, 0, 0, NULL, NULL, 0);
             if (rc != MTS_OK)
                 break;
@@ -463,8 +472,11 @@ void mts__stream_par_free(struct mts__stream_par *p)
     free(p->ids);
     free(p->inv);
     free(p->pool_ids);
-    free(p->kp_order);
-    free(p->kp_starts);
+    for (uint32_t k = 0; p->kp && k < p->keys_below; k++) {
+        free(p->kp[k].order);
+        free(p->kp[k].starts);
+    }
+    free(p->kp);
     free(p->mapped.w);
     for (uint32_t k = 0; p->orders && k < p->go.key_count; k++)
         free(p->orders[k]);
@@ -614,6 +626,10 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
         p->iv[1].end = n;
         while (p->keys_below < kc && c->info.key_levels[p->keys_below] < n)
             p->keys_below++;
+        if (!(p->kp = calloc((size_t)p->keys_below + 1, sizeof *p->kp)))
+            rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the decoder's threads");
+        for (uint32_t k = 0; rc == MTS_OK && k < p->keys_below; k++)
+            atomic_init(&p->kp[k].state, KP_OPEN);
     }
     if (rc == MTS_OK && !p->pipe) /* pipe: every record is the pool's grow's own */
         rc = mts_grow_fixup_create(&p->fix, err);
@@ -958,57 +974,78 @@ static mts_result par_keep_until_done(mts_stream_client *c, mts_error *err)
     }
 }
 
-/* Whether the decode thread, at the last key (`level`) with the pool at
- * `made`, makes the key's paths. In units of the pool's splits, measured on
+/* Whether the decode thread, at key k (`level`) with the pool at `made`,
+ * makes the key's paths. In units of the pool's splits, measured on
  * bunny00 and the 1.2M mesh alike: greedy.c here costs some 8% of the key's
  * splits, the pool's whole key split some 11%. So the pool takes the paths
- * where it is a tenth behind; and where the decode thread, going on to the
- * full level (its splits past the key), would wait there for the pool's
- * key, it waits less making them itself (it then knows the ids through the
- * key). Elsewhere (the pool close behind, many splits left) it goes on. */
-static int par_key_paths_pay(const struct mts__stream_par *p, uint32_t level, uint32_t made,
+ * where it is a tenth behind: it is the bound then, and the decode thread
+ * has time to spare. At the last key, too, where the decode thread, going
+ * on to the full level (its splits past the key), would wait there for the
+ * pool's key, it waits less making them itself (it then knows the ids
+ * through the key). Elsewhere (the pool close behind) it goes on. */
+static int par_key_paths_pay(const struct mts__stream_par *p, uint32_t k, uint32_t made,
                              uint32_t n)
 {
+    const uint32_t level = p->go.key_levels[k];
     const uint64_t behind = level - (made < level ? made : level);
-    return p->hand || behind > level / 10 || behind + level / 32 > n - level;
+    return p->hand || behind > level / 10 ||
+           (k + 1 == p->keys_below && behind + level / 32 > n - level);
 }
 
-/* Pipe, the mesh-only grow at the last key: its restripification, which
- * the pool's grow makes there, made here too where it pays
- * (par_key_paths_pay), in the pool's ids (those of the key before: waited
- * for where the pool is not past it yet, as the batch's end would wait for
- * its records). The pool takes the paths if it gets there after them, and
- * the decode thread then knows the ids through the last key, which the
- * full level's walk needs; else it takes them from the pool's order at the
- * full level. */
-static mts_result par_last_key(mts_stream_client *c, mts_error *err)
+/* The paths of the keys the pool is past are freed. */
+static void par_free_key_paths(struct mts__stream_par *p)
+{
+    const uint32_t made = atomic_load(&p->iv[0].made);
+    for (; p->kp_freed < p->keys_below && made >= p->go.key_levels[p->kp_freed]; p->kp_freed++) {
+        key_paths *kp = &p->kp[p->kp_freed];
+        free(kp->order);
+        free(kp->starts);
+        kp->order = kp->starts = NULL;
+    }
+}
+
+/* Pipe, the mesh-only grow at key k: its restripification, which the pool's
+ * grow makes there, made here too where it pays (par_key_paths_pay), in
+ * the pool's ids (those of the key before). Below the last key only where
+ * those are known without waiting (the decode thread made the key before's
+ * paths too, or the pool is past it); at the last key waited for where the
+ * pool is not past it yet, as the batch's end would wait for its records.
+ * The pool takes the paths if it gets there after them, and the decode
+ * thread then knows the ids through the key, which explicit splits, the
+ * next key's paths and the full level's walk need; else it takes them from
+ * the pool's order. */
+static mts_result par_key_paths(mts_stream_client *c, uint32_t k, mts_error *err)
 {
     struct mts__stream_par *p = c->par;
-    const uint32_t k = p->keys_below - 1, made = atomic_load(&p->iv[0].made),
-                   level = p->go.key_levels[k], levels = c->model.level_count;
-    if (p->composed > k || p->kp_order || !par_key_paths_pay(p, level, made, levels))
+    const uint32_t levels = c->model.level_count;
+    const int last = k + 1 == p->keys_below;
+    par_free_key_paths(p);
+    if (p->composed > k || k < p->kp_freed ||
+        !par_key_paths_pay(p, k, atomic_load(&p->iv[0].made), levels) ||
+        (!last && !p->hand && p->composed < k && atomic_load(&p->orders_ready) < k))
         return MTS_OK;
     mts_result rc = par_chain(c, k, err);
-    if (rc != MTS_OK || !par_key_paths_pay(p, level, atomic_load(&p->iv[0].made), levels))
+    if (rc != MTS_OK || !par_key_paths_pay(p, k, atomic_load(&p->iv[0].made), levels))
         return rc;
     if ((rc = par_ids(c, err)) != MTS_OK)
         return rc;
     /* in the pool's ids; mine: the same in the mesh-only grow's */
+    key_paths *kp = &p->kp[k];
     const uint32_t n = p->ids_n;
     uint32_t *mine = malloc((size_t)n * 4 + 4), count = 0;
-    p->kp_order = malloc((size_t)n * 4 + 4);
-    p->kp_starts = malloc((size_t)n * 4 + 8);
-    if (!mine || !p->kp_order || !p->kp_starts)
-        rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the last key's paths");
+    kp->order = malloc((size_t)n * 4 + 4);
+    kp->starts = malloc((size_t)n * 4 + 8);
+    if (!mine || !kp->order || !kp->starts)
+        rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for a key's paths");
     if (rc == MTS_OK)
-        rc = mts_grow_key_paths(c->grow, p->ids, p->inv, p->kp_order, p->kp_starts, &count, err);
+        rc = mts_grow_key_paths(c->grow, p->ids, p->inv, kp->order, kp->starts, &count, err);
     if (rc == MTS_OK) {
         for (uint32_t i = 0; i < n; i++)
-            mine[i] = p->inv[p->kp_order[i]];
-        p->kp_count = count;
-        p->kp_triangles = n;
+            mine[i] = p->inv[kp->order[i]];
+        kp->count = count;
+        kp->triangles = n;
         int expect = KP_OPEN;
-        atomic_compare_exchange_strong(&p->key_paths, &expect, KP_GIVEN);
+        atomic_compare_exchange_strong(&kp->state, &expect, KP_GIVEN);
         /* the key's renumbering, composed: what the pool's order would add */
         for (uint32_t i = 0; i < n; i++) {
             p->ids[mine[i]] = i;
@@ -1044,15 +1081,14 @@ static mts_result par_full_split(mts_stream_client *c, const mts_grow_split *sp,
     }
     mts_result rc = par_keep_until_done(c, err);
     /* the pool, done, reached the last key: it took the paths or made its own */
-    c->threads_key_paths_handed = atomic_load(&p->key_paths) == KP_GIVEN;
+    c->threads_key_paths_handed =
+        p->keys_below && atomic_load(&p->kp[p->keys_below - 1].state) == KP_GIVEN;
     if (rc == MTS_OK && wrc != MTS_OK) {
         rc = wrc;
         if (err)
             *err = werr;
     }
-    free(p->kp_order);
-    free(p->kp_starts);
-    p->kp_order = p->kp_starts = NULL;
+    par_free_key_paths(p);
     if (rc == MTS_OK) {
         const mts_grow_full taken = {.derived = &walked};
         rc = mts_grow_next(p->iv[0].w, sp, &taken, &p->full_rec, &p->full_words, err);
@@ -1148,8 +1184,9 @@ mts_result mts__stream_par_split(mts_stream_client *c, uint32_t j, const mts_gro
         par_publish(p, j + 1);
     }
     rc = mts_grow_split_mesh(c->grow, &ms, err);
-    if (rc == MTS_OK && p->pipe && p->keys_below && j + 1 == p->go.key_levels[p->keys_below - 1])
-        rc = par_last_key(c, err);
+    if (rc == MTS_OK && p->pipe && p->dec_keys < p->keys_below &&
+        j + 1 == p->go.key_levels[p->dec_keys])
+        rc = par_key_paths(c, p->dec_keys, err);
     return rc;
 }
 

@@ -322,12 +322,12 @@ static void model_threads(mts_test *t, const char *path, const char *name, size_
     for (int k = 0; k < 2 && !t->case_failed; k++) {
         /* pieces 2: two threads, then one from a third of the batches on
          * (as where the threads turn out to share a core) */
-        /* pieces 3: two threads, the last key's paths made by the decode
+        /* pieces 3: two threads, every key's paths made by the decode
          * thread and taken by the pool, as where the pool is well behind */
         for (int pieces = 0; pieces < (k == 0 ? 4 : 2) && !t->case_failed; pieces++) {
             char what[96];
             snprintf(what, sizeof what, "%s, %u threads, %s", name, threads[k],
-                     pieces == 3   ? "whole, the last key's paths handed across"
+                     pieces == 3   ? "whole, every key's paths handed across"
                      : pieces == 2 ? "whole, alone after a third"
                      : pieces      ? "small pieces"
                                    : "whole");
