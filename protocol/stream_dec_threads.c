@@ -974,8 +974,8 @@ static mts_result par_keep_until_done(mts_stream_client *c, mts_error *err)
     }
 }
 
-/* Whether the decode thread, at key k (`level`) with the pool at `made`,
- * makes the key's paths. In units of the pool's splits, measured on
+/* Whether the decode thread, at key k with the pool at `made` (of n
+ * levels), makes the key's paths. In units of the pool's splits, measured on
  * bunny00 and the 1.2M mesh alike: greedy.c here costs some 8% of the key's
  * splits, the pool's whole key split some 11%. So the pool takes the paths
  * where it is a tenth behind: it is the bound then, and the decode thread
