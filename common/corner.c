@@ -19,18 +19,23 @@
 /* ---- triangles and vertices ---- */
 
 /* Room for the per-triangle arrays: cache-line aligned (two triangles a
- * line), and past a huge page on huge pages, since every walk round a
- * vertex and along a strip lands somewhere else in them: a 1.2M-triangle
- * mesh's triangles take 38 MB, far past what the TLB covers in 4 KB pages. */
-enum { HUGE_PAGE = 2 << 20 };
+ * line), and on huge pages once an array is past what the TLB covers in
+ * 4 KB pages (some 1,500 to 2,000 entries: 6 to 8 MB), since every walk
+ * round a vertex and along a strip lands somewhere else in it: a
+ * 1.2M-triangle mesh's triangles take 38 MB. Not below that: a huge page is
+ * zeroed whole at its first touch, and a thread's malloc arena hands freed
+ * memory back to the kernel at once, so a grow on a decoder's pool thread
+ * faulted in and cleared its arrays' huge pages anew at every key, where
+ * they bought nothing. */
+enum { HUGE_PAGE = 2 << 20, HUGE_FROM = 8 << 20 };
 
 static void *tri_array(size_t bytes)
 {
     void *p;
-    if (posix_memalign(&p, bytes >= HUGE_PAGE ? HUGE_PAGE : 64, bytes) != 0)
+    if (posix_memalign(&p, bytes >= HUGE_FROM ? HUGE_PAGE : 64, bytes) != 0)
         return NULL;
 #ifdef MADV_HUGEPAGE
-    if (bytes >= HUGE_PAGE)
+    if (bytes >= HUGE_FROM)
         madvise(p, bytes, MADV_HUGEPAGE);
 #endif
     return p;
