@@ -5,7 +5,6 @@
 
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 
 #include "grow_internal.h"
 #include "words.h"
@@ -18,29 +17,18 @@
 
 /* ---- triangles and vertices ---- */
 
-/* Room for the per-triangle arrays: cache-line aligned (two triangles a
- * line), and on huge pages once an array is past what the TLB covers in
- * 4 KB pages (some 1,500 to 2,000 entries: 6 to 8 MB), since every walk
- * round a vertex and along a strip lands somewhere else in it: a
- * 1.2M-triangle mesh's triangles take 38 MB. Not below that: a huge page is
- * zeroed whole at its first touch, and a thread's malloc arena hands freed
- * memory back to the kernel at once, so a grow on a decoder's pool thread
- * faulted in and cleared its arrays' huge pages anew at every key, where
- * they bought nothing. */
-enum { HUGE_PAGE = 2 << 20, HUGE_FROM = 8 << 20 };
-
-static void *tri_array(size_t bytes)
+/* The most triangles g may hold from here: a split adds at most two. It
+ * only sizes the arrays' reservations (bigmem.h). */
+static uint64_t tri_most(const mts_grow *g, uint32_t extra)
 {
-    void *p;
-    if (posix_memalign(&p, bytes >= HUGE_FROM ? HUGE_PAGE : 64, bytes) != 0)
-        return NULL;
-#ifdef MADV_HUGEPAGE
-    if (bytes >= HUGE_FROM)
-        madvise(p, bytes, MADV_HUGEPAGE);
-#endif
-    return p;
+    return g->tri_count + (uint64_t)extra + (g->level < g->n ? 2ull * (g->n - g->level) : 0);
 }
 
+/* Room for the per-triangle arrays: cache-line aligned (two triangles a
+ * line), and past 1 MB in a reservation on huge pages, grown in place
+ * (bigmem.h): every walk round a vertex and along a strip lands somewhere
+ * else in them, and a fresh client would otherwise fault in each doubling
+ * anew. */
 int mts__corner_tri_reserve(mts_grow *g, uint32_t extra)
 {
     if (g->tri_count + (uint64_t)extra <= g->tri_cap)
@@ -50,22 +38,21 @@ int mts__corner_tri_reserve(mts_grow *g, uint32_t extra)
     uint32_t cap = g->tri_cap ? g->tri_cap : 64;
     while (cap < g->tri_count + extra)
         cap *= 2;
-    mts__grow_tri *t = tri_array((size_t)cap * sizeof *g->tri);
-    int32_t *prev = tri_array((size_t)cap * 4);
-    if (!t || !prev) {
-        free(t);
-        free(prev);
+    const uint64_t most = tri_most(g, extra);
+    g->tri_mem.align = 64;
+    const int ok = mts_bigmem_room(&g->tri_mem, (size_t)cap * sizeof *g->tri,
+                                   (size_t)g->tri_count * sizeof *g->tri,
+                                   (size_t)most * sizeof *g->tri) &&
+                   mts_bigmem_room(&g->prev_mem, (size_t)cap * 4, (size_t)g->tri_count * 4,
+                                   (size_t)most * 4);
+    g->tri = g->tri_mem.p;
+    g->prev = g->prev_mem.p;
+    if (!ok)
         return 0;
-    }
-    if (g->tri_count) {
-        memcpy(t, g->tri, (size_t)g->tri_count * sizeof *g->tri);
-        memcpy(prev, g->prev, (size_t)g->tri_count * 4);
-    }
-    free(g->tri);
-    free(g->prev);
-    g->tri = t;
-    g->prev = prev;
-    g->tri_cap = cap;
+    const size_t room = g->tri_mem.room / sizeof *g->tri < g->prev_mem.room / 4
+                            ? g->tri_mem.room / sizeof *g->tri
+                            : g->prev_mem.room / 4;
+    g->tri_cap = room < (uint32_t)INT32_MAX / 2 ? (uint32_t)room : (uint32_t)INT32_MAX / 2;
     return 1;
 }
 
@@ -697,9 +684,13 @@ int mts_grow_model_split(mts_grow *g, const mts_model *m, uint32_t j, mts_grow_s
 
 int mts__corner_renumber(mts_grow *g, const uint32_t *perm)
 {
-    mts__grow_tri *nt = tri_array((size_t)g->tri_cap * sizeof *g->tri);
-    if (!nt)
+    /* into the array the last key's renumbering left behind where that is a
+     * reservation, which keeps its pages */
+    g->spare_mem.align = 64;
+    if (!mts_bigmem_room(&g->spare_mem, (size_t)g->tri_cap * sizeof *g->tri, 0,
+                         (size_t)tri_most(g, 0) * sizeof *g->tri))
         return 0;
+    mts__grow_tri *nt = g->spare_mem.p;
     for (uint32_t t = 0; t < g->tri_count; t++) {
         mts__grow_tri *x = &nt[perm[t]];
         const mts__grow_tri *o = &g->tri[t];
@@ -710,8 +701,12 @@ int mts__corner_renumber(mts_grow *g, const uint32_t *perm)
         }
         x->nx = x->slot = -1;
     }
-    free(g->tri);
+    mts_bigmem_swap(&g->tri_mem, &g->spare_mem);
     g->tri = nt;
+    /* a small array goes back to malloc, which hands its lines to the next
+     * one; a reservation stays for the next key */
+    if (!g->spare_mem.reserved)
+        mts_bigmem_free(&g->spare_mem);
     for (size_t x = 0; x < (size_t)g->nb + g->level; x++) {
         uint32_t c = g->vhead[x];
         if (c != NONE)

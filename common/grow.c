@@ -989,9 +989,10 @@ void mts_grow_free(mts_grow *g)
 {
     if (!g)
         return;
-    free(g->tri);
+    mts_bigmem_free(&g->tri_mem);
+    mts_bigmem_free(&g->prev_mem);
+    mts_bigmem_free(&g->spare_mem);
     free(g->vhead);
-    free(g->prev);
     if (g->slot) {
         for (uint32_t s = 0; s < g->slot_cap; s++)
             free(g->slot[s].seq.w);

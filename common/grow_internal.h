@@ -13,6 +13,7 @@
 
 #include <stdint.h>
 
+#include "bigmem.h"
 #include "error.h"
 #include "grow.h"
 #include "words.h"
@@ -50,8 +51,10 @@ struct mts_grow {
     uint32_t nb, n, level;
     /* triangles, all live */
     uint32_t tri_count, tri_cap;
-    mts__grow_tri *tri; /* 64-byte aligned: two to a cache line */
-    int32_t *prev;      /* each triangle's previous on its path (read far less) */
+    mts__grow_tri *tri; /* 64-byte aligned: two to a cache line (tri_mem.p) */
+    int32_t *prev;      /* each triangle's previous on its path, read far less (prev_mem.p) */
+    /* where they live, and the array a key's renumbering writes into */
+    mts_bigmem tri_mem, prev_mem, spare_mem;
     uint32_t *vhead;    /* per vertex: a corner of it, MTS_GROW_NONE when it has none */
     uint32_t vhead_room; /* vertices vhead holds: grown as splits bring them */
     /* slots */

@@ -18,7 +18,10 @@ void mts_model_free(mts_model *m)
     mts_strips_free(&m->full);
     mts_strips_free(&m->base);
     free(m->record_offsets);
-    free(m->record_data);
+    if (m->record_mem.p)
+        mts_bigmem_free(&m->record_mem);
+    else
+        free(m->record_data);
     free(m->level_triangles);
     free(m->level_strips);
     free(m->level_indices);

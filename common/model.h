@@ -35,6 +35,7 @@
 
 #include <stdint.h>
 
+#include "bigmem.h"
 #include "error.h"
 #include "strips.h"
 
@@ -72,6 +73,9 @@ typedef struct mts_model {
     uint32_t *record_offsets; /* n + 1 */
     uint32_t *record_data;
     uint32_t record_word_count; /* == record_offsets[n] */
+    /* where record_data lives when a stream client grew it as records came
+     * (bigmem.h); else empty, and record_data a malloc block */
+    mts_bigmem record_mem;
 
     /* What a stream sends in place of the records (grow.h): the key levels
      * (ascending, in 1..n-1; the full level is always a key), and per split j

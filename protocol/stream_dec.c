@@ -7,7 +7,6 @@
 #include "stream_coding.h"
 #include "stream_dec_threads.h"
 
-#include <sys/mman.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -28,7 +27,6 @@ enum { ST_INFO = 0, ST_BASE, ST_BATCHES, ST_DONE, ST_FAILED, ST_SKIP_BASE };
  * vertices), so those counts are capped: 2^24 vertices (a 16M-vertex model
  * holds about 1.2 GB here once it has all come). */
 #define CLIENT_MAX_VERTICES (1u << 24)
-#define RECORDS_HUGE ((size_t)2 << 20) /* a huge page */
 
 void mts_stream_client_init(mts_stream_client *c)
 {
@@ -467,12 +465,8 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
 
 /* Room in the client's model for `words` more record words from word `at`.
  * A whole model's records run to megabytes (bunny00: 1.7 M words, the 1.2M
- * mesh 28 M), and a fresh page costs a fault and its zeroing on first
- * touch, which on a virtual machine is dearer than decoding the page's
- * records. So the block grows by realloc, which for a large block moves its
- * pages (mremap) rather than copying them into fresh ones: each page is
- * zeroed once, not once a doubling. Its 2 MB-aligned part is asked for in
- * huge pages where the kernel gives them (madvise; a hint, nothing more). */
+ * mesh 28 M): past a megabyte they move into a reservation for the records
+ * form's bound and grow there in place, on huge pages (bigmem.h). */
 static mts_result reserve_records(mts_stream_client *c, size_t at, size_t words, mts_error *err)
 {
     mts_model *m = &c->model;
@@ -487,18 +481,16 @@ static mts_result reserve_records(mts_stream_client *c, size_t at, size_t words,
     if (c->record_word_limit && cap > c->record_word_limit + 1 &&
         at + words + 1 <= c->record_word_limit + 1)
         cap = (size_t)c->record_word_limit + 1;
-    uint32_t *w = realloc(m->record_data, cap * 4);
-    if (!w)
+    const size_t most = c->record_word_limit ? ((size_t)c->record_word_limit + 1) * 4 : 0;
+    if (!mts_bigmem_room(&m->record_mem, cap * 4, at * 4, most))
         return mts_error_set(err, MTS_ERR_NOMEM, "BATCH: out of memory for %zu record words",
                              cap);
-#ifdef MADV_HUGEPAGE
-    const uintptr_t lo = ((uintptr_t)w + RECORDS_HUGE - 1) & ~(uintptr_t)(RECORDS_HUGE - 1),
-                    hi = (uintptr_t)(w + cap) & ~(uintptr_t)(RECORDS_HUGE - 1);
-    if (hi > lo)
-        madvise((void *)lo, hi - lo, MADV_HUGEPAGE);
-#endif
-    m->record_data = w;
-    c->record_capacity = cap;
+    m->record_data = m->record_mem.p;
+    /* a reservation is rounded up to huge pages; what is used stays within
+     * the bound */
+    c->record_capacity = m->record_mem.room / 4;
+    if (c->record_word_limit && c->record_capacity > c->record_word_limit + 1)
+        c->record_capacity = (size_t)c->record_word_limit + 1;
     return MTS_OK;
 }
 

@@ -19,6 +19,7 @@
 #include <unistd.h>
 #endif
 
+#include "bigmem.h"
 #include "words.h"
 
 /* The decode thread (the caller's) decodes the splits against a mesh-only
@@ -41,7 +42,7 @@
  * grow takes them once it is done. */
 
 #define LOG_CHUNK 4096u /* splits a log chunk holds: freed once fixed up */
-#define REC_BLOCK 65536u /* words of a worker's record block */
+#define REC_BLOCK 65536u /* words of a worker's first record block */
 
 #define PREFETCH_MIN_TRIANGLES (1u << 18) /* 8 MB of triangle records */
 
@@ -71,12 +72,24 @@ typedef struct logged_split {
 } logged_split;
 
 /* Records are appended to blocks that never move, so the decode thread
- * reads one while the worker writes the next. */
+ * reads one while the worker writes the next. Each block is twice the last
+ * up to 2 MB, and those are huge pages (bigmem.h): a small mesh's records
+ * stay in small blocks, a large one's cost a fault every 2 MB, not every
+ * 4 KB. */
 typedef struct rec_block {
     struct rec_block *next;
+    mts_bigmem mem; /* where the block itself lives */
     size_t used, cap;
     uint32_t w[];
 } rec_block;
+
+#define REC_BLOCK_MOST ((((size_t)2 << 20) - sizeof(rec_block)) / 4)
+
+static void rec_block_free(rec_block *b)
+{
+    mts_bigmem m = b->mem;
+    mts_bigmem_free(&m);
+}
 
 typedef struct interval {
     mts_grow *w;         /* made on the decode thread, grown on a pool thread */
@@ -90,6 +103,7 @@ typedef struct interval {
     /* oldest first: the worker appends at tail, the decode thread frees
      * from the head those whose records it has kept */
     rec_block *blocks, *tail;
+    size_t block_words; /* the next block's words; 0: REC_BLOCK */
 } interval;
 
 struct mts__stream_par {
@@ -183,7 +197,7 @@ static void par_free_blocks(interval *v)
     while (v->blocks) {
         rec_block *b = v->blocks;
         v->blocks = b->next;
-        free(b);
+        rec_block_free(b);
     }
     v->tail = NULL;
 }
@@ -373,11 +387,16 @@ static void par_grow(struct mts__stream_par *p, interval *v)
             }
             rec_block *b = v->tail;
             if (!b || b->cap - b->used < rw) {
-                const size_t cap = rw > REC_BLOCK ? rw : REC_BLOCK;
-                if (!(b = malloc(sizeof *b + cap * 4))) {
+                const size_t want = v->block_words ? v->block_words : REC_BLOCK,
+                             cap = rw > want ? rw : want;
+                v->block_words = 2 * want < REC_BLOCK_MOST ? 2 * want : REC_BLOCK_MOST;
+                mts_bigmem m = {0};
+                if (!mts_bigmem_room(&m, sizeof *b + cap * 4, 0, 0)) {
                     rc = mts_error_set(&v->err, MTS_ERR_NOMEM, "out of memory for records");
                     break;
                 }
+                b = m.p;
+                b->mem = m;
                 b->next = NULL;
                 b->used = 0;
                 b->cap = cap;
@@ -919,7 +938,7 @@ mts_result mts__stream_par_fixup(mts_stream_client *c, uint32_t upto, mts_error 
                              at > (uintptr_t)(v->blocks->w + v->blocks->cap))) {
             rec_block *b = v->blocks;
             v->blocks = b->next;
-            free(b);
+            rec_block_free(b);
         }
         if (p->fixed % LOG_CHUNK == 0)
             par_free_chunk(p, p->fixed / LOG_CHUNK - 1);

@@ -1,0 +1,105 @@
+/* Large growing arrays in address space reserved once (bigmem.h). */
+#include "bigmem.h"
+
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* A reservation wants a 64-bit address space (the bounds run to gigabytes)
+ * and mmap; WebAssembly's heap and 32-bit builds keep realloc. */
+#if defined(__linux__) && !defined(__EMSCRIPTEN__) && UINTPTR_MAX > 0xffffffffu
+#include <sys/mman.h>
+#define BIGMEM_RESERVE 1
+#else
+#define BIGMEM_RESERVE 0
+#endif
+
+#define HUGE_PAGE ((size_t)2 << 20)
+
+#if BIGMEM_RESERVE
+/* `bytes` of address space on a 2 MB boundary, backed only where touched;
+ * NULL where refused. */
+static void *reserve(size_t bytes)
+{
+    const size_t span = bytes + HUGE_PAGE;
+    if (span < bytes)
+        return NULL;
+    uint8_t *p = mmap(NULL, span, PROT_READ | PROT_WRITE,
+                      MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+    if (p == MAP_FAILED)
+        return NULL;
+    /* trim to the boundary: what is cut off either side is given back */
+    uint8_t *q = (uint8_t *)(((uintptr_t)p + HUGE_PAGE - 1) & ~(uintptr_t)(HUGE_PAGE - 1));
+    if (q > p)
+        munmap(p, (size_t)(q - p));
+    if (p + span > q + bytes)
+        munmap(q + bytes, (size_t)(p + span - (q + bytes)));
+#ifdef MADV_HUGEPAGE
+    madvise(q, bytes, MADV_HUGEPAGE);
+#endif
+    return q;
+}
+#endif
+
+int mts_bigmem_room(mts_bigmem *m, size_t bytes, size_t keep, size_t most)
+{
+    if (bytes <= m->room)
+        return 1;
+    if (keep > m->room)
+        keep = m->room;
+#if BIGMEM_RESERVE
+    if (bytes >= MTS_BIGMEM_FROM) {
+        size_t want = most > bytes ? most : bytes;
+        if (m->reserved) /* past the bound: twice over, or what is asked */
+            want = bytes > 2 * m->reserved ? bytes : 2 * m->reserved;
+        want = (want + HUGE_PAGE - 1) & ~(HUGE_PAGE - 1);
+        void *q = want >= bytes ? reserve(want) : NULL;
+        if (q) {
+            if (keep)
+                memcpy(q, m->p, keep);
+            const size_t align = m->align;
+            mts_bigmem_free(m);
+            m->p = q;
+            m->room = m->reserved = want;
+            m->align = align;
+            return 1;
+        }
+        if (m->reserved) /* cannot move a reservation into realloc */
+            return 0;
+    }
+#endif
+    (void)most;
+    void *q;
+    if (!m->align) {
+        if (!(q = realloc(m->p, bytes)))
+            return 0;
+    } else {
+        if (posix_memalign(&q, m->align, bytes) != 0)
+            return 0;
+        if (keep)
+            memcpy(q, m->p, keep);
+        free(m->p);
+    }
+    m->p = q;
+    m->room = bytes;
+    return 1;
+}
+
+void mts_bigmem_swap(mts_bigmem *a, mts_bigmem *b)
+{
+    const mts_bigmem t = *a;
+    *a = *b;
+    *b = t;
+}
+
+void mts_bigmem_free(mts_bigmem *m)
+{
+#if BIGMEM_RESERVE
+    if (m->reserved)
+        munmap(m->p, m->reserved);
+    else
+#endif
+        free(m->p);
+    m->p = NULL;
+    m->room = m->reserved = 0; /* the alignment stays: the owner's */
+}
