@@ -8,6 +8,7 @@
 /* A reservation wants a 64-bit address space (the bounds run to gigabytes)
  * and mmap; WebAssembly's heap and 32-bit builds keep realloc. */
 #if defined(__linux__) && !defined(__EMSCRIPTEN__) && UINTPTR_MAX > 0xffffffffu
+#include <pthread.h>
 #include <sys/mman.h>
 #define BIGMEM_RESERVE 1
 #else
@@ -16,7 +17,79 @@
 
 #define HUGE_PAGE ((size_t)2 << 20)
 
+struct mts_bigmem_cache {
 #if BIGMEM_RESERVE
+    pthread_mutex_t mu;
+    uint32_t count;
+    void *p[MTS_BIGMEM_CACHE_MAX];
+    size_t reserved[MTS_BIGMEM_CACHE_MAX];
+#else
+    int unused; /* nothing is reserved: nothing to keep */
+#endif
+};
+
+mts_bigmem_cache *mts_bigmem_cache_create(void)
+{
+    mts_bigmem_cache *c = calloc(1, sizeof *c);
+#if BIGMEM_RESERVE
+    if (c && pthread_mutex_init(&c->mu, NULL) != 0) {
+        free(c);
+        return NULL;
+    }
+#endif
+    return c;
+}
+
+void mts_bigmem_cache_free(mts_bigmem_cache *c)
+{
+    if (!c)
+        return;
+#if BIGMEM_RESERVE
+    for (uint32_t i = 0; i < c->count; i++)
+        munmap(c->p[i], c->reserved[i]);
+    pthread_mutex_destroy(&c->mu);
+#endif
+    free(c);
+}
+
+#if BIGMEM_RESERVE
+/* The smallest kept reservation of at least `bytes`, taken out; NULL when
+ * none is. */
+static void *cache_take(mts_bigmem_cache *c, size_t bytes, size_t *reserved)
+{
+    void *p = NULL;
+    pthread_mutex_lock(&c->mu);
+    uint32_t best = c->count;
+    for (uint32_t i = 0; i < c->count; i++) {
+        if (c->reserved[i] >= bytes && (best == c->count || c->reserved[i] < c->reserved[best]))
+            best = i;
+    }
+    if (best < c->count) {
+        p = c->p[best];
+        *reserved = c->reserved[best];
+        c->count--;
+        c->p[best] = c->p[c->count];
+        c->reserved[best] = c->reserved[c->count];
+    }
+    pthread_mutex_unlock(&c->mu);
+    return p;
+}
+
+/* 1 when the cache kept the reservation. */
+static int cache_put(mts_bigmem_cache *c, void *p, size_t reserved)
+{
+    int kept = 0;
+    pthread_mutex_lock(&c->mu);
+    if (c->count < MTS_BIGMEM_CACHE_MAX) {
+        c->p[c->count] = p;
+        c->reserved[c->count] = reserved;
+        c->count++;
+        kept = 1;
+    }
+    pthread_mutex_unlock(&c->mu);
+    return kept;
+}
+
 /* `bytes` of address space on a 2 MB boundary, backed only where touched;
  * NULL where refused. */
 static void *reserve(size_t bytes)
@@ -53,15 +126,17 @@ int mts_bigmem_room(mts_bigmem *m, size_t bytes, size_t keep, size_t most)
         if (m->reserved) /* past the bound: twice over, or what is asked */
             want = bytes > 2 * m->reserved ? bytes : 2 * m->reserved;
         want = (want + HUGE_PAGE - 1) & ~(HUGE_PAGE - 1);
-        void *q = want >= bytes ? reserve(want) : NULL;
+        void *q = NULL;
+        if (want >= bytes && m->cache)
+            q = cache_take(m->cache, want, &want);
+        if (want >= bytes && !q)
+            q = reserve(want);
         if (q) {
             if (keep)
                 memcpy(q, m->p, keep);
-            const size_t align = m->align;
             mts_bigmem_free(m);
             m->p = q;
             m->room = m->reserved = want;
-            m->align = align;
             return 1;
         }
         if (m->reserved) /* cannot move a reservation into realloc */
@@ -95,11 +170,12 @@ void mts_bigmem_swap(mts_bigmem *a, mts_bigmem *b)
 void mts_bigmem_free(mts_bigmem *m)
 {
 #if BIGMEM_RESERVE
-    if (m->reserved)
-        munmap(m->p, m->reserved);
-    else
+    if (m->reserved) {
+        if (!m->cache || !cache_put(m->cache, m->p, m->reserved))
+            munmap(m->p, m->reserved);
+    } else
 #endif
         free(m->p);
     m->p = NULL;
-    m->room = m->reserved = 0; /* the alignment stays: the owner's */
+    m->room = m->reserved = 0; /* align and cache stay: the owner's */
 }

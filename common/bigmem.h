@@ -28,12 +28,32 @@
 /* from this size an array moves into a reservation */
 #define MTS_BIGMEM_FROM ((size_t)1 << 20)
 
+/* Reservations kept for the next client. A fresh reservation's pages are
+ * zeroed at their first touch; a process that runs client after client (a
+ * load generator, a bench) would pay that for every client, where malloc
+ * used to hand each one the blocks the last one freed. Such a caller makes
+ * one cache, sets it as each client's (mts_stream_client.memory), and frees
+ * it after the last client and model made with it. A reservation freed
+ * goes back to the cache with its pages as they are, up to
+ * MTS_BIGMEM_CACHE_MAX of them (beyond, to the kernel); one asked for is
+ * the smallest kept that is large enough. Safe to share between threads. */
+typedef struct mts_bigmem_cache mts_bigmem_cache;
+#define MTS_BIGMEM_CACHE_MAX 8
+
+/* NULL when out of memory (then pass none: nothing else changes). */
+mts_bigmem_cache *mts_bigmem_cache_create(void);
+/* Gives every reservation kept back to the kernel. */
+void mts_bigmem_cache_free(mts_bigmem_cache *cache);
+
 typedef struct mts_bigmem {
     void *p;         /* the array; NULL when empty */
     size_t room;     /* bytes usable at p */
     size_t reserved; /* bytes of its reservation; 0: a malloc block */
-    size_t align;    /* set by its owner: a malloc block's alignment (a power
-                      * of two); 0: malloc's own, grown by realloc */
+    /* set by its owner, kept when it is freed: */
+    size_t align;            /* a malloc block's alignment (a power of two);
+                              * 0: malloc's own, grown by realloc */
+    mts_bigmem_cache *cache; /* where reservations come from and go back to;
+                              * NULL: the kernel */
 } mts_bigmem;
 
 /* Room for at least `bytes` at m->p, keeping its first `keep` bytes

@@ -985,6 +985,11 @@ static int settle(mts_grow *g)
     return 1;
 }
 
+void mts_grow_use_memory(mts_grow *g, mts_bigmem_cache *memory)
+{
+    g->tri_mem.cache = g->prev_mem.cache = g->spare_mem.cache = memory;
+}
+
 void mts_grow_free(mts_grow *g)
 {
     if (!g)
@@ -1025,6 +1030,8 @@ mts_result mts_grow_create(const mts_strips *base, uint32_t nb, uint32_t n,
     g->nb = nb;
     g->n = n;
     g->stamp_now = 1;
+    if (opts)
+        mts_grow_use_memory(g, opts->memory);
     mts_result rc;
     if (opts && opts->key_levels) {
         for (uint32_t k = 0; k < opts->key_count; k++) {

@@ -26,6 +26,7 @@
 
 #include <stdint.h>
 
+#include "bigmem.h"
 #include "bytes.h"
 #include "error.h"
 #include "model.h"
@@ -66,6 +67,9 @@ typedef struct mts_grow_options {
      * derives is then what mts_grow_slot() gives at level 0. Otherwise slot s
      * holds base strip s, which must already be in that form. */
     int normalise_base;
+    /* Where the large arrays' reservations come from (bigmem.h); NULL: the
+     * kernel. The grows a client makes share its cache. */
+    mts_bigmem_cache *memory;
 } mts_grow_options;
 
 typedef struct mts_grow mts_grow;
@@ -76,6 +80,9 @@ mts_result mts_grow_create(const mts_strips *base, uint32_t base_vertex_count,
                            uint32_t level_count, const mts_grow_options *opts, mts_grow **out,
                            mts_error *err);
 void mts_grow_free(mts_grow *g);
+/* Sets where g's large arrays take their reservations from (bigmem.h), for
+ * a grow made without options. */
+void mts_grow_use_memory(mts_grow *g, mts_bigmem_cache *memory);
 
 /* The full level's strips, which a client cannot afford to compute (they
  * are tunnelled): the builder gives them as strips in any form, and the

@@ -110,6 +110,7 @@ mts_result mts_grow_create_worker(const mts_grow *mesh, const uint32_t *ids,
     g->level = L;
     g->stamp_now = 1;
     g->keep_order = 1;
+    mts_grow_use_memory(g, mesh->tri_mem.cache);
     g->key_given = opts->key_levels;
     g->key_given_count = opts->key_count;
     g->key_given_at = at;

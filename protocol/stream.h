@@ -31,6 +31,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "bigmem.h"
 #include "bytes.h"
 #include "draco.h"
 #include "error.h"
@@ -218,6 +219,10 @@ typedef struct mts_stream_client {
      * never go on alone. threads_key_paths_handed: at the full level, the
      * pool took the last key's. */
     int threads_hand_key_paths, threads_key_paths_handed;
+    /* Where the large arrays' reservations come from (bigmem.h), set after
+     * mts_stream_client_init by a caller that runs client after client in
+     * one process; it outlives this client and its model. NULL: the kernel. */
+    mts_bigmem_cache *memory;
     uint32_t threads_alone_from; /* the level from which one thread decoded; 0: it did not */
     uint32_t threads_ran;        /* the most threads that decoded (mts_stream_client_threads_used) */
     struct mts__stream_par *par; /* those threads' state (stream_dec_threads.c), NULL with one */

@@ -448,6 +448,7 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
     mts_grow_options go = {0};
     go.key_levels = c->info.key_levels;
     go.key_count = c->info.key_count;
+    go.memory = c->memory;
     if (!c->records && (rc = mts__stream_par_start(c, &go, err)) != MTS_OK)
         return mts_error_prefix(err, "BASE");
     /* with threads, the decode thread's grow keeps the mesh alone */
@@ -456,6 +457,8 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
                      : mts_grow_create(&m->base, nb, m->level_count, &go, &c->grow, err)) !=
             MTS_OK)
         return mts_error_prefix(err, "BASE");
+    if (c->grow)
+        mts_grow_use_memory(c->grow, c->memory);
     if ((rc = mts_lod_init(&c->lod, m, MTS_LOD_AT_BASE, err)) != MTS_OK)
         return rc;
     c->have_lod = 1;
@@ -482,6 +485,7 @@ static mts_result reserve_records(mts_stream_client *c, size_t at, size_t words,
         at + words + 1 <= c->record_word_limit + 1)
         cap = (size_t)c->record_word_limit + 1;
     const size_t most = c->record_word_limit ? ((size_t)c->record_word_limit + 1) * 4 : 0;
+    m->record_mem.cache = c->memory;
     if (!mts_bigmem_room(&m->record_mem, cap * 4, at * 4, most))
         return mts_error_set(err, MTS_ERR_NOMEM, "BATCH: out of memory for %zu record words",
                              cap);
@@ -1160,6 +1164,7 @@ mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)
         void *user = c->user;
         uint32_t resumes = c->resumes, threads = c->threads, alone = c->threads_alone_after;
         const int hand = c->threads_hand_key_paths;
+        mts_bigmem_cache *memory = c->memory;
         mts_stream_client_free(c);
         mts_stream_client_init(c);
         c->on_model = on_model;
@@ -1167,6 +1172,7 @@ mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)
         c->threads = threads;
         c->threads_alone_after = alone;
         c->threads_hand_key_paths = hand;
+        c->memory = memory;
         c->resumes = resumes;
         return MTS_OK;
     }

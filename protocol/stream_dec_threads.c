@@ -390,7 +390,7 @@ static void par_grow(struct mts__stream_par *p, interval *v)
                 const size_t want = v->block_words ? v->block_words : REC_BLOCK,
                              cap = rw > want ? rw : want;
                 v->block_words = 2 * want < REC_BLOCK_MOST ? 2 * want : REC_BLOCK_MOST;
-                mts_bigmem m = {0};
+                mts_bigmem m = {.cache = p->go.memory};
                 if (!mts_bigmem_room(&m, sizeof *b + cap * 4, 0, 0)) {
                     rc = mts_error_set(&v->err, MTS_ERR_NOMEM, "out of memory for records");
                     break;

@@ -85,6 +85,9 @@ typedef struct stress {
     uint32_t connected;  /* sockets open: what the concurrency limit counts */
     uint32_t oldest;     /* no client before it is still to apply */
     uint32_t max_appliers;
+    /* apply mode: the reservations one client's decoder frees, kept for the
+     * next (bigmem.h); NULL: none */
+    mts_bigmem_cache *memory;
 } stress;
 
 const char *mts_stress_failure_name(mts_stress_failure f)
@@ -615,6 +618,7 @@ static int sc_decoder(stress *s, sclient *c)
         }
         mts_stream_client_init(c->decoder);
         c->decoder->threads = s->o->decode_threads;
+        c->decoder->memory = s->memory;
     }
     return 1;
 }
@@ -1078,6 +1082,8 @@ mts_result mts_stress_run(const mts_stress_options *o, mts_stress_report *rep, m
         sp->ms_final = malloc(((size_t)h->n + 1) * sizeof *sp->ms_final);
         sp->ms_base = malloc(((size_t)h->n + 1) * sizeof *sp->ms_base);
         sp->chunk = malloc(1 << 16);
+        /* out of memory for it, the decoders reserve from the kernel */
+        sp->memory = o->no_apply ? NULL : mts_bigmem_cache_create();
         sp->loop.epoll_fd = -1;
         sp->loop.max_events = 512;
         if (!sp->c || !sp->ms_final || !sp->ms_base || !sp->chunk) {
@@ -1169,6 +1175,7 @@ done:
         free(sp->ms_final);
         free(sp->ms_base);
         free(sp->chunk);
+        mts_bigmem_cache_free(sp->memory); /* after every decoder of its clients */
         pthread_mutex_destroy(&hs[k].lock);
     }
     if (addr)
