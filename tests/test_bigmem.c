@@ -104,7 +104,9 @@ static void test_memory_follows_what_is_touched(mts_test *t)
     CHECK(t, m.reserved >= 4096 * mb);
     fill(m.p, 3 * mb, 1);
     const size_t after = resident();
-    CHECKF(t, after < before + 16 * mb, "%zu MB resident after touching 3 MB of 4 GB",
+    /* far less than the bound (a sanitizer's shadow adds some for what is
+     * touched) */
+    CHECKF(t, after < before + 256 * mb, "%zu MB resident after touching 3 MB of 4 GB",
            (after - before) / mb);
     mts_bigmem_free(&m);
     /* a bound no mapping can hold: a malloc block of what is asked */
