@@ -36,7 +36,8 @@
  * it after the last client and model made with it. A reservation freed
  * goes back to the cache with its pages as they are, up to
  * MTS_BIGMEM_CACHE_MAX of them (beyond, to the kernel); one asked for is
- * the smallest kept that is large enough. Safe to share between threads. */
+ * the smallest kept that holds the array's bound. Safe to share between
+ * threads. */
 typedef struct mts_bigmem_cache mts_bigmem_cache;
 #define MTS_BIGMEM_CACHE_MAX 8
 
