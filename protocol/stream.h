@@ -28,6 +28,7 @@
 #define MTS_STREAM_H
 
 #include <signal.h>
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -70,7 +71,7 @@ typedef struct mts_stream_options {
     int with_records;        /* also build the records form (s->records_form) */
     /* when not NULL and set (a signal, another thread), building stops
      * early with MTS_ERR_ARG "cancelled"; polled every few thousand splits */
-    const volatile sig_atomic_t *cancel;
+    const atomic_int *cancel; /* lock-free: a signal handler may set it */
     /* when not NULL, filled in with where the bytes go (costs a log2 a
      * coded bit while encoding) */
     mts_stream_breakdown *breakdown;

@@ -79,7 +79,10 @@ static void usage(FILE *f)
           f);
 }
 
-static volatile sig_atomic_t stop_requested, serving;
+/* set by the signal handler, read by the workers and the thread that
+ * prepares the models: atomics, which a handler may store to (lock-free) */
+static atomic_int stop_requested, serving;
+_Static_assert(ATOMIC_INT_LOCK_FREE == 2, "a signal handler stores to an atomic_int");
 
 /* Serving, a stop lets streams finish (the workers poll the flag). Before
  * that nothing is served and a model's build cannot stop part-way, so a

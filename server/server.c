@@ -44,7 +44,7 @@ struct mts_server {
         struct mts_server *server;
     } lis[2];
     mts_loop loop;
-    volatile sig_atomic_t *stop; /* mts_server_run's flag */
+    const atomic_int *stop; /* mts_server_run's flag */
     double stop_at;              /* when the stop began: the grace counts from here */
     mts__conn *conns;
     mts__conn *dead; /* closed during this round of events; freed after it */
@@ -889,7 +889,7 @@ static int server_tick(mts_loop *loop, void *user, double now)
     return s->paced_count ? 5 : s->waiting ? 20 : 100;
 }
 
-mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error *err)
+mts_result mts_server_run(mts_server *s, const atomic_int *stop, mts_error *err)
 {
     s->stop = stop;
     s->stop_at = 0;

@@ -101,9 +101,10 @@ void mts_server_free(mts_server *s);
 int mts_server_port(const mts_server *s);
 int mts_server_ws_port(const mts_server *s);
 
-/* Serves until *stop becomes non-zero (a signal handler sets it), then stops
- * accepting, lets streams finish within the grace period and returns. */
-mts_result mts_server_run(mts_server *s, volatile sig_atomic_t *stop, mts_error *err);
+/* Serves until *stop becomes non-zero (a signal handler sets it, or another
+ * thread: an atomic, lock-free, so both may), then stops accepting, lets
+ * streams finish within the grace period and returns. */
+mts_result mts_server_run(mts_server *s, const atomic_int *stop, mts_error *err);
 
 void mts_server_get_stats(const mts_server *s, mts_server_stats *stats);
 

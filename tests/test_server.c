@@ -23,7 +23,7 @@
 #include "test.h"
 #include "wire.h"
 
-static volatile sig_atomic_t stop_flag;
+static atomic_int stop_flag;
 /* > 0: the forked server runs with this few file descriptors */
 static int fd_limit;
 
