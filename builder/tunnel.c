@@ -851,7 +851,7 @@ mts_result mts_tunnel(const mts_strips *in, uint32_t vertex_count,
         const uint32_t *at = bsearch(&in->indices[k], ids, used, sizeof *ids, mts_words_cmp);
         local[k] = (uint32_t)(at - ids);
     }
-    mts_strips renamed = {in->strip_count, n, in->offsets, local};
+    mts_strips renamed = {.strip_count = in->strip_count, .index_count = n, .offsets = in->offsets, .indices = local};
     mts_result rc = tunnel_dense(&renamed, used, opts, out, stats, err);
     for (uint32_t k = 0; rc == MTS_OK && k < out->index_count; k++)
         out->indices[k] = ids[out->indices[k]];

@@ -63,6 +63,17 @@ typedef struct mts_bigmem {
  * m unchanged. m->p may move. */
 int mts_bigmem_room(mts_bigmem *m, size_t bytes, size_t keep, size_t most);
 
+/* Frees what m holds and makes room for `bytes`, all of them zero, for an
+ * array sized by a count it was told (a stream's claim) that only what
+ * arrives fills. Past MTS_BIGMEM_FROM a reservation fresh from the kernel
+ * (never from m->cache, whose pages hold an earlier array's bytes): its
+ * pages stay untouched until written, so memory follows what is written,
+ * not what was asked, whatever malloc would do (glibc's calloc clears a
+ * block it carves from free heap memory, touching all of it). Below, or
+ * where no reservation is made, a calloc block. 1, or 0 when out of memory
+ * (m then empty). */
+int mts_bigmem_zeroed(mts_bigmem *m, size_t bytes);
+
 /* Exchanges two arrays (a renumbering writes into a second one). */
 void mts_bigmem_swap(mts_bigmem *a, mts_bigmem *b);
 

@@ -9,6 +9,14 @@
 #include <time.h>
 #include <unistd.h>
 
+#if defined(__linux__) && defined(__GLIBC__) && UINTPTR_MAX > 0xffffffffu
+#include <limits.h>
+#include <malloc.h>
+#include <sys/mman.h>
+#define CLI_HEAP_HUGE 1
+#endif
+
+#include "bigmem.h"
 #include "clock.h"
 #include "utf8.h"
 
@@ -278,6 +286,45 @@ int cli_raise_nofile(uint64_t need, uint64_t *now, uint64_t *hard)
         return 0;
     *now = to;
     return 1;
+}
+
+int cli_heap_on_huge_pages(size_t bytes)
+{
+#ifdef CLI_HEAP_HUGE
+    const uintptr_t huge = (uintptr_t)2 << 20;
+    if (bytes < 2 * huge || bytes > (size_t)INT_MAX - huge)
+        return 0;
+    /* a threshold past `bytes` for the extension below to come from the
+     * heap (a sanitizer's malloc refuses these and leaves the heap alone) */
+    if (!mallopt(M_ARENA_MAX, 1) || !mallopt(M_TRIM_THRESHOLD, INT_MAX) ||
+        !mallopt(M_MMAP_THRESHOLD, (int)(bytes + huge)))
+        return 0;
+    const uintptr_t start = (uintptr_t)sbrk(0);
+    char *p = malloc(bytes);
+    const uintptr_t end = (uintptr_t)sbrk(0);
+    const uintptr_t at = (uintptr_t)p;
+    int ok = 0;
+    /* from the heap: the break moved, and the block lies below it (it may
+     * begin below the old break, in the free top the heap had) */
+    if (p && end > start && at + bytes <= end) {
+        /* the whole 2 MB pages inside the block; freeing it leaves them at
+         * the heap's top, where the next allocations come from */
+        const uintptr_t lo = (at + huge - 1) & ~(huge - 1), hi = (at + bytes) & ~(huge - 1);
+        ok = hi > lo && madvise((void *)lo, hi - lo, MADV_HUGEPAGE) == 0;
+    }
+    free(p);
+    /* Once the stretch is used up, blocks from MTS_BIGMEM_FROM on are
+     * mappings of their own again (the large growing arrays are bigmem's
+     * anyway). While free heap memory holds a block malloc takes it from
+     * there, whatever the threshold, and calloc clears it: so an array
+     * sized by what a stream claims is a zeroed reservation
+     * (mts_bigmem_zeroed), never a calloc block. */
+    mallopt(M_MMAP_THRESHOLD, (int)MTS_BIGMEM_FROM);
+    return ok;
+#else
+    (void)bytes;
+    return 0;
+#endif
 }
 
 const char *cli_stop_value_kind(const char *opt)

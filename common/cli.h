@@ -80,6 +80,24 @@ int cli_parse_server(const char *server, char *host, size_t host_size, char *por
  * allows; returns 1 when it raised it. now and hard get the limits after. */
 int cli_raise_nofile(uint64_t need, uint64_t *now, uint64_t *hard);
 
+/* Puts the process's malloc heap on huge pages, for a program that builds
+ * one large model from nothing (mts-client). Such a process touches every
+ * page of its heap once, and on the virtual machines this project runs on
+ * a 4 KB page's first touch (a fault and its zeroing) costs some 10 us:
+ * a fresh client spent a fifth of its time there even with its large
+ * arrays on huge pages (common/bigmem.h). So the heap is grown by `bytes`
+ * at once and that stretch advised as huge pages (a hint; memory still
+ * follows what is touched, in 2 MB steps), every thread allocates from it
+ * (one malloc arena: another thread's arena is a mapping of malloc's own,
+ * which nothing here can advise), and freed memory stays in it, not handed
+ * back to the kernel and faulted in again. malloc then carves even large
+ * blocks from that free stretch, and calloc clears them: an array sized by
+ * a count a peer claims must be mts_bigmem_zeroed's, not calloc's, for
+ * memory to follow what arrived. glibc on 64-bit Linux only; call
+ * before any thread starts. 1: done; 0: not here (under a sanitizer's or
+ * another malloc, a refused extension), the heap as it was. */
+int cli_heap_on_huge_pages(size_t bytes);
+
 /* The stop options every streaming program takes: --level L, --triangles N,
  * --fraction F. 1: it was one (kind and value set, as in mts_wire_stop);
  * 0: opt is another option; -1: its value is missing or malformed. */

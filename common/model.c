@@ -6,22 +6,28 @@
 
 #include "lod.h"
 
+/* An array that is either a bigmem's or a malloc block. */
+static void free_array(void *p, mts_bigmem *mem)
+{
+    if (mem->p)
+        mts_bigmem_free(mem);
+    else
+        free(p);
+}
+
 void mts_model_free(mts_model *m)
 {
     if (!m)
         return;
-    free(m->capacity);
+    free_array(m->capacity, &m->capacity_mem);
     free(m->positions);
     free(m->normals);
     free(m->colors);
-    free(m->parents);
+    free_array(m->parents, &m->parents_mem);
     mts_strips_free(&m->full);
     mts_strips_free(&m->base);
-    free(m->record_offsets);
-    if (m->record_mem.p)
-        mts_bigmem_free(&m->record_mem);
-    else
-        free(m->record_data);
+    free_array(m->record_offsets, &m->offsets_mem);
+    free_array(m->record_data, &m->record_mem);
     free(m->level_triangles);
     free(m->level_strips);
     free(m->level_indices);

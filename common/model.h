@@ -76,6 +76,10 @@ typedef struct mts_model {
     /* where record_data lives when a stream client grew it as records came
      * (bigmem.h); else empty, and record_data a malloc block */
     mts_bigmem record_mem;
+    /* where a stream client put parents, record_offsets and capacity, sized
+     * by what MODEL_INFO claims and filled as levels and slots arrive
+     * (mts_bigmem_zeroed); else empty, and each a malloc block */
+    mts_bigmem parents_mem, offsets_mem, capacity_mem;
 
     /* What a stream sends in place of the records (grow.h): the key levels
      * (ascending, in 1..n-1; the full level is always a key), and per split j

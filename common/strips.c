@@ -7,7 +7,10 @@ void mts_strips_free(mts_strips *strips)
 {
     if (!strips)
         return;
-    free(strips->offsets);
+    if (strips->offsets_mem.p)
+        mts_bigmem_free(&strips->offsets_mem);
+    else
+        free(strips->offsets);
     free(strips->indices);
     strips->offsets = NULL;
     strips->indices = NULL;
@@ -20,7 +23,11 @@ mts_result mts_strips_alloc(mts_strips *strips, uint32_t strip_count, uint32_t i
 {
     strips->strip_count = strip_count;
     strips->index_count = index_count;
-    strips->offsets = calloc((size_t)strip_count + 1, sizeof *strips->offsets);
+    strips->offsets_mem = (mts_bigmem){0};
+    strips->offsets = mts_bigmem_zeroed(&strips->offsets_mem,
+                                        ((size_t)strip_count + 1) * sizeof *strips->offsets)
+                          ? strips->offsets_mem.p
+                          : NULL;
     /* +1 so that an empty set still owns a buffer and callers never see NULL */
     strips->indices = malloc(((size_t)index_count + 1) * sizeof *strips->indices);
     if (!strips->offsets || !strips->indices) {

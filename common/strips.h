@@ -10,6 +10,7 @@
 
 #include <stdint.h>
 
+#include "bigmem.h"
 #include "error.h"
 
 /* The most triangles a strip draws, at every level: it bounds the
@@ -23,6 +24,10 @@ typedef struct mts_strips {
     uint32_t index_count; /* == offsets[strip_count] */
     uint32_t *offsets;    /* strip_count + 1 entries */
     uint32_t *indices;
+    /* where mts_strips_alloc put offsets (zero until written, so a count
+     * a stream claims costs no memory before strips arrive); empty where
+     * offsets is a malloc block */
+    mts_bigmem offsets_mem;
 } mts_strips;
 
 /* Figures a stripifier or a level is judged by. */

@@ -149,10 +149,15 @@ static mts_result take_info(mts_stream_client *c, const uint8_t *p, size_t n, mt
     memcpy(m->bbox_max, mi->bbox_max, 12);
     snprintf(m->source, sizeof m->source, "%s", mi->model);
     /* the per-vertex arrays come with the vertices (reserve_vertices);
-     * these stay untouched but for the levels and slots that arrive */
-    m->parents = calloc(n1, 4);
-    m->record_offsets = calloc(n1, 4);
-    m->capacity = calloc((size_t)mi->strips + 1, 4);
+     * these are zero, sized by the claim, and stay untouched but for the
+     * levels and slots that arrive (reservations past 1 MB, whatever the
+     * heap would do with a calloc: bigmem.h) */
+    if (mts_bigmem_zeroed(&m->parents_mem, n1 * 4))
+        m->parents = m->parents_mem.p;
+    if (mts_bigmem_zeroed(&m->offsets_mem, n1 * 4))
+        m->record_offsets = m->offsets_mem.p;
+    if (mts_bigmem_zeroed(&m->capacity_mem, ((size_t)mi->strips + 1) * 4))
+        m->capacity = m->capacity_mem.p;
     c->models = malloc(sizeof *c->models);
     if (mi->flags & MTS_INFO_NORMALS)
         m->flags = MTS_MODEL_NORMALS_GIVEN;

@@ -163,6 +163,53 @@ static void test_the_cache_keeps_reservations(mts_test *t)
     mts_bigmem_cache_free(cache);
 }
 
+/* An array sized by a claim: zero throughout, only what is written
+ * resident (even in a process whose heap would clear a calloc block, and
+ * with a cache holding a reservation full of an earlier array's bytes), and
+ * a small one a zeroed malloc block. */
+static void test_zeroed_follows_what_is_written(mts_test *t)
+{
+    const size_t mb = (size_t)1 << 20;
+    mts_bigmem s = {0};
+    CHECK(t, mts_bigmem_zeroed(&s, 1000) && s.p && s.room >= 1000 && !s.reserved);
+    int zero = 1;
+    for (size_t i = 0; s.p && i < 1000; i++)
+        zero &= ((uint8_t *)s.p)[i] == 0;
+    CHECK(t, zero);
+    mts_bigmem_free(&s);
+    if (!RESERVES)
+        SKIP(t, "no reservations on this platform");
+    mts_bigmem_cache *cache = mts_bigmem_cache_create();
+    CHECK(t, cache != NULL);
+    if (!cache)
+        return;
+    mts_bigmem dirty = {.cache = cache};
+    CHECK(t, mts_bigmem_room(&dirty, 64 * mb, 0, 64 * mb));
+    fill(dirty.p, 64 * mb, 5);
+    mts_bigmem_free(&dirty); /* kept by the cache, bytes and all */
+    const size_t before = resident();
+    if (!before)
+        SKIP(t, "no /proc/self/statm");
+    mts_bigmem z = {.cache = cache};
+    CHECK(t, mts_bigmem_zeroed(&z, 64 * mb) && z.reserved >= 64 * mb);
+    if (!z.p)
+        return;
+    uint8_t *p = z.p;
+    p[0] = 1;
+    const size_t after = resident();
+    CHECKF(t, after < before + 16 * mb, "%zu MB resident after writing one byte of 64 MB",
+           (after - before) / mb);
+    /* and none of the cached array's bytes (read after the count: a read
+     * may map a page, where the kernel has no shared zero page for huge
+     * pages) */
+    zero = p[0] == 1;
+    for (size_t i = 1; i < 64 * mb; i += mb + 4097)
+        zero &= p[i] == 0;
+    CHECK(t, zero && p[64 * mb - 1] == 0);
+    mts_bigmem_free(&z); /* to the cache too */
+    mts_bigmem_cache_free(cache);
+}
+
 static void test_swap(mts_test *t)
 {
     mts_bigmem a = {0}, b = {0};
@@ -181,6 +228,7 @@ int main(void)
     RUN(&t, test_a_reservation_grows_in_place);
     RUN(&t, test_memory_follows_what_is_touched);
     RUN(&t, test_the_cache_keeps_reservations);
+    RUN(&t, test_zeroed_follows_what_is_written);
     RUN(&t, test_swap);
     return mts_test_end(&t);
 }

@@ -1,7 +1,11 @@
 /* What the programs share (common/cli.c): strict option parsing, the one-line
- * JSON writer (escaping, nesting), file stems. */
+ * JSON writer (escaping, nesting), file stems, the heap on huge pages. */
 #include <math.h>
+#include <pthread.h>
 #include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
 
 #include "cli.h"
 #include "test.h"
@@ -120,6 +124,93 @@ static void test_parse_stop(mts_test *t)
     CHECK(t, cli_parse_stop("--png", "x.png", &kind, &value) == 0);
 }
 
+/* what cli_heap_on_huge_pages can do in this build: 1 where it applies */
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define HEAP_CASE 0 /* a sanitizer's malloc */
+#elif defined(__linux__) && defined(__GLIBC__) && UINTPTR_MAX > 0xffffffffu
+#define HEAP_CASE 1
+#else
+#define HEAP_CASE 2
+#endif
+
+#if HEAP_CASE == 1
+/* Whether [at, at + bytes) lies in one mapping advised as huge pages ("hg"
+ * among its VmFlags in /proc/self/smaps): -1 where smaps cannot be read. */
+static int advised_huge(const void *at, size_t bytes)
+{
+    FILE *f = fopen("/proc/self/smaps", "r");
+    if (!f)
+        return -1;
+    const uintptr_t a = (uintptr_t)at, b = a + bytes;
+    char line[512];
+    int inside = 0, found = 0;
+    while (fgets(line, sizeof line, f)) {
+        unsigned long lo, hi;
+        if (sscanf(line, "%lx-%lx ", &lo, &hi) == 2) {
+            inside = a >= lo && b <= hi;
+        } else if (inside && !strncmp(line, "VmFlags:", 8)) {
+            found = strstr(line, " hg") != NULL;
+            break;
+        }
+    }
+    fclose(f);
+    return found;
+}
+
+static void *malloc_elsewhere(void *bytes)
+{
+    return malloc(*(size_t *)bytes);
+}
+#endif
+
+/* After cli_heap_on_huge_pages, blocks of every thread come from the heap
+ * (below the break), the heap's stretch is advised as huge pages, and a
+ * freed block stays in the heap (the break does not move back). Under a
+ * sanitizer's malloc it declines and changes nothing. */
+static void test_heap_on_huge_pages(mts_test *t)
+{
+    const size_t bytes = (size_t)32 << 20;
+    const int done = cli_heap_on_huge_pages(bytes);
+#if HEAP_CASE == 0
+    CHECK(t, !done);
+    SKIP(t, "a sanitizer's malloc: the heap is its own");
+#elif HEAP_CASE == 1
+    if (!done && access("/sys/kernel/mm/transparent_hugepage", F_OK) != 0)
+        SKIP(t, "a kernel without transparent huge pages");
+    CHECK(t, done == 1);
+    if (!done)
+        return;
+    size_t size = (size_t)4 << 20;
+    char *p = malloc(size);
+    CHECK(t, p != NULL);
+    if (!p)
+        return;
+    memset(p, 1, size);
+    const uintptr_t brk_now = (uintptr_t)sbrk(0);
+    CHECKF(t, (uintptr_t)p + size <= brk_now, "a 4 MB block at %p, the break at %p", (void *)p,
+           (void *)brk_now);
+    /* its whole 2 MB pages: the block itself may begin in the heap's first
+     * stretch, below the advised one */
+    const uintptr_t huge = (uintptr_t)2 << 20;
+    const uintptr_t lo = ((uintptr_t)p + huge - 1) & ~(huge - 1);
+    const int hg = advised_huge((void *)lo, huge);
+    if (hg < 0)
+        SKIP(t, "/proc/self/smaps not readable");
+    CHECK(t, hg == 1);
+    free(p);
+    CHECK(t, (uintptr_t)sbrk(0) == brk_now);
+    pthread_t th;
+    void *q = NULL;
+    size = (size_t)1 << 20;
+    CHECK(t, pthread_create(&th, NULL, malloc_elsewhere, &size) == 0 && pthread_join(th, &q) == 0);
+    CHECKF(t, q && (uintptr_t)q + size <= (uintptr_t)sbrk(0), "another thread's block at %p", q);
+    free(q);
+#else
+    CHECK(t, !done);
+    SKIP(t, "not glibc on 64-bit Linux");
+#endif
+}
+
 int main(void)
 {
     mts_test t = {0};
@@ -130,5 +221,6 @@ int main(void)
     RUN(&t, test_stem);
     RUN(&t, test_parse_server);
     RUN(&t, test_parse_stop);
+    RUN(&t, test_heap_on_huge_pages);
     return mts_test_end(&t);
 }

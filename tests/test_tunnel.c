@@ -145,7 +145,7 @@ static void test_known_tunnel(mts_test *t)
 static void test_empty_and_errors(mts_test *t)
 {
     uint32_t off[1] = {0}, idx[1] = {0};
-    mts_strips in = {0, 0, off, idx}, out = {0};
+    mts_strips in = {.offsets = off, .indices = idx}, out = {0};
     mts_error err = {0};
     mts_tunnel_stats ts;
     CHECK(t, mts_tunnel(&in, 0, NULL, &out, &ts, &err) == MTS_OK);
@@ -153,7 +153,7 @@ static void test_empty_and_errors(mts_test *t)
     mts_strips_free(&out);
 
     uint32_t off1[2] = {0, 3}, idx1[3] = {0, 1, 9};
-    mts_strips bad = {1, 3, off1, idx1};
+    mts_strips bad = {.strip_count = 1, .index_count = 3, .offsets = off1, .indices = idx1};
     CHECK(t, mts_tunnel(&bad, 5, NULL, &out, NULL, &err) == MTS_ERR_RANGE);
     CHECK(t, out.offsets == NULL && out.indices == NULL);
 }
@@ -338,7 +338,7 @@ static void test_huge_vertex_ids(mts_test *t)
 {
     uint32_t hi = UINT32_MAX - 1;
     uint32_t off[3] = {0, 3, 6}, idx[6] = {hi, hi - 1, 7, hi, 7, 0};
-    mts_strips in = {2, 6, off, idx}, out = {0};
+    mts_strips in = {.strip_count = 2, .index_count = 6, .offsets = off, .indices = idx}, out = {0};
     mts_tunnel_stats ts = {0};
     mts_error err = {0};
     mts_result r = mts_tunnel(&in, UINT32_MAX, NULL, &out, &ts, &err);
