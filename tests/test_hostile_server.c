@@ -484,6 +484,9 @@ static void test_consistent_claim_grows_with_data(mts_test *t)
         if (MEASURE_RSS)
             CHECKF(t, r.maxrss_kb < (draw ? PEAK_LIMIT_KB : 64 * 1024), "%s: peak %ld KB",
                    draw ? "drawing" : "headless", r.maxrss_kb);
+        if (getenv("MTS_TEST_VERBOSE"))
+            fprintf(stderr, "  consistent claim, %s: peak %6ld KB\n",
+                    draw ? "drawing" : "headless", r.maxrss_kb);
     }
     mts_buf_free(&b);
     mts_stream_free(&s);
