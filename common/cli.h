@@ -83,9 +83,10 @@ int cli_raise_nofile(uint64_t need, uint64_t *now, uint64_t *hard);
 /* Puts the process's malloc heap on huge pages, for a program that builds
  * one large model from nothing (mts-client). Such a process touches every
  * page of its heap once, and on the virtual machines this project runs on
- * a 4 KB page's first touch (a fault and its zeroing) costs some 10 us:
- * a fresh client spent a fifth of its time there even with its large
- * arrays on huge pages (common/bigmem.h). So the heap is grown by `bytes`
+ * a 4 KB page's first touch (a fault and its zeroing) costs some 10 us,
+ * a large share of a fresh client's time even with its large arrays on
+ * huge pages (common/bigmem.h; docs/threads.md, "The heap on huge pages").
+ * So the heap is grown by `bytes`
  * at once and that stretch advised as huge pages (a hint; memory still
  * follows what is touched, in 2 MB steps), every thread allocates from it
  * (one malloc arena: another thread's arena is a mapping of malloc's own,
