@@ -163,30 +163,22 @@ int mts_bigmem_room(mts_bigmem *m, size_t bytes, size_t keep, size_t most)
 int mts_bigmem_zeroed(mts_bigmem *m, size_t bytes)
 {
     mts_bigmem_free(m);
-#if BIGMEM_RESERVE
-    if (bytes >= MTS_BIGMEM_FROM) {
-        const size_t want = (bytes + HUGE_PAGE - 1) & ~(HUGE_PAGE - 1);
-        void *q = want >= bytes ? reserve(want) : NULL;
-        if (q) {
-            m->p = q;
-            m->room = m->reserved = want;
-            return 1;
-        }
-    }
-#endif
-    void *q;
-    if (!m->align) {
-        q = calloc(bytes ? bytes : 1, 1);
-    } else if (posix_memalign(&q, m->align, bytes ? bytes : 1) == 0) {
-        memset(q, 0, bytes);
-    } else {
-        q = NULL;
-    }
-    if (!q)
-        return 0;
-    m->p = q;
-    m->room = bytes;
-    return 1;
+    /* never the cache: what it keeps holds earlier arrays' bytes */
+    mts_bigmem_cache *cache = m->cache;
+    m->cache = NULL;
+    const int ok = mts_bigmem_room(m, bytes ? bytes : 1, 0, 0);
+    m->cache = cache;
+    if (ok && !m->reserved) /* a malloc block; a fresh reservation is zero */
+        memset(m->p, 0, m->room);
+    return ok;
+}
+
+void mts_bigmem_release(mts_bigmem *m, void *p)
+{
+    if (m->p)
+        mts_bigmem_free(m);
+    else
+        free(p);
 }
 
 void mts_bigmem_swap(mts_bigmem *a, mts_bigmem *b)

@@ -70,9 +70,13 @@ int mts_bigmem_room(mts_bigmem *m, size_t bytes, size_t keep, size_t most);
  * pages stay untouched until written, so memory follows what is written,
  * not what was asked, whatever malloc would do (glibc's calloc clears a
  * block it carves from free heap memory, touching all of it). Below, or
- * where no reservation is made, a calloc block. 1, or 0 when out of memory
- * (m then empty). */
+ * where no reservation is made, a malloc block cleared. 1, or 0 when out
+ * of memory (m then empty). */
 int mts_bigmem_zeroed(mts_bigmem *m, size_t bytes);
+
+/* For an array that is either m's or, where m is empty, a malloc block p
+ * (an owner whose arrays come both ways): frees whichever it is. */
+void mts_bigmem_release(mts_bigmem *m, void *p);
 
 /* Exchanges two arrays (a renumbering writes into a second one). */
 void mts_bigmem_swap(mts_bigmem *a, mts_bigmem *b);

@@ -6,28 +6,19 @@
 
 #include "lod.h"
 
-/* An array that is either a bigmem's or a malloc block. */
-static void free_array(void *p, mts_bigmem *mem)
-{
-    if (mem->p)
-        mts_bigmem_free(mem);
-    else
-        free(p);
-}
-
 void mts_model_free(mts_model *m)
 {
     if (!m)
         return;
-    free_array(m->capacity, &m->capacity_mem);
+    mts_bigmem_release(&m->capacity_mem, m->capacity);
     free(m->positions);
     free(m->normals);
     free(m->colors);
-    free_array(m->parents, &m->parents_mem);
+    mts_bigmem_release(&m->parents_mem, m->parents);
     mts_strips_free(&m->full);
     mts_strips_free(&m->base);
-    free_array(m->record_offsets, &m->offsets_mem);
-    free_array(m->record_data, &m->record_mem);
+    mts_bigmem_release(&m->offsets_mem, m->record_offsets);
+    mts_bigmem_release(&m->record_mem, m->record_data);
     free(m->level_triangles);
     free(m->level_strips);
     free(m->level_indices);

@@ -7,10 +7,7 @@ void mts_strips_free(mts_strips *strips)
 {
     if (!strips)
         return;
-    if (strips->offsets_mem.p)
-        mts_bigmem_free(&strips->offsets_mem);
-    else
-        free(strips->offsets);
+    mts_bigmem_release(&strips->offsets_mem, strips->offsets);
     free(strips->indices);
     strips->offsets = NULL;
     strips->indices = NULL;
