@@ -17,6 +17,9 @@ static void lod_mark(mts_lod *lod, uint32_t s)
  * least (strip and three counts) and an erase or insert run 2 (position,
  * length), so for a record of w words 4 E + 2 (R + I) <= w - 1 and the
  * E + R + I entries never pass w / 2 + 1. */
+/* The scratch holds nothing from one record to the next, so growing it
+ * keeps nothing: a record past a megabyte of pointers (a key level's
+ * rewrites every strip) takes a reservation in place of a copy. */
 static int lod_reserve_scratch(mts_lod *lod, uint32_t record_words)
 {
     uint32_t need = record_words / 2 + 1;
@@ -27,17 +30,23 @@ static int lod_reserve_scratch(mts_lod *lod, uint32_t record_words)
         size *= 2;
     if (size > UINT32_MAX || size > SIZE_MAX / sizeof *lod->scratch)
         return 0;
-    const uint32_t **s = realloc(lod->scratch, (size_t)size * sizeof *s);
-    if (!s)
+    if (!mts_bigmem_room(&lod->scratch_mem, (size_t)size * sizeof *lod->scratch, 0, 0))
         return 0;
-    lod->scratch = s;
+    lod->scratch = lod->scratch_mem.p;
     lod->scratch_size = (uint32_t)size;
     return 1;
 }
 
 mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start start, mts_error *err)
 {
+    return mts_lod_init_with(lod, model, start, NULL, err);
+}
+
+mts_result mts_lod_init_with(mts_lod *lod, const mts_model *model, mts_lod_start start,
+                             mts_bigmem_cache *memory, mts_error *err)
+{
     memset(lod, 0, sizeof *lod);
+    lod->data_mem.cache = lod->scratch_mem.cache = memory;
     const mts_strips *from = start == MTS_LOD_AT_FULL ? &model->full : &model->base;
     uint32_t n = model->strip_count;
     if (model->full.strip_count != n || model->base.strip_count != n)
@@ -58,7 +67,10 @@ mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start star
     lod->level = start == MTS_LOD_AT_FULL ? model->level_count : 0;
     lod->slot = malloc(((size_t)n + 1) * sizeof *lod->slot);
     lod->length = malloc(((size_t)n + 1) * sizeof *lod->length);
-    lod->data = malloc(((size_t)room + 1) * sizeof *lod->data);
+    /* no index is read past a strip's length, so pages another runtime
+     * left in the cache need no clearing */
+    if (mts_bigmem_room(&lod->data_mem, ((size_t)room + 1) * sizeof *lod->data, 0, 0))
+        lod->data = lod->data_mem.p;
     lod->room = (uint32_t)room;
     lod->relayout_from = UINT32_MAX;
     lod->changed = calloc((size_t)n + 1, 1);
@@ -109,10 +121,10 @@ void mts_lod_free(mts_lod *lod)
         return;
     free(lod->slot);
     free(lod->length);
-    free(lod->data);
+    mts_bigmem_free(&lod->data_mem);
     free(lod->changed);
     free(lod->changed_list);
-    free(lod->scratch);
+    mts_bigmem_free(&lod->scratch_mem);
     memset(lod, 0, sizeof *lod);
 }
 

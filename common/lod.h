@@ -19,6 +19,7 @@
 
 #include <stdint.h>
 
+#include "bigmem.h"
 #include "error.h"
 #include "model.h"
 #include "strips.h"
@@ -44,6 +45,9 @@ typedef struct mts_lod {
     /* scratch to walk a record backwards */
     const uint32_t **scratch;
     uint32_t scratch_size;
+    /* where data and scratch live: reservations past a megabyte, from the
+     * cache given to mts_lod_init_with (bigmem.h) */
+    mts_bigmem data_mem, scratch_mem;
     int broken; /* a split record failed its checks */
 } mts_lod;
 
@@ -57,6 +61,12 @@ typedef enum mts_lod_start {
  * checked to fit its slot; model must outlive lod. All strips start marked
  * changed (a renderer uploads everything once). */
 mts_result mts_lod_init(mts_lod *lod, const mts_model *model, mts_lod_start start, mts_error *err);
+/* The same, its slots' indices and its scratch in reservations from
+ * `memory` (NULL: the kernel), for a caller that makes runtime after
+ * runtime in one process (a stream client's, with its client's cache):
+ * the next one then reuses pages the last one touched. */
+mts_result mts_lod_init_with(mts_lod *lod, const mts_model *model, mts_lod_start start,
+                             mts_bigmem_cache *memory, mts_error *err);
 void mts_lod_free(mts_lod *lod);
 
 /* Slots from..strip_count-1 laid out again from model->capacity, which has

@@ -11,9 +11,9 @@ void mts_model_free(mts_model *m)
     if (!m)
         return;
     mts_bigmem_release(&m->capacity_mem, m->capacity);
-    free(m->positions);
-    free(m->normals);
-    free(m->colors);
+    mts_bigmem_release(&m->positions_mem, m->positions);
+    mts_bigmem_release(&m->normals_mem, m->normals);
+    mts_bigmem_release(&m->colors_mem, m->colors);
     mts_bigmem_release(&m->parents_mem, m->parents);
     mts_strips_free(&m->full);
     mts_strips_free(&m->base);

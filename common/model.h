@@ -80,6 +80,9 @@ typedef struct mts_model {
      * by what MODEL_INFO claims and filled as levels and slots arrive
      * (mts_bigmem_zeroed); else empty, and each a malloc block */
     mts_bigmem parents_mem, offsets_mem, capacity_mem;
+    /* where a stream client grew positions, normals and colors as vertices
+     * came (bigmem.h); else empty, and each a malloc block */
+    mts_bigmem positions_mem, normals_mem, colors_mem;
 
     /* What a stream sends in place of the records (grow.h): the key levels
      * (ascending, in 1..n-1; the full level is always a key), and per split j

@@ -177,6 +177,7 @@ typedef struct mts_stream_client {
     struct mts_grow *grow; /* derives each split's record (grow.h) */
     struct mts__stream_models *models; /* the batches' coding models (stream_coding.h) */
     uint16_t *oct; /* per vertex its normal's code, when the stream has normals */
+    mts_bigmem quantized_mem, oct_mem; /* where quantized and oct live (bigmem.h) */
     mts_lod lod;
     int have_lod;
     mts_draco_grid grid;

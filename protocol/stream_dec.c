@@ -40,10 +40,10 @@ void mts_stream_client_free(mts_stream_client *c)
         mts_lod_free(&c->lod);
     mts_grow_free(c->grow);
     free(c->models);
-    free(c->oct);
+    mts_bigmem_free(&c->oct_mem);
     mts_wire_model_info_free(&c->info);
     mts_model_free(&c->model);
-    free(c->quantized);
+    mts_bigmem_free(&c->quantized_mem);
     mts_wire_reader_free(&c->reader);
     memset(c, 0, sizeof *c);
 }
@@ -306,6 +306,23 @@ static mts_result take_capacities(mts_stream_client *c, mts_cursor *cur, mts_rc_
  * Doubling keeps the copying to a constant a vertex; the new normals are
  * zero, as a stream without normals leaves them. 0 when out of memory (the
  * arrays that did grow stay valid). */
+/* One per-vertex array grown from `was` to `room` vertices of `unit`
+ * bytes, its new part cleared where `zero` (normals and colours add up
+ * as triangles come). Past a megabyte it moves into a reservation for the
+ * vertices MODEL_INFO claims and grows there in place (bigmem.h): only
+ * what the vertices that arrive fill is ever touched, and a client that
+ * follows another in one process (c->memory) reuses its pages. */
+static int grow_vertex_array(mts_stream_client *c, mts_bigmem *mem, size_t unit, size_t was,
+                             size_t room, int zero)
+{
+    mem->cache = c->memory;
+    if (!mts_bigmem_room(mem, room * unit, was * unit, (size_t)c->model.vertex_count * unit))
+        return 0;
+    if (zero)
+        memset((uint8_t *)mem->p + was * unit, 0, (room - was) * unit);
+    return 1;
+}
+
 static int reserve_vertices(mts_stream_client *c, uint32_t count)
 {
     mts_model *m = &c->model;
@@ -318,30 +335,22 @@ static int reserve_vertices(mts_stream_client *c, uint32_t count)
         room = m->vertex_count;
     if (room < count)
         return 0;
-    float *pos = realloc(m->positions, (size_t)room * 12);
-    if (pos)
-        m->positions = pos;
-    float *nrm = realloc(m->normals, (size_t)room * 12);
-    if (nrm) {
-        memset(nrm + 3 * (size_t)c->vertex_room, 0, (size_t)(room - c->vertex_room) * 12);
-        m->normals = nrm;
-    }
-    uint32_t *q = realloc(c->quantized, (size_t)room * 12);
-    if (q)
-        c->quantized = q;
-    uint16_t *o = NULL;
-    if ((m->flags & MTS_MODEL_NORMALS_GIVEN) && (o = realloc(c->oct, (size_t)room * 4)) != NULL)
-        c->oct = o;
-    const int colored = (m->flags & MTS_MODEL_COLORS) != 0;
-    uint8_t *col = NULL;
-    if (colored && (col = realloc(m->colors, (size_t)room * 3)) != NULL) {
-        memset(col + 3 * (size_t)c->vertex_room, 0, (size_t)(room - c->vertex_room) * 3);
-        m->colors = col;
-    }
-    if (!pos || !nrm || !q || ((m->flags & MTS_MODEL_NORMALS_GIVEN) && !o) || (colored && !col))
-        return 0;
-    c->vertex_room = (uint32_t)room;
-    return 1;
+    const size_t was = c->vertex_room;
+    const int ok =
+        grow_vertex_array(c, &m->positions_mem, 12, was, room, 0) &&
+        grow_vertex_array(c, &m->normals_mem, 12, was, room, 1) &&
+        grow_vertex_array(c, &c->quantized_mem, 12, was, room, 0) &&
+        (!(m->flags & MTS_MODEL_NORMALS_GIVEN) || grow_vertex_array(c, &c->oct_mem, 4, was, room, 0)) &&
+        (!(m->flags & MTS_MODEL_COLORS) || grow_vertex_array(c, &m->colors_mem, 3, was, room, 1));
+    /* where one failed, those grown before it may have moved */
+    m->positions = m->positions_mem.p;
+    m->normals = m->normals_mem.p;
+    c->quantized = c->quantized_mem.p;
+    c->oct = c->oct_mem.p;
+    m->colors = m->colors_mem.p;
+    if (ok)
+        c->vertex_room = (uint32_t)room;
+    return ok;
 }
 
 static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mts_error *err)
@@ -464,7 +473,7 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
         return mts_error_prefix(err, "BASE");
     if (c->grow)
         mts_grow_use_memory(c->grow, c->memory);
-    if ((rc = mts_lod_init(&c->lod, m, MTS_LOD_AT_BASE, err)) != MTS_OK)
+    if ((rc = mts_lod_init_with(&c->lod, m, MTS_LOD_AT_BASE, c->memory, err)) != MTS_OK)
         return rc;
     c->have_lod = 1;
     mts_lod_set_available(&c->lod, 0);

@@ -341,6 +341,59 @@ static void test_collapse_undoes_edits_in_reverse(mts_test *t)
     mts_model_free(&m);
 }
 
+/* A runtime's slots and scratch past a megabyte live in reservations
+ * (bigmem.h); one made from a cache after another takes the pages the
+ * last one left, which still hold its indices, and its splits and
+ * collapses must give the same strips. The record is padded with empty
+ * edits (a runtime takes them) so that its scratch passes a megabyte. */
+static void test_runtime_reuses_reservations(mts_test *t)
+{
+    enum { PAD = 1 << 16 };
+    const uint32_t base[] = {0, 1, 2}, full[] = {0, 1, 2, 1, 3};
+    const uint32_t head[] = {1 + PAD, 0, 0, 1, 1, 3, 2, 1, 0, 4}; /* insert (1 0) at 3, 4 -> v */
+    const uint32_t words = 10 + 4 * PAD;
+    uint32_t *rec = calloc(words, 4);
+    CHECK(t, rec != NULL);
+    if (!rec)
+        return;
+    memcpy(rec, head, sizeof head); /* then PAD edits of strip 0 that change nothing */
+    mts_model m;
+    hand_model_one_split(&m, base, 3, full, 5, rec, words);
+    free(rec);
+    m.capacity[0] = 1u << 18; /* a megabyte of slot */
+    mts_bigmem_cache *cache = mts_bigmem_cache_create();
+    CHECK(t, cache != NULL);
+    void *left[2] = {NULL, NULL};
+    for (int round = 0; round < 2; round++) {
+        mts_lod lod;
+        mts_error err = {0};
+        CHECKF(t, mts_lod_init_with(&lod, &m, MTS_LOD_AT_BASE, cache, &err) == MTS_OK, "init: %s",
+               err.msg);
+        for (int k = 0; k < 3; k++) {
+            CHECKF(t, mts_lod_set_level(&lod, 1, &err) == MTS_OK, "split: %s", err.msg);
+            uint32_t len;
+            const uint32_t *s = mts_lod_strip(&lod, 0, &len);
+            CHECK(t, len == 5 && memcmp(s, full, sizeof full) == 0);
+            CHECK(t, mts_lod_set_level(&lod, 0, &err) == MTS_OK);
+            s = mts_lod_strip(&lod, 0, &len);
+            CHECK(t, len == 3 && memcmp(s, base, sizeof base) == 0);
+        }
+#if defined(__linux__) && UINTPTR_MAX > 0xffffffffu
+        CHECK(t, lod.data_mem.reserved > 0 && lod.scratch_mem.reserved > 0);
+        if (round == 0) {
+            left[0] = lod.data_mem.p;
+            left[1] = lod.scratch_mem.p;
+        } else {
+            CHECK(t, lod.data_mem.p == left[0] || lod.data_mem.p == left[1]);
+            CHECK(t, lod.scratch_mem.p == left[0] || lod.scratch_mem.p == left[1]);
+        }
+#endif
+        mts_lod_free(&lod);
+    }
+    mts_bigmem_cache_free(cache);
+    mts_model_free(&m);
+}
+
 /* The bounding box travels in the file and sets the quantization grid, so a
  * model whose box is not finite or does not hold its positions is refused. */
 static void test_validate_checks_bbox(mts_test *t)
@@ -654,6 +707,7 @@ int main(void)
     RUN(&t, test_runtime_rejects_bad_record);
     RUN(&t, test_level_lookup);
     RUN(&t, test_collapse_undoes_edits_in_reverse);
+    RUN(&t, test_runtime_reuses_reservations);
     RUN(&t, test_validate_checks_bbox);
     RUN(&t, test_random_records_walk_both_ways);
     RUN(&t, test_erase_insert_subst);
