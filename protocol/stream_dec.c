@@ -484,7 +484,8 @@ static mts_result take_base(mts_stream_client *c, const uint8_t *p, size_t n, mt
  * A whole model's records run to megabytes (bunny00: 1.7 M words, the 1.2M
  * mesh 28 M): past a megabyte they move into a reservation for the records
  * form's bound and grow there in place, on huge pages (bigmem.h). */
-static mts_result reserve_records(mts_stream_client *c, size_t at, size_t words, mts_error *err)
+mts_result mts__stream_reserve_records(mts_stream_client *c, size_t at, size_t words,
+                                        mts_error *err)
 {
     mts_model *m = &c->model;
     if (words > UINT32_MAX - 1 - at)
@@ -518,7 +519,7 @@ mts_result mts__stream_keep_record(mts_stream_client *c, uint32_t j, const uint3
 {
     mts_model *m = &c->model;
     size_t at = m->record_offsets[j];
-    mts_result rc = reserve_records(c, at, words, err);
+    mts_result rc = mts__stream_reserve_records(c, at, words, err);
     if (rc != MTS_OK)
         return rc;
     memcpy(m->record_data + at, r, (size_t)words * 4);
@@ -770,7 +771,7 @@ static mts_result take_records(mts_stream_client *c, const uint8_t *p, size_t n,
         return mts_error_set(err, MTS_ERR_LIMIT, "BATCH %u: records past the model's bound",
                              index);
     size_t room = c->record_word_limit - at < n ? (size_t)(c->record_word_limit - at) : n;
-    mts_result rc = reserve_records(c, at, room, err);
+    mts_result rc = mts__stream_reserve_records(c, at, room, err);
     if (rc != MTS_OK)
         return mts_error_prefix(err, "BATCH %u", index);
     /* reccodec refuses to write past room: more words than the model's

@@ -132,6 +132,13 @@ struct mts__stream_par {
     int pipe;
     uint32_t **orders, *order_n; /* written by the pool before the key's record is made */
     uint32_t *pool_ids, pool_ids_n; /* the pool's alone: mesh-only triangle -> its grow's */
+    /* Pipe, where the model's records already hold the records form's
+     * bound (they never move then): the pool writes its records straight
+     * there, record_offsets too, and the decode thread, which used to copy
+     * them over, only reads them below `made`. NULL: into blocks, kept by
+     * the decode thread. */
+    uint32_t *own_data, *own_offsets;
+    size_t own_cap; /* words at own_data */
     /* the decode thread's alone */
     mts_grow_options go;
     mts_grow_fixup *fix;
@@ -384,6 +391,21 @@ static void par_grow(struct mts__stream_par *p, interval *v)
                     break;
                 }
                 key++;
+            }
+            if (p->own_data) {
+                const size_t at = p->own_offsets[j];
+                /* a records form of this model would bring no more */
+                if (at >= p->own_cap || rw >= p->own_cap - at) {
+                    rc = mts_error_set(&v->err, MTS_ERR_LIMIT,
+                                       "stream: split %u's record passes the model's bound", j);
+                    break;
+                }
+                memcpy(p->own_data + at, r, (size_t)rw * 4);
+                p->own_offsets[j + 1] = (uint32_t)(at + rw);
+                ls->rec = p->own_data + at;
+                ls->rec_words = rw;
+                par_made(p, v, j + 1);
+                continue;
             }
             rec_block *b = v->tail;
             if (!b || b->cap - b->used < rw) {
@@ -652,6 +674,18 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
     }
     if (rc == MTS_OK && !p->pipe) /* pipe: every record is the pool's grow's own */
         rc = mts_grow_fixup_create(&p->fix, err);
+    /* pipe: room for the records form's bound now (past a megabyte a
+     * reservation, address space only), so that the pool can write there */
+    const size_t bound = c->record_word_limit;
+    mts_error ignored; /* out of memory here: blocks, as before */
+    if (rc == MTS_OK && p->pipe && bound && bound < UINT32_MAX &&
+        mts__stream_reserve_records(c, 0, bound < (1u << 18) ? bound : 1u << 18, &ignored) ==
+            MTS_OK &&
+        c->record_capacity >= bound + 1) {
+        p->own_data = c->model.record_data;
+        p->own_offsets = c->model.record_offsets;
+        p->own_cap = bound + 1;
+    }
     if (rc == MTS_OK)
         rc = mts_grow_create(&m->base, m->base_vertex_count, n, go, &p->iv[0].w, err);
     if (rc == MTS_OK && p->pipe)
@@ -927,7 +961,9 @@ mts_result mts__stream_par_fixup(mts_stream_client *c, uint32_t upto, mts_error 
                        MTS_OK) {
             return rc;
         }
-        if ((rc = mts__stream_keep_record(c, j, o, ow, err)) != MTS_OK)
+        if (p->own_data) /* the pool wrote it in place, and its end */
+            c->model.record_word_count = c->model.record_offsets[j + 1];
+        else if ((rc = mts__stream_keep_record(c, j, o, ow, err)) != MTS_OK)
             return rc;
         p->fixed = j + 1;
         /* the blocks before the one this record lies in are all kept (the

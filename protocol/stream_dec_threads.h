@@ -22,6 +22,11 @@
 mts_result mts__stream_keep_record(mts_stream_client *c, uint32_t j, const uint32_t *r,
                                    uint32_t words, mts_error *err);
 
+/* Room in the client's model for `words` more record words from word
+ * `at` (stream_dec.c): grown by doubling up to the records form's bound. */
+mts_result mts__stream_reserve_records(mts_stream_client *c, size_t at, size_t words,
+                                       mts_error *err);
+
 /* Sets the threads up after BASE: the log, the intervals, the fix-up, the
  * first worker (a grow from the base, whose slots are the real ones) and
  * the pool. MTS_OK with c->par left NULL where one thread it is (threads
