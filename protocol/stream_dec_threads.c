@@ -33,7 +33,8 @@
  * applied before its frame returns. The full level's split reads the
  * batch's coder as it walks, so its worker runs on the decode thread.
  * With one pool thread (two threads in all) there is one worker, a grow
- * from the base that takes every split, and nothing to fix up (`pipe`);
+ * from the base that takes every split, and nothing to fix up (`pipe`):
+ * it writes its records straight into the model's (own_data);
  * it takes each fan's ring from the log, as the decode thread walked it for
  * the fan code, in place of walking it again (mts_grow_take_ring). The
  * decode thread stripifies a key on its own mesh too where that pays (the
