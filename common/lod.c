@@ -16,10 +16,10 @@ static void lod_mark(mts_lod *lod, uint32_t s)
  * and each insert of the edit being undone starts. An edit takes 4 words at
  * least (strip and three counts) and an erase or insert run 2 (position,
  * length), so for a record of w words 4 E + 2 (R + I) <= w - 1 and the
- * E + R + I entries never pass w / 2 + 1. */
-/* The scratch holds nothing from one record to the next, so growing it
- * keeps nothing: a record past a megabyte of pointers (a key level's
- * rewrites every strip) takes a reservation in place of a copy. */
+ * E + R + I entries never pass w / 2 + 1. The scratch holds nothing from
+ * one record to the next, so growing it keeps nothing: past a megabyte of
+ * pointers (a key level's record rewrites every strip) it takes a
+ * reservation in place of a copy. */
 static int lod_reserve_scratch(mts_lod *lod, uint32_t record_words)
 {
     uint32_t need = record_words / 2 + 1;

@@ -299,13 +299,6 @@ static mts_result take_capacities(mts_stream_client *c, mts_cursor *cur, mts_rc_
     return MTS_OK;
 }
 
-/* Room in the per-vertex arrays for `count` vertices (at most the model's).
- * They hold the vertices that arrived, the base once decoded and each split
- * as it is decoded, not what MODEL_INFO claims: a server that claims
- * millions of vertices and sends a few thousand costs a few thousand.
- * Doubling keeps the copying to a constant a vertex; the new normals are
- * zero, as a stream without normals leaves them. 0 when out of memory (the
- * arrays that did grow stay valid). */
 /* One per-vertex array grown from `was` to `room` vertices of `unit`
  * bytes, its new part cleared where `zero` (normals and colours add up
  * as triangles come). Past a megabyte it moves into a reservation for the
@@ -323,6 +316,13 @@ static int grow_vertex_array(mts_stream_client *c, mts_bigmem *mem, size_t unit,
     return 1;
 }
 
+/* Room in the per-vertex arrays for `count` vertices (at most the model's).
+ * They hold the vertices that arrived, the base once decoded and each split
+ * as it is decoded, not what MODEL_INFO claims: a server that claims
+ * millions of vertices and sends a few thousand costs a few thousand.
+ * Doubling keeps the copying to a constant a vertex; the new normals are
+ * zero, as a stream without normals leaves them. 0 when out of memory (the
+ * arrays that did grow stay valid). */
 static int reserve_vertices(mts_stream_client *c, uint32_t count)
 {
     mts_model *m = &c->model;
@@ -340,7 +340,8 @@ static int reserve_vertices(mts_stream_client *c, uint32_t count)
         grow_vertex_array(c, &m->positions_mem, 12, was, room, 0) &&
         grow_vertex_array(c, &m->normals_mem, 12, was, room, 1) &&
         grow_vertex_array(c, &c->quantized_mem, 12, was, room, 0) &&
-        (!(m->flags & MTS_MODEL_NORMALS_GIVEN) || grow_vertex_array(c, &c->oct_mem, 4, was, room, 0)) &&
+        (!(m->flags & MTS_MODEL_NORMALS_GIVEN) ||
+         grow_vertex_array(c, &c->oct_mem, 4, was, room, 0)) &&
         (!(m->flags & MTS_MODEL_COLORS) || grow_vertex_array(c, &m->colors_mem, 3, was, room, 1));
     /* where one failed, those grown before it may have moved */
     m->positions = m->positions_mem.p;

@@ -680,8 +680,8 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
     const size_t bound = c->record_word_limit;
     mts_error ignored; /* out of memory here: blocks, as before */
     if (rc == MTS_OK && p->pipe && bound && bound < UINT32_MAX &&
-        mts__stream_reserve_records(c, 0, bound < (1u << 18) ? bound : 1u << 18, &ignored) ==
-            MTS_OK &&
+        mts__stream_reserve_records(c, 0, bound < MTS_BIGMEM_FROM / 4 ? bound : MTS_BIGMEM_FROM / 4,
+                                    &ignored) == MTS_OK &&
         c->record_capacity >= bound + 1) {
         p->own_data = c->model.record_data;
         p->own_offsets = c->model.record_offsets;
