@@ -43,12 +43,13 @@ static double thread_cpu(void)
  * thread's alone (the rest is the pool's: which of the two bounds a run).
  * *alone counts the runs whose two threads went on as one (stream.h,
  * threads_alone_from), so that a row's figure says what it measured. */
-static double apply(const mts_buf *b, uint32_t threads, mts_bigmem_cache *memory,
+static double apply(const mts_buf *b, uint32_t threads, int at_keys, mts_bigmem_cache *memory,
                     uint64_t *checksum, double *cpu, double *dec, int *alone, mts_error *err)
 {
     mts_stream_client c;
     mts_stream_client_init(&c);
     c.threads = threads;
+    c.threads_at_keys = at_keys;
     c.memory = memory;
     double c0 = process_cpu(), d0 = thread_cpu(), t0 = cli_now();
     int ok = mts_stream_client_feed(&c, b->data, b->size, err) == MTS_OK, got = 0;
@@ -81,24 +82,28 @@ static int load(const char *path, mts_model *m, mts_error *err)
 int main(int argc, char **argv)
 {
     const char *paths[16], *json_path = NULL;
-    int npaths = 0, runs = 7, nthreads = 1;
+    int npaths = 0, runs = 7, nthreads = 1, at_keys[8] = {0};
     uint32_t threads[8] = {1};
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--threads") && i + 1 < argc) {
-            /* a comma-separated list of counts, 1 to 64 each */
+            /* a comma-separated list of counts, 1 to 64 each; "3k": three
+             * cut at their keys (threads_at_keys), which "3" is not */
             const char *p = argv[++i];
             nthreads = 0;
             while (*p && nthreads < 8) {
                 char *end;
                 unsigned long v = strtoul(p, &end, 10);
+                const int k = end != p && *end == 'k';
+                end += k;
                 if (end == p || v < 1 || v > 64 || (*end && *end != ','))
                     break;
+                at_keys[nthreads] = k;
                 threads[nthreads++] = (uint32_t)v;
                 p = *end ? end + 1 : end;
             }
             if (*p || !nthreads) {
                 fprintf(stderr, "mts-bench-apply: --threads needs counts from 1 to 64, "
-                                "comma-separated (at most 8)\n");
+                                "comma-separated (at most 8), each with a k to cut at keys\n");
                 return CLI_EXIT_USAGE;
             }
         } else if (!strcmp(argv[i], "--json") && i + 1 < argc) {
@@ -114,7 +119,9 @@ int main(int argc, char **argv)
                    "Per model, both stream forms decoded and applied in this process (median\n"
                    "of N warm runs, default 7): ms, splits/s, their ratio, ns a split; and\n"
                    "the server's encoding time. --threads: the splits form's decoder threads\n"
-                   "(stream.h; default 1), each count a row, alternated within each run.\n");
+                   "(stream.h; default 1), each count a row, alternated within each run; a\n"
+                   "count with a k (3k) cuts growth at its keys (threads_at_keys), where more\n"
+                   "than two without it decode as two.\n");
             return CLI_EXIT_OK;
         } else if (argv[i][0] == '-') {
             fprintf(stderr, "mts-bench-apply: unknown option %s\n", argv[i]);
@@ -176,14 +183,15 @@ int main(int argc, char **argv)
          * arrays' reservations kept from one to the next (bigmem.h) */
         mts_bigmem_cache *mem = mts_bigmem_cache_create();
         /* a first run of each: first-touch page faults are not decoding */
-        ok = ok && apply(&r, 1, mem, &cr, &scratch, &scratch2, &unused, &err) > 0;
+        ok = ok && apply(&r, 1, 0, mem, &cr, &scratch, &scratch2, &unused, &err) > 0;
         for (int x = 0; ok && x < nthreads; x++)
-            ok = apply(&a, threads[x], mem, &ca[x], &scratch, &scratch2, &unused, &err) > 0;
+            ok = apply(&a, threads[x], at_keys[x], mem, &ca[x], &scratch, &scratch2, &unused,
+                       &err) > 0;
         for (int i = 0; ok && i < runs; i++) { /* alternated, so drift hits all */
             for (int x = 0; ok && x < nthreads; x++)
-                ok = (ta[x][i] = apply(&a, threads[x], mem, &ca[x], &cpu[x][i], &dec[x][i],
-                                         &alone[x], &err)) > 0;
-            ok = ok && (tr[i] = apply(&r, 1, mem, &cr, &scratch, &scratch2, &unused, &err)) > 0;
+                ok = (ta[x][i] = apply(&a, threads[x], at_keys[x], mem, &ca[x], &cpu[x][i],
+                                         &dec[x][i], &alone[x], &err)) > 0;
+            ok = ok && (tr[i] = apply(&r, 1, 0, mem, &cr, &scratch, &scratch2, &unused, &err)) > 0;
         }
         mts_bigmem_cache_free(mem);
         for (int x = 0; x < nthreads; x++)
@@ -207,7 +215,7 @@ int main(int argc, char **argv)
             double *tx = ta[x];
             char row[128];
             if (nthreads > 1 || threads[x] != 1)
-                snprintf(row, sizeof row, "%.100s@t%u", name, threads[x]);
+                snprintf(row, sizeof row, "%.100s@t%u%s", name, threads[x], at_keys[x] ? "k" : "");
             else
                 snprintf(row, sizeof row, "%s", name);
             qsort(tx, (size_t)runs, sizeof *tx, bench_cmp_double);
@@ -225,11 +233,13 @@ int main(int argc, char **argv)
                         "\"records_bytes\":%zu,\"splits_ms\":%.3f,\"splits_per_s\":%.0f,"
                         "\"records_ms\":%.3f,\"records_per_s\":%.0f,\"ratio\":%.3f,"
                         "\"ns_per_split\":%.1f,\"splits_ms_min\":%.3f,\"records_ms_min\":%.3f,"
-                        "\"encode_s\":%.3f,\"threads\":%u,\"alone_runs\":%d,\"cpu_ms\":%.3f,"
+                        "\"encode_s\":%.3f,\"threads\":%u,\"at_keys\":%s,\"alone_runs\":%d,"
+                        "\"cpu_ms\":%.3f,"
                         "\"decode_cpu_ms\":%.3f,\"over_first_paired\":[%.3f,%.3f,%.3f]}",
                         first ? "" : ",", row, tris, m.level_count, a.size, r.size, sa * 1e3,
                         n / sa, sr * 1e3, n / sr, sa / sr, sa / n * 1e9, tx[0] * 1e3,
-                        tr[0] * 1e3, encode, threads[x], alone[x], cx * 1e3, dx * 1e3,
+                        tr[0] * 1e3, encode, threads[x], at_keys[x] ? "true" : "false", alone[x],
+                        cx * 1e3, dx * 1e3,
                         paired[x][runs / 4], paired[x][runs / 2], paired[x][(3 * runs) / 4]);
             first = 0;
         }
@@ -240,6 +250,7 @@ int main(int argc, char **argv)
     }
     printf("(ratio: splits form / records form; ns/split: the splits form's; alone: the timed "
            "runs whose two threads went on as one, finding the pool thread without a core;\n"
+           " @tNk: N threads with growth cut at its keys (stream.h threads_at_keys);\n"
            " cpu ms: the splits form's processor time, all threads together, median;\n"
            " dec ms: the decode thread's alone, the caller's: cpu ms less it is the pool's)\n");
     if (js) {

@@ -44,14 +44,16 @@ pids=()
 trap 'kill -TERM "${pids[@]}" 2>/dev/null; wait 2>/dev/null' EXIT
 
 procs=$(getconf _NPROCESSORS_ONLN 2>/dev/null || echo 1)
+# Past two, the counts are the layout that cuts growth at its keys (3k, 4k,
+# ...: stream.h threads_at_keys), since --threads 3 or more decode as two.
 counts=""
 for t in 1 2 3 4 5 6 7 8; do # mts-bench-apply times at most 8 counts
-  [ "$t" -le "$procs" ] && counts="$counts${counts:+,}$t"
+  [ "$t" -le "$procs" ] && counts="$counts${counts:+,}$t$([ "$t" -gt 2 ] && echo k)"
 done
 if [ "$procs" -gt 8 ]; then
-  counts="1,2,4,8"
-  for t in 16 32 64; do [ "$t" -lt "$procs" ] && counts="$counts,$t"; done
-  counts="$counts,$((procs < 64 ? procs : 64))"
+  counts="1,2,4k,8k"
+  for t in 16 32 64; do [ "$t" -lt "$procs" ] && counts="$counts,${t}k"; done
+  counts="$counts,$((procs < 64 ? procs : 64))k"
 fi
 runs=7 stream_runs=3 names=(cow bunny00 fandisk_large) rates=(1250000 3125000 12500000)
 stream_model=bunny00
@@ -321,7 +323,7 @@ fi
 python3 - "$dir" "$json" "$procs" "$counts" "$runs" "$stream_runs" "$stream_model" "$quick" <<'PY' || status=1
 import json, os, sys
 d, dest, procs, counts, runs, sruns, smodel, quick = sys.argv[1:9]
-counts = [int(c) for c in counts.split(",")]
+counts = counts.split(",")  # 1, 2, 3k ...: k cut at keys
 
 def med(v):
     v = sorted(x for x in v if x is not None)
@@ -362,7 +364,7 @@ for row, r in rows.items():
     m["cpu_ms"][t] = r.get("cpu_ms")
     m["decode_cpu_ms"][t] = r.get("decode_cpu_ms")
     # T over one thread run by run (counts alternate from 1): q1, median, q3
-    m["over_one_paired"][t] = r.get("over_first_paired") if counts[0] == 1 else None
+    m["over_one_paired"][t] = r.get("over_first_paired") if counts[0] == "1" else None
 for m in apply["models"].values():
     one = m["splits_ms"].get("1")
     for t, ms in m["splits_ms"].items():
@@ -370,7 +372,7 @@ for m in apply["models"].values():
         # the work of all T threads spread evenly over them, against one
         # thread: no schedule of that work on T cores does better
         cpu = m["cpu_ms"].get(t)
-        m["balanced_over_one"][t] = round(cpu / int(t) / one, 3) if one and cpu else None
+        m["balanced_over_one"][t] = round(cpu / int(t.rstrip("k")) / one, 3) if one and cpu else None
 res["apply"] = apply
 
 
@@ -395,7 +397,10 @@ for name, m in apply["models"].items():
                  for t in counts[1:]) + " " +
         " ".join(f"{paired_cell(m['over_one_paired'].get(str(t))):>15}" for t in counts[1:]) +
         f" {m['records_ms']:>10.2f} {m['alone_runs'].get('2') or 0:>5}")
-print("  (T even: the processor time of all T threads, spread evenly over T cores, over one "
+print(("  (Tk: T threads with growth cut at its keys, the layout --threads T no longer takes "
+       "(it decodes as two): docs/threads.md, \"Three threads or more\";\n   "
+       if any(t.endswith("k") for t in counts) else "  (") +
+      "T even: the processor time of all T threads, spread evenly over T cores, over one "
       "thread's time: the least any schedule of that work could take;\n"
       "   T/1 by run: T threads over one within each run, median [quartiles]: the spread is "
       "the noise the medians' ratio carries)")

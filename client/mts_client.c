@@ -96,8 +96,9 @@ static void usage(FILE *f)
           "                      system's (a private CA); verification is never skipped\n"
           "  --max-file-bytes N  refuse a stream file over N bytes (K, M, G; default 1G)\n"
           "  --threads N         threads that decode the stream (default 2 where 2 or more\n"
-          "                      processors are online, else 1; docs/threads.md); the mesh\n"
-          "                      is the same whatever N\n"
+          "                      processors are online, else 1; more decode as 2, which is\n"
+          "                      faster on any number of cores: docs/threads.md); the mesh\n"
+          "                      is the same whatever N (--json: threads, threads_asked)\n"
           "  --list              print the server's models\n"
           "  --json              one line of JSON with the figures\n"
           "  -q, --quiet         no progress, no summary\n"
@@ -132,10 +133,9 @@ static int parse_args(int argc, char **argv, client_options *o)
     rn->morph_ms = -1;
     rn->distance = 1;
     /* two decoding threads where two or more processors are online: on two
-     * free cores they decode bunny00 and fandisk_large in 0.78x to 0.86x
-     * one thread's time (docs/threads.md). More cut growth at its keys,
-     * which loads the decode thread, and were slower than two where
-     * measured, so they are for --threads N */
+     * free cores they decode bunny00 and the 1.2M mesh in some 0.5x to
+     * 0.7x one thread's time (docs/threads.md); the decoder takes no more
+     * (stream.h, threads) */
     const long online = sysconf(_SC_NPROCESSORS_ONLN);
     rn->threads = online >= 2 ? 2 : 1;
     mts_render_options_default(&rn->ro);

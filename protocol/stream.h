@@ -197,21 +197,29 @@ typedef struct mts_stream_client {
     void *user;
     /* Threads that decode a splits-form stream, the caller's included; set
      * after mts_stream_client_init, before BASE (0 or 1: the caller's alone).
-     * With more, the caller's thread decodes the splits and the vertices
-     * while the others derive each key interval's records (docs/threads.md);
+     * With two, the caller's thread decodes the splits and the vertices
+     * while the other derives the records (docs/threads.md);
      * the records, strips and events are the same whatever the count, and a
      * batch is still applied before its frame returns. With two, the batches
      * the client holds whole are decoded while the one before is derived
      * (mts_stream_client_reconnected applies those first). A stream whose
-     * MODEL_INFO lists no key levels, and the records form, use one. */
+     * MODEL_INFO lists no key levels, and the records form, use one. More
+     * than two decode as two unless threads_at_keys is set: the layout that
+     * gives a third thread work (a grow per key interval, its records fixed
+     * up on the caller's thread) leaves that thread alone some 0.85x of one
+     * thread's work, where two threads leave each 0.55x to 0.65x, so it is
+     * slower than two on any number of cores (docs/threads.md, "Three
+     * threads or more"). threads_at_keys: that layout all the same, for
+     * the bench's curve and the tests. */
     uint32_t threads;
+    int threads_at_keys;
     /* Two threads pay only where each has a core: sharing one (another
      * process holds the rest) they take longer than one thread alone. So
      * after each batch the decoder reads how long its pool thread waited
      * for a core (Linux), and where that passes 15% of three windows of
      * batches in a row while no core it may use idled, it goes on alone
      * for the rest of the stream (with the same records). Two threads do; three or more (key
-     * intervals) keep theirs. threads_alone_after (tests) makes two do so
+     * intervals, threads_at_keys) keep theirs. threads_alone_after (tests) makes two do so
      * after that many batches instead, measuring nothing; 0: by measure. */
     uint32_t threads_alone_after;
     /* Two threads: the decode thread makes a key's paths for the pool where
@@ -236,8 +244,9 @@ void mts_stream_client_free(mts_stream_client *c);
 
 /* The most threads that decoded this stream, the caller's included: 1
  * until BASE, and after it for the records form, a stream without key
- * levels, or where no thread could be started; otherwise `threads` or as
- * many as have work (threads_alone_from says whether it went on alone). */
+ * levels, or where no thread could be started; otherwise two, or with
+ * threads_at_keys `threads` or as many as have work (threads_alone_from
+ * says whether it went on alone). */
 uint32_t mts_stream_client_threads_used(const mts_stream_client *c);
 
 /* Bytes to events, for a caller that holds bytes rather than frames: a

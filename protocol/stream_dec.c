@@ -1179,7 +1179,7 @@ mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)
         void (*on_model)(void *, const mts_wire_model_entry *) = c->on_model;
         void *user = c->user;
         uint32_t resumes = c->resumes, threads = c->threads, alone = c->threads_alone_after;
-        const int hand = c->threads_hand_key_paths;
+        const int hand = c->threads_hand_key_paths, at_keys = c->threads_at_keys;
         mts_bigmem_cache *memory = c->memory;
         mts_stream_client_free(c);
         mts_stream_client_init(c);
@@ -1188,6 +1188,7 @@ mts_result mts_stream_client_reconnected(mts_stream_client *c, mts_error *err)
         c->threads = threads;
         c->threads_alone_after = alone;
         c->threads_hand_key_paths = hand;
+        c->threads_at_keys = at_keys;
         c->memory = memory;
         c->resumes = resumes;
         return MTS_OK;

@@ -625,7 +625,9 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
 {
     const mts_model *m = &c->model;
     const uint32_t n = m->level_count, kc = c->info.key_count;
-    if (c->threads < 2 || c->records || !c->info.key_levels || n == 0)
+    /* more than two decode as two (stream.h) unless cut at their keys */
+    const uint32_t threads = c->threads > 2 && !c->threads_at_keys ? 2 : c->threads;
+    if (threads < 2 || c->records || !c->info.key_levels || n == 0)
         return MTS_OK;
     struct mts__stream_par *p = calloc(1, sizeof *p);
     if (!p)
@@ -638,14 +640,14 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
     pthread_cond_init(&p->progress, NULL);
     p->go = *go;
     p->delay_fd = -1;
-    p->pipe = c->threads == 2;
+    p->pipe = threads == 2;
     p->hand = c->threads_hand_key_paths;
     p->iv_count = p->pipe ? 2 : kc + 2;
     p->chunk_count = n / LOG_CHUNK + 1;
     mts_result rc = MTS_OK;
     if (!(p->iv = calloc(p->iv_count, sizeof *p->iv)) ||
         !(p->chunk = calloc(p->chunk_count, sizeof *p->chunk)) ||
-        !(p->thread = calloc(c->threads, sizeof *p->thread)) ||
+        !(p->thread = calloc(threads, sizeof *p->thread)) ||
         (p->pipe && (!(p->orders = calloc(kc + 1, sizeof *p->orders)) ||
                      !(p->order_n = calloc(kc + 1, sizeof *p->order_n)))))
         rc = mts_error_set(err, MTS_ERR_NOMEM, "out of memory for the decoder's threads");
@@ -694,7 +696,7 @@ mts_result mts__stream_par_start(mts_stream_client *c, const mts_grow_options *g
     if (rc == MTS_OK) {
         p->queued = 1;
         /* more threads than intervals would wait for nothing */
-        const uint32_t want = c->threads - 1 < p->iv_count - 1 ? c->threads - 1 : p->iv_count - 1;
+        const uint32_t want = threads - 1 < p->iv_count - 1 ? threads - 1 : p->iv_count - 1;
         for (uint32_t k = 0; k < want; k++) {
             if (pthread_create(&p->thread[p->thread_count], NULL, par_thread, p) != 0)
                 break;

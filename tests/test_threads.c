@@ -1,6 +1,7 @@
 /* The stream client's decoder on threads (c->threads, docs/threads.md)
  * against one thread, on cow, bunny00 and fandisk_large:
- *  - at 2 and 4 threads, fed whole and in small random pieces, every record
+ *  - at 2 threads and at 4 cut at their keys (threads_at_keys), fed whole
+ *    and in small random pieces, and at 4 not cut (which decode as 2), every record
  *    (offsets, words, parents), every vertex and the strips are the
  *    one-thread decode's byte for byte; after each batch the runtime is at
  *    that batch's level with the server's checksum (a batch is applied
@@ -13,7 +14,8 @@
  *  - a batch damaged after its CRC was taken fails the client at every
  *    thread count, and freeing it stops its threads;
  *  - mts-client --threads 1 and --threads 4 print the same checksum for
- *    cow over loopback, and --json reports the threads; mts-stress's
+ *    cow over loopback, and --json reports the threads used (2 for 4)
+ *    and asked; mts-stress's
  *    clients decode on two threads each (--decode-threads). */
 #include <libgen.h>
 #include <signal.h>
@@ -297,7 +299,8 @@ static void compare(mts_test *t, const char *what, const mts_stream *s, mts_stre
     CHECKF(t, bad == 0 && compared > 0, "%s: %u levels compared", what, compared);
 }
 
-/* One model's stream: one thread, then 2 and 4, whole and in pieces. */
+/* One model's stream: one thread, then 2 and 4 cut at their keys, whole
+ * and in pieces, and 4 not cut, which decode as 2. */
 static void model_threads(mts_test *t, const char *path, const char *name, size_t piece,
                           int every_level, uint32_t explicit_every)
 {
@@ -318,15 +321,17 @@ static void model_threads(mts_test *t, const char *path, const char *name, size_
            f1.bad_levels, f1.bad_checksums);
     CHECKF(t, one.info.key_count > 0, "%s: no key levels", name);
     CHECK(t, mts_stream_client_threads_used(&one) == 1);
-    const uint32_t threads[2] = {2, 4};
-    for (int k = 0; k < 2 && !t->case_failed; k++) {
+    const uint32_t threads[3] = {2, 4, 4};
+    const int at_keys[3] = {0, 1, 0};
+    for (int k = 0; k < 3 && !t->case_failed; k++) {
         /* pieces 2: two threads, then one from a third of the batches on
          * (as where the threads turn out to share a core) */
         /* pieces 3: two threads, every key's paths made by the decode
          * thread and taken by the pool, as where the pool is well behind */
-        for (int pieces = 0; pieces < (k == 0 ? 4 : 2) && !t->case_failed; pieces++) {
+        for (int pieces = 0; pieces < (k == 0 ? 4 : 2 - (k == 2)) && !t->case_failed; pieces++) {
             char what[96];
-            snprintf(what, sizeof what, "%s, %u threads, %s", name, threads[k],
+            snprintf(what, sizeof what, "%s, %u threads%s, %s", name, threads[k],
+                     at_keys[k] ? " at keys" : "",
                      pieces == 3   ? "whole, every key's paths handed across"
                      : pieces == 2 ? "whole, alone after a third"
                      : pieces      ? "small pieces"
@@ -334,6 +339,7 @@ static void model_threads(mts_test *t, const char *path, const char *name, size_
             mts_stream_client c;
             mts_stream_client_init(&c);
             c.threads = threads[k];
+            c.threads_at_keys = at_keys[k];
             if (pieces == 2)
                 c.threads_alone_after = s.batch_count / 3 + 1;
             c.threads_hand_key_paths = pieces == 3;
@@ -346,8 +352,9 @@ static void model_threads(mts_test *t, const char *path, const char *name, size_
                    f.bad_levels, f.bad_checksums);
             if (rc == MTS_OK)
                 compare(t, what, &s, &one, &c, every_level && pieces != 1);
-            CHECKF(t, mts_stream_client_threads_used(&c) == threads[k], "%s: %u threads used",
-                   what, mts_stream_client_threads_used(&c));
+            const uint32_t used = at_keys[k] ? threads[k] : 2;
+            CHECKF(t, mts_stream_client_threads_used(&c) == used, "%s: %u threads used, not %u",
+                   what, mts_stream_client_threads_used(&c), used);
             if (pieces == 2)
                 CHECKF(t,
                        c.par == NULL && c.threads_alone_from ==
@@ -415,8 +422,8 @@ static void test_resume(mts_test *t)
     mts_stream_put_model_info(&s, s.model.level_count, &first);
     const uint32_t cut = s.batch_count / 3;
     mts_buf_put(&first, s.bytes, s.batch_offset[cut] + 9);
-    /* on three threads; on two gone on alone before the cut; on two going
-     * on alone after the resume */
+    /* on three threads cut at their keys; on two gone on alone before the
+     * cut; on two going on alone after the resume */
     const uint32_t threads[3] = {3, 2, 2}, alone[3] = {0, cut / 2 + 1, cut + 2};
     for (int k = 0; k < 3; k++) {
         char what[64];
@@ -424,13 +431,14 @@ static void test_resume(mts_test *t)
                  alone[k]);
         mts_stream_client_init(&c);
         c.threads = threads[k];
+        c.threads_at_keys = threads[k] > 2;
         c.threads_alone_after = alone[k];
         f = (fed){0};
         CHECKF(t, feed(&c, &s, &first, 5, 61, &f, &err) == MTS_OK && !f.ended, "%s: %s", what,
                err.msg);
         CHECK(t, mts_stream_client_resume_point(&c, &batch, &id) && batch == cut);
         CHECK(t, mts_stream_client_reconnected(&c, &err) == MTS_OK && c.threads == threads[k] &&
-                     c.threads_alone_after == alone[k]);
+                     c.threads_at_keys == (threads[k] > 2) && c.threads_alone_after == alone[k]);
         conversation(&s, batch, &rest);
         CHECKF(t, feed(&c, &s, &rest, 6, 61, &f, &err) == MTS_OK && f.ended, "%s: %s", what,
                err.msg);
@@ -537,6 +545,7 @@ static void test_damaged_batch(mts_test *t)
         mts_stream_client c;
         mts_stream_client_init(&c);
         c.threads = threads[k];
+        c.threads_at_keys = threads[k] > 2;
         mts_error err = {0};
         fed f = {0};
         mts_result rc = feed(&c, &s, &b, 3, 0, &f, &err);
@@ -644,8 +653,9 @@ static void test_client_program(mts_test *t)
                  "--threads %d",
                  bin_dir, port, threads[k]);
         int rc = mts_test_run(cmd, out[k], sizeof out[k]);
-        char th[32];
-        snprintf(th, sizeof th, "\"threads\":%d", threads[k]);
+        char th[64]; /* more than two decode as two */
+        snprintf(th, sizeof th, "\"threads\":%d,\"threads_asked\":%d", threads[k] > 2 ? 2 : threads[k],
+                 threads[k]);
         CHECKF(t, rc == 0 && strstr(out[k], want) && strstr(out[k], th), "--threads %d: exit %d: %s",
                threads[k], rc, out[k]);
     }
