@@ -248,11 +248,14 @@ int main(int argc, char **argv)
         mts_stream_free(&s);
         mts_model_free(&m);
     }
+    int any_k = 0;
+    for (int x = 0; x < nthreads; x++)
+        any_k |= at_keys[x];
     printf("(ratio: splits form / records form; ns/split: the splits form's; alone: the timed "
-           "runs whose two threads went on as one, finding the pool thread without a core;\n"
-           " @tNk: N threads with growth cut at its keys (stream.h threads_at_keys);\n"
+           "runs whose two threads went on as one, finding the pool thread without a core;\n%s"
            " cpu ms: the splits form's processor time, all threads together, median;\n"
-           " dec ms: the decode thread's alone, the caller's: cpu ms less it is the pool's)\n");
+           " dec ms: the decode thread's alone, the caller's: cpu ms less it is the pool's)\n",
+           any_k ? " @tNk: N threads with growth cut at its keys (stream.h threads_at_keys);\n" : "");
     if (js) {
         fprintf(js, "}}\n");
         fclose(js);
