@@ -171,12 +171,19 @@ struct mts_session {
     double last_data;     /* ms: the last byte (or the connect), for io_timeout */
     int progress;         /* this conversation applied something */
     int backlog;          /* the client may hold whole frames not yet taken */
+    /* a read between frames found the connection closed (1) or broken (2,
+     * held_why): the conversation ends so once the frames held before it
+     * are taken */
+    int held;
+    char held_why[sizeof(((mts_error *)0)->msg)];
     double retry_at;      /* ms, PH_WAIT */
     mts_result result;    /* PH_DONE */
     mts_error err;
 };
 
 #define SESSION_CHUNK (1 << 16)
+/* bytes held ahead of the frame being taken, where two threads decode */
+#define SESSION_AHEAD (1 << 18)
 /* ms of decoding and applying per poll before the caller gets control back */
 #define SESSION_SLICE_MS 8.0
 
@@ -191,6 +198,7 @@ static void close_conversation(mts_session *s)
         close(s->fd);
     s->tls = NULL;
     s->tls_pending = 0;
+    s->held = 0;
     s->fd = -1;
     free(s->buf);
     s->buf = NULL;
@@ -325,6 +333,85 @@ static int take_event(mts_session *s, mts_stream_event ev)
     return 1;
 }
 
+/* The conversation's end where the connection closed (closed) or broke
+ * (why), in s->err: what came and what was applied by then. */
+static mts_result broken(mts_session *s, int closed, const char *why)
+{
+    const unsigned long long bytes = (unsigned long long)s->st->bytes;
+    if (!closed)
+        return mts_error_set(&s->err, MTS_ERR_IO, "connection lost after %llu bytes (%s)", bytes,
+                             why);
+    if (s->o->list)
+        return mts_error_set(&s->err, MTS_ERR_IO,
+                             "the server closed the connection before the model list was whole "
+                             "(after %llu bytes)",
+                             bytes);
+    return mts_error_set(&s->err, MTS_ERR_IO,
+                         "the server closed the connection mid-stream (after %llu bytes, %u "
+                         "batches applied)",
+                         bytes, s->c->batches);
+}
+
+/* One read of what the socket (or TLS) holds, fed to the stream client.
+ * 1: bytes fed; 0: none there yet; -1: the conversation ended (s->ph moved
+ * on). Between frames (between) a closed or broken connection ends it only
+ * once the frames held are taken (s->held): those came before. */
+static int read_some(mts_session *s, int between)
+{
+    mts_error e = {0};
+    ssize_t got = s->tls ? mts_tls_read(s->tls, s->buf, SESSION_CHUNK, &e)
+                         : mts_net_read(s->fd, s->buf, SESSION_CHUNK);
+    s->tls_pending = s->tls && got > 0;
+    if (got == MTS_NET_AGAIN)
+        return 0;
+    if (got <= 0) {
+        char why[sizeof e.msg];
+        snprintf(why, sizeof why, "%s", got == 0 ? "" : s->tls ? e.msg : strerror(errno));
+        if (between) {
+            s->held = got == 0 ? 1 : 2;
+            snprintf(s->held_why, sizeof s->held_why, "%s", why);
+            return 0;
+        }
+        conversation_failed(s, broken(s, got == 0, why), 1);
+        return -1;
+    }
+    s->last_data = (1e3 * mts_clock_seconds());
+    s->st->bytes += (uint64_t)got;
+    mts_result rc = mts_stream_client_feed(s->c, s->buf, (size_t)got, &s->err);
+    if (rc != MTS_OK) {
+        conversation_failed(s, rc, 0);
+        return -1;
+    }
+    return 1;
+}
+
+/* Two threads decode the batches held whole while a batch's records are
+ * made, and a batch returns only once they are; with the last whole frame
+ * in hand that wait is idle, and the bytes that came meanwhile sit in the
+ * socket (or libcurl) until the frames are taken. So where two threads
+ * decode, the bytes that are there come in before each frame, up to
+ * SESSION_AHEAD held. 0: the conversation ended (s->ph moved on). */
+static int top_up(mts_session *s)
+{
+    mts_stream_client *c = s->c;
+    mts_webfile *wf = s->o->file;
+    while (!s->held && mts_stream_client_threads_used(c) > 1 &&
+           mts_stream_client_buffered(c) < SESSION_AHEAD) {
+        if (wf) { /* a failure here is the file's result, read after the frames */
+            const uint64_t before = mts_webfile_bytes(wf);
+            const int going = mts_webfile_poll(wf, c, 0);
+            s->st->bytes += mts_webfile_bytes(wf) - before;
+            if (!going || mts_webfile_bytes(wf) == before)
+                break;
+            continue;
+        }
+        int r = read_some(s, 1);
+        if (r <= 0)
+            return r == 0;
+    }
+    return 1;
+}
+
 /* Takes the whole frames the stream client holds until the deadline (ms;
  * the rest wait in it: s->backlog). A new conversation starts with
  * mts_stream_client_reconnected, which drops a frame cut by the break.
@@ -336,6 +423,8 @@ static int take_frames(mts_session *s, double deadline)
     mts_error *err = &s->err;
     s->backlog = 0;
     for (;;) {
+        if (!top_up(s))
+            return 0;
         size_t before = mts_stream_client_buffered(c);
         double a = (1e3 * mts_clock_seconds());
         mts_stream_event ev;
@@ -361,11 +450,20 @@ static int take_frames(mts_session *s, double deadline)
     return 1;
 }
 
+/* Ends the conversation with the break a read between frames found, once
+ * the frames held before it are taken (no backlog). 1: ended. */
+static int held_end(mts_session *s)
+{
+    if (!s->held || s->backlog)
+        return 0;
+    conversation_failed(s, broken(s, s->held == 1, s->held_why), 1);
+    return 1;
+}
+
 /* Waits up to timeout_ms for bytes (never past io_timeout), then reads and
  * applies what is there for at most one slice. */
 static void stream_step(mts_session *s, int timeout_ms)
 {
-    mts_session_stats *st = s->st;
     mts_error *err = &s->err;
     const double deadline = (1e3 * mts_clock_seconds()) + SESSION_SLICE_MS;
     if (s->backlog) {
@@ -374,6 +472,8 @@ static void stream_step(mts_session *s, int timeout_ms)
             return;
         timeout_ms = 0;
     }
+    if (held_end(s))
+        return;
     double idle_left = s->last_data + s->ito * 1000 - (1e3 * mts_clock_seconds());
     int wait = idle_left > 0 ? (int)idle_left + 1 : 0;
     if (timeout_ms >= 0 && timeout_ms < wait)
@@ -402,44 +502,7 @@ static void stream_step(mts_session *s, int timeout_ms)
         return;
     }
     do {
-        ssize_t got = s->tls ? mts_tls_read(s->tls, s->buf, SESSION_CHUNK, err)
-                             : mts_net_read(s->fd, s->buf, SESSION_CHUNK);
-        s->tls_pending = s->tls && got > 0;
-        if (got == MTS_NET_AGAIN)
-            return;
-        if (got == 0) {
-            conversation_failed(
-                s,
-                s->o->list
-                    ? mts_error_set(err, MTS_ERR_IO,
-                                    "the server closed the connection before the model list was "
-                                    "whole (after %llu bytes)",
-                                    (unsigned long long)st->bytes)
-                    : mts_error_set(err, MTS_ERR_IO,
-                                    "the server closed the connection mid-stream (after %llu "
-                                    "bytes, %u batches applied)",
-                                    (unsigned long long)st->bytes, s->c->batches),
-                1);
-            return;
-        }
-        if (got < 0) {
-            char why[sizeof err->msg];
-            snprintf(why, sizeof why, "%s", s->tls ? err->msg : strerror(errno));
-            conversation_failed(s,
-                                mts_error_set(err, MTS_ERR_IO,
-                                              "connection lost after %llu bytes (%s)",
-                                              (unsigned long long)st->bytes, why),
-                                1);
-            return;
-        }
-        s->last_data = (1e3 * mts_clock_seconds());
-        st->bytes += (uint64_t)got;
-        mts_result rc = mts_stream_client_feed(s->c, s->buf, (size_t)got, err);
-        if (rc != MTS_OK) {
-            conversation_failed(s, rc, 0);
-            return;
-        }
-        if (!take_frames(s, deadline))
+        if (held_end(s) || read_some(s, 0) <= 0 || !take_frames(s, deadline))
             return;
     } while ((1e3 * mts_clock_seconds()) < deadline && !s->backlog);
 }

@@ -101,8 +101,11 @@ static pid_t fake_cow_server(mts_test *t, mts_stream *s, mts_buf *b, unsigned pe
     return fake_server(lfd, &answer, 1, per_byte_us);
 }
 
-/* A server that sends a real stream for cow but dies after `cut` bytes. */
-static void test_server_dies_mid_stream(mts_test *t)
+/* A server that sends a real stream for cow but dies after `cut` bytes:
+ * after a pause, or at once, so that the close is read while frames sent
+ * before it are still held and two threads decode (the client reads
+ * between frames then): those frames are applied all the same. */
+static void server_dies_mid_stream(mts_test *t, int pause_us, const char *threads)
 {
     mts_stream s;
     if (!cow_stream(t, &s))
@@ -119,7 +122,7 @@ static void test_server_dies_mid_stream(mts_test *t)
         char hello[256];
         (void)!recv(fd, hello, sizeof hello, 0);
         (void)!send(fd, b.data, cut, MSG_NOSIGNAL);
-        usleep(100000);
+        usleep((useconds_t)pause_us);
         close(fd);
         _exit(0);
     }
@@ -128,8 +131,9 @@ static void test_server_dies_mid_stream(mts_test *t)
     snprintf(png, sizeof png, "%s/e2e_cut.png", tmp_dir);
     remove(png);
     /* detect_leaks=0: see test_pngs_at_three_levels */
-    snprintf(cmd, sizeof cmd, "ASAN_OPTIONS=detect_leaks=0 %s/mts-client 127.0.0.1:%d cow --png %s --json",
-             bin_dir, port, png);
+    snprintf(cmd, sizeof cmd,
+             "ASAN_OPTIONS=detect_leaks=0 %s/mts-client 127.0.0.1:%d cow --png %s --json%s",
+             bin_dir, port, png, threads);
     int rc = mts_test_run(cmd, out, sizeof out);
     waitpid(pid, NULL, 0);
     CHECKF(t, rc == 1, "exit %d: %s", rc, out);
@@ -141,6 +145,13 @@ static void test_server_dies_mid_stream(mts_test *t)
     CHECKF(t, file_size(png) > 1000, "no picture of the last whole batch at %s", png);
     mts_buf_free(&b);
     mts_stream_free(&s);
+}
+
+static void test_server_dies_mid_stream(mts_test *t)
+{
+    server_dies_mid_stream(t, 100000, "");
+    server_dies_mid_stream(t, 0, " --threads 2");
+    server_dies_mid_stream(t, 0, " --threads 1");
 }
 
 /* A server that answers HELLO for "horse" with cow's stream: the client
