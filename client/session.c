@@ -395,7 +395,7 @@ static int top_up(mts_session *s)
 {
     mts_stream_client *c = s->c;
     mts_webfile *wf = s->o->file;
-    while (!s->held && mts_stream_client_threads_used(c) > 1 &&
+    while (!s->held && mts_stream_client_threads_used(c) > 1 && !c->threads_alone_from &&
            mts_stream_client_buffered(c) < SESSION_AHEAD) {
         if (wf) { /* a failure here is the file's result, read after the frames */
             const uint64_t before = mts_webfile_bytes(wf);
