@@ -51,7 +51,7 @@ static void usage(FILE *f)
           "                       8 a thread); bounds memory, not the work\n"
           "  --decode-threads D   threads each applying client's decoder uses (default 1:\n"
           "                       a load generator's many clients already fill the cores;\n"
-          "                       mts-client's --threads)\n"
+          "                       mts-client's --threads: more than 2 decode as 2)\n"
           "  --http PATH          not mtstream: GET PATH over HTTP/1.0 from each client, to\n"
           "                       measure a web server (nginx) on the same bytes\n"
           "  URL                  a stream file (PROTOCOL.md, \"Stream files\") on any web\n"
