@@ -338,9 +338,13 @@ static int take_event(mts_session *s, mts_stream_event ev)
 static mts_result broken(mts_session *s, int closed, const char *why)
 {
     const unsigned long long bytes = (unsigned long long)s->st->bytes;
-    if (!closed)
+    if (!closed && s->o->list)
         return mts_error_set(&s->err, MTS_ERR_IO, "connection lost after %llu bytes (%s)", bytes,
                              why);
+    if (!closed)
+        return mts_error_set(&s->err, MTS_ERR_IO,
+                             "connection lost after %llu bytes, %u batches applied (%s)", bytes,
+                             s->c->batches, why);
     if (s->o->list)
         return mts_error_set(&s->err, MTS_ERR_IO,
                              "the server closed the connection before the model list was whole "

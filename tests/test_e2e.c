@@ -104,8 +104,9 @@ static pid_t fake_cow_server(mts_test *t, mts_stream *s, mts_buf *b, unsigned pe
 /* A server that sends a real stream for cow but dies after `cut` bytes:
  * after a pause, or at once, so that the close is read while frames sent
  * before it are still held and two threads decode (the client reads
- * between frames then): those frames are applied all the same. */
-static void server_dies_mid_stream(mts_test *t, int pause_us, const char *threads)
+ * between frames then): those frames are applied all the same; or it
+ * resets the connection, and the message counts them too. */
+static void server_dies_mid_stream(mts_test *t, int pause_us, int reset, const char *threads)
 {
     mts_stream s;
     if (!cow_stream(t, &s))
@@ -123,6 +124,10 @@ static void server_dies_mid_stream(mts_test *t, int pause_us, const char *thread
         (void)!recv(fd, hello, sizeof hello, 0);
         (void)!send(fd, b.data, cut, MSG_NOSIGNAL);
         usleep((useconds_t)pause_us);
+        if (reset) { /* a reset, not a close: linger 0 */
+            struct linger l = {1, 0};
+            setsockopt(fd, SOL_SOCKET, SO_LINGER, &l, sizeof l);
+        }
         close(fd);
         _exit(0);
     }
@@ -137,7 +142,9 @@ static void server_dies_mid_stream(mts_test *t, int pause_us, const char *thread
     int rc = mts_test_run(cmd, out, sizeof out);
     waitpid(pid, NULL, 0);
     CHECKF(t, rc == 1, "exit %d: %s", rc, out);
-    CHECKF(t, strstr(out, "mid-stream") && strstr(out, "10 batches applied"), "%s", out);
+    CHECKF(t, strstr(out, reset ? "connection lost" : "mid-stream") &&
+                  strstr(out, "10 batches applied"),
+           "%s", out);
     CHECKF(t, strstr(out, "\"batches\":10,") != NULL, "%s", out);
     char level[64];
     snprintf(level, sizeof level, "\"level\":%u,", s.batch_first[10]);
@@ -149,9 +156,11 @@ static void server_dies_mid_stream(mts_test *t, int pause_us, const char *thread
 
 static void test_server_dies_mid_stream(mts_test *t)
 {
-    server_dies_mid_stream(t, 100000, "");
-    server_dies_mid_stream(t, 0, " --threads 2");
-    server_dies_mid_stream(t, 0, " --threads 1");
+    server_dies_mid_stream(t, 100000, 0, "");
+    server_dies_mid_stream(t, 0, 0, " --threads 2");
+    server_dies_mid_stream(t, 0, 0, " --threads 1");
+    /* a reset once the bytes are in (sooner, it would drop bytes unsent) */
+    server_dies_mid_stream(t, 100000, 1, "");
 }
 
 /* A server that answers HELLO for "horse" with cow's stream: the client
