@@ -207,7 +207,7 @@ typedef struct mts_stream_client {
      * than two decode as two unless threads_at_keys is set: the layout that
      * gives a third thread work (a grow per key interval, its records fixed
      * up on the caller's thread) leaves that thread alone some 0.85x of one
-     * thread's work, where two threads leave each 0.55x to 0.65x, so it is
+     * thread's work, where two threads leave each 0.55x to 0.7x, so it is
      * slower than two on any number of cores (docs/threads.md, "Three
      * threads or more"). threads_at_keys: that layout all the same, for
      * the bench's curve and the tests. */
