@@ -255,7 +255,8 @@ int main(int argc, char **argv)
            "runs whose two threads went on as one, finding the pool thread without a core;\n%s"
            " cpu ms: the splits form's processor time, all threads together, median;\n"
            " dec ms: the decode thread's alone, the caller's: cpu ms less it is the pool's)\n",
-           any_k ? " @tNk: N threads with growth cut at its keys (stream.h threads_at_keys);\n" : "");
+           any_k ? " @tNk: N threads with growth cut at its keys (stream.h threads_at_keys);\n"
+                 : "");
     if (js) {
         fprintf(js, "}}\n");
         fclose(js);

@@ -218,9 +218,10 @@ typedef struct mts_stream_client {
      * after each batch the decoder reads how long its pool thread waited
      * for a core (Linux), and where that passes 15% of three windows of
      * batches in a row while no core it may use idled, it goes on alone
-     * for the rest of the stream (with the same records). Two threads do; three or more (key
-     * intervals, threads_at_keys) keep theirs. threads_alone_after (tests) makes two do so
-     * after that many batches instead, measuring nothing; 0: by measure. */
+     * for the rest of the stream (with the same records). Two threads do;
+     * three or more (key intervals, threads_at_keys) keep theirs.
+     * threads_alone_after (tests) makes two do so after that many batches
+     * instead, measuring nothing; 0: by measure. */
     uint32_t threads_alone_after;
     /* Two threads: the decode thread makes a key's paths for the pool where
      * the pool is well behind (a tenth of the key's splits) and the ids of

@@ -654,8 +654,8 @@ static void test_client_program(mts_test *t)
                  bin_dir, port, threads[k]);
         int rc = mts_test_run(cmd, out[k], sizeof out[k]);
         char th[64]; /* more than two decode as two */
-        snprintf(th, sizeof th, "\"threads\":%d,\"threads_asked\":%d", threads[k] > 2 ? 2 : threads[k],
-                 threads[k]);
+        snprintf(th, sizeof th, "\"threads\":%d,\"threads_asked\":%d",
+                 threads[k] > 2 ? 2 : threads[k], threads[k]);
         CHECKF(t, rc == 0 && strstr(out[k], want) && strstr(out[k], th), "--threads %d: exit %d: %s",
                threads[k], rc, out[k]);
     }
